@@ -1,0 +1,96 @@
+#include "cli/args.h"
+
+#include <algorithm>
+#include <cstdlib>
+
+#include "common/error.h"
+
+namespace drape::cli {
+
+Args::Args(const std::vector<std::string>& argv, const std::vector<std::string>& flags,
+           const std::vector<std::string>& options) {
+  auto is = [](const std::vector<std::string>& v, const std::string& s) {
+    return std::find(v.begin(), v.end(), s) != v.end();
+  };
+  bool only_positional = false;
+  for (size_t i = 0; i < argv.size(); ++i) {
+    const std::string& a = argv[i];
+    if (only_positional || a.size() < 2 || a[0] != '-' ||
+        (a.size() > 1 && (std::isdigit(static_cast<unsigned char>(a[1])) || a[1] == '.'))) {
+      positional_.push_back(a);
+      continue;
+    }
+    if (a == "--") {
+      only_positional = true;
+      continue;
+    }
+    if (a == "--help" || a == "-h") {
+      help_ = true;
+      continue;
+    }
+    std::string name = a, value;
+    bool has_value = false;
+    if (const auto eq = a.find('='); eq != std::string::npos && a.rfind("--", 0) == 0) {
+      name = a.substr(0, eq);
+      value = a.substr(eq + 1);
+      has_value = true;
+    }
+    if (is(flags, name)) {
+      if (has_value) throw Error("option " + name + " takes no value");
+      flags_[name] = true;
+    } else if (is(options, name)) {
+      if (!has_value) {
+        if (i + 1 >= argv.size()) throw Error("option " + name + " needs a value");
+        value = argv[++i];
+      }
+      values_.emplace(name, value);
+    } else {
+      throw Error("unknown option " + name + " (see --help)");
+    }
+  }
+}
+
+bool Args::Flag(const std::string& name) const { return flags_.count(name) > 0; }
+
+std::optional<std::string> Args::Get(const std::string& name) const {
+  auto range = values_.equal_range(name);
+  if (range.first == range.second) return std::nullopt;
+  return std::prev(range.second)->second;  // the last one wins
+}
+
+std::string Args::Get(const std::string& name, const std::string& fallback) const {
+  return Get(name).value_or(fallback);
+}
+
+std::optional<double> Args::GetDouble(const std::string& name) const {
+  auto v = Get(name);
+  if (!v) return std::nullopt;
+  char* end = nullptr;
+  const double d = std::strtod(v->c_str(), &end);
+  if (v->empty() || *end != '\0') throw Error("option " + name + ": '" + *v + "' is not a number");
+  return d;
+}
+
+std::optional<long long> Args::GetInt(const std::string& name) const {
+  auto v = Get(name);
+  if (!v) return std::nullopt;
+  char* end = nullptr;
+  const long long d = std::strtoll(v->c_str(), &end, 10);
+  if (v->empty() || *end != '\0') throw Error("option " + name + ": '" + *v + "' is not an integer");
+  return d;
+}
+
+std::vector<std::string> Args::GetAll(const std::string& name) const {
+  std::vector<std::string> out;
+  auto range = values_.equal_range(name);
+  for (auto it = range.first; it != range.second; ++it) out.push_back(it->second);
+  return out;
+}
+
+void Args::RequirePositional(size_t min, size_t max, const std::string& what) const {
+  if (positional_.size() < min) throw Error("missing " + what + " (see --help)");
+  if (positional_.size() > max)
+    throw Error("unexpected argument '" + positional_[max] + "' (see --help)");
+}
+
+}  // namespace drape::cli

@@ -1,0 +1,40 @@
+#include "cli/args.h"
+
+#include <gtest/gtest.h>
+
+#include "common/error.h"
+
+namespace drape::cli {
+namespace {
+
+TEST(Args, ParsesFlagsOptionsAndPositionals) {
+  Args a({"make", "shirt", "--size", "L", "--seed=3", "--json", "-o", "x.ply"}, {"--json"},
+         {"--size", "--seed", "-o"});
+  EXPECT_EQ(a.positional(), (std::vector<std::string>{"make", "shirt"}));
+  EXPECT_EQ(a.Get("--size", "M"), "L");
+  EXPECT_EQ(*a.GetInt("--seed"), 3);
+  EXPECT_TRUE(a.Flag("--json"));
+  EXPECT_EQ(*a.Get("-o"), "x.ply");
+  EXPECT_FALSE(a.help());
+}
+
+TEST(Args, RejectsUnknownOptionsAndBadNumbers) {
+  EXPECT_THROW(Args({"--sise", "M"}, {}, {"--size"}), Error);
+  EXPECT_THROW(Args({"--size"}, {}, {"--size"}), Error);
+  Args a({"--seed", "x3"}, {}, {"--seed"});
+  EXPECT_THROW(a.GetInt("--seed"), Error);
+  try {
+    Args({"--sise"}, {}, {"--size"});
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("--sise"), std::string::npos);
+  }
+}
+
+TEST(Args, NegativeNumbersArePositional) {
+  Args a({"-0.5", "--x", "-2"}, {}, {"--x"});
+  EXPECT_EQ(a.positional(), (std::vector<std::string>{"-0.5"}));
+  EXPECT_EQ(*a.GetDouble("--x"), -2.0);
+}
+
+}  // namespace
+}  // namespace drape::cli

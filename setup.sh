@@ -1,0 +1,67 @@
+#!/usr/bin/env bash
+# drape's one entry point for a fresh Debian 12 machine (as root, or with sudo).
+#   ./setup.sh          install packages, build, and build the quickstart release
+#   ./setup.sh test     install packages, build, and run the test suite
+#   ./setup.sh build    install packages and build only
+# Safe to run again: packages already present are skipped, the build is incremental.
+set -euo pipefail
+cd "$(dirname "$0")"
+
+BUILD_DIR=${DRAPE_BUILD_DIR:-build}
+JOBS=${DRAPE_JOBS:-$(nproc)}
+
+PACKAGES=(
+  build-essential cmake ninja-build pkg-config git
+  libeigen3-dev nlohmann-json3-dev libssl-dev
+  libbullet-dev libbullet-extras-dev
+  libassimp-dev libembree-dev libtbb-dev
+  libopencv-dev libsundials-dev
+  libopenvdb-dev libboost-iostreams-dev
+  libyaml-cpp-dev libsqlite3-dev libdlib-dev
+  libcgal-dev libgmp-dev libmpfr-dev
+  libopenmpi-dev openmpi-bin
+  libgtest-dev libgmock-dev libbenchmark-dev
+  python3-numpy
+)
+
+install_packages() {
+  local missing=()
+  for p in "${PACKAGES[@]}"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+  done
+  if [ ${#missing[@]} -eq 0 ]; then
+    echo "setup: all ${#PACKAGES[@]} packages present"
+    return
+  fi
+  echo "setup: installing ${missing[*]}"
+  local sudo=""
+  [ "$(id -u)" -eq 0 ] || sudo="sudo"
+  $sudo apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
+}
+
+build() {
+  cmake -S . -B "$BUILD_DIR" -G Ninja -DCMAKE_BUILD_TYPE=Release
+  cmake --build "$BUILD_DIR" -j "$JOBS"
+}
+
+case "${1:-main}" in
+  main)
+    install_packages
+    build
+    "$BUILD_DIR/bin/drape" build recipes/quickstart.yaml
+    ;;
+  test)
+    install_packages
+    build
+    ctest --test-dir "$BUILD_DIR" --output-on-failure -j "$JOBS"
+    ;;
+  build)
+    install_packages
+    build
+    ;;
+  *)
+    echo "usage: ./setup.sh [main|test|build]" >&2
+    exit 2
+    ;;
+esac
