@@ -1,0 +1,163 @@
+#include "runtime/registration/registration.h"
+
+#include <chrono>
+#include <cmath>
+#include <string>
+
+#include "common/error.h"
+
+namespace drape::registration {
+
+namespace {
+using Clock = std::chrono::steady_clock;
+double Since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+class EnergyProblem : public LeastSquaresProblem {
+ public:
+  explicit EnergyProblem(const RegistrationEnergy& e) : e_(e) {}
+  int NumResiduals() const override { return e_.NumResiduals(); }
+  int NumParameters() const override { return e_.NumParameters(); }
+  void Residuals(const Eigen::VectorXd& x, Eigen::VectorXd& r) const override { e_.Residuals(x, r); }
+  void Jacobian(const Eigen::VectorXd& x, SparseRowMatrix& J) const override { e_.Jacobian(x, J); }
+
+ private:
+  const RegistrationEnergy& e_;
+};
+
+void CheckMesh(const TriMesh& m, const char* what) {
+  if (m.NumFaces() == 0) throw Error(std::string("registration: ") + what + " mesh has no faces");
+  if (!m.V.allFinite()) throw Error(std::string("registration: ") + what + " mesh has non-finite vertices");
+  for (int f = 0; f < m.NumFaces(); ++f)
+    for (int k = 0; k < 3; ++k)
+      if (m.F(f, k) < 0 || m.F(f, k) >= m.NumVertices())
+        throw Error(std::string("registration: ") + what + " mesh face " + std::to_string(f) +
+                    " has an out-of-range vertex index");
+}
+}  // namespace
+
+void RegistrationOptions::Validate() const {
+  grid.Validate();
+  icp.Validate();
+  lm.Validate();
+  if (!(kappa >= 0 && std::isfinite(kappa))) throw Error("RegistrationOptions.kappa must be >= 0");
+  if (!(beta >= 0 && std::isfinite(beta))) throw Error("RegistrationOptions.beta must be >= 0");
+  if (!(alpha >= 0 && std::isfinite(alpha))) throw Error("RegistrationOptions.alpha must be >= 0");
+}
+
+RegistrationResult Register(const TriMesh& source, const TriMesh& target, const RegistrationOptions& options) {
+  options.Validate();
+  CheckMesh(source, "source");
+  CheckMesh(target, "target");
+  const auto t_all = Clock::now();
+  RegistrationResult res;
+  RegistrationReport& rep = res.report;
+
+  rep.source_frame = AreaWeightedFrame(source);
+  rep.target_frame = AreaWeightedFrame(target);
+  if (options.scale) {
+    rep.scaling = ScaleToTarget(rep.source_frame, rep.target_frame);
+  }
+  res.rigid.F = source.F;
+  res.rigid.V = rep.scaling.Apply(source.V);
+
+  auto t0 = Clock::now();
+  const ClosestPointGrid grid(target, options.grid);
+  rep.grid = grid.stats();
+  rep.grid_seconds = Since(t0);
+
+  t0 = Clock::now();
+  const Similarity icp = Icp(res.rigid.V, grid, options.icp, &rep.icp);
+  rep.rigid = icp.After(rep.scaling);
+  rep.icp_seconds = Since(t0);
+  if (!rep.icp.converged && options.icp.max_iterations > 0)
+    rep.warnings.push_back("ICP did not converge in " + std::to_string(options.icp.max_iterations) + " iterations");
+
+  res.nonrigid = res.rigid;
+  t0 = Clock::now();
+  ClosestPointFn fn = options.refined_fit ? ClosestPointFn([&grid](const Vec3& p) { return grid.QueryRefined(p); })
+                                          : ClosestPointFn([&grid](const Vec3& p) { return grid.Query(p); });
+  const RegistrationEnergy energy(res.rigid, fn, EnergyWeights{options.kappa, options.beta, options.alpha});
+  rep.hinges = energy.NumHinges();
+  Eigen::VectorXd x = RegistrationEnergy::Flatten(res.rigid.V);
+  rep.energy_before = energy.Terms(x);
+  if (options.nonrigid) {
+    rep.lm = SolveSecantLm(EnergyProblem(energy), x, options.lm);
+    res.nonrigid.V = RegistrationEnergy::Unflatten(x);
+    rep.energy_after = energy.Terms(x);
+  } else {
+    rep.energy_after = rep.energy_before;
+  }
+  rep.nonrigid_seconds = Since(t0);
+  rep.total_seconds = Since(t_all);
+  return res;
+}
+
+DirectedDistance MeasureDirected(const TriMesh& from, const ExactClosestPoint& to) {
+  const Eigen::VectorXd a = FaceAreas(from);
+  const Points3 g = FaceCentroids(from);
+  DirectedDistance d;
+  const double total = a.sum();
+  if (!(total > 0)) throw Error("registration metric: mesh has no area");
+  double s = 0, ss = 0;
+  for (int f = 0; f < from.NumFaces(); ++f) {
+    const double dist = to.Query(Vec3(g.row(f))).distance;
+    s += a[f] * dist;
+    ss += a[f] * dist * dist;
+    d.max = std::max(d.max, dist);
+  }
+  d.samples = from.NumFaces();
+  d.mean = s / total;
+  d.rms = std::sqrt(ss / total);
+  return d;
+}
+
+std::vector<AnchorTransfer> TransferAnchors(const RegistrationResult& result, const std::vector<AnchorPair>& anchors) {
+  std::vector<AnchorTransfer> out;
+  for (const AnchorPair& a : anchors) {
+    if (a.source_vertex < 0 || a.source_vertex >= result.rigid.NumVertices())
+      throw Error("registration: anchor '" + a.label + "' has vertex " + std::to_string(a.source_vertex) +
+                  " outside the source mesh (" + std::to_string(result.rigid.NumVertices()) + " vertices)");
+    AnchorTransfer t;
+    t.label = a.label;
+    t.source_vertex = a.source_vertex;
+    t.rigid = result.rigid.V.row(a.source_vertex);
+    t.nonrigid = result.nonrigid.V.row(a.source_vertex);
+    t.has_truth = a.has_truth;
+    if (a.has_truth) {
+      t.error_rigid = (t.rigid - a.truth).norm();
+      t.error_nonrigid = (t.nonrigid - a.truth).norm();
+    }
+    out.push_back(t);
+  }
+  return out;
+}
+
+RegistrationEvaluation RegisterAndEvaluate(const TriMesh& source, const TriMesh& target,
+                                           const std::vector<AnchorPair>& anchors,
+                                           const RegistrationOptions& options, RegistrationResult* result) {
+  RegistrationEvaluation ev;
+  const auto t0 = Clock::now();
+  RegistrationResult res = Register(source, target, options);
+  ev.seconds = Since(t0);
+  ev.report = res.report;
+  const ExactClosestPoint target_q(target), rigid_q(res.rigid), nonrigid_q(res.nonrigid);
+  ev.s_to_t_rigid = MeasureDirected(res.rigid, target_q);
+  ev.t_to_s_rigid = MeasureDirected(target, rigid_q);
+  ev.s_to_t_nonrigid = MeasureDirected(res.nonrigid, target_q);
+  ev.t_to_s_nonrigid = MeasureDirected(target, nonrigid_q);
+  ev.anchors = TransferAnchors(res, anchors);
+  for (const AnchorTransfer& a : ev.anchors) {
+    if (!a.has_truth) continue;
+    ++ev.anchors_with_truth;
+    ev.anchor_error_rigid += a.error_rigid;
+    ev.anchor_error_nonrigid += a.error_nonrigid;
+  }
+  if (ev.anchors_with_truth > 0) {
+    ev.anchor_error_rigid /= ev.anchors_with_truth;
+    ev.anchor_error_nonrigid /= ev.anchors_with_truth;
+  }
+  if (result) *result = std::move(res);
+  return ev;
+}
+
+}  // namespace drape::registration

@@ -1,0 +1,60 @@
+// Secant Levenberg–Marquardt for sparse nonlinear least squares (Madsen, Nielsen &
+// Tingleff 2004, "Methods for non-linear least squares problems", §3.5, Alg. 3.17),
+// minimising F(x) = ½‖r(x)‖².
+//
+// Per iteration: solve (BᵀB + μI) h = −Bᵀr with a sparse LDLᵀ (Eigen SimplicialLDLT);
+// evaluate r(x+h); update the Jacobian approximation B by Broyden's rank-one secant
+// formula B ← B + (r(x+h) − r(x) − B h) hᵀ / hᵀh — here in Schubert's sparse form
+// (each row i uses h restricted to row i's sparsity pattern, so B keeps J's pattern and
+// still satisfies the secant equation B h = r(x+h) − r(x) row by row); accept the step
+// if the gain ratio ϱ > 0 and update μ as Madsen's Alg. 3.17 (μ ← μ·max(⅓, 1−(2ϱ−1)³),
+// ν = 2; else μ ← μν, ν ← 2ν). Madsen refreshes B along one coordinate direction per
+// iteration by a finite difference; with analytic Jacobians at hand we instead take a
+// fresh analytic Jacobian every `refresh_every` iterations and whenever a step fails
+// on a Jacobian that has been secant-updated.
+#pragma once
+
+#include <Eigen/Sparse>
+#include <string>
+#include <vector>
+
+namespace drape::registration {
+
+class LeastSquaresProblem {
+ public:
+  virtual ~LeastSquaresProblem() = default;
+  virtual int NumResiduals() const = 0;
+  virtual int NumParameters() const = 0;
+  virtual void Residuals(const Eigen::VectorXd& x, Eigen::VectorXd& r) const = 0;
+  // Must return the same sparsity pattern for every x.
+  virtual void Jacobian(const Eigen::VectorXd& x, Eigen::SparseMatrix<double, Eigen::RowMajor>& J) const = 0;
+};
+
+struct SecantLmOptions {
+  int max_iterations = 60;
+  bool secant = true;       // false: a fresh Jacobian every iteration (plain LM)
+  int refresh_every = 5;    // fresh Jacobian after this many secant updates
+  double tau = 1e-4;        // μ0 = τ · max diag(JᵀJ)
+  double gradient_tolerance = 1e-14;  // stop when ‖Bᵀr‖∞ ≤ this
+  double step_tolerance = 1e-9;       // stop when ‖h‖ ≤ this·(‖x‖ + this)
+  double relative_decrease = 1e-4;    // ... or when `stall_iterations` accepted steps in a
+  int stall_iterations = 3;           //     row each decrease F by less than this fraction
+  void Validate() const;
+};
+
+struct SecantLmReport {
+  int iterations = 0;
+  int accepted = 0, rejected = 0;
+  int fresh_jacobians = 0, secant_updates = 0;
+  double initial_cost = 0, final_cost = 0;  // ½‖r‖²
+  double final_mu = 0;
+  std::string termination;
+  std::vector<double> cost;  // after every iteration
+  double jacobian_seconds = 0, solve_seconds = 0, residual_seconds = 0;  // timing only
+};
+
+// Minimises from x (updated in place). Throws drape::NumericalError if the residuals
+// become non-finite or the linear solve fails.
+SecantLmReport SolveSecantLm(const LeastSquaresProblem& problem, Eigen::VectorXd& x, const SecantLmOptions& options);
+
+}  // namespace drape::registration
