@@ -1,0 +1,173 @@
+#include "runtime/recognition/recognizer.h"
+
+#include <algorithm>
+#include <chrono>
+#include <set>
+#include <sstream>
+
+#include "common/error.h"
+
+namespace drape::recognition {
+
+namespace {
+std::string JoinNames(const std::vector<std::string>& v) {
+  std::string s;
+  for (const auto& x : v) s += (s.empty() ? "" : ", ") + x;
+  return s.empty() ? "none" : s;
+}
+}  // namespace
+
+Database::Database(std::vector<LabelledCode> entries, Kernel kernel) {
+  if (entries.empty()) return;
+  const Code& first = entries.front().code;
+  first.Check("database entry " + entries.front().label.id);
+  matcher_ = Matcher(first.layers, first.rings, first.sectors, kernel);
+  labels_.reserve(entries.size());
+  codes_.reserve(entries.size());
+  for (auto& e : entries) {
+    matcher_.Add(e.code, "database entry " + e.label.id);
+    by_category_[e.label.category].push_back(static_cast<int>(labels_.size()));
+    labels_.push_back(std::move(e.label));
+    codes_.push_back(std::move(e.code));
+  }
+}
+
+std::vector<std::string> Database::categories() const {
+  std::vector<std::string> out;
+  for (const auto& [c, v] : by_category_) out.push_back(c);
+  return out;
+}
+
+std::vector<std::string> Database::instances(const std::string& category) const {
+  std::set<std::string> s;
+  auto it = by_category_.find(category);
+  if (it != by_category_.end()) {
+    for (int i : it->second) s.insert(labels_[i].instance);
+  }
+  return {s.begin(), s.end()};
+}
+
+const std::vector<int>& Database::EntriesOf(const std::string& category) const {
+  static const std::vector<int> kEmpty;
+  auto it = by_category_.find(category);
+  return it == by_category_.end() ? kEmpty : it->second;
+}
+
+void RecognizeOptions::Validate() const {
+  if (top_k < 1) throw Error("recognize options: top_k must be >= 1 (got " + std::to_string(top_k) + ")");
+}
+
+Recognizer::Recognizer(const Database& db, const Weights* weights) : db_(db) {
+  if (!weights) return;
+  if (!db.empty() && (weights->layers != db.layers() || weights->rings != db.rings() ||
+                      weights->sectors != db.sectors())) {
+    std::ostringstream os;
+    os << "weights are for features of shape " << weights->layers << "x" << weights->rings << "x"
+       << weights->sectors << ", the database has " << db.layers() << "x" << db.rings() << "x" << db.sectors();
+    throw Error(os.str());
+  }
+  for (const auto& [cat, w] : weights->per_category) {
+    if (static_cast<int>(w.size()) != weights->layers * weights->rings * weights->sectors) {
+      throw Error("weights for category '" + cat + "' have " + std::to_string(w.size()) + " values, expected " +
+                  std::to_string(weights->layers * weights->rings * weights->sectors));
+    }
+    weights_.emplace(cat, PreparedWeights(w, weights->layers, weights->rings, weights->sectors, weights->frame));
+  }
+}
+
+Recognition Recognizer::Recognize(const Code& query, const RecognizeOptions& options) const {
+  options.Validate();
+  if (db_.empty()) throw Error("recognize: the database is empty (the release has no usable train entries)");
+  const auto t0 = std::chrono::steady_clock::now();
+  PreparedQuery q(query);
+  std::vector<Match> matches;
+  db_.matcher().MatchAll(q, &matches);
+  Recognition r = Rank(q, matches, options);
+  r.match_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return r;
+}
+
+Recognition Recognizer::Rank(const PreparedQuery& q, const std::vector<Match>& matches,
+                             const RecognizeOptions& options) const {
+  options.Validate();
+  if (db_.empty()) throw Error("recognize: the database is empty (the release has no usable train entries)");
+  DRAPE_CHECK(static_cast<int>(matches.size()) == db_.size(), "one match per database entry");
+  Recognition r;
+  r.compared = db_.size();
+
+  // 1. Category: given, or that of the unweighted nearest neighbour (ties: lowest index).
+  if (!options.category.empty()) {
+    if (!db_.HasCategory(options.category)) {
+      throw Error("recognize: category '" + options.category + "' is not in the database (it has: " +
+                  JoinNames(db_.categories()) + ")");
+    }
+    r.category = options.category;
+    r.category_source = "given";
+  } else {
+    int best = 0;
+    for (int i = 1; i < db_.size(); ++i) {
+      if (matches[i].distance < matches[best].distance) best = i;
+    }
+    r.category = db_.label(best).category;
+    r.category_source = "unweighted_nn";
+  }
+
+  // 2. Pose inside the category, under its learned w if there is one.
+  std::vector<int> pool;
+  for (int i : db_.EntriesOf(r.category)) {
+    if (options.instance.empty() || db_.label(i).instance == options.instance) pool.push_back(i);
+  }
+  if (pool.empty()) {
+    throw Error("recognize: database instance '" + options.instance + "' has no entries of category '" +
+                r.category + "' (instances: " + JoinNames(db_.instances(r.category)) + ")");
+  }
+  const PreparedWeights* w = nullptr;
+  if (options.weighted) {
+    auto it = weights_.find(r.category);
+    if (it != weights_.end()) w = &it->second;
+  }
+  r.weighted = w != nullptr;
+  std::vector<Candidate> cands;
+  cands.reserve(pool.size());
+  for (int i : pool) {
+    Candidate c;
+    c.entry = i;
+    const EntryLabel& l = db_.label(i);
+    c.id = l.id;
+    c.category = l.category;
+    c.instance = l.instance;
+    c.anchor = l.anchor;
+    c.distance = matches[i].distance;
+    c.rotation = matches[i].rotation;
+    c.score = w ? db_.matcher().Weighted(i, q, c.rotation, *w) : double(c.distance);
+    cands.push_back(std::move(c));
+  }
+  std::stable_sort(cands.begin(), cands.end(), [](const Candidate& a, const Candidate& b) {
+    if (a.score != b.score) return a.score < b.score;
+    return a.entry < b.entry;
+  });
+  r.best = cands.front();
+  r.anchor = r.best.anchor;
+  std::set<std::string> seen;
+  for (const auto& c : cands) {
+    if (static_cast<int>(r.top.size()) >= options.top_k) break;
+    if (seen.insert(c.anchor).second) r.top.push_back(c);
+  }
+  return r;
+}
+
+Json ToJson(const Recognition& r) {
+  auto cand = [](const Candidate& c) {
+    return Json{{"entry", c.id},       {"category", c.category}, {"instance", c.instance},
+                {"anchor", c.anchor},  {"distance", c.distance}, {"rotation", c.rotation},
+                {"score", c.score}};
+  };
+  Json top = Json::array();
+  for (const auto& c : r.top) top.push_back(cand(c));
+  return Json{{"category", r.category}, {"category_source", r.category_source},
+              {"anchor", r.anchor},     {"weighted", r.weighted},
+              {"best", cand(r.best)},   {"top", top},
+              {"compared", r.compared}};
+}
+
+}  // namespace drape::recognition

@@ -1,0 +1,135 @@
+// Pose recognition against an in-memory database of labelled features (paper
+// §"Pose Estimation"): nearest neighbour under Eq. match, then the learned weighted
+// Hamming distance of Eq. bestmatch with one weight vector per category.
+//
+// Ranking across categories: the learned w of one category is not on the scale of
+// another's (each is fitted by its own RankSVM, and only ratios inside one category
+// mean anything), so weighted distances are never compared across categories. As in
+// the paper — which learns "a weight vector w for each type of garment" and reports
+// accuracy per garment type — the category is decided first by the unweighted nearest
+// neighbour over the whole database (Eq. match, one common scale: bits), unless the
+// caller knows it (RecognizeOptions::category); the pose (anchor) is then the nearest
+// neighbour inside that category under that category's w (Eq. bestmatch).
+#pragma once
+
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "common/json.h"
+#include "common/mesh.h"
+#include "runtime/recognition/matcher.h"
+
+namespace drape::recognition {
+
+// What the database knows about one of its features.
+struct EntryLabel {
+  std::string id;        // release entry id
+  std::string split;     // "train" for the database
+  std::string category;  // garment category, e.g. "pants"
+  std::string instance;  // garment instance, e.g. "pants-M-s1"
+  std::string anchor;    // anchor label the garment hangs from, e.g. "waist_left"
+  std::string material;  // material name (informative)
+  int anchor_vertex = -1;             // vertex of the anchor in the entry's meshes, -1 unknown
+  std::optional<Vec2> anchor_uv;      // anchor on the flat pattern (metres), if known
+  std::optional<Vec3> anchor_hung;    // anchor vertex on the hung mesh (object frame, metres)
+};
+
+struct LabelledCode {
+  EntryLabel label;
+  Code code;
+};
+
+// The database: features of one shape, labels, and an index by category and instance.
+class Database {
+ public:
+  Database() = default;
+  // Throws drape::Error naming the entry if a feature is malformed or of another shape.
+  explicit Database(std::vector<LabelledCode> entries, Kernel kernel = Kernel::kAuto);
+
+  int size() const { return static_cast<int>(labels_.size()); }
+  bool empty() const { return labels_.empty(); }
+  const EntryLabel& label(int i) const { return labels_[i]; }
+  const Code& code(int i) const { return codes_[i]; }
+  const Matcher& matcher() const { return matcher_; }
+  Matcher& mutable_matcher() { return matcher_; }
+
+  // Sorted category names; sorted instance names of one category (empty if unknown).
+  std::vector<std::string> categories() const;
+  std::vector<std::string> instances(const std::string& category) const;
+  bool HasCategory(const std::string& c) const { return by_category_.count(c) > 0; }
+  const std::vector<int>& EntriesOf(const std::string& category) const;
+  // Shape of the features; 0 when empty.
+  int layers() const { return matcher_.layers(); }
+  int rings() const { return matcher_.rings(); }
+  int sectors() const { return matcher_.sectors(); }
+
+ private:
+  std::vector<EntryLabel> labels_;
+  std::vector<Code> codes_;
+  Matcher matcher_;
+  std::map<std::string, std::vector<int>> by_category_;
+};
+
+// Learned weights, one vector per category (bits in `frame`; see matcher.h).
+struct Weights {
+  std::string release_digest;  // digest of the release they were learned on
+  int layers = 0, rings = 0, sectors = 0;
+  WeightFrame frame = WeightFrame::kDatabase;
+  std::map<std::string, std::vector<double>> per_category;
+  Json options = Json::object();  // training options (C, epsilon, …)
+  Json stats = Json::object();    // training statistics
+};
+
+struct RecognizeOptions {
+  int top_k = 5;             // distinct (category, anchor) labels listed
+  std::string category;      // known category ("" = predict by unweighted NN)
+  std::string instance;      // restrict the pose search to one database garment instance ("" = all)
+  bool weighted = true;      // use the category's learned w when there is one
+  void Validate() const;
+};
+
+struct Candidate {
+  int entry = -1;             // database index
+  std::string id, category, instance, anchor;
+  int distance = 0;           // Eq. match, bits
+  int rotation = 0;           // best k (R_k x ≈ q)
+  double score = 0;           // what was ranked: weighted distance, or distance if unweighted
+};
+
+struct Recognition {
+  std::string category;             // predicted (or given) category
+  std::string category_source;      // "given" | "unweighted_nn"
+  std::string anchor;               // predicted anchor label
+  Candidate best;                   // the matched database entry
+  std::vector<Candidate> top;       // best entry of each of the top_k distinct anchors, best first
+  bool weighted = false;            // whether a learned w ranked the pose
+  int compared = 0;                 // database entries compared (× Φ rotations each)
+  double match_seconds = 0;         // timing only
+};
+
+class Recognizer {
+ public:
+  // `weights` may be null (unweighted); it must outlive the recognizer. Throws
+  // drape::Error if the weights' feature shape differs from the database's.
+  Recognizer(const Database& db, const Weights* weights);
+
+  // Throws drape::Error on an empty database, a query of another shape, an unknown
+  // category or instance.
+  Recognition Recognize(const Code& query, const RecognizeOptions& options) const;
+  // Same with the query already prepared and Eq. match already run against every
+  // entry (lets evaluation rank one query several ways for the price of one match).
+  Recognition Rank(const PreparedQuery& q, const std::vector<Match>& matches,
+                   const RecognizeOptions& options) const;
+
+  bool HasWeights(const std::string& category) const { return weights_.count(category) > 0; }
+
+ private:
+  const Database& db_;
+  std::map<std::string, PreparedWeights> weights_;
+};
+
+Json ToJson(const Recognition& r);
+
+}  // namespace drape::recognition
