@@ -1,0 +1,530 @@
+#include "garments/contour.h"
+
+#include <CGAL/Constrained_Delaunay_triangulation_2.h>
+#include <CGAL/Delaunay_mesh_face_base_2.h>
+#include <CGAL/Delaunay_mesh_size_criteria_2.h>
+#include <CGAL/Delaunay_mesh_vertex_base_2.h>
+#include <CGAL/Delaunay_mesher_2.h>
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+
+#include <algorithm>
+#include <cmath>
+#include <deque>
+#include <limits>
+#include <map>
+#include <opencv2/imgproc.hpp>
+#include <sstream>
+
+#include "common/error.h"
+#include "garments/validate.h"
+
+namespace drape {
+namespace {
+
+using K = CGAL::Exact_predicates_inexact_constructions_kernel;
+using Vb = CGAL::Delaunay_mesh_vertex_base_2<K>;
+using Fb = CGAL::Delaunay_mesh_face_base_2<K>;
+using Tds = CGAL::Triangulation_data_structure_2<Vb, Fb>;
+using CDT = CGAL::Constrained_Delaunay_triangulation_2<K, Tds, CGAL::Exact_predicates_tag>;
+using Criteria = CGAL::Delaunay_mesh_size_criteria_2<CDT>;
+using Point = CDT::Point;
+using VH = CDT::Vertex_handle;
+using FH = CDT::Face_handle;
+
+std::string Fmt(const Vec2& p) {
+  std::ostringstream os;
+  os << "(" << p.x() << ", " << p.y() << ")";
+  return os.str();
+}
+
+double SignedArea(const std::vector<Vec2>& p) {
+  double a = 0;
+  for (size_t i = 0; i < p.size(); ++i) {
+    const Vec2& u = p[i];
+    const Vec2& v = p[(i + 1) % p.size()];
+    a += u.x() * v.y() - v.x() * u.y();
+  }
+  return 0.5 * a;
+}
+
+// Checks the input polygon and returns it counter-clockwise with its edge tags.
+Contour CheckedContour(const Contour& in) {
+  const size_t n = in.points.size();
+  if (n < 3) throw Error("contour has " + std::to_string(n) + " points (need at least 3)");
+  if (!in.edge_tag.empty() && in.edge_tag.size() != n)
+    throw Error("contour has " + std::to_string(n) + " points but " +
+                std::to_string(in.edge_tag.size()) + " edge tags");
+  for (size_t i = 0; i < n; ++i) {
+    if (!in.points[i].allFinite())
+      throw Error("contour point " + std::to_string(i) + " is not finite");
+  }
+  for (size_t i = 0; i < n; ++i) {
+    const size_t j = (i + 1) % n;
+    if ((in.points[i] - in.points[j]).norm() < 1e-9)
+      throw Error("contour points " + std::to_string(i) + " and " + std::to_string(j) +
+                  " coincide at " + Fmt(in.points[i]));
+  }
+  // Brute-force simplicity test with exact predicates: any two non-adjacent edges
+  // must not touch, adjacent edges must only share their common point.
+  std::vector<K::Segment_2> seg(n);
+  for (size_t i = 0; i < n; ++i) {
+    const Vec2 &a = in.points[i], &b = in.points[(i + 1) % n];
+    seg[i] = K::Segment_2(Point(a.x(), a.y()), Point(b.x(), b.y()));
+  }
+  for (size_t i = 0; i < n; ++i) {
+    for (size_t j = i + 1; j < n; ++j) {
+      const bool adjacent = (j == i + 1) || (i == 0 && j == n - 1);
+      if (!adjacent) {
+        if (CGAL::do_intersect(seg[i], seg[j]))
+          throw Error("contour is not simple: edge " + std::to_string(i) + " " +
+                      Fmt(in.points[i]) + " crosses edge " + std::to_string(j) + " " +
+                      Fmt(in.points[j]));
+      } else if (n == 3) {
+        continue;
+      } else {
+        // Adjacent edges overlapping (a spike folding back on itself).
+        const auto r = CGAL::intersection(seg[i], seg[j]);
+        if (r && boost::get<K::Segment_2>(&*r))
+          throw Error("contour folds back on itself at edges " + std::to_string(i) + " and " +
+                      std::to_string(j));
+      }
+    }
+  }
+  const double area = SignedArea(in.points);
+  if (std::abs(area) < 1e-12) throw Error("contour has zero area");
+  if (!in.edge_tag.empty()) {
+    // Openings must be separated by seams (else two openings would merge into one
+    // hole and, without any seam, the two layers would not be connected at all).
+    bool any_seam = false;
+    for (const auto& t : in.edge_tag) any_seam |= t.empty();
+    if (!any_seam) throw Error("contour has no seam edge: front and back would not be connected");
+    std::map<std::string, int> runs;
+    for (size_t i = 0; i < n; ++i) {
+      const std::string &t = in.edge_tag[i], &prev = in.edge_tag[(i + n - 1) % n];
+      if (t.empty() || t == prev) continue;
+      if (!prev.empty())
+        throw Error("openings '" + prev + "' and '" + t + "' touch at contour point " +
+                    std::to_string(i) + ": separate them by a seam edge");
+      if (++runs[t] > 1)
+        throw Error("opening '" + t + "' appears twice along the contour (again at edge " +
+                    std::to_string(i) + ")");
+    }
+  }
+  Contour out = in;
+  if (out.edge_tag.empty()) out.edge_tag.assign(n, "");
+  if (area < 0) {
+    // Reverse: new edge i runs p'[i] → p'[i+1] = old p[n-1-i] → p[n-2-i] = old edge n-2-i.
+    std::reverse(out.points.begin(), out.points.end());
+    for (size_t i = 0; i < n; ++i) out.edge_tag[i] = in.edge_tag.empty() ? "" : in.edge_tag[(2 * n - 2 - i) % n];
+  }
+  return out;
+}
+
+// Boundary samples: every contour corner is kept, each edge is split into
+// ceil(len / h) equal segments; an opening gets at least two segments so that it
+// has a vertex of its own on each layer (else front and back would share its edge).
+struct Boundary {
+  std::vector<Vec2> p;
+  std::vector<std::string> tag;  // segment i: p[i] → p[i+1 mod n]
+};
+
+Boundary Resample(const Contour& c, double h) {
+  const size_t n = c.points.size();
+  std::vector<int> pieces(n);
+  for (size_t i = 0; i < n; ++i) {
+    const double len = (c.points[(i + 1) % n] - c.points[i]).norm();
+    pieces[i] = std::max(1, static_cast<int>(std::ceil(len / h - 1e-9)));
+  }
+  // Runs of equal non-empty tags (CheckedContour guarantees at least one seam, so
+  // every run has a start whose predecessor is a seam).
+  for (size_t i = 0; i < n; ++i) {
+    if (c.edge_tag[i].empty() || !c.edge_tag[(i + n - 1) % n].empty()) continue;
+    int total = 0;
+    for (size_t j = i; !c.edge_tag[j].empty(); j = (j + 1) % n) total += pieces[j];
+    if (total < 2) pieces[i] = 2;
+  }
+  Boundary b;
+  for (size_t i = 0; i < n; ++i) {
+    const Vec2 a = c.points[i], e = c.points[(i + 1) % n];
+    for (int k = 0; k < pieces[i]; ++k) {
+      b.p.push_back(a + (e - a) * (static_cast<double>(k) / pieces[i]));
+      b.tag.push_back(c.edge_tag[i]);
+    }
+  }
+  return b;
+}
+
+// Marks faces inside the polygon (nesting level 1 from the infinite face); CGAL's
+// own marks are not kept up to date by every operation (Lloyd moves vertices).
+void MarkDomain(CDT& cdt) {
+  for (auto f = cdt.all_faces_begin(); f != cdt.all_faces_end(); ++f) f->set_in_domain(false);
+  std::map<FH, int> level;
+  std::deque<std::pair<FH, int>> border{{cdt.infinite_face(), 0}};
+  while (!border.empty()) {
+    auto [start, lev] = border.front();
+    border.pop_front();
+    if (level.count(start)) continue;
+    std::deque<FH> queue{start};
+    level[start] = lev;
+    while (!queue.empty()) {
+      FH f = queue.front();
+      queue.pop_front();
+      for (int i = 0; i < 3; ++i) {
+        FH g = f->neighbor(i);
+        if (level.count(g)) continue;
+        if (cdt.is_constrained(CDT::Edge(f, i))) {
+          border.push_back({g, lev + 1});
+        } else {
+          level[g] = lev;
+          queue.push_back(g);
+        }
+      }
+    }
+  }
+  for (auto& [f, lev] : level)
+    if (!cdt.is_infinite(f)) f->set_in_domain(lev % 2 == 1);
+}
+
+double SegmentDistance(const Vec2& p, const Vec2& a, const Vec2& b) {
+  const Vec2 ab = b - a;
+  const double t = std::clamp((p - a).dot(ab) / ab.squaredNorm(), 0.0, 1.0);
+  return (a + t * ab - p).norm();
+}
+
+Vec2 ToVec(const Point& p) { return Vec2(CGAL::to_double(p.x()), CGAL::to_double(p.y())); }
+
+// Per CDT vertex: is it on a seam (stitched) and/or on an opening.
+struct VertexClass {
+  bool seam = false;
+  bool opening = false;
+};
+
+std::map<VH, VertexClass> ClassifyBoundary(const CDT& cdt, const Boundary& b) {
+  std::map<VH, VertexClass> cls;
+  const size_t n = b.p.size();
+  for (auto e = cdt.finite_edges_begin(); e != cdt.finite_edges_end(); ++e) {
+    if (!cdt.is_constrained(*e)) continue;
+    VH u = e->first->vertex(CDT::cw(e->second)), v = e->first->vertex(CDT::ccw(e->second));
+    const Vec2 mid = 0.5 * (ToVec(u->point()) + ToVec(v->point()));
+    size_t best = 0;
+    double best_d = std::numeric_limits<double>::infinity();
+    for (size_t i = 0; i < n; ++i) {
+      const double d = SegmentDistance(mid, b.p[i], b.p[(i + 1) % n]);
+      if (d < best_d) best_d = d, best = i;
+    }
+    const bool seam = b.tag[best].empty();
+    for (VH w : {u, v}) {
+      auto& c = cls[w];
+      (seam ? c.seam : c.opening) = true;
+    }
+  }
+  return cls;
+}
+
+bool InsidePolygon(const Vec2& p, const std::vector<Vec2>& poly) {
+  bool in = false;
+  for (size_t i = 0, j = poly.size() - 1; i < poly.size(); j = i++) {
+    const Vec2 &a = poly[i], &b = poly[j];
+    if ((a.y() > p.y()) != (b.y() > p.y()) &&
+        p.x() < (b.x() - a.x()) * (p.y() - a.y()) / (b.y() - a.y()) + a.x())
+      in = !in;
+  }
+  return in;
+}
+
+double DistanceToPolygon(const Vec2& p, const std::vector<Vec2>& poly) {
+  double d = std::numeric_limits<double>::infinity();
+  for (size_t i = 0; i < poly.size(); ++i)
+    d = std::min(d, SegmentDistance(p, poly[i], poly[(i + 1) % poly.size()]));
+  return d;
+}
+
+// Lloyd-style smoothing: each interior vertex moves to the area-weighted mean of its
+// incident triangles' centroids, then the constrained Delaunay triangulation is
+// rebuilt. Written here instead of CGAL::lloyd_optimize_mesh_2 because that one
+// orders its work by handle address and so differs from run to run; here points are
+// inserted in lexicographic order, which makes the result reproducible bit for bit.
+CDT Smooth(const CDT& start, const Boundary& b, int iterations, double h) {
+  CDT cdt = start;
+  MarkDomain(cdt);
+  for (int it = 0; it < iterations; ++it) {
+    std::vector<std::pair<Vec2, bool>> pts;  // position, fixed
+    std::map<VH, int> index;
+    for (auto v = cdt.finite_vertices_begin(); v != cdt.finite_vertices_end(); ++v) {
+      index[v] = static_cast<int>(pts.size());
+      pts.push_back({ToVec(v->point()), cdt.are_there_incident_constraints(v)});
+    }
+    std::vector<Vec2> sum(pts.size(), Vec2::Zero());
+    std::vector<double> weight(pts.size(), 0);
+    for (auto f = cdt.finite_faces_begin(); f != cdt.finite_faces_end(); ++f) {
+      if (!f->is_in_domain()) continue;
+      const Vec2 a = ToVec(f->vertex(0)->point()), c1 = ToVec(f->vertex(1)->point()),
+                 c2 = ToVec(f->vertex(2)->point());
+      const double area = 0.5 * std::abs((c1 - a).x() * (c2 - a).y() - (c1 - a).y() * (c2 - a).x());
+      const Vec2 centroid = (a + c1 + c2) / 3.0;
+      for (int k = 0; k < 3; ++k) {
+        const int i = index[f->vertex(k)];
+        sum[i] += area * centroid;
+        weight[i] += area;
+      }
+    }
+    std::vector<std::array<Vec2, 2>> constraints;
+    for (auto e = cdt.finite_edges_begin(); e != cdt.finite_edges_end(); ++e) {
+      if (!cdt.is_constrained(*e)) continue;
+      Vec2 u = ToVec(e->first->vertex(CDT::cw(e->second))->point());
+      Vec2 v = ToVec(e->first->vertex(CDT::ccw(e->second))->point());
+      if (std::make_pair(v.x(), v.y()) < std::make_pair(u.x(), u.y())) std::swap(u, v);
+      constraints.push_back({u, v});
+    }
+    std::vector<Vec2> moved;
+    moved.reserve(pts.size());
+    for (size_t i = 0; i < pts.size(); ++i) {
+      Vec2 p = pts[i].first;
+      if (!pts[i].second && weight[i] > 0) {
+        const Vec2 q = sum[i] / weight[i];
+        // Keep points inside and off the outline (else the rebuild could lose them).
+        if (InsidePolygon(q, b.p) && DistanceToPolygon(q, b.p) > 0.25 * h) p = q;
+      }
+      moved.push_back(p);
+    }
+    auto lex = [](const Vec2& a, const Vec2& c) {
+      return std::make_pair(a.x(), a.y()) < std::make_pair(c.x(), c.y());
+    };
+    std::sort(moved.begin(), moved.end(), lex);
+    std::sort(constraints.begin(), constraints.end(), [&](const auto& a, const auto& c) {
+      if (lex(a[0], c[0])) return true;
+      if (lex(c[0], a[0])) return false;
+      return lex(a[1], c[1]);
+    });
+    CDT next;
+    std::map<std::pair<double, double>, VH> handle;
+    for (const Vec2& p : moved) handle[{p.x(), p.y()}] = next.insert(Point(p.x(), p.y()));
+    for (const auto& c : constraints)
+      next.insert_constraint(handle.at({c[0].x(), c[0].y()}), handle.at({c[1].x(), c[1].y()}));
+    MarkDomain(next);
+    cdt = std::move(next);
+  }
+  return cdt;
+}
+
+}  // namespace
+
+void ContourOptions::Validate() const {
+  if (!(edge_length >= 0.002 && edge_length <= 1.0))
+    throw Error("edge_length must be in [0.002, 1] m, got " + std::to_string(edge_length));
+  if (!(layer_gap >= 0 && layer_gap <= 0.1))
+    throw Error("layer_gap must be in [0, 0.1] m, got " + std::to_string(layer_gap));
+  if (!(angle_bound > 0 && angle_bound <= 0.125))
+    throw Error("angle_bound must be in (0, 0.125], got " + std::to_string(angle_bound));
+  if (!(size_factor >= 0.5 && size_factor <= 4))
+    throw Error("size_factor must be in [0.5, 4], got " + std::to_string(size_factor));
+  if (lloyd_iterations < 0 || lloyd_iterations > 1000)
+    throw Error("lloyd_iterations must be in [0, 1000], got " + std::to_string(lloyd_iterations));
+}
+
+void MaskOptions::Validate() const {
+  if (!(metres_per_pixel > 0 && std::isfinite(metres_per_pixel)))
+    throw Error("metres_per_pixel must be > 0");
+  if (!(simplify_px >= 0)) throw Error("simplify_px must be >= 0");
+}
+
+Garment GarmentFromContour(const Contour& contour_in, const std::vector<AnchorSpec>& anchors,
+                           const ContourOptions& options, const std::string& category,
+                           const std::string& instance, MeshStats* stats_out) {
+  options.Validate();
+  const Contour contour = CheckedContour(contour_in);
+  const double h = options.edge_length;
+  const Boundary boundary = Resample(contour, h);
+
+  // Constrained Delaunay triangulation of the outline.
+  CDT cdt;
+  std::vector<VH> bv;
+  bv.reserve(boundary.p.size());
+  for (const Vec2& p : boundary.p) bv.push_back(cdt.insert(Point(p.x(), p.y())));
+  for (size_t i = 0; i < bv.size(); ++i) cdt.insert_constraint(bv[i], bv[(i + 1) % bv.size()]);
+  const Criteria criteria(options.angle_bound, options.size_factor * h);
+  CGAL::refine_Delaunay_mesh_2(cdt, criteria);
+  MarkDomain(cdt);
+  if (options.lloyd_iterations > 0) {
+    cdt = Smooth(cdt, boundary, options.lloyd_iterations, h);
+    // Smoothing can leave a few triangles below the angle bound: refine once more.
+    CGAL::refine_Delaunay_mesh_2(cdt, criteria);
+    MarkDomain(cdt);
+  }
+
+  // An interior edge joining two stitched vertices would exist on both layers at the
+  // same place (non-manifold): split it and refine again until there is none.
+  std::map<VH, VertexClass> cls;
+  int rounds = 0;
+  for (;; ++rounds) {
+    cls = ClassifyBoundary(cdt, boundary);
+    std::vector<Point> splits;
+    for (auto e = cdt.finite_edges_begin(); e != cdt.finite_edges_end(); ++e) {
+      if (cdt.is_constrained(*e)) continue;
+      FH f = e->first, g = f->neighbor(e->second);
+      if (!f->is_in_domain() && (cdt.is_infinite(g) || !g->is_in_domain())) continue;
+      VH u = f->vertex(CDT::cw(e->second)), v = f->vertex(CDT::ccw(e->second));
+      auto iu = cls.find(u), iv = cls.find(v);
+      if (iu != cls.end() && iv != cls.end() && iu->second.seam && iv->second.seam)
+        splits.push_back(CGAL::midpoint(u->point(), v->point()));
+    }
+    if (splits.empty()) break;
+    DRAPE_CHECK(rounds < 20, "seam chords keep reappearing");
+    for (const Point& p : splits) cdt.insert(p);
+    CGAL::refine_Delaunay_mesh_2(cdt, criteria);
+    MarkDomain(cdt);
+  }
+
+  // Front layer: vertices numbered by first appearance in the face list (so that
+  // importers which renumber that way, e.g. assimp's OBJ reader, keep the order).
+  std::map<VH, int> front_index;
+  std::vector<VH> front_vertices;
+  std::vector<std::array<int, 3>> front_faces;
+  for (auto f = cdt.finite_faces_begin(); f != cdt.finite_faces_end(); ++f) {
+    if (!f->is_in_domain()) continue;
+    std::array<int, 3> tri;
+    for (int k = 0; k < 3; ++k) {
+      VH v = f->vertex(k);
+      auto [it, inserted] = front_index.emplace(v, static_cast<int>(front_vertices.size()));
+      if (inserted) front_vertices.push_back(v);
+      tri[k] = it->second;
+    }
+    front_faces.push_back(tri);
+  }
+  DRAPE_CHECK(!front_faces.empty(), "empty triangulation");
+  const int nf = static_cast<int>(front_vertices.size());
+  std::vector<char> seam(nf, 0);
+  for (int i = 0; i < nf; ++i) {
+    auto it = cls.find(front_vertices[i]);
+    seam[i] = it != cls.end() && it->second.seam;
+  }
+  // Back layer: mirror of the front with reversed winding; stitched vertices shared.
+  std::vector<int> back_index(nf, -1);
+  std::vector<std::array<int, 3>> back_faces;
+  int next = nf;
+  for (const auto& t : front_faces) {
+    std::array<int, 3> b;
+    const std::array<int, 3> rev = {t[0], t[2], t[1]};
+    for (int k = 0; k < 3; ++k) {
+      const int v = rev[k];
+      if (seam[v]) {
+        b[k] = v;
+      } else {
+        if (back_index[v] < 0) back_index[v] = next++;
+        b[k] = back_index[v];
+      }
+    }
+    back_faces.push_back(b);
+  }
+
+  Garment g;
+  g.category = category;
+  g.instance = instance;
+  const int nv = next;
+  g.mesh.V.resize(nv, 3);
+  g.uv.resize(nv, 2);
+  g.layer.assign(nv, 0);
+  const double half = 0.5 * options.layer_gap;
+  for (int i = 0; i < nf; ++i) {
+    const Vec2 p = ToVec(front_vertices[i]->point());
+    g.uv.row(i) = p;
+    g.mesh.V.row(i) = Vec3(p.x(), p.y(), seam[i] ? 0.0 : half);
+    if (back_index[i] >= 0) {
+      g.uv.row(back_index[i]) = p;
+      g.mesh.V.row(back_index[i]) = Vec3(p.x(), p.y(), -half);
+      g.layer[back_index[i]] = 1;
+    }
+  }
+  g.mesh.F.resize(static_cast<int>(front_faces.size() + back_faces.size()), 3);
+  int r = 0;
+  for (const auto& t : front_faces) g.mesh.F.row(r++) << t[0], t[1], t[2];
+  for (const auto& t : back_faces) g.mesh.F.row(r++) << t[0], t[1], t[2];
+
+  // Anchors: nearest front-layer vertex on the pattern (lowest index on ties).
+  for (const AnchorSpec& spec : anchors) {
+    int best = -1;
+    double best_d = std::numeric_limits<double>::infinity();
+    for (int i = 0; i < nv; ++i) {
+      if (g.layer[i] != 0) continue;
+      const double d = (Vec2(g.uv.row(i)) - spec.uv).squaredNorm();
+      if (d < best_d) best_d = d, best = i;
+    }
+    Anchor a;
+    a.label = spec.label;
+    a.uv = spec.uv;
+    a.vertex = best;
+    a.position = g.mesh.V.row(best);
+    g.anchors.push_back(a);
+  }
+
+  if (stats_out) {
+    MeshStats& s = *stats_out;
+    s = MeshStats{};
+    s.vertices = nv;
+    s.faces = g.mesh.NumFaces();
+    s.front_vertices = nf;
+    s.seam_vertices = static_cast<int>(std::count(seam.begin(), seam.end(), 1));
+    s.refine_rounds = rounds;
+    // Openings = runs of equal non-empty tags around the contour.
+    const size_t n = contour.edge_tag.size();
+    for (size_t i = 0; i < n; ++i)
+      if (!contour.edge_tag[i].empty() && contour.edge_tag[(i + n - 1) % n].empty()) ++s.openings;
+    // Pattern edge lengths and angles of the front triangulation.
+    TriMesh flat;
+    flat.V.resize(nf, 3);
+    for (int i = 0; i < nf; ++i) flat.V.row(i) = Vec3(g.uv(i, 0), g.uv(i, 1), 0.0);
+    flat.F = g.mesh.F.topRows(static_cast<int>(front_faces.size()));
+    const MeshReport rep = InspectMesh(flat);
+    s.edge_min = rep.edge_min;
+    s.edge_mean = rep.edge_mean;
+    s.edge_max = rep.edge_max;
+    s.ratio_min = rep.edge_min / h;
+    s.ratio_p05 = rep.edge_p05 / h;
+    s.ratio_p95 = rep.edge_p95 / h;
+    s.ratio_max = rep.edge_max / h;
+    s.min_angle_deg = rep.min_angle_deg;
+    s.area = rep.area;
+    s.boundary_loops = InspectMesh(g.mesh).boundary_loops;
+  }
+  return g;
+}
+
+Contour ContourFromMask(const cv::Mat& mask, const MaskOptions& options) {
+  options.Validate();
+  if (mask.empty()) throw Error("mask is empty");
+  if (mask.type() != CV_8UC1)
+    throw Error("mask must be 8-bit single channel (CV_8UC1), got type " +
+                std::to_string(mask.type()));
+  cv::Mat bin = mask != 0;
+  // A one-pixel frame so that blobs touching the border still get closed contours.
+  cv::Mat padded;
+  cv::copyMakeBorder(bin, padded, 1, 1, 1, 1, cv::BORDER_CONSTANT, cv::Scalar(0));
+  std::vector<std::vector<cv::Point>> contours;
+  cv::findContours(padded, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
+  if (contours.empty()) throw Error("mask has no foreground pixels");
+  size_t best = 0;
+  double best_area = -1;
+  for (size_t i = 0; i < contours.size(); ++i) {
+    const double a = std::abs(cv::contourArea(contours[i]));
+    if (a > best_area) best_area = a, best = i;
+  }
+  std::vector<cv::Point> poly = contours[best];
+  if (options.simplify_px > 0) {
+    std::vector<cv::Point> simple;
+    cv::approxPolyDP(poly, simple, options.simplify_px, true);
+    poly = simple;
+  }
+  if (poly.size() < 3 || best_area <= 0)
+    throw Error("mask's largest blob (" + std::to_string(contours[best].size()) +
+                " contour pixels) is too thin to mesh");
+  Contour c;
+  const double m = options.metres_per_pixel;
+  for (const cv::Point& q : poly) {
+    const int col = q.x - 1, row = q.y - 1;  // undo the padding
+    c.points.emplace_back((col + 0.5) * m, (mask.rows - row - 0.5) * m);
+  }
+  c.edge_tag.assign(c.points.size(), "");
+  return c;
+}
+
+}  // namespace drape

@@ -1,0 +1,267 @@
+// Every template: topology, orientation, quality, anchors, dimensions, determinism.
+#include "garments/templates.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <set>
+
+#include "common/error.h"
+#include "garments/validate.h"
+
+namespace drape {
+namespace {
+
+// Stated mesh-quality bounds at the default edge length h (see anchors.md / report):
+// every pattern edge within [0.4 h, 1.6 h], 90 % of them within [0.6 h, 1.35 h],
+// smallest triangle angle ≥ 25°.
+constexpr double kRatioMin = 0.4, kRatioMax = 1.6, kRatioP05 = 0.6, kRatioP95 = 1.35;
+constexpr double kMinAngleDeg = 25;
+
+// The paper's anchor counts (long-sleeve shirt 19, pants 12, shorts 8), towel 8+.
+int RequiredAnchors(const std::string& name) {
+  if (name == "long_sleeve_shirt") return 19;
+  if (name == "pants") return 12;
+  if (name == "shorts") return 8;
+  if (name == "towel") return 8;
+  return 8;
+}
+
+// Flat-layout width/height expected from the size parameters (written from the
+// parameter definitions, independently of the outline code).
+Vec2 ExpectedSize(const std::string& name, const std::map<std::string, double>& p) {
+  if (name == "long_sleeve_shirt" || name == "tshirt") {
+    const double half = std::max({p.at("shoulder_width") / 2 + p.at("sleeve_length") * std::cos(p.at("sleeve_angle")),
+                                  p.at("chest_width") / 2, p.at("hem_width") / 2});
+    return {2 * half, p.at("body_length")};
+  }
+  if (name == "pants" || name == "shorts") {
+    const double half = std::max(p.at("hip_width") / 2,
+                                 p.at("hip_width") / 4 + p.at("leg_splay") + p.at("leg_width") / 2);
+    return {2 * half, p.at("rise") + p.at("inseam")};
+  }
+  if (name == "skirt") return {std::max(p.at("hem_width"), p.at("hip_width")), p.at("length")};
+  if (name == "towel") return {p.at("width"), p.at("length")};
+  ADD_FAILURE() << "no expected size for " << name;
+  return {0, 0};
+}
+
+class TemplateTest : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(TemplateTest, MeshIsManifoldOrientedAndWellShaped) {
+  const std::string name = GetParam();
+  const TemplateInfo* info = FindTemplate(name);
+  ASSERT_NE(info, nullptr);
+  for (const std::string size : {"S", "M", "L"}) {
+    SCOPED_TRACE(size);
+    TemplateOptions opt;
+    opt.size = size;
+    MeshStats stats;
+    const Garment g = MakeGarment(name, opt, &stats);
+    EXPECT_EQ(g.category, name);
+    EXPECT_EQ(g.instance, name + "-" + size);
+    const MeshReport r = InspectMesh(g.mesh);
+    EXPECT_TRUE(r.Manifold()) << r.nonmanifold_edges.size() << " non-manifold edges";
+    EXPECT_TRUE(r.Oriented()) << r.inconsistent_edges << " inconsistent edges";
+    EXPECT_TRUE(r.degenerate_faces.empty());
+    EXPECT_EQ(r.components, 1);
+    EXPECT_EQ(r.unreferenced_vertices, 0);
+    EXPECT_EQ(r.boundary_loops, static_cast<int>(info->openings.size()));
+    EXPECT_EQ(stats.boundary_loops, r.boundary_loops);
+    EXPECT_EQ(stats.openings, static_cast<int>(info->openings.size()));
+    EXPECT_TRUE(CheckGarment(g, name).empty());
+
+    // No inverted triangles: front faces face +z, back faces −z, in the pattern too.
+    const Points3 n = FaceNormals(g.mesh);
+    for (int f = 0; f < g.mesh.NumFaces(); ++f) {
+      bool back = false;
+      for (int k = 0; k < 3; ++k) back |= g.layer[g.mesh.F(f, k)] == 1;
+      // A face of only seam/front vertices may still be a back face (seam-only faces are
+      // excluded by construction), so decide by half: front faces come first.
+      const bool is_front = f < g.mesh.NumFaces() / 2;
+      if (back) EXPECT_FALSE(is_front);
+      const double nz = n(f, 2);
+      ASSERT_GT(is_front ? nz : -nz, 0.5) << "face " << f << " is inverted or steep";
+      const Vec2 a = g.uv.row(g.mesh.F(f, 0)), b = g.uv.row(g.mesh.F(f, 1)), c = g.uv.row(g.mesh.F(f, 2));
+      const double cross = (b - a).x() * (c - a).y() - (b - a).y() * (c - a).x();
+      EXPECT_GT(is_front ? cross : -cross, 0) << "face " << f;
+    }
+
+    // Edge lengths relative to the target, smallest angle.
+    EXPECT_GE(stats.ratio_min, kRatioMin);
+    EXPECT_LE(stats.ratio_max, kRatioMax);
+    EXPECT_GE(stats.ratio_p05, kRatioP05);
+    EXPECT_LE(stats.ratio_p95, kRatioP95);
+    EXPECT_GE(stats.min_angle_deg, kMinAngleDeg);
+    // Bullet's CreateFromTriMesh is O(V²): stay small at the default edge length.
+    EXPECT_LT(g.mesh.NumVertices(), 3000);
+
+    // Layers: front z = +gap/2, back −gap/2, seam 0.
+    for (int v = 0; v < g.mesh.NumVertices(); ++v) {
+      const double z = g.mesh.V(v, 2);
+      if (g.layer[v] == 1) EXPECT_DOUBLE_EQ(z, -opt.layer_gap / 2);
+      else EXPECT_TRUE(z == 0 || z == opt.layer_gap / 2);
+      EXPECT_EQ(g.mesh.V(v, 0), g.uv(v, 0));
+      EXPECT_EQ(g.mesh.V(v, 1), g.uv(v, 1));
+    }
+  }
+}
+
+TEST_P(TemplateTest, AnchorsAreLabelledAndOnTheFrontLayer) {
+  const std::string name = GetParam();
+  const TemplateInfo* info = FindTemplate(name);
+  const Garment g = MakeGarment(name, {});
+  EXPECT_GE(static_cast<int>(g.anchors.size()), RequiredAnchors(name));
+  ASSERT_EQ(g.anchors.size(), info->anchor_labels.size());
+  std::set<int> vertices;
+  std::set<std::string> labels;
+  for (size_t i = 0; i < g.anchors.size(); ++i) {
+    const Anchor& a = g.anchors[i];
+    EXPECT_EQ(a.label, info->anchor_labels[i]);
+    EXPECT_TRUE(labels.insert(a.label).second) << "duplicate " << a.label;
+    EXPECT_TRUE(vertices.insert(a.vertex).second) << a.label << " shares its vertex";
+    ASSERT_GE(a.vertex, 0);
+    EXPECT_EQ(g.layer[a.vertex], 0) << a.label;
+    EXPECT_EQ(a.position, Vec3(g.mesh.V.row(a.vertex)));
+    // Snapped within one target edge of where the template put it.
+    EXPECT_LT((Vec2(g.uv.row(a.vertex)) - a.uv).norm(), 0.025) << a.label;
+    EXPECT_EQ(g.FindAnchor(a.label), &a);
+  }
+  // Both sides: every left_X has its right_X.
+  for (const auto& l : labels) {
+    if (l.rfind("left_", 0) == 0) EXPECT_TRUE(labels.count("right_" + l.substr(5))) << l;
+    if (l.rfind("right_", 0) == 0) EXPECT_TRUE(labels.count("left_" + l.substr(6))) << l;
+  }
+}
+
+TEST_P(TemplateTest, DimensionsMatchSizeParameters) {
+  const std::string name = GetParam();
+  double last_area = 0;
+  for (const std::string size : {"S", "M", "L"}) {
+    TemplateOptions opt;
+    opt.size = size;
+    const TemplateShape shape = MakeTemplateShape(name, opt);
+    const Garment g = MakeGarment(name, opt);
+    const MeshReport r = InspectMesh(g.mesh);
+    const Vec2 want = ExpectedSize(name, shape.params);
+    // Contour corners are mesh vertices, so the extent is exact up to rounding.
+    EXPECT_NEAR(r.bounds_max.x() - r.bounds_min.x(), want.x(), 1e-9) << size;
+    EXPECT_NEAR(r.bounds_max.y() - r.bounds_min.y(), want.y(), 1e-9) << size;
+    EXPECT_NEAR(r.bounds_max.x() + r.bounds_min.x(), 0, 1e-9) << "centred on x = 0";
+    EXPECT_NEAR(r.bounds_min.y(), 0, 1e-9);
+    EXPECT_NEAR(r.bounds_max.z() - r.bounds_min.z(), opt.layer_gap, 1e-12);
+    // Named widths between corner anchors (corners are exact vertices).
+    auto dist = [&](const char* a, const char* b) {
+      return (g.FindAnchor(a)->position - g.FindAnchor(b)->position).norm();
+    };
+    if (shape.params.count("waist_width"))
+      EXPECT_NEAR(dist("left_waist", "right_waist"), shape.params.at("waist_width"), 1e-9);
+    if (name == "long_sleeve_shirt" || name == "tshirt") {
+      EXPECT_NEAR(dist("left_armpit", "right_armpit"), shape.params.at("chest_width"), 1e-9);
+      EXPECT_NEAR(dist("left_hem", "right_hem"), shape.params.at("hem_width"), 1e-9);
+      EXPECT_NEAR(dist("left_shoulder", "right_shoulder"), shape.params.at("shoulder_width"), 1e-9);
+    }
+    if (name == "pants" || name == "shorts") {
+      EXPECT_NEAR(g.FindAnchor("crotch")->position.y(), shape.params.at("inseam"), 1e-9);
+      EXPECT_NEAR(dist("left_leg_outer", "left_leg_inner"), shape.params.at("leg_width"), 1e-9);
+    }
+    const double area = SurfaceArea(g.mesh);
+    EXPECT_GT(area, last_area) << size << " is not larger than the size before";
+    last_area = area;
+  }
+}
+
+TEST_P(TemplateTest, SeedsAreDeterministicAndDistinct) {
+  const std::string name = GetParam();
+  TemplateOptions a;
+  a.seed = 7;
+  const Garment g1 = MakeGarment(name, a), g2 = MakeGarment(name, a);
+  ASSERT_EQ(g1.mesh.V.rows(), g2.mesh.V.rows());
+  EXPECT_EQ(0, std::memcmp(g1.mesh.V.data(), g2.mesh.V.data(), sizeof(double) * g1.mesh.V.size()));
+  EXPECT_EQ(g1.mesh.F, g2.mesh.F);
+  EXPECT_EQ(g1.instance, name + "-M-s7");
+
+  TemplateOptions b = a;
+  b.seed = 8;
+  const TemplateShape s7 = MakeTemplateShape(name, a), s8 = MakeTemplateShape(name, b),
+                      s0 = MakeTemplateShape(name, {});
+  int differ = 0;
+  for (const auto& [k, v] : s0.params) {
+    EXPECT_LE(std::abs(s7.params.at(k) / v - 1), a.perturbation + 1e-12) << k;
+    differ += s7.params.at(k) != s8.params.at(k);
+  }
+  EXPECT_EQ(differ, static_cast<int>(s0.params.size()));
+  const MeshReport r7 = InspectMesh(g1.mesh), r8 = InspectMesh(MakeGarment(name, b).mesh);
+  EXPECT_NE(r7.bounds_max.x(), r8.bounds_max.x());
+}
+
+INSTANTIATE_TEST_SUITE_P(All, TemplateTest,
+                         ::testing::Values("long_sleeve_shirt", "tshirt", "pants", "shorts", "skirt",
+                                           "towel"),
+                         [](const auto& info) { return info.param; });
+
+TEST(Templates, ListIsComplete) {
+  std::set<std::string> names;
+  for (const auto& t : Templates()) {
+    names.insert(t.name);
+    EXPECT_FALSE(t.parameters.empty());
+    EXPECT_FALSE(t.description.empty());
+  }
+  for (const char* n : {"long_sleeve_shirt", "tshirt", "pants", "shorts", "skirt", "towel"})
+    EXPECT_TRUE(names.count(n)) << n;
+  EXPECT_EQ(FindTemplate("nope"), nullptr);
+}
+
+TEST(Templates, ParameterOverridesAreExactAndChecked) {
+  TemplateOptions o;
+  o.seed = 3;
+  o.params["inseam"] = 0.7;
+  const TemplateShape s = MakeTemplateShape("pants", o);
+  EXPECT_EQ(s.params.at("inseam"), 0.7);
+  EXPECT_EQ(s.instance.rfind("pants-M-s3-p", 0), 0u);
+  o.params["insaem"] = 0.7;
+  try {
+    MakeTemplateShape("pants", o);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("insaem"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Templates, BadOptionsAreNamed) {
+  auto message = [](const std::function<void()>& f) -> std::string {
+    try {
+      f();
+    } catch (const Error& e) {
+      return e.what();
+    }
+    return "";
+  };
+  EXPECT_NE(message([] { MakeGarment("cape", {}); }).find("cape"), std::string::npos);
+  TemplateOptions o;
+  o.size = "XL";
+  EXPECT_NE(message([&] { MakeGarment("pants", o); }).find("size"), std::string::npos);
+  o = {};
+  o.edge_length = 0;
+  EXPECT_NE(message([&] { MakeGarment("pants", o); }).find("edge_length"), std::string::npos);
+  o = {};
+  o.params["neck_width"] = 0.6;  // wider than the shoulders
+  EXPECT_NE(message([&] { MakeGarment("tshirt", o); }).find("neck_width"), std::string::npos);
+}
+
+TEST(Templates, PrintStats) {
+  // Not a check: the numbers quoted in the report.
+  for (const auto& t : Templates()) {
+    MeshStats s;
+    const Garment g = MakeGarment(t.name, {}, &s);
+    std::printf("%-18s V=%5d F=%5d front=%4d seam=%3d anchors=%2zu loops=%d edge mean=%.4f "
+                "ratio[min %.2f p05 %.2f p95 %.2f max %.2f] min_angle=%.1f area=%.3f rounds=%d\n",
+                t.name.c_str(), s.vertices, s.faces, s.front_vertices, s.seam_vertices,
+                g.anchors.size(), s.boundary_loops, s.edge_mean, s.ratio_min, s.ratio_p05,
+                s.ratio_p95, s.ratio_max, s.min_angle_deg, s.area, s.refine_rounds);
+  }
+}
+
+}  // namespace
+}  // namespace drape
