@@ -126,6 +126,10 @@ class ReleaseWriter {
   // dataset.json, SHA256SUMS (last), removes .drape-build and releases the lock.
   Summary Finalize();
 
+  // Adds a top-level field to build.json (timing/machine facts; never hashed), e.g.
+  // "threads", "stage_seconds", "mpi_ranks".
+  void SetBuildInfo(const std::string& key, Json value);
+
   const fs::path& dir() const;
 
  private:

@@ -1,0 +1,827 @@
+// Release writer and reader: atomic entries, lock, journal, resume, finalize.
+#include "generator/release/release.h"
+
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cctype>
+#include <cerrno>
+#include <chrono>
+#include <cstring>
+#include <ctime>
+#include <map>
+#include <mutex>
+#include <sstream>
+
+#include "common/error.h"
+#include "common/files.h"
+#include "common/hash.h"
+#include "generator/release/release_internal.h"
+
+namespace drape {
+namespace release_detail {
+
+void CheckSafeName(const std::string& s, const std::string& what) {
+  bool ok = !s.empty() && s.size() <= 200 && s[0] != '.';
+  for (char c : s) {
+    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '_' || c == '-')) ok = false;
+  }
+  if (!ok) {
+    throw Error(what + " '" + s +
+                "' is not a safe name (use letters, digits, '.', '_', '-'; not starting with '.')");
+  }
+}
+
+void CheckSafeRelPath(const std::string& p, const std::string& what) {
+  if (p.empty()) throw Error(what + ": empty path");
+  size_t start = 0;
+  while (true) {
+    const size_t slash = p.find('/', start);
+    const std::string part = p.substr(start, slash == std::string::npos ? std::string::npos : slash - start);
+    CheckSafeName(part, what + " path '" + p + "' component");
+    if (slash == std::string::npos) break;
+    start = slash + 1;
+  }
+}
+
+namespace {
+nlohmann::json Sorted(const Json& j) {
+  // nlohmann::json keeps object keys in a std::map: sorted by byte order.
+  switch (j.type()) {
+    case Json::value_t::object: {
+      nlohmann::json out = nlohmann::json::object();
+      for (auto it = j.begin(); it != j.end(); ++it) out[it.key()] = Sorted(it.value());
+      return out;
+    }
+    case Json::value_t::array: {
+      nlohmann::json out = nlohmann::json::array();
+      for (const auto& v : j) out.push_back(Sorted(v));
+      return out;
+    }
+    case Json::value_t::string: return j.get<std::string>();
+    case Json::value_t::boolean: return j.get<bool>();
+    case Json::value_t::number_integer: return j.get<int64_t>();
+    case Json::value_t::number_unsigned: return j.get<uint64_t>();
+    case Json::value_t::number_float: return j.get<double>();
+    case Json::value_t::null:
+    case Json::value_t::discarded: return nullptr;
+    case Json::value_t::binary: return nlohmann::json::binary(j.get_binary());
+  }
+  return nullptr;
+}
+}  // namespace
+
+std::string CanonicalJson(const Json& j) { return Sorted(j).dump(); }
+
+Json EntryJson(const Release::EntryInfo& e) {
+  Json files = Json::array();
+  for (const auto& f : e.files) files.push_back({{"path", f.path}, {"sha256", f.sha256}, {"size", f.size}});
+  return Json{{"id", e.id},         {"key", e.key},         {"split", e.split},
+              {"failed", e.failed}, {"failure", e.failure}, {"record", e.record},
+              {"files", files},     {"entry_digest", e.entry_digest}};
+}
+
+Release::EntryInfo ParseEntryJson(const Json& j, const std::string& where) {
+  try {
+    Release::EntryInfo e;
+    e.id = j.at("id").get<std::string>();
+    e.key = j.at("key").get<std::string>();
+    e.split = j.at("split").get<std::string>();
+    e.failed = j.at("failed").get<bool>();
+    e.failure = j.at("failure").get<std::string>();
+    e.record = j.at("record");
+    for (const auto& f : j.at("files")) {
+      e.files.push_back({f.at("path").get<std::string>(), f.at("sha256").get<std::string>(),
+                         f.at("size").get<uint64_t>()});
+    }
+    std::sort(e.files.begin(), e.files.end(), [](auto& a, auto& b) { return a.path < b.path; });
+    e.entry_digest = j.value("entry_digest", std::string());
+    return e;
+  } catch (const Json::exception& ex) {
+    throw Error(where + ": malformed entry: " + ex.what());
+  }
+}
+
+std::vector<Release::EntryInfo> ScanEntries(const fs::path& dir) {
+  std::vector<Release::EntryInfo> out;
+  const fs::path root = dir / "entries";
+  if (!fs::exists(root)) return out;
+  for (const auto& d : fs::directory_iterator(root)) {
+    if (!d.is_directory()) continue;
+    const fs::path ej = d.path() / kEntryJson;
+    Json j;
+    try {
+      j = Json::parse(ReadFile(ej));
+    } catch (const Json::exception& ex) {
+      throw Error(ej.string() + ": " + ex.what());
+    }
+    out.push_back(ParseEntryJson(j, ej.string()));
+    if (out.back().id != d.path().filename().string()) {
+      throw Error(ej.string() + ": id '" + out.back().id + "' does not match its folder");
+    }
+  }
+  std::sort(out.begin(), out.end(), [](auto& a, auto& b) { return a.id < b.id; });
+  return out;
+}
+
+std::vector<std::string> OrderedSplits(const std::vector<Release::EntryInfo>& entries) {
+  std::set<std::string> seen;
+  for (const auto& e : entries) seen.insert(e.split);
+  std::vector<std::string> out;
+  for (const char* s : {"train", "calibration", "test"}) {
+    if (seen.erase(s)) out.push_back(s);
+  }
+  out.insert(out.end(), seen.begin(), seen.end());
+  return out;
+}
+
+std::string Category(const Release::EntryInfo& e) {
+  if (e.record.is_object() && e.record.contains("category") && e.record["category"].is_string())
+    return e.record["category"].get<std::string>();
+  return "unknown";
+}
+
+std::string AnchorLabel(const Release::EntryInfo& e) {
+  if (e.record.is_object() && e.record.contains("anchor")) {
+    const Json& a = e.record["anchor"];
+    if (a.is_string()) return a.get<std::string>();
+    if (a.is_object() && a.contains("label") && a["label"].is_string()) return a["label"].get<std::string>();
+  }
+  return "";
+}
+
+Json Counts(const std::vector<Release::EntryInfo>& entries) {
+  Json splits = Json::object(), categories = Json::object(), split_categories = Json::object();
+  std::map<std::string, int> cat;
+  std::map<std::string, std::map<std::string, int>> sc;
+  int failed = 0;
+  for (const auto& e : entries) {
+    ++cat[Category(e)];
+    ++sc[e.split][Category(e)];
+    failed += e.failed;
+  }
+  for (const auto& s : OrderedSplits(entries)) {
+    int n = 0;
+    Json per = Json::object();
+    for (const auto& [c, k] : sc[s]) {
+      per[c] = k;
+      n += k;
+    }
+    splits[s] = n;
+    split_categories[s] = per;
+  }
+  for (const auto& [c, k] : cat) categories[c] = k;
+  return Json{{"entries", entries.size()}, {"failed", failed}, {"splits", splits},
+              {"categories", categories}, {"split_categories", split_categories}};
+}
+
+std::map<std::string, std::string> ParseSums(const std::string& text, const std::string& where) {
+  std::map<std::string, std::string> out;
+  std::istringstream in(text);
+  std::string line;
+  int n = 0;
+  while (std::getline(in, line)) {
+    ++n;
+    if (line.empty()) continue;
+    if (line.size() < 67 || line[64] != ' ' || (line[65] != ' ' && line[65] != '*')) {
+      throw Error(where + ":" + std::to_string(n) + ": not a sha256sum line");
+    }
+    out[line.substr(66)] = line.substr(0, 64);
+  }
+  return out;
+}
+
+std::string FormatSums(const std::map<std::string, std::string>& sums) {
+  std::string out;
+  for (const auto& [p, h] : sums) out += h + "  " + p + "\n";
+  return out;
+}
+
+void FsyncPath(const fs::path& p) {
+  const int fd = ::open(p.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return;
+  ::fsync(fd);
+  ::close(fd);
+}
+
+std::string HostName() {
+  char buf[256] = {0};
+  if (::gethostname(buf, sizeof(buf) - 1) != 0) return "unknown";
+  return buf;
+}
+
+}  // namespace release_detail
+
+using namespace release_detail;
+
+// ---------------------------------------------------------------- digest
+
+std::string EntryDigest(const std::string& id, const std::string& key, const std::string& split,
+                        bool failed, const std::string& failure, const Json& record,
+                        const std::vector<Release::FileInfo>& files) {
+  std::vector<std::pair<std::string, std::string>> fl;
+  for (const auto& f : files) fl.emplace_back(f.path, f.sha256);
+  std::sort(fl.begin(), fl.end());
+  Json jf = Json::array();
+  for (const auto& [p, h] : fl) jf.push_back(Json::array({p, h}));
+  const Json canon{{"id", id},           {"key", key},       {"split", split}, {"failed", failed},
+                   {"failure", failure}, {"record", record}, {"files", jf}};
+  return Sha256Hex(CanonicalJson(canon));
+}
+
+std::string ComputeDigest(const std::vector<Release::EntryInfo>& entries) {
+  std::vector<std::pair<std::string, std::string>> lines;
+  for (const auto& e : entries) {
+    lines.emplace_back(e.id, EntryDigest(e.id, e.key, e.split, e.failed, e.failure, e.record, e.files));
+  }
+  std::sort(lines.begin(), lines.end());
+  Sha256 h;
+  for (const auto& [id, d] : lines) h.Update(id + " " + d + "\n");
+  return h.HexDigest();
+}
+
+// ---------------------------------------------------------------- meta
+
+void ReleaseMeta::Validate() const {
+  CheckSafeName(name, "ReleaseMeta.name");
+  {
+    int dots = 0;
+    bool ok = !version.empty() && std::isdigit(static_cast<unsigned char>(version.front())) &&
+              std::isdigit(static_cast<unsigned char>(version.back()));
+    for (char c : version) {
+      if (c == '.') ++dots;
+      else if (!std::isdigit(static_cast<unsigned char>(c))) ok = false;
+    }
+    if (!ok || dots != 2 || version.find("..") != std::string::npos) {
+      throw Error("ReleaseMeta.version '" + version + "' is not MAJOR.MINOR.PATCH");
+    }
+  }
+  if (job_keys.empty()) throw Error("ReleaseMeta.job_keys: empty (a release needs at least one job)");
+  std::set<std::string> keys;
+  for (const auto& k : job_keys) {
+    if (k.empty() || k.find('\n') != std::string::npos)
+      throw Error("ReleaseMeta.job_keys: empty key or key with a newline");
+    if (!keys.insert(k).second) throw Error("ReleaseMeta.job_keys: duplicate key '" + k + "'");
+  }
+  std::set<std::string> sk;
+  for (const auto& k : shard_keys) {
+    if (!keys.count(k)) throw Error("ReleaseMeta.shard_keys: '" + k + "' is not in job_keys");
+    if (!sk.insert(k).second) throw Error("ReleaseMeta.shard_keys: duplicate key '" + k + "'");
+  }
+  if (shard_count < 1 || shard_index < 0 || shard_index >= shard_count)
+    throw Error("ReleaseMeta.shard_index/shard_count: " + std::to_string(shard_index) + "/" +
+                std::to_string(shard_count) + " out of range");
+  if (!recipe_sha256.empty() && recipe_sha256 != Sha256Hex(recipe_text))
+    throw Error("ReleaseMeta.recipe_sha256 does not match recipe_text");
+  for (const auto& b : catalog_blobs) CheckSafeRelPath(b, "ReleaseMeta.catalog_blobs");
+}
+
+namespace {
+
+std::string JobKeysSha(const std::vector<std::string>& keys) {
+  Sha256 h;
+  for (const auto& k : keys) h.Update(k + "\n");
+  return h.HexDigest();
+}
+
+// The fields that must agree for a build to be resumed or a finished release reused.
+Json IdentityJson(const ReleaseMeta& m) {
+  return Json{{"name", m.name},
+              {"version", m.version},
+              {"seed", m.seed},
+              {"recipe_sha256", m.recipe_sha256},
+              {"code_version", m.code_version},
+              {"jobs_sha256", JobKeysSha(m.job_keys)},
+              {"shard_index", m.shard_index},
+              {"shard_count", m.shard_count}};
+}
+
+std::string NowUtc() {
+  const std::time_t t = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  char buf[32];
+  std::strftime(buf, sizeof(buf), "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return buf;
+}
+
+double NowSeconds() {
+  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+}
+
+void WriteAll(int fd, std::string_view bytes, const std::string& what) {
+  size_t off = 0;
+  while (off < bytes.size()) {
+    const ssize_t n = ::write(fd, bytes.data() + off, bytes.size() - off);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      throw Error(what + ": write failed: " + std::strerror(errno));
+    }
+    off += static_cast<size_t>(n);
+  }
+}
+
+void WriteFileNew(const fs::path& p, std::string_view bytes) {
+  const int fd = ::open(p.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
+  if (fd < 0) throw Error(p.string() + ": cannot create: " + std::strerror(errno));
+  try {
+    WriteAll(fd, bytes, p.string());
+  } catch (...) {
+    ::close(fd);
+    throw;
+  }
+  ::close(fd);
+}
+
+bool DirHasOnly(const fs::path& dir, const std::set<std::string>& allowed) {
+  for (const auto& d : fs::directory_iterator(dir)) {
+    if (!allowed.count(d.path().filename().string())) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------- writer
+
+struct ReleaseWriter::Impl {
+  fs::path dir;
+  ReleaseMeta meta;
+  int lock_fd = -1;
+  int journal_fd = -1;
+  mutable std::mutex mu;
+  std::set<std::string> expected;      // keys this writer must produce
+  std::set<std::string> done;          // committed keys
+  std::set<std::string> in_progress;   // keys being committed
+  std::map<std::string, std::string> id_of_key;
+  std::set<std::string> ids;
+  std::atomic<uint64_t> staging_seq{0};
+  Json build_info = Json::object();
+  std::string started_utc;
+  double started_seconds = 0;
+  std::string published_digest;
+
+  fs::path build_dir() const { return dir / kBuildDir; }
+
+  ~Impl() {
+    if (journal_fd >= 0) ::close(journal_fd);
+    if (lock_fd >= 0) ::close(lock_fd);  // the kernel drops the flock with the descriptor
+  }
+
+  void TakeLock() {
+    const fs::path lp = dir / kLockFile;
+    lock_fd = ::open(lp.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+    if (lock_fd < 0) throw Error(lp.string() + ": cannot open lock file: " + std::strerror(errno));
+    if (::flock(lock_fd, LOCK_EX | LOCK_NB) != 0) {
+      std::string holder;
+      try {
+        const Json h = Json::parse(ReadFile(lp));
+        holder = "pid " + std::to_string(h.value("pid", 0)) + " on host " + h.value("host", std::string("?")) +
+                 " (since " + h.value("started", std::string("?")) + ")";
+      } catch (...) {
+        holder = "another process";
+      }
+      ::close(lock_fd);
+      lock_fd = -1;
+      throw Error(dir.string() + ": another build is writing this release: " + holder +
+                  " holds " + lp.string() + ". Wait for it to finish, or stop it; a dead "
+                  "build's lock is released automatically.");
+    }
+    const std::string info = Json{{"pid", ::getpid()}, {"host", HostName()}, {"started", NowUtc()}}.dump() + "\n";
+    if (::ftruncate(lock_fd, 0) == 0) {
+      ::lseek(lock_fd, 0, SEEK_SET);
+      WriteAll(lock_fd, info, lp.string());
+    }
+  }
+
+  // Loads committed entries from entries/*/entry.json; removes broken folders.
+  void LoadDone() {
+    const fs::path root = dir / "entries";
+    if (!fs::exists(root)) return;
+    for (const auto& d : fs::directory_iterator(root)) {
+      const fs::path ej = d.path() / kEntryJson;
+      bool ok = d.is_directory() && fs::exists(ej);
+      Release::EntryInfo e;
+      if (ok) {
+        try {
+          e = ParseEntryJson(Json::parse(ReadFile(ej)), ej.string());
+          ok = e.id == d.path().filename().string();
+          for (const auto& f : e.files) {
+            const fs::path fp = d.path() / f.path;
+            if (!fs::exists(fp) || fs::file_size(fp) != f.size) ok = false;
+          }
+        } catch (const std::exception&) {
+          ok = false;
+        }
+      }
+      if (!ok) {
+        // Only a complete staging folder is ever renamed here, so this is damage from
+        // outside the writer: redo the job rather than trust it.
+        fs::remove_all(d.path());
+        continue;
+      }
+      if (!expected.count(e.key)) {
+        throw Error(ej.string() + ": entry for job '" + e.key +
+                    "', which this build does not produce (different recipe or shard?)");
+      }
+      if (!done.insert(e.key).second) throw Error(ej.string() + ": job '" + e.key + "' stored twice");
+      id_of_key[e.key] = e.id;
+      ids.insert(e.id);
+    }
+  }
+
+  void OpenJournal() {
+    const fs::path jp = build_dir() / "journal.jsonl";
+    // A line cut by a crash is completed with a newline so later lines stay parseable.
+    if (fs::exists(jp)) {
+      const std::string text = ReadFile(jp);
+      if (!text.empty() && text.back() != '\n') {
+        const int fd = ::open(jp.c_str(), O_WRONLY | O_APPEND | O_CLOEXEC);
+        if (fd >= 0) {
+          WriteAll(fd, "\n", jp.string());
+          ::close(fd);
+        }
+      }
+    }
+    journal_fd = ::open(jp.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
+    if (journal_fd < 0) throw Error(jp.string() + ": cannot open journal: " + std::strerror(errno));
+  }
+
+  std::map<std::string, Json> ReadJournalTimings() const {
+    std::map<std::string, Json> out;
+    const fs::path jp = build_dir() / "journal.jsonl";
+    if (!fs::exists(jp)) return out;
+    std::istringstream in(ReadFile(jp));
+    std::string line;
+    while (std::getline(in, line)) {
+      if (line.empty()) continue;
+      try {
+        const Json j = Json::parse(line);
+        out[j.at("id").get<std::string>()] = j.value("timing", Json::object());
+      } catch (const std::exception&) {
+        // a line cut by a crash: its entry is on disk, only its timing is lost
+      }
+    }
+    return out;
+  }
+};
+
+ReleaseWriter::ReleaseWriter(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+ReleaseWriter::~ReleaseWriter() = default;
+const fs::path& ReleaseWriter::dir() const { return impl_->dir; }
+
+void ReleaseWriter::SetBuildInfo(const std::string& key, Json value) {
+  std::lock_guard<std::mutex> g(impl_->mu);
+  impl_->build_info[key] = std::move(value);
+}
+
+std::unique_ptr<ReleaseWriter> ReleaseWriter::Open(const fs::path& dir_in, const ReleaseMeta& meta_in,
+                                                   bool resume) {
+  ReleaseMeta meta = meta_in;
+  if (meta.recipe_sha256.empty()) meta.recipe_sha256 = Sha256Hex(meta.recipe_text);
+  meta.Validate();
+  const fs::path dir = dir_in.empty() ? fs::path(".") : dir_in;
+  const bool existed = fs::exists(dir);
+  if (existed && !fs::is_directory(dir)) throw Error(dir.string() + ": exists and is not a folder");
+  if (resume && !existed) throw Error(dir.string() + ": nothing to resume (the folder does not exist)");
+  fs::create_directories(dir);
+
+  auto impl = std::make_unique<Impl>();
+  impl->dir = dir;
+  impl->meta = meta;
+  impl->TakeLock();
+  const auto& keys = meta.shard_keys.empty() ? meta.job_keys : meta.shard_keys;
+  impl->expected.insert(keys.begin(), keys.end());
+
+  const Json identity = IdentityJson(meta);
+  const fs::path meta_path = impl->build_dir() / "meta.json";
+  auto mismatch = [&](const Json& have, const std::string& what) {
+    std::string diffs;
+    for (auto it = identity.begin(); it != identity.end(); ++it) {
+      if (!have.contains(it.key()) || have[it.key()] != it.value()) {
+        diffs += "\n  " + it.key() + ": folder has " +
+                 (have.contains(it.key()) ? have[it.key()].dump() : std::string("nothing")) +
+                 ", this build has " + it.value().dump();
+      }
+    }
+    return diffs.empty() ? std::string() : what + diffs;
+  };
+
+  Json build_meta;
+  if (fs::exists(meta_path)) {
+    // An unfinished build: resume only the very same one.
+    build_meta = Json::parse(ReadFile(meta_path));
+    const std::string diff = mismatch(build_meta.value("identity", Json::object()),
+                                      dir.string() + " holds an unfinished build of different inputs; "
+                                      "delete the folder or build with the same recipe and code:");
+    if (!diff.empty()) throw Error(diff);
+    impl->published_digest = build_meta.value("published_digest", std::string());
+  } else {
+    if (resume) throw Error(dir.string() + ": nothing to resume (no unfinished build here)");
+    const bool has_sums = fs::exists(dir / "SHA256SUMS");
+    const bool has_data = fs::exists(dir / "catalog.sqlite") || fs::exists(dir / "entries");
+    if (has_sums && has_data) {
+      // A finished release: same inputs = nothing to do; else the version must change.
+      Json ds;
+      try {
+        ds = Json::parse(ReadFile(dir / "dataset.json"));
+      } catch (const std::exception& e) {
+        throw Error((dir / "dataset.json").string() + ": unreadable finished release: " + e.what());
+      }
+      Json have{{"name", ds.value("name", "")},
+                {"version", ds.value("version", "")},
+                {"seed", ds.value("seed", Json())},
+                {"recipe_sha256", ds.value("recipe", Json::object()).value("sha256", "")},
+                {"code_version", ds.value("code_version", "")},
+                {"jobs_sha256", ds.value("jobs", Json::object()).value("keys_sha256", "")},
+                {"shard_index", ds.value("shard", Json::object()).value("index", 0)},
+                {"shard_count", ds.value("shard", Json::object()).value("count", 1)}};
+      const std::string diff = mismatch(
+          have, dir.string() + " already holds a finished release " + ds.value("name", "") + " " +
+                    ds.value("version", "") +
+                    " made from different inputs. A release version never changes content: bump the "
+                    "version in the recipe (TFDS: PATCH same records, MINOR added fields, MAJOR "
+                    "records/splits changed) or write elsewhere with -o. To check that this code "
+                    "reproduces it, use `drape verify --rebuild`. Differences:");
+      if (!diff.empty()) throw Error(diff);
+    } else if (has_sums) {
+      // A published reference (dataset.json + SHA256SUMS committed under datasets/).
+      if (!DirHasOnly(dir, {"dataset.json", "SHA256SUMS", "README.md", kLockFile}))
+        throw Error(dir.string() + ": has SHA256SUMS but is neither a release nor a published reference");
+      const Json ds = Json::parse(ReadFile(dir / "dataset.json"));
+      if (ds.value("name", "") != meta.name || ds.value("version", "") != meta.version) {
+        throw Error(dir.string() + ": holds the published reference of " + ds.value("name", "") + " " +
+                    ds.value("version", "") + ", not of " + meta.name + " " + meta.version);
+      }
+      impl->published_digest = ds.value("digest", "");
+    } else if (!DirHasOnly(dir, {kLockFile})) {
+      throw Error(dir.string() + ": folder is not empty and is not a drape release; refusing to write into it");
+    }
+    build_meta = Json{{"identity", identity},
+                      {"started", NowUtc()},
+                      {"started_seconds", NowSeconds()},
+                      {"published_digest", impl->published_digest}};
+    fs::create_directories(impl->build_dir());
+    WriteFileAtomic(meta_path, build_meta.dump(2) + "\n");
+  }
+  impl->started_utc = build_meta.value("started", NowUtc());
+  impl->started_seconds = build_meta.value("started_seconds", NowSeconds());
+
+  // Leftover staging folders are half-written entries: never done.
+  fs::remove_all(impl->build_dir() / "staging");
+  fs::create_directories(impl->build_dir() / "staging");
+  fs::create_directories(dir / "entries");
+  impl->LoadDone();
+  impl->OpenJournal();
+  return std::unique_ptr<ReleaseWriter>(new ReleaseWriter(std::move(impl)));
+}
+
+std::set<std::string> ReleaseWriter::DoneKeys() const {
+  std::lock_guard<std::mutex> g(impl_->mu);
+  return impl_->done;
+}
+
+void ReleaseWriter::Commit(const Entry& entry) {
+  Impl& m = *impl_;
+  const std::string where = "entry '" + entry.id + "' (job '" + entry.key + "')";
+  CheckSafeName(entry.id, "entry id");
+  CheckSafeName(entry.split, where + ": split");
+  std::set<std::string> paths;
+  for (const auto& f : entry.files) {
+    CheckSafeRelPath(f.path, where + ": file");
+    if (f.path == kEntryJson) throw Error(where + ": file name 'entry.json' is reserved");
+    if (!paths.insert(f.path).second) throw Error(where + ": file '" + f.path + "' given twice");
+  }
+  // A file path must not also be a folder of another file ("a" and "a/b").
+  for (const auto& p : paths) {
+    auto it = paths.lower_bound(p + "/");
+    if (it != paths.end() && it->rfind(p + "/", 0) == 0)
+      throw Error(where + ": '" + p + "' is both a file and a folder");
+  }
+  {
+    std::lock_guard<std::mutex> g(m.mu);
+    if (!m.expected.count(entry.key)) throw Error(where + ": job key is not one of this build's jobs");
+    if (m.done.count(entry.key) || m.in_progress.count(entry.key))
+      throw Error(where + ": job already committed");
+    if (m.ids.count(entry.id)) throw Error(where + ": id already used by another job");
+    m.in_progress.insert(entry.key);
+    m.ids.insert(entry.id);
+  }
+  const fs::path staging =
+      m.build_dir() / "staging" / (entry.id + "." + std::to_string(::getpid()) + "." + std::to_string(m.staging_seq++));
+  const fs::path final_dir = m.dir / "entries" / entry.id;
+  try {
+    Release::EntryInfo info;
+    info.id = entry.id;
+    info.key = entry.key;
+    info.split = entry.split;
+    info.failed = entry.failed;
+    info.failure = entry.failure;
+    info.record = entry.record.is_null() ? Json::object() : entry.record;
+    fs::create_directories(staging);
+    std::set<fs::path> dirs{staging};
+    for (const auto& f : entry.files) {
+      const fs::path p = staging / f.path;
+      if (p.parent_path() != staging && !dirs.count(p.parent_path())) {
+        fs::create_directories(p.parent_path());
+        for (fs::path q = p.parent_path(); q != staging; q = q.parent_path()) dirs.insert(q);
+      }
+      WriteFileNew(p, f.bytes);
+      info.files.push_back({f.path, Sha256Hex(f.bytes), f.bytes.size()});
+    }
+    std::sort(info.files.begin(), info.files.end(), [](auto& a, auto& b) { return a.path < b.path; });
+    info.entry_digest = EntryDigest(info.id, info.key, info.split, info.failed, info.failure, info.record, info.files);
+    WriteFileNew(staging / kEntryJson, EntryJson(info).dump(1) + "\n");
+    // One syncfs() per entry makes its files and folders durable before the rename (a
+    // per-file fsync costs ~15 ms each: seconds for a 300-frame sweep).
+    {
+      const int fd = ::open(staging.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+      if (fd >= 0) {
+        ::syncfs(fd);
+        ::close(fd);
+      }
+    }
+    // The rename is the commit point: entries/<id> is complete or absent.
+    if (::rename(staging.c_str(), final_dir.c_str()) != 0) {
+      throw Error(final_dir.string() + ": cannot move entry into place: " + std::strerror(errno));
+    }
+    FsyncPath(m.dir / "entries");
+  } catch (...) {
+    std::error_code ec;
+    fs::remove_all(staging, ec);
+    std::lock_guard<std::mutex> g(m.mu);
+    m.in_progress.erase(entry.key);
+    m.ids.erase(entry.id);
+    throw;
+  }
+  std::lock_guard<std::mutex> g(m.mu);
+  m.in_progress.erase(entry.key);
+  m.done.insert(entry.key);
+  m.id_of_key[entry.key] = entry.id;
+  // One write() per line on an O_APPEND descriptor: lines never interleave.
+  const std::string line = Json{{"id", entry.id}, {"key", entry.key},
+                                {"timing", entry.timing.is_null() ? Json::object() : entry.timing}}.dump() + "\n";
+  WriteAll(m.journal_fd, line, (m.build_dir() / "journal.jsonl").string());
+}
+
+ReleaseWriter::Summary ReleaseWriter::Finalize() {
+  Impl& m = *impl_;
+  std::lock_guard<std::mutex> g(m.mu);
+  if (m.lock_fd < 0) throw Error(m.dir.string() + ": release already finalized");
+  std::vector<std::string> missing;
+  const auto& keys = m.meta.shard_keys.empty() ? m.meta.job_keys : m.meta.shard_keys;
+  for (const auto& k : keys) {
+    if (!m.done.count(k)) missing.push_back(k);
+  }
+  if (!missing.empty() || !m.in_progress.empty()) {
+    std::string msg = m.dir.string() + ": cannot finalize: " + std::to_string(missing.size()) + " of " +
+                      std::to_string(keys.size()) + " jobs not committed";
+    for (size_t i = 0; i < missing.size() && i < 5; ++i) msg += (i ? ", " : " (") + missing[i];
+    if (!missing.empty()) msg += missing.size() > 5 ? ", …)" : ")";
+    throw Error(msg);
+  }
+
+  // Everything below is rebuilt from the entry folders: the same for any history.
+  std::vector<Release::EntryInfo> entries = ScanEntries(m.dir);
+  for (auto& e : entries) {
+    e.entry_digest = EntryDigest(e.id, e.key, e.split, e.failed, e.failure, e.record, e.files);
+  }
+  Summary s;
+  s.digest = ComputeDigest(entries);
+  s.entries = static_cast<int>(entries.size());
+  for (const auto& e : entries) s.failed += e.failed;
+  s.counts = Counts(entries);
+  s.published_digest = m.published_digest;
+  s.matches_published = m.published_digest.empty() || m.published_digest == s.digest;
+
+  const ReleaseMeta& meta = m.meta;
+  Json dataset{{"name", meta.name},
+               {"version", meta.version},
+               {"description", meta.description},
+               {"license", meta.license},
+               {"seed", meta.seed},
+               {"code_version", meta.code_version},
+               {"recipe", {{"sha256", meta.recipe_sha256}, {"text", meta.recipe_text}}},
+               {"summary", meta.recipe_summary},
+               {"jobs", {{"count", meta.job_keys.size()}, {"keys_sha256", JobKeysSha(meta.job_keys)}}}};
+  if (meta.shard_count > 1) {
+    dataset["shard"] = {{"index", meta.shard_index}, {"count", meta.shard_count},
+                        {"jobs", meta.shard_keys.empty() ? meta.job_keys.size() : meta.shard_keys.size()}};
+  }
+  dataset["counts"] = s.counts;
+  dataset["catalog"] = {{"file", "catalog.sqlite"}, {"blobs", meta.catalog_blobs}};
+  dataset["digest"] = s.digest;
+  dataset["digest_algorithm"] = kDigestAlgorithm;
+
+  // catalog.sqlite: written beside, then renamed into place.
+  const fs::path cat_tmp = m.build_dir() / "catalog.sqlite.tmp";
+  fs::remove(cat_tmp);
+  WriteCatalog(cat_tmp, m.dir, dataset, entries, meta.job_keys, meta.catalog_blobs);
+  FsyncPath(cat_tmp);
+  fs::rename(cat_tmp, m.dir / "catalog.sqlite");
+
+  WriteFileAtomic(m.dir / "README.md", DatasetCard(dataset, entries));
+  WriteFileAtomic(m.dir / "index.html", Gallery(dataset, entries));
+
+  // build.json: timings only; not in SHA256SUMS.
+  const double now = NowSeconds();
+  s.wall_seconds = now - m.started_seconds;
+  Json timings = Json::object();
+  for (auto& [id, t] : m.ReadJournalTimings()) timings[id] = t;
+  Json build{{"started", m.started_utc}, {"finished", NowUtc()}, {"wall_seconds", s.wall_seconds},
+             {"host", HostName()},       {"code_version", meta.code_version}};
+  for (auto it = m.build_info.begin(); it != m.build_info.end(); ++it) build[it.key()] = it.value();
+  build["entry_timing"] = timings;
+  WriteFileAtomic(m.dir / "build.json", build.dump(1) + "\n");
+  WriteFileAtomic(m.dir / "dataset.json", dataset.dump(2) + "\n");
+
+  std::map<std::string, std::string> sums;
+  for (const auto& e : entries) {
+    const std::string base = "entries/" + e.id + "/";
+    for (const auto& f : e.files) {
+      sums[base + f.path] = f.sha256;
+      s.bytes += f.size;
+    }
+    sums[base + kEntryJson] = Sha256File(m.dir / "entries" / e.id / kEntryJson);
+    s.bytes += fs::file_size(m.dir / "entries" / e.id / kEntryJson);
+  }
+  for (const char* f : {"catalog.sqlite", "README.md", "index.html", "dataset.json"}) {
+    sums[f] = Sha256File(m.dir / f);
+    s.bytes += fs::file_size(m.dir / f);
+  }
+  // SHA256SUMS last: its presence marks a finished release.
+  WriteFileAtomic(m.dir / "SHA256SUMS", FormatSums(sums));
+  FsyncPath(m.dir);
+  if (m.journal_fd >= 0) ::close(m.journal_fd);
+  m.journal_fd = -1;
+  fs::remove_all(m.build_dir());
+  fs::remove(m.dir / kLockFile);
+  ::close(m.lock_fd);
+  m.lock_fd = -1;
+  return s;
+}
+
+// ---------------------------------------------------------------- reader
+
+Release Release::Open(const fs::path& dir) {
+  if (!fs::exists(dir / "dataset.json") || !fs::exists(dir / "SHA256SUMS") ||
+      !fs::exists(dir / "catalog.sqlite")) {
+    if (fs::exists(dir / kBuildDir))
+      throw Error(dir.string() + ": unfinished build (resume it with drape build --resume)");
+    throw Error(dir.string() + ": not a finished drape release (needs dataset.json, catalog.sqlite, SHA256SUMS)");
+  }
+  Release r;
+  r.dir_ = dir;
+  try {
+    r.dataset_ = Json::parse(drape::ReadFile(dir / "dataset.json"));
+  } catch (const Json::exception& e) {
+    throw Error((dir / "dataset.json").string() + ": " + e.what());
+  }
+  ReadCatalog(dir / "catalog.sqlite", &r.entries_, &r.job_keys_);
+  return r;
+}
+
+const Release::EntryInfo* Release::Find(const std::string& id) const {
+  auto it = std::lower_bound(entries_.begin(), entries_.end(), id, [](const EntryInfo& e, const std::string& v) { return e.id < v; });
+  return it != entries_.end() && it->id == id ? &*it : nullptr;
+}
+
+fs::path Release::EntryPath(const std::string& id, const std::string& path) const {
+  CheckSafeName(id, "entry id");
+  if (path.empty()) return dir_ / "entries" / id;
+  CheckSafeRelPath(path, "entry file");
+  return dir_ / "entries" / id / path;
+}
+
+std::string Release::ReadFile(const std::string& id, const std::string& path) const {
+  if (!Find(id)) throw Error(dir_.string() + ": no entry '" + id + "'");
+  return drape::ReadFile(EntryPath(id, path));
+}
+
+std::string Release::digest() const { return dataset_.value("digest", std::string()); }
+
+Json Release::build_info() const {
+  const fs::path p = dir_ / "build.json";
+  if (!fs::exists(p)) return Json::object();
+  try {
+    return Json::parse(drape::ReadFile(p));
+  } catch (const std::exception&) {
+    return Json::object();
+  }
+}
+
+// ---------------------------------------------------------------- rebuild hook
+
+namespace {
+Rebuilder& RebuilderSlot() {
+  static Rebuilder fn;
+  return fn;
+}
+}  // namespace
+void SetRebuilder(Rebuilder fn) { RebuilderSlot() = std::move(fn); }
+const Rebuilder& GetRebuilder() { return RebuilderSlot(); }
+
+}  // namespace drape
