@@ -1,0 +1,349 @@
+// SweepScene: Embree scenes of the garment (object frame) and the world-fixed
+// background, and the packet ray casting of one frame.
+//
+// Why two scenes: the background is fixed in the world and so is the camera, so its
+// depth image is the same in every frame and is cast once. Only the garment and the
+// gripper turn; their rays are cast in the object frame (the camera turns around a
+// static garment: no scene rebuild per frame, frames can be cast in parallel) and only
+// for the pixels whose rays can reach the turned bounds of the garment.
+#include <embree3/rtcore.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+#include "common/error.h"
+#include "generator/sweep/sweep.h"
+
+namespace drape {
+namespace {
+
+constexpr float kInf = std::numeric_limits<float>::infinity();
+
+struct MeshBuffers {
+  std::vector<float> v;          // x, y, z per vertex
+  std::vector<unsigned> f;       // 3 per triangle
+  void AddTriangle(unsigned a, unsigned b, unsigned c) {
+    f.push_back(a);
+    f.push_back(b);
+    f.push_back(c);
+  }
+  unsigned AddVertex(double x, double y, double z) {
+    v.push_back(float(x));
+    v.push_back(float(y));
+    v.push_back(float(z));
+    return unsigned(v.size() / 3 - 1);
+  }
+  // Axis-aligned box [lo, hi], 12 triangles, outward normals.
+  void AddBox(const Vec3& lo, const Vec3& hi) {
+    unsigned b = unsigned(v.size() / 3);
+    for (int i = 0; i < 8; ++i)
+      AddVertex(i & 1 ? hi.x() : lo.x(), i & 2 ? hi.y() : lo.y(), i & 4 ? hi.z() : lo.z());
+    static const int q[6][4] = {{0, 4, 6, 2}, {1, 3, 7, 5}, {0, 1, 5, 4},
+                                {2, 6, 7, 3}, {0, 2, 3, 1}, {4, 5, 7, 6}};
+    for (const auto& s : q) {
+      AddTriangle(b + s[0], b + s[1], b + s[2]);
+      AddTriangle(b + s[0], b + s[2], b + s[3]);
+    }
+  }
+  // Vertical closed cylinder about (cx, ·, cz), radius r, y in [y0, y1].
+  void AddCylinder(double cx, double cz, double r, double y0, double y1, int segments) {
+    unsigned b = unsigned(v.size() / 3);
+    for (int i = 0; i < segments; ++i) {
+      double a = 2 * M_PI * i / segments;
+      AddVertex(cx + r * std::cos(a), y0, cz + r * std::sin(a));
+      AddVertex(cx + r * std::cos(a), y1, cz + r * std::sin(a));
+    }
+    unsigned c0 = AddVertex(cx, y0, cz), c1 = AddVertex(cx, y1, cz);
+    for (int i = 0; i < segments; ++i) {
+      unsigned a0 = b + 2 * i, a1 = a0 + 1;
+      unsigned n0 = b + 2 * ((i + 1) % segments), n1 = n0 + 1;
+      AddTriangle(a0, a1, n1);
+      AddTriangle(a0, n1, n0);
+      AddTriangle(c0, a0, n0);
+      AddTriangle(c1, n1, a1);
+    }
+  }
+  bool empty() const { return f.empty(); }
+};
+
+unsigned AttachMesh(RTCDevice device, RTCScene scene, const MeshBuffers& m) {
+  RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
+  auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(
+      g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), m.v.size() / 3));
+  std::copy(m.v.begin(), m.v.end(), vb);
+  auto* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
+      g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), m.f.size() / 3));
+  std::copy(m.f.begin(), m.f.end(), ib);
+  rtcCommitGeometry(g);
+  unsigned id = rtcAttachGeometry(scene, g);
+  rtcReleaseGeometry(g);
+  return id;
+}
+
+void ThrowOnDeviceError(RTCDevice device, const char* what) {
+  RTCError e = rtcGetDeviceError(device);
+  if (e != RTC_ERROR_NONE) {
+    std::ostringstream os;
+    os << "sweep: Embree error " << int(e) << " in " << what;
+    throw NumericalError(os.str());
+  }
+}
+
+// Gripper in the object frame: palm above the grasp point, two fingers pinching the
+// cloth in the x–y plane (jaw gap 16 mm).
+void AddGripper(MeshBuffers& m) {
+  m.AddBox({-0.045, 0.03, -0.035}, {0.045, 0.11, 0.035});
+  m.AddBox({-0.015, -0.015, 0.008}, {0.015, 0.03, 0.018});
+  m.AddBox({-0.015, -0.015, -0.018}, {0.015, 0.03, -0.008});
+}
+
+// World-fixed background: arm, wall, floor, table.
+void AddBackground(MeshBuffers& m, const SweepOptions& o) {
+  const double g = o.gripper_height;
+  m.AddCylinder(0, 0, 0.04, g + 0.11, g + 0.45, 24);       // wrist/forearm above the palm
+  m.AddBox({-0.045, g + 0.37, -1.2}, {0.045, g + 0.46, -0.04});  // link to the robot behind
+  const double wall_z = -1.2, half = 4.0;
+  unsigned a = m.AddVertex(-half, 0, wall_z), b = m.AddVertex(half, 0, wall_z);
+  unsigned c = m.AddVertex(half, 3.0, wall_z), d = m.AddVertex(-half, 3.0, wall_z);
+  m.AddTriangle(a, b, c);
+  m.AddTriangle(a, c, d);
+  a = m.AddVertex(-half, 0, wall_z);
+  b = m.AddVertex(-half, 0, o.camera_distance + 2.0);
+  c = m.AddVertex(half, 0, o.camera_distance + 2.0);
+  d = m.AddVertex(half, 0, wall_z);
+  m.AddTriangle(a, b, c);
+  m.AddTriangle(a, c, d);
+  // Table to the camera's right, behind the garment: top 0.8 × 0.6 m at 0.72–0.75 m.
+  m.AddBox({0.55, 0.72, -0.9}, {1.35, 0.75, -0.3});
+  for (double x : {0.58, 1.28})
+    for (double z : {-0.87, -0.37}) m.AddBox({x, 0.0, z}, {x + 0.04, 0.72, z + 0.04});
+}
+
+}  // namespace
+
+void IrRangeOptions::Validate() const {
+  if (!(min_range >= 0)) throw Error("ir.min_range: must be >= 0");
+  if (!(max_range > min_range)) throw Error("ir.max_range: must be > min_range");
+  if (!(sigma >= 0)) throw Error("ir.sigma: must be >= 0");
+  if (!(sigma_per_metre >= 0)) throw Error("ir.sigma_per_metre: must be >= 0");
+}
+
+struct SweepScene::Impl {
+  SweepOptions options;
+  RTCDevice device = nullptr;
+  RTCScene object = nullptr;      // garment (geomID 0) + gripper, object frame
+  RTCScene background = nullptr;  // world frame; null if options.scene == false
+  unsigned garment_geom = 0;
+  Eigen::AlignedBox3d bounds;
+  Eigen::Isometry3d camera_to_world;
+  ExactFrame background_frame;    // cast once
+
+  ~Impl() {
+    if (object) rtcReleaseScene(object);
+    if (background) rtcReleaseScene(background);
+    if (device) rtcReleaseDevice(device);
+  }
+
+  // Casts the pixels of `rect` in `scene` from a camera at camera_to_scene, keeping the
+  // nearest hit in frame. Returns the number of pixels whose nearest hit is geometry
+  // `count_geom` of this scene.
+  int Cast(RTCScene scene, const Eigen::Isometry3d& camera_to_scene, const PixelRect& rect,
+           ExactFrame& frame, unsigned count_geom) const {
+    const Intrinsics& K = options.kinect.intrinsics;
+    const Eigen::Matrix3f R = camera_to_scene.linear().cast<float>();
+    const Eigen::Vector3f o = camera_to_scene.translation().cast<float>();
+    RTCIntersectContext context;
+    rtcInitIntersectContext(&context);
+    context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    alignas(64) RTCRayHit16 rh;
+    alignas(64) int valid[16];
+    int counted = 0;
+    for (int tv = rect.v0; tv < rect.v1; tv += 4) {
+      for (int tu = rect.u0; tu < rect.u1; tu += 4) {
+        for (int k = 0; k < 16; ++k) {
+          const int u = tu + (k & 3), v = tv + (k >> 2);
+          valid[k] = (u < K.width && v < K.height) ? -1 : 0;
+          // Unnormalised direction with unit z in the camera: tfar is the z-depth
+          // (rotation keeps the length).
+          const Eigen::Vector3f dc(float((u - K.cx) / K.fx), float((v - K.cy) / K.fy), 1.0f);
+          const Eigen::Vector3f d = R * dc;
+          rh.ray.org_x[k] = o.x();
+          rh.ray.org_y[k] = o.y();
+          rh.ray.org_z[k] = o.z();
+          rh.ray.dir_x[k] = d.x();
+          rh.ray.dir_y[k] = d.y();
+          rh.ray.dir_z[k] = d.z();
+          rh.ray.tnear[k] = 0.0f;
+          rh.ray.tfar[k] = kInf;
+          rh.ray.time[k] = 0.0f;
+          rh.ray.mask[k] = 0xFFFFFFFFu;
+          rh.ray.id[k] = unsigned(k);
+          rh.ray.flags[k] = 0;
+          rh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
+        }
+        rtcIntersect16(valid, scene, &context, &rh);
+        for (int k = 0; k < 16; ++k) {
+          if (!valid[k] || rh.hit.geomID[k] == RTC_INVALID_GEOMETRY_ID) continue;
+          const int u = tu + (k & 3), v = tv + (k >> 2);
+          const size_t p = size_t(v) * K.width + u;
+          const float z = rh.ray.tfar[k];
+          if (!(z < frame.depth[p])) continue;
+          const float nx = rh.hit.Ng_x[k], ny = rh.hit.Ng_y[k], nz = rh.hit.Ng_z[k];
+          const float dx = rh.ray.dir_x[k], dy = rh.ray.dir_y[k], dz = rh.ray.dir_z[k];
+          const float nn = std::sqrt(nx * nx + ny * ny + nz * nz);
+          const float dd = std::sqrt(dx * dx + dy * dy + dz * dz);
+          frame.depth[p] = z;
+          frame.cos_incidence[p] =
+              nn > 0 ? std::min(1.0f, std::abs(nx * dx + ny * dy + nz * dz) / (nn * dd)) : 1.0f;
+          if (rh.hit.geomID[k] == count_geom) ++counted;
+        }
+        frame.rays_cast += 16;
+      }
+    }
+    return counted;
+  }
+};
+
+SweepScene::SweepScene(const TriMesh& hung, const SweepOptions& options)
+    : impl_(std::make_unique<Impl>()) {
+  options.Validate();
+  if (hung.NumFaces() == 0 || hung.NumVertices() == 0)
+    throw Error("sweep: the hung mesh is empty");
+  if (!hung.V.allFinite()) throw Error("sweep: the hung mesh has non-finite vertices");
+  if (hung.F.minCoeff() < 0 || hung.F.maxCoeff() >= hung.NumVertices())
+    throw Error("sweep: the hung mesh has face indices out of range");
+  Impl& m = *impl_;
+  m.options = options;
+  m.camera_to_world = CameraToWorld(options);
+
+  std::string config = "threads=1";
+  if (!options.embree_isa.empty()) config += ",isa=" + options.embree_isa;
+  m.device = rtcNewDevice(config.c_str());
+  if (!m.device) throw Error("sweep: rtcNewDevice(\"" + config + "\") failed");
+  ThrowOnDeviceError(m.device, "rtcNewDevice");
+
+  MeshBuffers garment;
+  garment.v.reserve(hung.V.size());
+  for (int i = 0; i < hung.NumVertices(); ++i)
+    garment.AddVertex(hung.V(i, 0), hung.V(i, 1), hung.V(i, 2));
+  for (int i = 0; i < hung.NumFaces(); ++i)
+    garment.AddTriangle(unsigned(hung.F(i, 0)), unsigned(hung.F(i, 1)), unsigned(hung.F(i, 2)));
+  m.bounds = Bounds(hung);
+
+  m.object = rtcNewScene(m.device);
+  rtcSetSceneBuildQuality(m.object, RTC_BUILD_QUALITY_HIGH);
+  m.garment_geom = AttachMesh(m.device, m.object, garment);
+  if (options.scene) {
+    MeshBuffers gripper;
+    AddGripper(gripper);
+    AttachMesh(m.device, m.object, gripper);
+    for (size_t i = 0; i < gripper.v.size(); i += 3)
+      m.bounds.extend(Vec3(gripper.v[i], gripper.v[i + 1], gripper.v[i + 2]));
+  }
+  rtcCommitScene(m.object);
+  ThrowOnDeviceError(m.device, "building the garment scene");
+
+  const Intrinsics& K = options.kinect.intrinsics;
+  const size_t n = size_t(K.width) * K.height;
+  m.background_frame.depth.assign(n, kInf);
+  m.background_frame.cos_incidence.assign(n, 1.0f);
+  if (options.scene) {
+    MeshBuffers bg;
+    AddBackground(bg, options);
+    m.background = rtcNewScene(m.device);
+    AttachMesh(m.device, m.background, bg);
+    rtcCommitScene(m.background);
+    ThrowOnDeviceError(m.device, "building the background scene");
+    PixelRect all{0, 0, (K.width + 3) / 4 * 4, (K.height + 3) / 4 * 4};
+    m.Cast(m.background, m.camera_to_world, all, m.background_frame, RTC_INVALID_GEOMETRY_ID);
+  }
+}
+
+SweepScene::~SweepScene() = default;
+
+const SweepOptions& SweepScene::options() const { return impl_->options; }
+
+Eigen::AlignedBox3d SweepScene::ObjectBounds() const { return impl_->bounds; }
+
+PixelRect SweepScene::Roi(double angle) const {
+  const Impl& m = *impl_;
+  const Intrinsics& K = m.options.kinect.intrinsics;
+  const PixelRect all{0, 0, (K.width + 3) / 4 * 4, (K.height + 3) / 4 * 4};
+  const Eigen::Isometry3d object_to_camera =
+      m.camera_to_world.inverse() * ObjectToWorld(m.options, angle);
+  double umin = 1e30, umax = -1e30, vmin = 1e30, vmax = -1e30;
+  // The projection of a box in front of the camera lies in the hull of its projected
+  // corners.
+  for (int c = 0; c < 8; ++c) {
+    const Vec3 p = object_to_camera * m.bounds.corner(Eigen::AlignedBox3d::CornerType(c));
+    if (p.z() < 1e-3) return all;
+    const double u = K.fx * p.x() / p.z() + K.cx, v = K.fy * p.y() / p.z() + K.cy;
+    umin = std::min(umin, u);
+    umax = std::max(umax, u);
+    vmin = std::min(vmin, v);
+    vmax = std::max(vmax, v);
+  }
+  auto clampi = [](double x, int lo, int hi) {
+    return int(std::clamp(x, double(lo), double(hi)));
+  };
+  PixelRect r;
+  r.u0 = clampi(std::floor(umin) - 1, 0, K.width) / 4 * 4;
+  r.v0 = clampi(std::floor(vmin) - 1, 0, K.height) / 4 * 4;
+  r.u1 = (clampi(std::ceil(umax) + 2, 0, K.width) + 3) / 4 * 4;
+  r.v1 = (clampi(std::ceil(vmax) + 2, 0, K.height) + 3) / 4 * 4;
+  if (r.u1 <= r.u0 || r.v1 <= r.v0) r.u1 = r.u0, r.v1 = r.v0;
+  return r;
+}
+
+ExactFrame SweepScene::RenderExact(double angle) const {
+  const Impl& m = *impl_;
+  ExactFrame frame = m.background_frame;
+  frame.rays_cast = 0;
+  const PixelRect roi = Roi(angle);
+  frame.roi_pixels = roi.Area();
+  const Eigen::Isometry3d camera_to_object =
+      ObjectToWorld(m.options, angle).inverse() * m.camera_to_world;
+  frame.garment_pixels = m.Cast(m.object, camera_to_object, roi, frame, m.garment_geom);
+  return frame;
+}
+
+double SweepScene::RangeAlongRay(const Vec3& origin, const Vec3& dir, double angle,
+                                 const IrRangeOptions& ir, Rng* rng) const {
+  ir.Validate();
+  const Impl& m = *impl_;
+  const double len = dir.norm();
+  if (!(len > 0) || !origin.allFinite() || !dir.allFinite())
+    throw Error("sweep: RangeAlongRay needs a finite origin and a non-zero direction");
+  const Vec3 d = dir / len;
+  auto cast = [&](RTCScene scene, const Vec3& o, const Vec3& dd) {
+    RTCIntersectContext context;
+    rtcInitIntersectContext(&context);
+    RTCRayHit rh;
+    rh.ray.org_x = float(o.x());
+    rh.ray.org_y = float(o.y());
+    rh.ray.org_z = float(o.z());
+    rh.ray.dir_x = float(dd.x());
+    rh.ray.dir_y = float(dd.y());
+    rh.ray.dir_z = float(dd.z());
+    rh.ray.tnear = 0.0f;
+    rh.ray.tfar = kInf;
+    rh.ray.time = 0.0f;
+    rh.ray.mask = 0xFFFFFFFFu;
+    rh.ray.id = 0;
+    rh.ray.flags = 0;
+    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rtcIntersect1(scene, &context, &rh);
+    return rh.hit.geomID == RTC_INVALID_GEOMETRY_ID ? std::numeric_limits<double>::infinity()
+                                                    : double(rh.ray.tfar);
+  };
+  const Eigen::Isometry3d world_to_object = ObjectToWorld(m.options, angle).inverse();
+  double r = cast(m.object, world_to_object * origin, world_to_object.linear() * d);
+  if (m.background) r = std::min(r, cast(m.background, origin, d));
+  if (!(r >= ir.min_range && r <= ir.max_range)) return std::numeric_limits<double>::infinity();
+  if (rng && ir.noise) r += (ir.sigma + ir.sigma_per_metre * r) * rng->Normal();
+  return r;
+}
+
+}  // namespace drape
