@@ -1,0 +1,477 @@
+#include "runtime/recognition/evaluate.h"
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <set>
+#include <sstream>
+
+#include "common/error.h"
+#include "common/files.h"
+
+namespace drape::recognition {
+
+namespace fs = std::filesystem;
+
+void EvalOptions::Validate() const {
+  if (top_k < 1) throw Error("eval options: top_k must be >= 1");
+}
+
+namespace {
+
+const char* kSubsets[] = {"instance1", "instance2", "both"};
+const char* kMetrics[] = {"unweighted", "learned"};
+
+// The paper's Table (real Kinect data), by our category names.
+Json PaperRow(const std::string& category) {
+  if (category == "long_sleeve_shirt" || category == "shirt") {
+    return Json{{"garment", "Long-Sleeve Shirts"}, {"instance1", 0.631}, {"instance2", 0.684},
+                {"both", 0.737}, {"seconds", 0.30}};
+  }
+  if (category == "pants") {
+    return Json{{"garment", "Pants"}, {"instance1", 0.75}, {"instance2", 0.75}, {"both", 0.75}, {"seconds", 0.20}};
+  }
+  if (category == "shorts") {
+    return Json{{"garment", "Shorts"}, {"instance1", 0.625}, {"instance2", nullptr}, {"both", 0.625},
+                {"seconds", 0.22}};
+  }
+  return nullptr;
+}
+
+double GraspErrorCm(const AnchorUvMap& uvs, const std::string& query_instance, const std::string& db_instance,
+                    const std::string& truth, const std::string& predicted) {
+  if (truth == predicted) return 0.0;
+  for (const std::string& inst : {query_instance, db_instance}) {
+    auto a = uvs.find({inst, truth});
+    auto b = uvs.find({inst, predicted});
+    if (a != uvs.end() && b != uvs.end()) return 100.0 * (a->second - b->second).norm();
+  }
+  return std::nan("");
+}
+
+struct Counter {
+  int n = 0, correct = 0;
+  void Add(bool ok) { ++n, correct += ok; }
+  Json Rate() const { return n ? Json(double(correct) / n) : Json(nullptr); }
+};
+
+struct Mean {
+  double sum = 0;
+  int n = 0, unknown = 0;
+  void Add(double v) {
+    if (std::isnan(v) || v < 0) {
+      ++unknown;
+    } else {
+      sum += v, ++n;
+    }
+  }
+  Json Value() const { return n ? Json(sum / n) : Json(nullptr); }
+};
+
+struct CategoryAcc {
+  int queries = 0;
+  int absent = 0;  // queries whose category is not in the database
+  std::map<std::string, Counter> pose;  // "subset/metric"
+  Counter category, top_u, top_l, e2e_u, e2e_l;
+  Mean grasp_u, grasp_l, fusion, feature, match, total;
+  bool learned = false;
+  std::vector<std::string> instances;
+};
+
+
+}  // namespace
+
+EvalResult Evaluate(const Database& db, const Weights* weights, const std::vector<EvalQuery>& queries,
+                    const AnchorUvMap& uvs, const EvalOptions& options) {
+  options.Validate();
+  if (db.empty()) throw Error("eval: the database is empty (the release has no usable train entries)");
+  if (queries.empty()) throw Error("eval: the split has no usable queries");
+  Recognizer rec(db, weights);
+  EvalResult out;
+  std::map<std::string, CategoryAcc> acc;
+  CategoryAcc all;
+  Json per_query = Json::array();
+  std::vector<std::string> warnings;
+  std::set<std::string> warned_absent;
+  std::vector<Match> matches;
+
+  for (const EvalQuery& eq : queries) {
+    const EntryLabel& ql = eq.query.label;
+    CategoryAcc& ca = acc[ql.category];
+    ++ca.queries, ++all.queries;
+    Json rec_json{{"id", ql.id}, {"category", ql.category}, {"instance", ql.instance}, {"anchor", ql.anchor}};
+
+    // End-to-end recognition (category by unweighted NN, pose by the learned w): timed,
+    // this is what one query costs at run time.
+    RecognizeOptions e2e;
+    e2e.top_k = options.top_k;
+    const Recognition r_e2e = rec.Recognize(eq.query.code, e2e);
+    e2e.weighted = false;
+    const PreparedQuery pq(eq.query.code);
+    db.matcher().MatchAll(pq, &matches);
+    const Recognition r_e2e_u = rec.Rank(pq, matches, e2e);
+    const bool cat_ok = r_e2e.category == ql.category;
+    ca.category.Add(cat_ok), all.category.Add(cat_ok);
+    ca.e2e_u.Add(cat_ok && r_e2e_u.anchor == ql.anchor), all.e2e_u.Add(cat_ok && r_e2e_u.anchor == ql.anchor);
+    if (weights) {
+      ca.e2e_l.Add(cat_ok && r_e2e.anchor == ql.anchor), all.e2e_l.Add(cat_ok && r_e2e.anchor == ql.anchor);
+    }
+    rec_json["predicted_category"] = r_e2e.category;
+    rec_json["end_to_end"] = {{"unweighted", r_e2e_u.anchor}, {"learned", r_e2e.anchor}, {"learned_used_weights", r_e2e.weighted}};
+
+    // Total only when the build recorded both fusion and feature times for this query.
+    const double total = eq.fusion_seconds >= 0 && eq.feature_seconds >= 0
+                             ? eq.fusion_seconds + eq.feature_seconds + r_e2e.match_seconds
+                             : -1;
+    for (CategoryAcc* a : {&ca, &all}) {
+      a->fusion.Add(eq.fusion_seconds);
+      a->feature.Add(eq.feature_seconds);
+      a->match.Add(r_e2e.match_seconds);
+      a->total.Add(total);
+    }
+    rec_json["timing"] = {{"fusion_seconds", eq.fusion_seconds >= 0 ? Json(eq.fusion_seconds) : Json(nullptr)},
+                          {"feature_seconds", eq.feature_seconds >= 0 ? Json(eq.feature_seconds) : Json(nullptr)},
+                          {"match_seconds", r_e2e.match_seconds},
+                          {"source", eq.timing_source}};
+
+    if (!db.HasCategory(ql.category)) {
+      // Counted as wrong everywhere: the database cannot answer this query.
+      ++ca.absent;
+      if (warned_absent.insert(ql.category).second) {
+        warnings.push_back("category '" + ql.category + "' has test queries but no database entries");
+      }
+      // (Unweighted columns only: the learned columns cover categories that have weights.)
+      for (const char* s : kSubsets) {
+        ca.pose[std::string(s) + "/unweighted"].Add(false), all.pose[std::string(s) + "/unweighted"].Add(false);
+      }
+      ca.top_u.Add(false), all.top_u.Add(false);
+      rec_json["error"] = "category absent from the database";
+      per_query.push_back(rec_json);
+      continue;
+    }
+
+    // Category known: the paper's table, per database subset and metric.
+    const std::vector<std::string> insts = db.instances(ql.category);
+    ca.instances = insts;
+    ca.learned = rec.HasWeights(ql.category);
+    Json results = Json::object();
+    for (const char* s : kSubsets) {
+      std::string inst;
+      if (std::string(s) == "instance1") inst = insts[0];
+      if (std::string(s) == "instance2") {
+        if (insts.size() < 2) continue;  // N/A, as the paper's shorts
+        inst = insts[1];
+      }
+      for (const char* m : kMetrics) {
+        const bool learned = std::string(m) == "learned";
+        if (learned && !ca.learned) continue;  // N/A: no weights for this category
+        RecognizeOptions o;
+        o.top_k = options.top_k;
+        o.category = ql.category;
+        o.instance = inst;
+        o.weighted = learned;
+        const Recognition r = rec.Rank(pq, matches, o);
+        const bool ok = r.anchor == ql.anchor;
+        const std::string key = std::string(s) + "/" + m;
+        ca.pose[key].Add(ok), all.pose[key].Add(ok);
+        Json rj{{"anchor", r.anchor}, {"entry", r.best.id}, {"distance", r.best.distance},
+                {"rotation", r.best.rotation}, {"score", r.best.score}, {"correct", ok}};
+        if (std::string(s) == "both") {
+          bool in_top = false;
+          for (const auto& c : r.top) in_top |= c.anchor == ql.anchor;
+          (learned ? ca.top_l : ca.top_u).Add(in_top);
+          (learned ? all.top_l : all.top_u).Add(in_top);
+          const double ge = GraspErrorCm(uvs, ql.instance, r.best.instance, ql.anchor, r.anchor);
+          (learned ? ca.grasp_l : ca.grasp_u).Add(ge);
+          (learned ? all.grasp_l : all.grasp_u).Add(ge);
+          rj["grasp_error_cm"] = std::isnan(ge) ? Json(nullptr) : Json(ge);
+          rj["top"] = Json::array();
+          for (const auto& c : r.top) rj["top"].push_back(c.anchor);
+          if (learned || !ca.learned) {
+            auto& conf = out.confusion[ql.category];
+            conf.metric = learned ? "learned" : "unweighted";
+          }
+        }
+        results[key] = rj;
+      }
+    }
+    rec_json["category_known"] = results;
+    per_query.push_back(rec_json);
+  }
+
+  // Confusion matrices (both instances; learned if the category has weights).
+  for (auto& [cat, conf] : out.confusion) {
+    std::set<std::string> labels;
+    for (int i : db.EntriesOf(cat)) labels.insert(db.label(i).anchor);
+    for (const auto& q : queries) {
+      if (q.query.label.category == cat) labels.insert(q.query.label.anchor);
+    }
+    conf.labels.assign(labels.begin(), labels.end());
+    conf.counts.assign(conf.labels.size(), std::vector<int>(conf.labels.size(), 0));
+    auto index = [&](const std::string& l) {
+      return static_cast<int>(std::lower_bound(conf.labels.begin(), conf.labels.end(), l) - conf.labels.begin());
+    };
+    const std::string key = "both/" + conf.metric;
+    for (const auto& pq : per_query) {
+      if (pq["category"] != cat || !pq.contains("category_known") || !pq["category_known"].contains(key)) continue;
+      ++conf.counts[index(pq["anchor"].get<std::string>())][index(pq["category_known"][key]["anchor"].get<std::string>())];
+    }
+  }
+
+  auto row = [&](const std::string& name, const CategoryAcc& a) {
+    Json pose = Json::object();
+    for (const char* s : kSubsets) {
+      Json pm = Json::object();
+      for (const char* m : kMetrics) {
+        auto it = a.pose.find(std::string(s) + "/" + m);
+        pm[m] = it == a.pose.end() ? Json(nullptr) : it->second.Rate();
+      }
+      pose[s] = pm;
+    }
+    Json j{{"category", name},
+           {"queries", a.queries},
+           {"queries_category_absent", a.absent},
+           {"database_instances", a.instances},
+           {"learned_weights", a.learned},
+           {"pose_accuracy", pose},
+           {"category_accuracy", a.category.Rate()},
+           {"end_to_end_pose_accuracy", {{"unweighted", a.e2e_u.Rate()}, {"learned", a.e2e_l.Rate()}}},
+           {"top_k_accuracy", {{"k", options.top_k}, {"unweighted", a.top_u.Rate()}, {"learned", a.top_l.Rate()}}},
+           {"grasp_error_cm",
+            {{"surface", "flat pattern of the query's garment instance (uv distance)"},
+             {"unweighted_mean", a.grasp_u.Value()},
+             {"learned_mean", a.grasp_l.Value()},
+             {"unknown", a.grasp_u.unknown + a.grasp_l.unknown}}},
+           {"seconds_per_query",
+            {{"fusion", a.fusion.Value()},
+             {"feature", a.feature.Value()},
+             {"matching", a.match.Value()},
+             {"total", a.total.Value()},
+             {"fusion_known", a.fusion.n},
+             {"feature_known", a.feature.n}}},
+           {"paper", PaperRow(name)}};
+    return j;
+  };
+  Json cats = Json::array();
+  for (const auto& [name, a] : acc) cats.push_back(row(name, a));
+  Json conf_json = Json::object();
+  for (const auto& [cat, c] : out.confusion) {
+    conf_json[cat] = {{"metric", c.metric}, {"labels", c.labels}, {"counts", c.counts}};
+  }
+  out.report = Json{{"queries", static_cast<int>(queries.size())},
+                    {"database",
+                     {{"entries", db.size()},
+                      {"categories", db.categories()},
+                      {"feature", {{"layers", db.layers()}, {"rings", db.rings()}, {"sectors", db.sectors()}}},
+                      {"kernel", KernelName(db.matcher().kernel())}}},
+                    {"top_k", options.top_k},
+                    {"categories", cats},
+                    {"overall", row("all", all)},
+                    {"confusion", conf_json},
+                    {"warnings", warnings},
+                    {"per_query", per_query}};
+  return out;
+}
+
+// ---------------------------------------------------------------- report
+
+namespace {
+
+std::string Percent(const Json& v) {
+  if (v.is_null()) return "n/a";
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.1f %%", 100.0 * v.get<double>());
+  return buf;
+}
+
+std::string Num(const Json& v, const char* fmt = "%.3f") {
+  if (v.is_null()) return "n/a";
+  char buf[32];
+  std::snprintf(buf, sizeof buf, fmt, v.get<double>());
+  return buf;
+}
+
+std::string Pair(const Json& obj) { return Percent(obj["unweighted"]) + " / " + Percent(obj["learned"]); }
+
+}  // namespace
+
+std::string ReportMarkdown(const Json& r) {
+  std::ostringstream md;
+  std::vector<Json> rows(r["categories"].begin(), r["categories"].end());
+  rows.push_back(r["overall"]);
+
+  md << "## Pose accuracy, category known (unweighted Eq. match / learned Eq. bestmatch)\n\n"
+     << "Correct anchor / all queries, using only database instance 1, only instance 2, or both "
+        "(instances sorted by name). Paper (real Kinect data, learned distance) in the last column.\n\n"
+     << "The learned columns cover the categories that have weights (\"all\" too); n/a = no such "
+        "database instance or no weights.\n\n"
+     << "| category | queries | instance 1 | instance 2 | both | paper: 1 / 2 / both |\n"
+     << "|---|---|---|---|---|---|\n";
+  for (const Json& c : rows) {
+    const Json& p = c["pose_accuracy"];
+    std::string paper = "—";
+    if (!c["paper"].is_null()) {
+      paper = Percent(c["paper"]["instance1"]) + " / " + Percent(c["paper"]["instance2"]) + " / " +
+              Percent(c["paper"]["both"]);
+    }
+    std::string names;
+    for (const auto& n : c["database_instances"]) names += (names.empty() ? "" : ", ") + n.get<std::string>();
+    md << "| " << c["category"].get<std::string>() << (names.empty() ? "" : " (" + names + ")") << " | "
+       << c["queries"].get<int>() << " | " << Pair(p["instance1"]) << " | " << Pair(p["instance2"]) << " | "
+       << Pair(p["both"]) << " | " << paper << " |\n";
+  }
+  md << "\n## Category, end to end, top-" << r["top_k"].get<int>() << ", grasp-point error\n\n"
+     << "Category by the unweighted nearest neighbour over the whole database; end to end = right "
+        "category and right anchor (learned: the runtime's distance, learned w where the category has one). "
+        "Grasp-point error: distance on the flat pattern of the query's "
+        "garment between the predicted and the true anchor, cm (0 when right), both instances.\n\n"
+     << "| category | category accuracy | end-to-end pose (u / l) | top-" << r["top_k"].get<int>()
+     << " (u / l) | grasp error cm (u / l) |\n|---|---|---|---|---|\n";
+  for (const Json& c : rows) {
+    md << "| " << c["category"].get<std::string>() << " | " << Percent(c["category_accuracy"]) << " | "
+       << Pair(c["end_to_end_pose_accuracy"]) << " | " << Pair(c["top_k_accuracy"]) << " | "
+       << Num(c["grasp_error_cm"]["unweighted_mean"], "%.1f") << " / "
+       << Num(c["grasp_error_cm"]["learned_mean"], "%.1f") << " |\n";
+  }
+  md << "\n## Running time per query (seconds)\n\n"
+     << "| category | fusion | feature | matching | total | paper (i7 3.0 GHz) |\n|---|---|---|---|---|---|\n";
+  for (const Json& c : rows) {
+    const Json& t = c["seconds_per_query"];
+    md << "| " << c["category"].get<std::string>() << " | " << Num(t["fusion"]) << " | " << Num(t["feature"])
+       << " | " << Num(t["matching"], "%.6f") << " | " << Num(t["total"]) << " | "
+       << (c["paper"].is_null() ? std::string("—") : Num(c["paper"]["seconds"], "%.2f")) << " |\n";
+  }
+  if (!r["warnings"].empty()) {
+    md << "\n## Warnings\n\n";
+    for (const auto& w : r["warnings"]) md << "- " << w.get<std::string>() << "\n";
+  }
+  return md.str();
+}
+
+namespace {
+
+void WriteAccuracyPlot(const Json& r, const fs::path& path) {
+  std::vector<Json> rows(r["categories"].begin(), r["categories"].end());
+  rows.push_back(r["overall"]);
+  const int group = 150, left = 70, top = 50, plot_h = 300;
+  const int width = left + group * static_cast<int>(rows.size()) + 40, height = top + plot_h + 90;
+  cv::Mat img(height, width, CV_8UC3, cv::Scalar(255, 255, 255));
+  cv::putText(img, "Pose accuracy, both instances, category known", {left, 25}, cv::FONT_HERSHEY_SIMPLEX, 0.6,
+              {0, 0, 0}, 1, cv::LINE_AA);
+  for (int p = 0; p <= 100; p += 20) {
+    const int y = top + plot_h - plot_h * p / 100;
+    cv::line(img, {left, y}, {width - 20, y}, {220, 220, 220}, 1);
+    cv::putText(img, std::to_string(p) + "%", {10, y + 5}, cv::FONT_HERSHEY_SIMPLEX, 0.45, {0, 0, 0}, 1, cv::LINE_AA);
+  }
+  const cv::Scalar colors[] = {{180, 130, 70}, {60, 140, 240}, {90, 90, 90}};
+  const char* names[] = {"unweighted", "learned", "paper"};
+  for (size_t i = 0; i < rows.size(); ++i) {
+    const Json& both = rows[i]["pose_accuracy"]["both"];
+    const Json vals[] = {both["unweighted"], both["learned"],
+                         rows[i]["paper"].is_null() ? Json(nullptr) : rows[i]["paper"]["both"]};
+    for (int b = 0; b < 3; ++b) {
+      const int x0 = left + group * static_cast<int>(i) + 15 + b * 40;
+      if (vals[b].is_null()) {
+        cv::putText(img, "n/a", {x0 + 2, top + plot_h - 5}, cv::FONT_HERSHEY_SIMPLEX, 0.35, {0, 0, 0}, 1, cv::LINE_AA);
+        continue;
+      }
+      const double v = vals[b].get<double>();
+      const int h = static_cast<int>(std::lround(plot_h * v));
+      cv::rectangle(img, {x0, top + plot_h - h}, {x0 + 34, top + plot_h}, colors[b], cv::FILLED);
+      char buf[16];
+      std::snprintf(buf, sizeof buf, "%.0f", 100 * v);
+      cv::putText(img, buf, {x0 + 4, top + plot_h - h - 4}, cv::FONT_HERSHEY_SIMPLEX, 0.4, {0, 0, 0}, 1, cv::LINE_AA);
+    }
+    cv::putText(img, rows[i]["category"].get<std::string>().substr(0, 18),
+                {left + group * static_cast<int>(i) + 10, top + plot_h + 20}, cv::FONT_HERSHEY_SIMPLEX, 0.45,
+                {0, 0, 0}, 1, cv::LINE_AA);
+  }
+  for (int b = 0; b < 3; ++b) {
+    const int x = left + 140 * b;
+    cv::rectangle(img, {x, height - 35}, {x + 14, height - 21}, colors[b], cv::FILLED);
+    cv::putText(img, names[b], {x + 20, height - 22}, cv::FONT_HERSHEY_SIMPLEX, 0.45, {0, 0, 0}, 1, cv::LINE_AA);
+  }
+  cv::line(img, {left, top + plot_h}, {width - 20, top + plot_h}, {0, 0, 0}, 1);
+  std::vector<uchar> png;
+  cv::imencode(".png", img, png);
+  WriteFileAtomic(path, std::string(png.begin(), png.end()));
+}
+
+void WriteConfusionPlot(const std::string& cat, const EvalResult::Confusion& c, const fs::path& path) {
+  const int n = static_cast<int>(c.labels.size());
+  const int cell = std::max(22, std::min(40, 600 / std::max(n, 1)));
+  const int left = 190, top = 75;
+  const int width = std::max(left + cell * n + 30, 480), height = top + cell * n + 30;
+  cv::Mat img(height, width, CV_8UC3, cv::Scalar(255, 255, 255));
+  cv::putText(img, cat + " (" + c.metric + " distance, both instances)", {10, 22}, cv::FONT_HERSHEY_SIMPLEX, 0.55,
+              {0, 0, 0}, 1, cv::LINE_AA);
+  cv::putText(img, "rows: true anchor, columns: predicted", {10, 44}, cv::FONT_HERSHEY_SIMPLEX, 0.45,
+              {80, 80, 80}, 1, cv::LINE_AA);
+  for (int i = 0; i < n; ++i) {
+    int row_total = 0;
+    for (int v : c.counts[i]) row_total += v;
+    cv::putText(img, std::to_string(i) + " " + c.labels[i].substr(0, 20), {5, top + cell * i + cell / 2 + 5},
+                cv::FONT_HERSHEY_SIMPLEX, 0.4, {0, 0, 0}, 1, cv::LINE_AA);
+    cv::putText(img, std::to_string(i), {left + cell * i + cell / 3, top - 8}, cv::FONT_HERSHEY_SIMPLEX, 0.4,
+                {0, 0, 0}, 1, cv::LINE_AA);
+    for (int j = 0; j < n; ++j) {
+      const double f = row_total ? double(c.counts[i][j]) / row_total : 0.0;
+      // White → dark blue with the row-normalised share; the diagonal outlined.
+      const cv::Scalar col(255 - 100 * f, 255 - 200 * f, 255 - 230 * f);
+      const cv::Point p0(left + cell * j, top + cell * i), p1(left + cell * (j + 1), top + cell * (i + 1));
+      cv::rectangle(img, p0, p1, col, cv::FILLED);
+      cv::rectangle(img, p0, p1, i == j ? cv::Scalar(0, 160, 0) : cv::Scalar(200, 200, 200), i == j ? 2 : 1);
+      if (c.counts[i][j]) {
+        cv::putText(img, std::to_string(c.counts[i][j]), {p0.x + cell / 3, p0.y + cell / 2 + 5},
+                    cv::FONT_HERSHEY_SIMPLEX, 0.4, f > 0.5 ? cv::Scalar(255, 255, 255) : cv::Scalar(0, 0, 0), 1,
+                    cv::LINE_AA);
+      }
+    }
+  }
+  std::vector<uchar> png;
+  cv::imencode(".png", img, png);
+  WriteFileAtomic(path, std::string(png.begin(), png.end()));
+}
+
+std::string SafeName(const std::string& s) {
+  std::string o;
+  for (char ch : s) o += (std::isalnum(static_cast<unsigned char>(ch)) || ch == '-' || ch == '_') ? ch : '_';
+  return o;
+}
+
+}  // namespace
+
+void WriteReport(const EvalResult& result, const Json& header, const fs::path& dir) {
+  Json full = header;
+  for (const auto& [k, v] : result.report.items()) full[k] = v;
+  Json plots = Json::array({"accuracy.png"});
+  WriteAccuracyPlot(result.report, dir / "accuracy.png");
+  for (const auto& [cat, c] : result.confusion) {
+    const std::string name = "confusion_" + SafeName(cat) + ".png";
+    WriteConfusionPlot(cat, c, dir / name);
+    plots.push_back(name);
+  }
+  full["plots"] = plots;
+  WriteFileAtomic(dir / "report.json", full.dump(2) + "\n");
+
+  std::ostringstream md;
+  md << "# Pose recognition report\n\n";
+  for (const auto& [k, v] : header.items()) {
+    md << "- **" << k << "**: " << (v.is_string() ? v.get<std::string>() : v.dump()) << "\n";
+  }
+  md << "- **queries**: " << result.report["queries"] << ", database entries: "
+     << result.report["database"]["entries"] << " (kernel " << result.report["database"]["kernel"].get<std::string>()
+     << ")\n\nEvery number below comes from this run (report.json has each query).\n\n";
+  md << ReportMarkdown(result.report);
+  md << "\n## Plots\n\n![accuracy](accuracy.png)\n\n";
+  for (const auto& [cat, c] : result.confusion) {
+    md << "![" << cat << "](confusion_" << SafeName(cat) << ".png)\n\n";
+  }
+  WriteFileAtomic(dir / "report.md", md.str());
+}
+
+}  // namespace drape::recognition

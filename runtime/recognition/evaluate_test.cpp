@@ -1,0 +1,120 @@
+#include "runtime/recognition/evaluate.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+#include "common/error.h"
+#include "common/files.h"
+#include "common/rng.h"
+
+namespace drape::recognition {
+namespace {
+
+namespace fs = std::filesystem;
+
+Code RandomCode(Rng& rng) {
+  Code c = ZeroCode(4, 4, 8);
+  for (int b = 0; b < c.bits(); ++b) c.Set(b, rng.Uniform() < 0.5);
+  return c;
+}
+
+Code Flip(Code c, Rng& rng, int n) {
+  for (int i = 0; i < n; ++i) {
+    const int b = static_cast<int>(rng.Below(c.bits()));
+    c.Set(b, !c.Get(b));
+  }
+  return c;
+}
+
+LabelledCode L(const std::string& id, const std::string& cat, const std::string& inst, const std::string& anchor,
+               Code c) {
+  LabelledCode lc;
+  lc.label.id = id;
+  lc.label.category = cat;
+  lc.label.instance = inst;
+  lc.label.anchor = anchor;
+  lc.code = std::move(c);
+  return lc;
+}
+
+// pants: 2 instances × anchors {a, b}; shorts: 1 instance × {a, c}. Queries are small
+// perturbations of one instance's entry, except one pants query built to be nearest to
+// instance 1's "b" while labelled "a" (a known mistake) and one towel query whose category
+// the database lacks.
+TEST(RecognitionEvaluate, CountsTheTableAndWritesTheReport) {
+  Rng rng(9);
+  std::map<std::string, Code> proto;
+  for (const char* k : {"pants/a", "pants/b", "shorts/a", "shorts/c"}) proto[k] = RandomCode(rng);
+  std::vector<LabelledCode> train = {
+      L("p1a", "pants", "pants-1", "a", Flip(proto["pants/a"], rng, 2)),
+      L("p1b", "pants", "pants-1", "b", Flip(proto["pants/b"], rng, 2)),
+      L("p2a", "pants", "pants-2", "a", Flip(proto["pants/a"], rng, 2)),
+      L("p2b", "pants", "pants-2", "b", Flip(proto["pants/b"], rng, 2)),
+      L("s1a", "shorts", "shorts-1", "a", Flip(proto["shorts/a"], rng, 2)),
+      L("s1c", "shorts", "shorts-1", "c", Flip(proto["shorts/c"], rng, 2)),
+  };
+  Database db(train);
+  std::vector<EvalQuery> qs;
+  auto add = [&](LabelledCode lc, double fus) {
+    EvalQuery q;
+    q.query = std::move(lc);
+    q.fusion_seconds = fus;
+    q.feature_seconds = 0.01;
+    q.timing_source = "test";
+    qs.push_back(std::move(q));
+  };
+  add(L("q1", "pants", "pants-q", "a", RotateCode(Flip(proto["pants/a"], rng, 1), 3)), 0.2);
+  add(L("q2", "pants", "pants-q", "b", Flip(proto["pants/b"], rng, 1)), 0.2);
+  add(L("q3", "pants", "pants-q", "a", train[1].code), 0.2);  // looks exactly like pants-1 "b"
+  add(L("q4", "shorts", "shorts-q", "c", Flip(proto["shorts/c"], rng, 1)), -1);
+  add(L("q5", "towel", "towel-q", "corner", RandomCode(rng)), -1);
+  AnchorUvMap uvs = {{{"pants-q", "a"}, Vec2(0, 0)}, {{"pants-q", "b"}, Vec2(0.3, 0.4)}};
+
+  const EvalResult res = Evaluate(db, nullptr, qs, uvs, {});
+  const Json& r = res.report;
+  ASSERT_EQ(r["categories"].size(), 3u);
+  const Json& pants = r["categories"][0];
+  EXPECT_EQ(pants["category"], "pants");
+  EXPECT_EQ(pants["queries"], 3);
+  EXPECT_DOUBLE_EQ(pants["pose_accuracy"]["both"]["unweighted"].get<double>(), 2.0 / 3);
+  EXPECT_TRUE(pants["pose_accuracy"]["both"]["learned"].is_null());  // no weights
+  EXPECT_DOUBLE_EQ(pants["category_accuracy"].get<double>(), 1.0);
+  // q3's error is the uv distance a–b on its own pattern: 50 cm; mean over 3 queries.
+  EXPECT_NEAR(pants["grasp_error_cm"]["unweighted_mean"].get<double>(), 50.0 / 3, 1e-9);
+  EXPECT_DOUBLE_EQ(pants["top_k_accuracy"]["unweighted"].get<double>(), 1.0);  // only 2 anchors
+  const Json& shorts = r["categories"][1];
+  EXPECT_TRUE(shorts["pose_accuracy"]["instance2"]["unweighted"].is_null());  // one instance: n/a
+  EXPECT_DOUBLE_EQ(shorts["pose_accuracy"]["instance1"]["unweighted"].get<double>(), 1.0);
+  const Json& towel = r["categories"][2];
+  EXPECT_EQ(towel["queries_category_absent"], 1);
+  EXPECT_DOUBLE_EQ(towel["pose_accuracy"]["both"]["unweighted"].get<double>(), 0.0);
+  EXPECT_EQ(r["warnings"].size(), 1u);
+  // Overall: 3 right of 5 (q1, q2, q4).
+  EXPECT_DOUBLE_EQ(r["overall"]["pose_accuracy"]["both"]["unweighted"].get<double>(), 3.0 / 5);
+  EXPECT_EQ(r["overall"]["seconds_per_query"]["fusion_known"], 3);
+  // Confusion for pants: true a → predicted b once.
+  const auto& conf = res.confusion.at("pants");
+  ASSERT_EQ(conf.labels, (std::vector<std::string>{"a", "b"}));
+  EXPECT_EQ(conf.counts[0][0], 1);
+  EXPECT_EQ(conf.counts[0][1], 1);
+  EXPECT_EQ(conf.counts[1][1], 1);
+
+  const fs::path dir = fs::temp_directory_path() / ("drape_eval_test_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  WriteReport(res, Json{{"release", "synthetic"}}, dir);
+  for (const char* f : {"report.md", "report.json", "accuracy.png", "confusion_pants.png", "confusion_shorts.png"}) {
+    EXPECT_TRUE(fs::exists(dir / f)) << f;
+  }
+  EXPECT_EQ(ReadFile(dir / "accuracy.png").substr(1, 3), "PNG");
+  const Json back = Json::parse(ReadFile(dir / "report.json"));
+  EXPECT_EQ(back["release"], "synthetic");
+  EXPECT_NE(ReadFile(dir / "report.md").find("| pants (pants-1, pants-2) | 3 |"), std::string::npos);
+  if (!std::getenv("DRAPE_KEEP_TEST_OUTPUT")) fs::remove_all(dir);
+
+  EXPECT_THROW(Evaluate(Database(), nullptr, qs, uvs, {}), Error);
+  EXPECT_THROW(Evaluate(db, nullptr, {}, uvs, {}), Error);
+}
+
+}  // namespace
+}  // namespace drape::recognition
