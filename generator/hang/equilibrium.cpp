@@ -1,0 +1,260 @@
+#include "generator/hang/equilibrium.h"
+
+#include <kinsol/kinsol.h>
+#include <nvector/nvector_serial.h>
+#include <sundials/sundials_context.h>
+#include <sunlinsol/sunlinsol_spgmr.h>
+
+#include <Eigen/SparseCholesky>
+#include <Eigen/SparseCore>
+#include <algorithm>
+#include <cmath>
+#include <memory>
+
+#include "common/error.h"
+
+namespace drape {
+
+void EquilibriumOptions::Validate() const {
+  if (!(relative_tolerance > 0 && relative_tolerance < 1))
+    throw Error("equilibrium: relative_tolerance must be in (0, 1)");
+  if (max_iterations < 1) throw Error("equilibrium: max_iterations must be >= 1");
+  if (!(max_displacement > 0)) throw Error("equilibrium: max_displacement must be > 0");
+}
+
+Points3 SpringForces(const SpringNetwork& net, const Points3& x) {
+  const int n = net.NumNodes();
+  Points3 f(n, 3);
+  for (int i = 0; i < n; ++i) f.row(i) = net.mass[i] * net.gravity.transpose();
+  for (size_t s = 0; s < net.springs.size(); ++s) {
+    const auto [a, b] = net.springs[s];
+    const Vec3 d = x.row(b) - x.row(a);
+    const double l = d.norm();
+    if (l <= 0) continue;
+    const Vec3 fa = (net.stiffness[s] * (l - net.rest_length[s]) / (net.rest_length[s] * l)) * d;
+    f.row(a) += fa.transpose();
+    f.row(b) -= fa.transpose();
+  }
+  return f;
+}
+
+namespace {
+
+struct Problem {
+  const SpringNetwork* net;
+  std::vector<int> free_nodes;  // unknown block k ↔ node free_nodes[k]
+  std::vector<int> block;       // node → unknown block or −1
+  Points3 x;                    // full positions, free rows overwritten from u
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt;
+  bool factor_ok = false;
+  int eval_failures = 0;
+
+  void Scatter(const double* u) {
+    for (size_t k = 0; k < free_nodes.size(); ++k)
+      x.row(free_nodes[k]) = Eigen::Map<const Eigen::RowVector3d>(u + 3 * k);
+  }
+  // 3×3 stiffness block K of spring s (∂f_a/∂x_b); tension_only clamps the geometric
+  // term so the assembled matrix is positive semi-definite (preconditioner).
+  Eigen::Matrix3d Block(size_t s, bool tension_only) const {
+    const auto [a, b] = net->springs[s];
+    const Vec3 d = x.row(b) - x.row(a);
+    const double l = std::max(d.norm(), 1e-12);
+    const Vec3 u = d / l;
+    const double k = net->stiffness[s] / net->rest_length[s];
+    double geo = 1.0 - net->rest_length[s] / l;
+    if (tension_only) geo = std::max(geo, 0.0);
+    const Eigen::Matrix3d uu = u * u.transpose();
+    return k * (uu + geo * (Eigen::Matrix3d::Identity() - uu));
+  }
+};
+
+int Residual(N_Vector uu, N_Vector fval, void* data) {
+  auto* p = static_cast<Problem*>(data);
+  const double* u = N_VGetArrayPointer(uu);
+  for (sunindextype i = 0; i < N_VGetLength(uu); ++i)
+    if (!std::isfinite(u[i])) return 1;  // recoverable: line search backs off
+  p->Scatter(u);
+  const Points3 f = SpringForces(*p->net, p->x);
+  double* out = N_VGetArrayPointer(fval);
+  for (size_t k = 0; k < p->free_nodes.size(); ++k)
+    for (int c = 0; c < 3; ++c) out[3 * k + c] = f(p->free_nodes[k], c);
+  return 0;
+}
+
+int JacTimes(N_Vector v, N_Vector jv, N_Vector uu, sunbooleantype* new_uu, void* data) {
+  auto* p = static_cast<Problem*>(data);
+  p->Scatter(N_VGetArrayPointer(uu));
+  const double* vin = N_VGetArrayPointer(v);
+  double* out = N_VGetArrayPointer(jv);
+  std::fill(out, out + N_VGetLength(jv), 0.0);
+  const auto& net = *p->net;
+  for (size_t s = 0; s < net.springs.size(); ++s) {
+    const int ba = p->block[net.springs[s][0]], bb = p->block[net.springs[s][1]];
+    if (ba < 0 && bb < 0) continue;
+    // Exact Jacobian (the tension-only one converges only linearly, ~0.9 per step, in
+    // the slack directions of buckled cloth); the preconditioner uses tension-only.
+    const Eigen::Matrix3d K = p->Block(s, false);
+    Vec3 dv = Vec3::Zero();  // v_b − v_a
+    if (bb >= 0) dv += Eigen::Map<const Vec3>(vin + 3 * bb);
+    if (ba >= 0) dv -= Eigen::Map<const Vec3>(vin + 3 * ba);
+    const Vec3 kd = K * dv;
+    if (ba >= 0) Eigen::Map<Vec3>(out + 3 * ba) += kd;
+    if (bb >= 0) Eigen::Map<Vec3>(out + 3 * bb) -= kd;
+  }
+  *new_uu = SUNFALSE;
+  return 0;
+}
+
+int PrecSetup(N_Vector uu, N_Vector, N_Vector, N_Vector, void* data) {
+  auto* p = static_cast<Problem*>(data);
+  p->Scatter(N_VGetArrayPointer(uu));
+  const auto& net = *p->net;
+  const int n3 = 3 * static_cast<int>(p->free_nodes.size());
+  std::vector<Eigen::Triplet<double>> t;
+  t.reserve(net.springs.size() * 36);
+  double diag_sum = 0;
+  for (size_t s = 0; s < net.springs.size(); ++s) {
+    const int ba = p->block[net.springs[s][0]], bb = p->block[net.springs[s][1]];
+    if (ba < 0 && bb < 0) continue;
+    const Eigen::Matrix3d K = p->Block(s, true);
+    diag_sum += 2 * K.trace();
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) {
+        if (ba >= 0) t.emplace_back(3 * ba + r, 3 * ba + c, K(r, c));
+        if (bb >= 0) t.emplace_back(3 * bb + r, 3 * bb + c, K(r, c));
+        if (ba >= 0 && bb >= 0) {
+          t.emplace_back(3 * ba + r, 3 * bb + c, -K(r, c));
+          t.emplace_back(3 * bb + r, 3 * ba + c, -K(r, c));
+        }
+      }
+  }
+  // Small shift: slack (untensioned) directions have no stiffness at all.
+  const double shift = 1e-6 * diag_sum / std::max(n3, 1);
+  for (int i = 0; i < n3; ++i) t.emplace_back(i, i, shift);
+  Eigen::SparseMatrix<double> A(n3, n3);
+  A.setFromTriplets(t.begin(), t.end());
+  p->ldlt.compute(A);
+  p->factor_ok = p->ldlt.info() == Eigen::Success;
+  return p->factor_ok ? 0 : 1;
+}
+
+int PrecSolve(N_Vector, N_Vector, N_Vector, N_Vector, N_Vector vv, void* data) {
+  auto* p = static_cast<Problem*>(data);
+  if (!p->factor_ok) return 1;
+  Eigen::Map<Eigen::VectorXd> v(N_VGetArrayPointer(vv), N_VGetLength(vv));
+  // J ≈ −A (forces decrease as nodes move along the springs' pull).
+  Eigen::VectorXd z = p->ldlt.solve(v);
+  v = -z;
+  return 0;
+}
+
+void SilentErrors(int, const char*, const char*, char*, void*) {}
+
+struct SundialsDeleter {
+  void operator()(SUNContext c) const { SUNContext_Free(&c); }
+};
+
+}  // namespace
+
+EquilibriumReport SolveEquilibrium(const SpringNetwork& net, Points3& x,
+                                   const EquilibriumOptions& options) {
+  options.Validate();
+  const int n = net.NumNodes();
+  DRAPE_CHECK(x.rows() == n && static_cast<int>(net.fixed.size()) == n, "sizes");
+  EquilibriumReport report;
+  const double g = net.gravity.norm();
+
+  Problem p;
+  p.net = &net;
+  p.x = x;
+  p.block.assign(n, -1);
+  for (int i = 0; i < n; ++i)
+    if (!net.fixed[i]) {
+      p.block[i] = static_cast<int>(p.free_nodes.size());
+      p.free_nodes.push_back(i);
+    }
+  auto measure = [&](const Points3& pos, double& abs_max, double& rel_max) {
+    const Points3 f = SpringForces(net, pos);
+    abs_max = rel_max = 0;
+    for (int i : p.free_nodes) {
+      const double fn = f.row(i).norm();
+      abs_max = std::max(abs_max, fn);
+      rel_max = std::max(rel_max, fn / (net.mass[i] * g));
+    }
+  };
+  measure(x, report.residual_before, report.relative_before);
+  report.residual_after = report.residual_before;
+  report.relative_after = report.relative_before;
+  if (p.free_nodes.empty()) {
+    report.converged = true;
+    report.message = "no free nodes";
+    return report;
+  }
+
+  SUNContext raw_ctx = nullptr;
+  if (SUNContext_Create(nullptr, &raw_ctx) != 0) throw NumericalError("SUNContext_Create failed");
+  std::unique_ptr<std::remove_pointer_t<SUNContext>, SundialsDeleter> ctx(raw_ctx);
+  const sunindextype m = 3 * static_cast<sunindextype>(p.free_nodes.size());
+  N_Vector u = N_VNew_Serial(m, raw_ctx), uscale = N_VNew_Serial(m, raw_ctx),
+           fscale = N_VNew_Serial(m, raw_ctx);
+  double* ud = N_VGetArrayPointer(u);
+  double* fs = N_VGetArrayPointer(fscale);
+  for (size_t k = 0; k < p.free_nodes.size(); ++k)
+    for (int c = 0; c < 3; ++c) {
+      ud[3 * k + c] = x(p.free_nodes[k], c);
+      fs[3 * k + c] = 1.0 / (net.mass[p.free_nodes[k]] * g);  // residual relative to weight
+    }
+  N_VConst(1.0, uscale);
+  void* kin = KINCreate(raw_ctx);
+  SUNLinearSolver ls = SUNLinSol_SPGMR(u, SUN_PREC_RIGHT, 40, raw_ctx);
+  int flag = KINInit(kin, Residual, u);
+  if (flag == KIN_SUCCESS) {
+    KINSetUserData(kin, &p);
+    KINSetErrHandlerFn(kin, SilentErrors, nullptr);
+    KINSetPrintLevel(kin, 0);
+    // KINSOL's test is on the max-norm of components; per node |F| ≤ √3 × that.
+    KINSetFuncNormTol(kin, options.relative_tolerance / std::sqrt(3.0));
+    KINSetScaledStepTol(kin, 1e-13);
+    KINSetNumMaxIters(kin, options.max_iterations);
+    KINSetMaxSetupCalls(kin, 1);  // fresh preconditioner every Newton step
+    KINSetLinearSolver(kin, ls, nullptr);
+    KINSetJacTimesVecFn(kin, JacTimes);
+    KINSetPreconditioner(kin, PrecSetup, PrecSolve);
+    flag = KINSol(kin, u, KIN_LINESEARCH, uscale, fscale);
+  }
+  long nni = 0, nli = 0;
+  KINGetNumNonlinSolvIters(kin, &nni);
+  KINGetNumLinIters(kin, &nli);
+  report.iterations = static_cast<int>(nni);
+  report.linear_iterations = static_cast<int>(nli);
+  report.converged = flag == KIN_SUCCESS || flag == KIN_INITIAL_GUESS_OK;
+
+  Points3 sol = x;
+  for (size_t k = 0; k < p.free_nodes.size(); ++k)
+    sol.row(p.free_nodes[k]) = Eigen::Map<const Eigen::RowVector3d>(ud + 3 * k);
+  KINFree(&kin);
+  SUNLinSolFree(ls);
+  N_VDestroy(u);
+  N_VDestroy(uscale);
+  N_VDestroy(fscale);
+
+  bool finite = sol.allFinite();
+  report.max_displacement = finite ? (sol - x).rowwise().norm().maxCoeff() : INFINITY;
+  double abs_after = 0, rel_after = 0;
+  if (finite) measure(sol, abs_after, rel_after);
+  if (!report.converged) {
+    report.message = "KINSol flag " + std::to_string(flag);
+  } else if (report.max_displacement > options.max_displacement) {
+    report.message = "solution moved a node " + std::to_string(report.max_displacement) +
+                     " m (limit " + std::to_string(options.max_displacement) + ")";
+  } else {
+    x = sol;
+    report.applied = true;
+    report.residual_after = abs_after;
+    report.relative_after = rel_after;
+    report.message = flag == KIN_INITIAL_GUESS_OK ? "initial guess already in equilibrium" : "converged";
+  }
+  return report;
+}
+
+}  // namespace drape

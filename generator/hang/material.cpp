@@ -1,0 +1,47 @@
+#include "generator/hang/material.h"
+
+#include <cmath>
+#include <numbers>
+
+#include "common/error.h"
+
+namespace drape {
+
+double Material::FrictionCoefficient() const {
+  return std::tan(friction_deg * std::numbers::pi / 180.0);
+}
+
+void Material::Validate() const {
+  auto bad = [&](const char* field, const std::string& what) {
+    throw Error("material '" + name + "': " + field + " " + what);
+  };
+  if (!(stretch_percent > 0 && stretch_percent <= 30))
+    bad("stretch_percent", "must be in (0, 30], got " + std::to_string(stretch_percent));
+  if (!(friction_deg >= 0 && friction_deg < 90))
+    bad("friction_deg", "must be in [0, 90), got " + std::to_string(friction_deg));
+  if (!(area_density > 0.01 && area_density <= 5))
+    bad("area_density", "must be in (0.01, 5] kg/m², got " + std::to_string(area_density));
+  if (!(bending_stiffness > 0 && bending_stiffness <= 1))
+    bad("bending_stiffness", "must be in (0, 1], got " + std::to_string(bending_stiffness));
+}
+
+const std::vector<Material>& MaterialPresets() {
+  // name, stretch %, friction °, kg/m² per layer, relative bending.
+  static const std::vector<Material> presets = {
+      {"tshirt", 2.9, 24.3, 0.18, 0.03},   // long-sleeve T-shirt (large; small is 2.9/24.7)
+      {"jeans", 2.9, 19.1, 0.35, 0.20},    // denim
+      {"pants", 1.7, 21.9, 0.25, 0.10},    // cotton twill
+      {"towel_a", 2.2, 18.7, 0.40, 0.08},  // large towel, terry
+      {"towel_b", 3.1, 22.3, 0.35, 0.08},  // medium towel
+      {"towel_c", 1.1, 24.3, 0.30, 0.08},  // small towel
+  };
+  return presets;
+}
+
+const Material* FindMaterialPreset(std::string_view name) {
+  for (const Material& m : MaterialPresets())
+    if (m.name == name) return &m;
+  return nullptr;
+}
+
+}  // namespace drape

@@ -1,0 +1,40 @@
+// Garment materials as a person measures them (paper §"Parameter Adaptation"):
+// stretch % when hung from an extremum vs laid flat, and the friction angle on a
+// table; plus what the simulation also needs (mass per area, bending stiffness).
+#pragma once
+
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace drape {
+
+struct Material {
+  std::string name;
+  // shear_frac × 100, shear_frac = (L1 − L2)/L2: L1 = pick point → lowest point when hung
+  // from an extremum, L2 = the same two points' distance laid flat. Paper's table: 1.1–3.1.
+  double stretch_percent = 2.4;
+  // Angle of a tilted table at which the garment starts to slide, degrees (μ = tan).
+  double friction_deg = 22.2;
+  // Mass per area of ONE layer of fabric, kg/m² (cotton jersey ~0.15, denim ~0.35).
+  double area_density = 0.2;
+  // Bending stiffness RELATIVE to stretch stiffness, dimensionless in (0, 1]: the
+  // stiffness of the bending springs (links across each interior edge, between the two
+  // opposite vertices) as a fraction of the structural links' stiffness, both in Bullet
+  // (link kLST) and in the equilibrium spring model. ~0.02 limp jersey, ~0.2 denim.
+  double bending_stiffness = 0.05;
+
+  // Friction coefficient μ = tan(friction_deg).
+  double FrictionCoefficient() const;
+  // Throws drape::Error naming the bad field.
+  void Validate() const;
+};
+
+// The paper's measured table (Fig. "garment_stat_fold"), names "tshirt", "jeans",
+// "pants", "towel_a" (large), "towel_b" (medium), "towel_c" (small). Stretch and
+// friction are the paper's; density and bending are typical values for the fabric.
+const std::vector<Material>& MaterialPresets();
+// nullptr if unknown.
+const Material* FindMaterialPreset(std::string_view name);
+
+}  // namespace drape
