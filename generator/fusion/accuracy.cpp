@@ -1,0 +1,140 @@
+// Reconstruction accuracy: area-weighted surface samples and exact point-to-mesh
+// distances through Embree's BVH point queries.
+#include <embree3/rtcore.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+
+#include "common/error.h"
+#include "common/parallel.h"
+#include "common/rng.h"
+#include "generator/fusion/fusion.h"
+
+namespace drape {
+
+namespace {
+
+void CheckMesh(const TriMesh& mesh, const char* what) {
+  if (mesh.NumFaces() == 0 || mesh.NumVertices() == 0)
+    throw Error(std::string("MeasureAccuracy: ") + what + " mesh is empty");
+  if (mesh.F.minCoeff() < 0 || mesh.F.maxCoeff() >= mesh.NumVertices())
+    throw Error(std::string("MeasureAccuracy: ") + what + " mesh has out-of-range face indices");
+}
+
+struct QueryData {
+  const TriMesh* mesh;
+  Vec3 p;
+  double best2;
+};
+
+bool ClosestCallback(RTCPointQueryFunctionArguments* args) {
+  auto* q = static_cast<QueryData*>(args->userPtr);
+  const auto& F = q->mesh->F;
+  const auto& V = q->mesh->V;
+  const int f = static_cast<int>(args->primID);
+  const Vec3 c = ClosestPointOnTriangle(q->p, V.row(F(f, 0)), V.row(F(f, 1)), V.row(F(f, 2)));
+  const double d2 = (c - q->p).squaredNorm();
+  if (d2 < q->best2) {
+    q->best2 = d2;
+    // Shrink the search (rounded up so that float rounding never culls the closest).
+    args->query->radius = std::nextafter(float(std::sqrt(d2)), std::numeric_limits<float>::max());
+    return true;
+  }
+  return false;
+}
+
+double Mean(const std::vector<double>& v) {
+  return std::accumulate(v.begin(), v.end(), 0.0) / double(v.size());
+}
+
+// Nearest-rank percentile.
+double Percentile(std::vector<double> v, double q) {
+  std::sort(v.begin(), v.end());
+  const size_t rank = static_cast<size_t>(std::ceil(q * double(v.size())));
+  return v[std::clamp<size_t>(rank, 1, v.size()) - 1];
+}
+
+}  // namespace
+
+Points3 SampleSurface(const TriMesh& mesh, int samples, uint64_t seed) {
+  CheckMesh(mesh, "sampled");
+  const Eigen::VectorXd area = FaceAreas(mesh);
+  std::vector<double> cdf(area.size());
+  double acc = 0;
+  for (Eigen::Index f = 0; f < area.size(); ++f) cdf[f] = (acc += area[f]);
+  if (!(acc > 0)) throw Error("MeasureAccuracy: mesh has zero area");
+  Rng rng(seed);
+  Points3 out(samples, 3);
+  for (int i = 0; i < samples; ++i) {
+    const double r = rng.Uniform() * acc;
+    const int f = static_cast<int>(std::min<size_t>(
+        std::upper_bound(cdf.begin(), cdf.end(), r) - cdf.begin(), cdf.size() - 1));
+    // Uniform point in a triangle (Osada et al. 2002).
+    const double s = std::sqrt(rng.Uniform()), t = rng.Uniform();
+    const Vec3 a = mesh.V.row(mesh.F(f, 0)), b = mesh.V.row(mesh.F(f, 1)), c = mesh.V.row(mesh.F(f, 2));
+    out.row(i) = (1 - s) * a + s * (1 - t) * b + s * t * c;
+  }
+  return out;
+}
+
+std::vector<double> PointToMeshDistances(const Points3& points, const TriMesh& mesh) {
+  CheckMesh(mesh, "target");
+  RTCDevice device = rtcNewDevice("threads=1");
+  if (!device) throw Error("MeasureAccuracy: cannot create an Embree device");
+  RTCScene scene = rtcNewScene(device);
+  RTCGeometry geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
+  auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0,
+                                                         RTC_FORMAT_FLOAT3, 3 * sizeof(float),
+                                                         mesh.NumVertices()));
+  for (int i = 0; i < mesh.NumVertices(); ++i)
+    for (int a = 0; a < 3; ++a) vb[3 * i + a] = float(mesh.V(i, a));
+  auto* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0,
+                                                            RTC_FORMAT_UINT3, 3 * sizeof(unsigned),
+                                                            mesh.NumFaces()));
+  for (int f = 0; f < mesh.NumFaces(); ++f)
+    for (int a = 0; a < 3; ++a) ib[3 * f + a] = unsigned(mesh.F(f, a));
+  rtcCommitGeometry(geom);
+  rtcAttachGeometry(scene, geom);
+  rtcReleaseGeometry(geom);
+  rtcCommitScene(scene);
+
+  std::vector<double> dist(points.rows());
+  // Each query is independent; the distance is the exact minimum whatever the order.
+  ParallelFor(static_cast<int>(points.rows()), 1, [&](int i) {
+    QueryData data{&mesh, points.row(i).transpose(), std::numeric_limits<double>::infinity()};
+    RTCPointQuery q;
+    q.x = float(data.p.x());
+    q.y = float(data.p.y());
+    q.z = float(data.p.z());
+    q.time = 0;
+    q.radius = std::numeric_limits<float>::infinity();
+    RTCPointQueryContext ctx;
+    rtcInitPointQueryContext(&ctx);
+    rtcPointQuery(scene, &q, &ctx, ClosestCallback, &data);
+    DRAPE_CHECK(std::isfinite(data.best2), "point query found no triangle");
+    dist[i] = std::sqrt(data.best2);
+  });
+  rtcReleaseScene(scene);
+  rtcReleaseDevice(device);
+  return dist;
+}
+
+Accuracy MeasureAccuracy(const TriMesh& recon, const TriMesh& truth, int samples) {
+  CheckMesh(recon, "reconstructed");
+  CheckMesh(truth, "ground-truth");
+  if (samples < 1) throw Error("MeasureAccuracy: samples must be >= 1");
+  const uint64_t seed = DeriveSeed(0, "fusion/accuracy");
+  const std::vector<double> rt = PointToMeshDistances(SampleSurface(recon, samples, seed), truth);
+  const std::vector<double> tr =
+      PointToMeshDistances(SampleSurface(truth, samples, DeriveSeed(seed, "truth")), recon);
+  Accuracy a;
+  a.recon_to_truth_mean = Mean(rt);
+  a.recon_to_truth_p95 = Percentile(rt, 0.95);
+  a.truth_to_recon_mean = Mean(tr);
+  a.truth_to_recon_p95 = Percentile(tr, 0.95);
+  return a;
+}
+
+}  // namespace drape

@@ -1,0 +1,161 @@
+// Segmentation by a 3D box and KinectFusion-style TSDF fusion of a depth sweep of a
+// garment turning on the gripper (paper §"3D Reconstruction"), mesh extraction,
+// .vdb export and reconstruction-accuracy metrics.
+//
+// Everything is in the OBJECT frame of the hung garment: grasp point at the origin,
+// y up, garment hanging below (y < 0). Depth frames carry camera_to_object poses, so
+// the turning garment fuses like a static scene.
+//
+// Signed distance convention (the paper's): Sdf(p) < 0 inside the observed surface,
+// > 0 outside, 0 on it, in metres, truncated to [-truncation, +truncation].
+// Sdf(p) is defined as follows (voxel centres at integer multiples of the voxel size
+// h = 1/voxels_per_metre; values between centres are trilinear):
+//   1. voxels observed near a surface (fusion weight > 0) hold the weighted running
+//      average of the projective truncated distance (see Tsdf::Integrate);
+//   2. an unobserved voxel inside a block of 8³ voxels that holds observed voxels takes
+//      ±truncation with the sign of the nearest observed voxel of its block (so the
+//      deep side of a surface reads inside, the far-in-front side outside);
+//   3. any other voxel takes the state of its block, recorded by space carving: a
+//      block whose centre was seen as free space in at least `carve_min_views` frames
+//      (in front of an observed depth by more than the truncation, or on a
+//      background pixel with no data) is OUTSIDE (+truncation); a block never carved,
+//      seen by at least one frame, inside the segmentation box and inside the bounds
+//      of the observed surface blocks (the "carved hull") is INSIDE (-truncation);
+//      everything else (outside the box, never in view) is outside.
+// So the interior of a closed or nearly closed garment (between the front and back
+// layers of a shirt, inside a trouser leg), which no camera ray ever reaches, reads
+// inside, like a visual hull; the gap between two layers ~1 cm apart lies within the
+// band behind both layers and reads inside too.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "common/camera.h"
+#include "common/mesh.h"
+
+namespace drape {
+
+struct FusionOptions {
+  // Voxel density (paper: 384 voxels per metre, X = 384, Y = Z = 768 voxels).
+  double voxels_per_metre = 384;
+  // Truncation distance μ in metres; <= 0 means 4 voxels (≈ 1.04 cm at 384/m).
+  // Why 4 voxels: large enough to average Kinect noise at ~1–1.5 m (σ_z ≈ 2–4 mm)
+  // and disparity steps (~5 mm), small enough that the band behind the front layer
+  // of a two-layer garment (layers ~1 cm apart) does not reach past the back layer
+  // (a voxel just behind the back layer is > μ behind the front one and is left to
+  // the views that see it from the other side).
+  double truncation = 0;
+  // Segmentation box in the object frame (paper: a 2D box plus a depth range, one
+  // box for the whole set-up). A pixel is foreground iff its back-projected point
+  // lies in the box. Default: x, z ∈ [-0.6, 0.6] m, y ∈ [-1.7, -0.02] m — the space
+  // under the gripper that a garment up to 1.7 m long can hang in, excluding the
+  // gripper jaws (the 2 cm above y = -0.02) and the arm, table, wall and floor.
+  // Pixels outside the box still carve free space in front of them.
+  Eigen::AlignedBox3d box{Eigen::Vector3d(-0.6, -1.7, -0.6), Eigen::Vector3d(0.6, -0.02, 0.6)};
+  // A block is carved (outside) once seen as free space in this many frames; > 1
+  // guards against stray dropouts.
+  int carve_min_views = 2;
+  // A pixel with no data counts as background (free space) only if no foreground pixel
+  // lies within this many pixels (Chebyshev distance); closer ones are treated as
+  // dropouts on the garment and ignored.
+  int hole_radius_px = 1;
+  // Use every k-th frame (1 = all).
+  int frames_stride = 1;
+  // Simulated gripper-encoder error: each frame's rotation about the gripper (y) axis
+  // is perturbed by N(0, σ) degrees, seeded from FuseFrames' seed. 0 = exact poses.
+  double pose_noise_degrees = 0;
+  // Threads per frame (blocks are independent; results identical for any count).
+  // <= 0: all cores.
+  int threads = 1;
+
+  double VoxelSize() const { return 1.0 / voxels_per_metre; }
+  double Truncation() const { return truncation > 0 ? truncation : 4.0 / voxels_per_metre; }
+  void Validate() const;  // throws drape::Error naming the bad field
+};
+
+struct FusionStats {
+  int frames_integrated = 0;
+  int64_t foreground_pixels = 0;  // summed over frames
+  int64_t voxel_updates = 0;      // summed over frames
+  int surface_blocks = 0;         // allocated 8³ blocks
+  int observed_voxels = 0;        // voxels with weight > 0
+  int inside_blocks = 0;          // unallocated blocks classified inside (unobserved interior)
+  int mesh_vertices = 0, mesh_faces = 0;
+  double wall_seconds = 0;        // timing only, never hashed
+};
+
+// A sparse TSDF volume: 8³-voxel blocks in a hash (only the band near the observed
+// surface is allocated and touched per frame) plus a block-level space-carving grid
+// over the segmentation box. Not copyable; const methods are safe to call from
+// several threads.
+class Tsdf {
+ public:
+  explicit Tsdf(const FusionOptions& options);
+  ~Tsdf();
+  Tsdf(const Tsdf&) = delete;
+  Tsdf& operator=(const Tsdf&) = delete;
+
+  // Fuses one frame with its camera_to_object pose. Pixels whose back-projected point
+  // falls in the box are surface samples; for each, the blocks along the ray within
+  // ±μ of the depth are allocated; every voxel of those blocks is projected into the
+  // image and updated with the projective distance sdf = (d - z)·|ray|/z_ray along
+  // the pixel's ray (KinectFusion), clamped to +μ, skipped below -μ; weights count
+  // observations (weighted running average).
+  // Throws drape::Error if the frame's size does not match the intrinsics.
+  void Integrate(const DepthFrame& frame, const Intrinsics& intrinsics);
+
+  // Signed distance at p (object frame, metres), as defined at the top of this file.
+  double Sdf(const Vec3& p) const;
+  // Fusion weight (number of observations) of the voxel nearest p; 0 if unobserved.
+  double Weight(const Vec3& p) const;
+
+  // Zero level set by OpenVDB's volumeToMesh (quads split into triangles), object
+  // frame, triangles counter-clockwise seen from outside. Closed wherever the field is.
+  TriMesh ExtractMesh() const;
+  // Bytes of a .vdb file with two FloatGrids: "sdf" (level set class, background
+  // +μ, active = observed voxels, unobserved interior as inactive -μ tiles/voxels) and
+  // "weight" (background 0), both with a linear transform of the voxel size (index
+  // (i,j,k) ↔ object-frame point (i,j,k)·h). Deterministic bytes (the file's random
+  // UUID is replaced by one derived from the content).
+  std::string EncodeVdb() const;
+
+  const FusionOptions& options() const;
+  FusionStats Stats() const;  // counts so far (no mesh counts, no timing)
+
+  struct Impl;
+
+ private:
+  std::unique_ptr<Impl> impl_;
+};
+
+struct FusionResult {
+  std::shared_ptr<Tsdf> tsdf;
+  TriMesh mesh;
+  FusionStats stats;
+};
+
+// Fuses frames[0], frames[stride], ... in order (pose noise drawn per frame index from
+// DeriveSeed(seed, "fusion/pose")) and extracts the mesh.
+FusionResult FuseFrames(const std::vector<DepthFrame>& frames, const Intrinsics& intrinsics,
+                        const FusionOptions& options, uint64_t seed);
+
+// Reconstruction accuracy, metres. Points are sampled on each mesh (area-weighted,
+// `samples` per mesh, a fixed seed: deterministic) and their distances to the other
+// mesh's surface measured exactly (Embree point queries + closest point on triangle).
+// recon→truth = accuracy, truth→recon = completeness. p95 = nearest-rank 95th percentile.
+struct Accuracy {
+  double recon_to_truth_mean = 0, recon_to_truth_p95 = 0;
+  double truth_to_recon_mean = 0, truth_to_recon_p95 = 0;
+};
+Accuracy MeasureAccuracy(const TriMesh& recon, const TriMesh& truth, int samples = 20000);
+
+// Area-weighted deterministic surface samples (#samples×3), used by MeasureAccuracy.
+Points3 SampleSurface(const TriMesh& mesh, int samples, uint64_t seed);
+// Distance from each point to the closest point of the mesh surface (Embree BVH).
+std::vector<double> PointToMeshDistances(const Points3& points, const TriMesh& mesh);
+
+}  // namespace drape
