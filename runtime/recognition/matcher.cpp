@@ -1,6 +1,7 @@
 #include "runtime/recognition/matcher.h"
 
 #include <bit>
+#include <ctime>
 #include <climits>
 #include <sstream>
 
@@ -55,10 +56,41 @@ int RotatedBit(int bit, int sectors, int k) {
   return lr * sectors + t;
 }
 
+namespace {
+
+// n <= 64 bits starting at bit `off` (LSB first across words).
+uint64_t GetBits(const std::vector<uint64_t>& w, int off, int n) {
+  const int wi = off >> 6, sh = off & 63;
+  uint64_t v = w[wi] >> sh;
+  if (sh + n > 64) v |= w[wi + 1] << (64 - sh);
+  return n == 64 ? v : v & ((uint64_t{1} << n) - 1);
+}
+
+void OrBits(std::vector<uint64_t>& w, int off, int n, uint64_t v) {
+  const int wi = off >> 6, sh = off & 63;
+  w[wi] |= v << sh;
+  if (sh + n > 64) w[wi + 1] |= v >> (64 - sh);
+}
+
+}  // namespace
+
 Code RotateCode(const Code& x, int k) {
   Code out = ZeroCode(x.layers, x.rings, x.sectors);
-  for (int b = 0; b < x.bits(); ++b) {
-    if (x.Get(b)) out.Set(RotatedBit(b, x.sectors, k), true);
+  const int s = x.sectors;
+  const int kk = ((k % s) + s) % s;
+  if (s > 64) {
+    for (int b = 0; b < x.bits(); ++b) {
+      if (x.Get(b)) out.Set(RotatedBit(b, s, kk), true);
+    }
+    return out;
+  }
+  // Per (layer, ring): the Φ sector bits as one integer, rotated left by k within Φ bits
+  // (sector j moves to j + k).
+  const uint64_t mask = s == 64 ? ~uint64_t{0} : (uint64_t{1} << s) - 1;
+  for (int g = 0; g < x.layers * x.rings; ++g) {
+    const uint64_t v = GetBits(x.words, g * s, s);
+    const uint64_t r = kk == 0 ? v : ((v << kk) | (v >> (s - kk))) & mask;
+    OrBits(out.words, g * s, s, r);
   }
   return out;
 }
