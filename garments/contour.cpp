@@ -369,9 +369,16 @@ Garment GarmentFromContour(const Contour& contour_in, const std::vector<AnchorSp
         splits.push_back(CGAL::midpoint(u->point(), v->point()));
     }
     if (splits.empty()) break;
-    DRAPE_CHECK(rounds < 20, "seam chords keep reappearing");
+    if (rounds >= 40) {
+      std::ostringstream os;
+      os << "the outline is too narrow near " << Fmt(ToVec(splits.front())) << " for edge_length " << h
+         << " m (front and back would touch there): use a smaller edge_length or widen the outline";
+      throw Error(os.str());
+    }
     for (const Point& p : splits) cdt.insert(p);
-    CGAL::refine_Delaunay_mesh_2(cdt, criteria);
+    // Refinement first (quality), but in a sharp spike it keeps adding boundary points
+    // that make new chords: after a few rounds only the splitting points are inserted.
+    if (rounds < 3) CGAL::refine_Delaunay_mesh_2(cdt, criteria);
     MarkDomain(cdt);
   }
 

@@ -1,6 +1,7 @@
 #include "garments/io.h"
 
 #include <assimp/Exporter.hpp>
+#include <assimp/config.h>
 #include <assimp/Importer.hpp>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
@@ -207,12 +208,35 @@ TriMesh ReadMesh(const fs::path& path, double unit_scale, Points2* uv) {
   std::error_code ec;
   if (!fs::exists(path, ec)) throw Error(where + ": no such file");
   if (fs::is_directory(path, ec)) throw Error(where + ": is a directory, not a mesh file");
+  // Normals, tangents and colours are dropped before JoinIdenticalVertices so that
+  // per-face attributes (STL, flat-shaded OBJ) do not split the surface into pieces.
+  // Texture coordinates are kept (drape's pattern uv) unless they split it too.
   Assimp::Importer importer;
-  // Keep points and lines out of the merged mesh; they are counted below.
-  const aiScene* scene = importer.ReadFile(
-      path.string(), aiProcess_Triangulate | aiProcess_JoinIdenticalVertices | aiProcess_PreTransformVertices);
-  if (!scene || !scene->mRootNode)
-    throw Error(where + ": cannot read mesh: " + std::string(importer.GetErrorString()));
+  auto read = [&](bool keep_uv) {
+    importer.SetPropertyInteger(AI_CONFIG_PP_RVC_FLAGS,
+                                aiComponent_NORMALS | aiComponent_TANGENTS_AND_BITANGENTS | aiComponent_COLORS |
+                                    (keep_uv ? 0 : aiComponent_TEXCOORDS));
+    const aiScene* sc = importer.ReadFile(path.string(), aiProcess_RemoveComponent | aiProcess_Triangulate |
+                                                             aiProcess_JoinIdenticalVertices |
+                                                             aiProcess_PreTransformVertices);
+    if (!sc || !sc->mRootNode)
+      throw Error(where + ": cannot read mesh: " + std::string(importer.GetErrorString()));
+    return sc;
+  };
+  const aiScene* scene = read(true);
+  // Texture seams: several vertices at one position. Read again without uv.
+  {
+    std::vector<std::array<float, 3>> pos;
+    bool has_uv = false;
+    for (unsigned mi = 0; mi < scene->mNumMeshes; ++mi) {
+      const aiMesh* m = scene->mMeshes[mi];
+      has_uv |= m->mTextureCoords[0] != nullptr;
+      for (unsigned i = 0; i < m->mNumVertices; ++i)
+        pos.push_back({m->mVertices[i].x, m->mVertices[i].y, m->mVertices[i].z});
+    }
+    std::sort(pos.begin(), pos.end());
+    if (has_uv && std::adjacent_find(pos.begin(), pos.end()) != pos.end()) scene = read(false);
+  }
   TriMesh out;
   std::vector<Vec3> V;
   std::vector<Vec2> T;

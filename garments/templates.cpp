@@ -19,7 +19,10 @@ struct Builder {
   Contour c;
   std::vector<AnchorSpec> anchors;
   // Appends point p; the edge from p to the next point gets `tag`.
-  void Add(const Vec2& p, const std::string& tag = "") {
+  void Add(Vec2 p, const std::string& tag = "") {
+    // Round-off like cos(π/2) = 6e-17 → 0: keeps coordinates exact through text formats.
+    for (int k = 0; k < 2; ++k)
+      if (std::abs(p[k]) < 1e-12) p[k] = 0;
     c.points.push_back(p);
     c.edge_tag.push_back(tag);
   }
