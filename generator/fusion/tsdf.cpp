@@ -80,6 +80,10 @@ void Tsdf::Integrate(const DepthFrame& frame, const Intrinsics& K) {
     m.yhat.resize(H);
     for (int u = 0; u < W; ++u) m.xhat[u] = (u - K.cx) / K.fx;
     for (int v = 0; v < H; ++v) m.yhat[v] = (v - K.cy) / K.fy;
+    m.lambda.resize(size_t(W) * H);
+    for (int v = 0; v < H; ++v)
+      for (int u = 0; u < W; ++u)
+        m.lambda[size_t(v) * W + u] = float(std::sqrt(1 + m.xhat[u] * m.xhat[u] + m.yhat[v] * m.yhat[v]));
     m.rays_for = K;
     m.rays_valid = true;
   }
@@ -117,9 +121,9 @@ void Tsdf::Integrate(const DepthFrame& frame, const Intrinsics& K) {
   if (fg_count > 0) {
     const int r = m.opt.hole_radius_px;
     std::vector<uint8_t> near_row(size_t(W) * H, 0);
+    std::vector<int> dist(std::max(W, H));
     for (int v = 0; v < H; ++v) {
       int last = -1000000;  // last foreground column
-      std::vector<int> dist(W, 1000000);
       for (int u = 0; u < W; ++u) {
         if (fg[size_t(v) * W + u]) last = u;
         dist[u] = u - last;
@@ -133,7 +137,6 @@ void Tsdf::Integrate(const DepthFrame& frame, const Intrinsics& K) {
     }
     for (int u = 0; u < W; ++u) {
       int last = -1000000;
-      std::vector<int> dist(H, 1000000);
       for (int v = 0; v < H; ++v) {
         if (near_row[size_t(v) * W + u]) last = v;
         dist[v] = v - last;
@@ -203,33 +206,33 @@ void Tsdf::Integrate(const DepthFrame& frame, const Intrinsics& K) {
   ParallelFor(static_cast<int>(touched.size()), m.opt.threads, [&](int ti) {
     FusionBlock& blk = *m.blocks[touched[ti]];
     const Vec3 origin = blk.coord.cast<double>() * (kBlockDim * h);
-    const Vec3 c0 = Rt * (origin - t);
-    const Vec3 ex = Rt.col(0) * h, ey = Rt.col(1) * h, ez = Rt.col(2) * h;
+    const Eigen::Vector3f c0 = (Rt * (origin - t)).cast<float>();
+    const Eigen::Vector3f ex = (Rt.col(0) * h).cast<float>(), ey = (Rt.col(1) * h).cast<float>(),
+                          ez = (Rt.col(2) * h).cast<float>();
+    const float* lambda_table = m.lambda.data();
     int64_t n = 0;
     for (int x = 0; x < kBlockDim; ++x) {
       for (int y = 0; y < kBlockDim; ++y) {
-        const Vec3 cxy = c0 + x * ex + y * ey;
+        const Eigen::Vector3f cxy = c0 + float(x) * ex + float(y) * ey;
         for (int z = 0; z < kBlockDim; ++z) {
-          const Vec3 c = cxy + z * ez;
-          if (c.z() <= 1e-6) continue;
-          const float inv = float(1.0 / c.z());
-          const float uf = fx * float(c.x()) * inv + cx;
-          const float vf = fy * float(c.y()) * inv + cy;
-          const int iu = static_cast<int>(std::floor(uf + 0.5f));
-          const int iv = static_cast<int>(std::floor(vf + 0.5f));
+          const float cxv = cxy.x() + float(z) * ez.x(), cyv = cxy.y() + float(z) * ez.y(),
+                      zc = cxy.z() + float(z) * ez.z();
+          if (zc <= 1e-6f) continue;
+          const float inv = 1.0f / zc;
+          const int iu = static_cast<int>(std::floor(fx * cxv * inv + cx + 0.5f));
+          const int iv = static_cast<int>(std::floor(fy * cyv * inv + cy + 0.5f));
           if (iu < 0 || iv < 0 || iu >= W || iv >= H) continue;
           const size_t pix = size_t(iv) * W + iu;
           const float d = code[pix];
-          const float zc = float(c.z());
-          // Distance along the ray per unit of depth.
-          const float lambda = float(c.norm()) * inv;
+          // Distance along the pixel's ray per unit of depth.
+          const float lambda = lambda_table[pix];
           float value;
           if (d > 0 && (d - zc) * lambda <= fmu) {
             const float sdf = (d - zc) * lambda;
             if (sdf < -fmu) continue;
             value = sdf;  // the band around an observed garment surface
           } else {
-            // Free space in front of anything (or background), by the conservative test.
+            // Free space in front of anything, or background without data.
             const float cd = carve[pix];
             if (std::isnan(cd) || (cd != 0 && (cd - zc) * lambda <= fmu)) continue;
             value = fmu;
