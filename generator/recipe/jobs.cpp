@@ -1,0 +1,119 @@
+#include "generator/recipe/jobs.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <set>
+
+#include "common/error.h"
+#include "common/rng.h"
+
+namespace drape {
+
+uint64_t InstanceSeed(const Recipe& recipe, const std::string& garment, int instance) {
+  const uint64_t s = DeriveSeed(recipe.seed, garment + "/i" + std::to_string(instance));
+  return s == 0 ? 1 : s;
+}
+
+std::string Slug(const std::string& key) {
+  std::string s;
+  for (char c : key) {
+    const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' ||
+                    c == '-' || c == '.';
+    s += ok ? c : '-';
+  }
+  return s;
+}
+
+std::vector<int> ShardJobs(int num_jobs, int k, int n) {
+  if (n < 1 || k < 1 || k > n) throw Error("shard " + std::to_string(k) + "/" + std::to_string(n) + ": need 1 <= K <= N");
+  std::vector<int> out;
+  for (int i = k - 1; i < num_jobs; i += n) out.push_back(i);
+  return out;
+}
+
+std::vector<Job> ExpandJobs(const Recipe& recipe) {
+  std::vector<Job> jobs;
+  for (const auto& split : recipe.splits) {
+    const Perturbation& pt = split.perturbation;
+    for (const auto& sel : split.selectors) {
+      const GarmentSpec* g = recipe.FindGarment(sel.garment);
+      DRAPE_CHECK(g != nullptr, sel.garment);
+      const int gi = static_cast<int>(g - recipe.garments.data());
+      const auto& materials = sel.materials.empty() ? g->materials : sel.materials;
+      for (int inst : sel.instances) {
+        const std::string iname = g->name + "/i" + std::to_string(inst);
+        std::vector<std::string> anchors = sel.anchors.empty() ? g->anchor_labels : sel.anchors;
+        if (sel.max_anchors > 0 && sel.max_anchors < static_cast<int>(anchors.size())) {
+          // A seeded sample, kept in the garment's label order.
+          Rng rng(DeriveSeed(recipe.seed, "select/" + split.name + "/" + iname));
+          std::vector<int> idx(anchors.size());
+          for (size_t i = 0; i < idx.size(); ++i) idx[i] = static_cast<int>(i);
+          for (size_t i = idx.size() - 1; i > 0; --i) std::swap(idx[i], idx[rng.Below(i + 1)]);
+          idx.resize(sel.max_anchors);
+          std::sort(idx.begin(), idx.end());
+          std::vector<std::string> picked;
+          for (int i : idx) picked.push_back(anchors[i]);
+          anchors = picked;
+        }
+        double size_scale = 1.0;
+        if (pt.size_scale_max != pt.size_scale_min || pt.size_scale_min != 1.0) {
+          Rng rng(DeriveSeed(recipe.seed, iname + "/size_scale"));
+          size_scale = rng.Uniform(pt.size_scale_min, pt.size_scale_max);
+        }
+        for (const auto& mname : materials) {
+          Material m = recipe.materials.at(mname);
+          double jitter[4] = {0, 0, 0, 0};
+          if (pt.material_jitter > 0) {
+            Rng rng(DeriveSeed(recipe.seed, iname + "/" + mname + "/material_jitter"));
+            for (double& j : jitter) j = rng.Uniform(-pt.material_jitter, pt.material_jitter);
+            m.stretch_percent *= 1 + jitter[0];
+            m.friction_deg *= 1 + jitter[1];
+            m.area_density *= 1 + jitter[2];
+            m.bending_stiffness *= 1 + jitter[3];
+          }
+          for (const auto& anchor : anchors) {
+            for (int rep = 0; rep < split.repeats; ++rep) {
+              Job j;
+              j.index = static_cast<int>(jobs.size());
+              j.key = iname + "/" + mname + "/" + anchor + (split.repeats > 1 ? "/p" + std::to_string(rep) : "");
+              j.split = split.name;
+              j.sensing = split.sensing;
+              j.garment = gi;
+              j.instance = inst;
+              j.instance_name = iname;
+              j.instance_seed = InstanceSeed(recipe, g->name, inst);
+              j.material_name = mname;
+              j.material = m;
+              j.anchor = anchor;
+              j.repeat = rep;
+              j.seed = DeriveSeed(recipe.seed, j.key);
+              j.size_scale = size_scale;
+              std::copy(jitter, jitter + 4, j.material_jitter);
+              if (pt.grasp_offset > 0) {
+                Rng rng(DeriveSeed(j.seed, "grasp_offset"));
+                const double a = 2 * M_PI * rng.Uniform();
+                j.grasp_offset = pt.grasp_offset * Vec2(std::cos(a), std::sin(a));
+              }
+              jobs.push_back(std::move(j));
+            }
+          }
+        }
+      }
+    }
+  }
+  // Ids: zero-padded index (at least 5 digits) + slug of the key.
+  int width = 5;
+  for (size_t n = jobs.size(); n >= 100000; n /= 10) ++width;
+  std::set<std::string> keys;
+  for (auto& j : jobs) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%0*d", width, j.index);
+    j.id = std::string(buf) + "-" + Slug(j.key);
+    DRAPE_CHECK(keys.insert(j.key).second, "duplicate job key " + j.key);
+  }
+  return jobs;
+}
+
+}  // namespace drape

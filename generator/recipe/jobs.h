@@ -1,0 +1,52 @@
+// Job expansion: a recipe becomes a deterministic list of jobs, one per garment
+// instance × material × anchor (× perturbed repeat). Keys, ids, seeds and
+// perturbations depend only on the recipe, never on thread count or shard.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "common/mesh.h"
+#include "generator/hang/material.h"
+#include "generator/recipe/recipe.h"
+
+namespace drape {
+
+struct Job {
+  int index = 0;        // position in the expansion order (train, calibration, test)
+  std::string key;      // stable unique key, e.g. "pants/i2/jeans/waist_left" ("/p1" added when repeats > 1)
+  std::string id;       // entry folder name: zero-padded index + slug, e.g. "00007-pants-i2-jeans-waist_left"
+  std::string split;    // "train" | "calibration" | "test"
+  std::string sensing;  // key into Recipe::sensing
+  int garment = 0;      // index into Recipe::garments
+  int instance = 0;     // 0-based instance of that garment
+  std::string instance_name;  // "<garment>/i<k>"
+  uint64_t instance_seed = 0; // TemplateOptions::seed of this instance (never 0)
+  std::string material_name;  // the recipe's material name (before jitter)
+  Material material;          // the values used (jittered on perturbed splits)
+  std::string anchor;         // anchor label
+  int repeat = 0;
+  uint64_t seed = 0;          // DeriveSeed(recipe seed, key)
+  // Perturbations (zero / one when the split has none).
+  double size_scale = 1.0;    // uniform scale of the instance's mesh and pattern
+  double material_jitter[4] = {0, 0, 0, 0};  // applied factors − 1: stretch, friction, density, bending
+  Vec2 grasp_offset = Vec2::Zero();          // metres on the flat pattern
+};
+
+// Seed of garment instance k (its TemplateOptions::seed): DeriveSeed(recipe seed,
+// "<garment>/i<k>"), never 0 (0 means preset proportions to MakeGarment).
+uint64_t InstanceSeed(const Recipe& recipe, const std::string& garment, int instance);
+
+// Every job of the recipe, in order: splits (train, calibration, test), their
+// garment selectors, instances ascending, the garment's materials, its anchors in
+// label order, repeats.
+std::vector<Job> ExpandJobs(const Recipe& recipe);
+
+// Indices of the jobs of shard K of N (1 <= K <= N): index % N == K − 1.
+std::vector<int> ShardJobs(int num_jobs, int k, int n);
+
+// "pants/i2/jeans/waist_left" → "pants-i2-jeans-waist_left" (filesystem-safe).
+std::string Slug(const std::string& key);
+
+}  // namespace drape

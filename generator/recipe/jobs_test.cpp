@@ -1,0 +1,133 @@
+#include "generator/recipe/jobs.h"
+
+#include <gtest/gtest.h>
+
+#include <map>
+#include <regex>
+#include <set>
+
+#include "common/error.h"
+#include "common/rng.h"
+
+namespace drape {
+namespace {
+
+Recipe Parse(const std::string& text) { return ParseRecipe(text, "mem.yaml", "/tmp"); }
+
+const char* kRecipe = R"(
+name: jobs
+version: 1.0.0
+seed: 11
+garments:
+  - template: towel
+    instances: 4
+    materials: [towel_a, towel_b]
+  - template: pants
+    instances: 2
+    materials: [pants]
+splits:
+  train:
+    garments: [{garment: towel, instances: [0, 1]}, {garment: pants, instances: [0]}]
+  calibration:
+    garments: [{garment: towel, instances: [2], max_anchors: 2, materials: [towel_b]}]
+    perturbation: {grasp_offset: 0.02, size_scale: [0.9, 1.1], material_jitter: 0.1}
+  test:
+    garments: [{garment: towel, instances: [3]}, {garment: pants, instances: [1]}]
+    perturbation: {grasp_offset: 0.03}
+    repeats: 2
+)";
+
+TEST(Jobs, ExpansionIsDeterministicWithStableKeysIdsAndSeeds) {
+  const Recipe r = Parse(kRecipe);
+  const auto a = ExpandJobs(r);
+  const auto b = ExpandJobs(Parse(kRecipe));
+  ASSERT_EQ(a.size(), b.size());
+  const size_t towel_anchors = r.garments[0].anchor_labels.size();
+  const size_t pants_anchors = r.garments[1].anchor_labels.size();
+  EXPECT_EQ(a.size(), 2 * 2 * towel_anchors + pants_anchors + 2 + 2 * (2 * towel_anchors + pants_anchors));
+  std::set<std::string> keys, ids;
+  for (size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(a[i].index, static_cast<int>(i));
+    EXPECT_EQ(a[i].key, b[i].key);
+    EXPECT_EQ(a[i].id, b[i].id);
+    EXPECT_EQ(a[i].seed, b[i].seed);
+    EXPECT_EQ(a[i].seed, DeriveSeed(11, a[i].key));
+    EXPECT_EQ(a[i].grasp_offset, b[i].grasp_offset);
+    EXPECT_TRUE(keys.insert(a[i].key).second) << a[i].key;
+    EXPECT_TRUE(ids.insert(a[i].id).second) << a[i].id;
+    EXPECT_TRUE(std::regex_match(a[i].id, std::regex("[0-9]{5}-[A-Za-z0-9_.-]+"))) << a[i].id;
+  }
+  EXPECT_EQ(a[0].key, "towel/i0/towel_a/" + r.garments[0].anchor_labels[0]);
+  EXPECT_EQ(a[0].id, "00000-towel-i0-towel_a-" + r.garments[0].anchor_labels[0]);
+  EXPECT_EQ(a.back().key, "pants/i1/pants/" + r.garments[1].anchor_labels.back() + "/p1");
+}
+
+TEST(Jobs, SplitsAreByInstance) {
+  const auto jobs = ExpandJobs(Parse(kRecipe));
+  std::map<std::string, std::set<std::string>> split_of;
+  std::map<std::string, int> per_split;
+  for (const auto& j : jobs) {
+    split_of[j.instance_name].insert(j.split);
+    per_split[j.split]++;
+  }
+  for (const auto& [inst, s] : split_of) EXPECT_EQ(s.size(), 1u) << inst;
+  EXPECT_EQ(*split_of["towel/i2"].begin(), "calibration");
+  EXPECT_EQ(*split_of["pants/i1"].begin(), "test");
+  EXPECT_EQ(per_split["calibration"], 2);  // max_anchors: 2, one material
+}
+
+TEST(Jobs, PerturbationsArePerInstanceOrPerJobAndOnlyOnTheirSplit) {
+  const Recipe r = Parse(kRecipe);
+  const auto jobs = ExpandJobs(r);
+  const Material& towel_b = r.materials.at("towel_b");
+  std::set<double> calib_scales;
+  for (const auto& j : jobs) {
+    if (j.split == "train") {
+      EXPECT_EQ(j.size_scale, 1.0);
+      EXPECT_EQ(j.grasp_offset, Vec2::Zero());
+      EXPECT_EQ(j.material.stretch_percent, r.materials.at(j.material_name).stretch_percent);
+    } else if (j.split == "calibration") {
+      calib_scales.insert(j.size_scale);
+      EXPECT_GE(j.size_scale, 0.9);
+      EXPECT_LE(j.size_scale, 1.1);
+      EXPECT_NEAR(j.grasp_offset.norm(), 0.02, 1e-12);
+      EXPECT_NE(j.material.stretch_percent, towel_b.stretch_percent);
+      EXPECT_NEAR(j.material.stretch_percent / towel_b.stretch_percent, 1.0, 0.1 + 1e-12);
+    } else {
+      EXPECT_NEAR(j.grasp_offset.norm(), 0.03, 1e-12);
+      EXPECT_EQ(j.size_scale, 1.0);
+    }
+  }
+  EXPECT_EQ(calib_scales.size(), 1u);  // one instance, one scale for all its anchors
+  // Repeats of one anchor get different grasp directions.
+  const Job* p0 = nullptr;
+  for (const auto& j : jobs)
+    if (j.split == "test" && j.repeat == 0) p0 = &j;
+  ASSERT_NE(p0, nullptr);
+  EXPECT_NE(jobs[p0->index + 1].grasp_offset, p0->grasp_offset);
+}
+
+TEST(Jobs, ShardsCoverEveryJobOnce) {
+  const int n = 23;
+  std::vector<int> seen(n, 0);
+  for (int k = 1; k <= 4; ++k)
+    for (int i : ShardJobs(n, k, 4)) seen[i]++;
+  for (int c : seen) EXPECT_EQ(c, 1);
+  EXPECT_THROW(ShardJobs(n, 0, 4), Error);
+  EXPECT_THROW(ShardJobs(n, 5, 4), Error);
+}
+
+TEST(Jobs, DefaultSplitIsTrainWithEveryInstance) {
+  const auto jobs = ExpandJobs(Parse("name: x\nversion: 1.0.0\nseed: 1\ngarments:\n  - template: towel\n    instances: 2\n    materials: [towel_a]\n"));
+  ASSERT_FALSE(jobs.empty());
+  for (const auto& j : jobs) EXPECT_EQ(j.split, "train");
+  EXPECT_EQ(jobs.back().instance, 1);
+}
+
+TEST(Jobs, SlugIsFilesystemSafe) {
+  EXPECT_EQ(Slug("pants/i2/jeans/waist_left"), "pants-i2-jeans-waist_left");
+  EXPECT_EQ(Slug("a b:c"), "a-b-c");
+}
+
+}  // namespace
+}  // namespace drape

@@ -1,0 +1,106 @@
+// Recipes: the YAML file that says everything a build needs (recipes/README.md
+// documents every key). Parsing is strict: an unknown or misspelt key, a wrong
+// type, an out-of-range value, a missing file, a path escaping the recipe's
+// folder, an unknown material or anchor label throws drape::Error with the
+// message "recipe.yaml:LINE:COL: key.path: what" (line and column 1-based).
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "garments/templates.h"
+#include "generator/feature/feature.h"
+#include "generator/fusion/fusion.h"
+#include "generator/hang/hang.h"
+#include "generator/hang/material.h"
+#include "generator/sweep/sweep.h"
+
+namespace drape {
+
+// One entry of `garments:`: a template or an imported file, with a number of
+// seeded instances and the material variants and anchors to hang it by.
+struct GarmentSpec {
+  std::string name;           // unique within the recipe; first part of job keys
+  std::string template_name;  // empty for imports
+  std::filesystem::path file;     // absolute, imports only
+  std::filesystem::path anchors;  // absolute, imports only (may be empty)
+  double unit_scale = 1.0;        // imports: file units → metres
+  std::string category;           // template's category, or `category:` for imports
+  TemplateOptions options;        // size, params, edge_length, ... (seed set per instance)
+  int instances = 1;
+  std::vector<std::string> materials;      // names in Recipe::materials
+  std::vector<std::string> anchor_labels;  // the labels to hang from (resolved; never empty)
+  std::vector<std::string> all_anchor_labels;  // every label the garment has, in its order
+};
+
+// Perturbations applied to the sensed splits (calibration, test).
+struct Perturbation {
+  double grasp_offset = 0.0;  // metres on the flat pattern, random direction per job
+  double size_scale_min = 1.0, size_scale_max = 1.0;  // uniform per instance
+  double material_jitter = 0.0;  // fraction: each measured material value × (1 + U(−j, j)), per instance
+  bool Any() const {
+    return grasp_offset > 0 || size_scale_min != 1.0 || size_scale_max != 1.0 || material_jitter > 0;
+  }
+};
+
+// Which instances of one garment go into a split.
+struct SplitSelector {
+  std::string garment;                 // GarmentSpec::name
+  std::vector<int> instances;          // 0-based instance indices, ascending
+  std::vector<std::string> materials;  // subset of the garment's materials (empty = all)
+  std::vector<std::string> anchors;    // subset of the garment's anchors (empty = the garment's)
+  int max_anchors = 0;                 // > 0: a seeded sample of this many anchors per instance
+};
+
+struct SplitSpec {
+  std::string name;     // "train" | "calibration" | "test"
+  std::string sensing;  // key into Recipe::sensing ("database" | "sensed")
+  std::vector<SplitSelector> selectors;
+  Perturbation perturbation;
+  int repeats = 1;  // perturbed repetitions per anchor (keys get "/p<r>" when > 1)
+};
+
+// Sensing options of one kind of split, plus what the build keeps of it.
+struct SensingSpec {
+  SweepOptions sweep;
+  bool keep_frames = false;  // store sweep/ (16-bit PNGs + cameras.json) in the entries
+};
+
+struct Recipe {
+  std::filesystem::path path;  // as given
+  std::string file_label;      // what error messages call the file (path as given)
+  std::string text;            // the full recipe text (dataset.json stores it)
+  std::string name;
+  std::string version;  // semantic version MAJOR.MINOR.PATCH
+  uint64_t seed = 0;
+  std::string description;
+  std::string license = "CC-BY-4.0";
+  bool allow_outside_paths = false;
+
+  std::map<std::string, Material> materials;  // every material a garment may use, by name
+  std::vector<GarmentSpec> garments;
+  HangOptions hang;
+  std::map<std::string, SensingSpec> sensing;  // "database", "sensed"
+  FusionOptions fusion;
+  FeatureOptions feature;
+  std::vector<SplitSpec> splits;  // in order train, calibration, test (those present)
+
+  std::vector<std::string> warnings;  // e.g. instances no split uses
+
+  const GarmentSpec* FindGarment(const std::string& name) const;
+};
+
+// Parses and validates a recipe file. Throws drape::Error "FILE:LINE:COL: key: what".
+Recipe LoadRecipe(const std::filesystem::path& path);
+// Parses recipe text; relative paths resolve against `base_dir`. `file_label`
+// names the file in error messages.
+Recipe ParseRecipe(const std::string& text, const std::string& file_label,
+                   const std::filesystem::path& base_dir);
+
+// Levenshtein edit distance, for "did you mean" suggestions.
+int EditDistance(const std::string& a, const std::string& b);
+
+}  // namespace drape
