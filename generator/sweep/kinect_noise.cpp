@@ -15,9 +15,12 @@
 // Order (one 64-bit draw per pixel, raster order, whatever the pixel holds):
 //   bits  0–15  lateral offset u     bits 32–47  axial noise
 //   bits 16–31  lateral offset v     bits 48–63  dropout uniform
-//  1. dropouts on the exact image (shadow, grazing, edges) mark source pixels invalid;
-//  2. lateral noise: pixel p reads source pixel p + round(σ_L·n) (n ~ N(0, 1) per axis);
-//  3. axial Gaussian noise, then disparity quantisation, then the range cut.
+//  1. projector shadow on the exact image;
+//  2. per source pixel: grazing/edge dropouts, axial Gaussian noise, disparity
+//     quantisation, range cut → a measurement;
+//  3. lateral noise: pixel p reports the measurement of pixel p + round(σ_L(θ_p)·n),
+//     n ~ N(0, 1) per axis (so a measurement may appear at two neighbouring pixels,
+//     as the Kinect's block matching also correlates neighbours).
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -27,6 +30,15 @@
 #include "generator/sweep/sweep.h"
 
 namespace drape {
+namespace detail {
+// Value min/max (no NaN handling, no references): loops using them vectorise.
+inline float Min(float a, float b) { return b < a ? b : a; }
+inline float Max(float a, float b) { return a < b ? b : a; }
+void NoiseParameters(const float* __restrict Zp, const float* __restrict Cp, float* __restrict sgp,
+                     float* __restrict slp, float* __restrict pdp, size_t n, float big,
+                     float max_theta, float half_pi, float sixty, float step, float bfq, float q12,
+                     float t0, float inv_ramp);
+}  // namespace detail
 namespace {
 
 // Standard normal quantiles at (k + 0.5)/65536: a 16-bit draw → N(0, 1) sample,
@@ -75,9 +87,43 @@ const std::array<float, 65536>& NormalTable() {
   return table;
 }
 
-constexpr int kAngleBins = 4096;
 
 }  // namespace
+
+namespace detail {
+// Per-pixel noise parameters (see ApplyKinectNoise). A separate external function with
+// restrict pointers and no control flow: GCC 12 vectorises it (not when inlined).
+__attribute__((noinline)) void NoiseParameters(const float* __restrict Zp, const float* __restrict Cp, float* __restrict sgp,
+                     float* __restrict slp, float* __restrict pdp, size_t n, float big,
+                     float max_theta, float half_pi, float sixty, float step, float bfq, float q12,
+                     float t0, float inv_ramp) {
+  for (size_t p = 0; p < n; ++p) {
+    const float zz = Zp[p];
+    const float finite = zz <= big ? 1.0f : 0.0f;
+    const float z = detail::Min(zz, big);
+    const float c = detail::Min(detail::Max(Cp[p], 0.0f), 1.0f);
+    // acos (Abramowitz & Stegun 4.4.45, |error| < 7e-5 rad).
+    const float th = std::sqrt(1.0f - c) *
+                     (1.5707288f + c * (-0.2121144f + c * (0.0742610f + c * -0.0187293f)));
+    const float t = detail::Min(th, max_theta);
+    const float r = t / (half_pi - t);
+    // [N] σ_L = 0.8 + 0.035·θ/(π/2 − θ) px (θ capped at 85°; beyond it is dropped).
+    slp[p] = 0.8f + 0.035f * r * finite;
+    // [N] σ_z = 0.0012 + 0.0019·(z − 0.4)² m for θ ≤ 60°, plus
+    // (0.0001/√z)·θ²/(π/2 − θ)² beyond 60° (their Eq. for large angles).
+    const float beyond60 = t > sixty ? 1.0f : 0.0f;
+    const float sz = 0.0012f + 0.0019f * (z - 0.4f) * (z - 0.4f) +
+                     beyond60 * 0.0001f / std::sqrt(z) * r * r;
+    // [N] measured σ_z on real, quantised readings: when we quantise too, only the rest
+    // is Gaussian (Sheppard: total variance ≈ σ_g² + ΔZ²/12, ΔZ = Z²·step/(b·f) [K]).
+    const float dz = z * z * step / bfq;
+    sgp[p] = std::sqrt(detail::Max(sz * sz - dz * dz * q12, 0.0f));
+    // Grazing dropout probability: 0 below grazing_start, linear to 1 at grazing_full.
+    pdp[p] = detail::Min(detail::Max((th - t0) * inv_ramp, 0.0f), 1.0f);
+  }
+}
+
+}  // namespace detail
 
 void KinectOptions::Validate() const {
   if (intrinsics.width <= 0 || intrinsics.height <= 0 || intrinsics.width > 16384 ||
@@ -116,110 +162,92 @@ std::vector<float> ApplyKinectNoise(const ExactFrame& exact, const KinectOptions
     return out;
   }
   const auto& N = NormalTable();
-  std::vector<uint64_t> bits(n);
-  for (size_t p = 0; p < n; ++p) bits[p] = rng.NextU64();
 
-  // Incidence angle θ per pixel from its cosine, through a table (acos per pixel is the
-  // single most expensive operation otherwise).
-  std::array<float, kAngleBins + 1> acos_table;
-  for (int i = 0; i <= kAngleBins; ++i) acos_table[i] = float(std::acos(double(i) / kAngleBins));
-  std::vector<float> theta(n, 0.0f);
-  for (size_t p = 0; p < n; ++p)
-    if (std::isfinite(Z[p]))
-      theta[p] = acos_table[int(std::clamp(exact.cos_incidence[p], 0.0f, 1.0f) * kAngleBins + 0.5f)];
+  // 1. Per-pixel noise parameters from the exact image: no randomness, branch-free
+  //    float loops (vectorised; this file is built with -O3 -fno-math-errno).
+  const float* C = exact.cos_incidence.data();
+  const float half_pi = float(M_PI / 2), max_theta = float(85 * M_PI / 180);
+  const float sixty = float(M_PI / 3);
+  const float t0 = float(o.grazing_start_deg * M_PI / 180),
+              t1 = float(o.grazing_full_deg * M_PI / 180);
+  const float bfq = float(o.baseline * o.disparity_focal);  // m·px, [K]
+  const float step = float(o.disparity_subpixel);           // px
+  // Loop invariants as factors, so that the loop below has no control flow.
+  const float q12 = o.quantize ? 1.0f / 12.0f : 0.0f;
+  const float inv_ramp = t1 > t0 ? 1.0f / (t1 - t0) : 1e30f;
+  const float big = zmax * 4;  // farther (and +inf = nothing hit) counts as no surface
+  std::vector<float> sg(n), sl(n), pdrop(n);
+  detail::NoiseParameters(Z.data(), C, sg.data(), sl.data(), pdrop.data(), n, big, max_theta, half_pi, sixty,
+                  step, bfq, q12, t0, inv_ramp);
+  if (!o.dropouts) std::fill(pdrop.begin(), pdrop.end(), 0.0f);
 
-  // 1. Dropouts: which source pixels return data.
-  std::vector<uint8_t> ok(n);
-  for (size_t p = 0; p < n; ++p) ok[p] = std::isfinite(Z[p]) ? 1 : 0;
-  if (o.dropouts) {
-    if (o.projector_shadow) {
-      // Projector at +baseline along camera x (Kinect v1: projector at the camera's right,
-      // so shadows fall on the left of near objects). A point at column u and depth z is
-      // lit at projector column u − b·f/z; scanning towards the projector, it is in shadow
-      // if a point between it and the projector is lit at a smaller projector column.
-      const double bf = o.baseline * o.intrinsics.fx;
-      for (int v = 0; v < H; ++v) {
-        double m = std::numeric_limits<double>::infinity();
-        for (int u = W - 1; u >= 0; --u) {
-          const size_t p = size_t(v) * W + u;
-          if (!ok[p]) continue;
-          const double up = u - bf / Z[p];
-          if (up > m + 0.25) ok[p] = 0;
-          m = std::min(m, up);
-        }
-      }
-    }
-    const float t0 = float(o.grazing_start_deg * M_PI / 180),
-                t1 = float(o.grazing_full_deg * M_PI / 180);
-    const float jump = float(o.edge_jump), pe = float(o.edge_dropout_probability);
+  // Projector shadow (deterministic): which source pixels the pattern reaches.
+  std::vector<uint8_t> lit(n);
+  for (size_t p = 0; p < n; ++p) lit[p] = Z[p] <= zmax * 4 ? 1 : 0;
+  if (o.dropouts && o.projector_shadow) {
+    // Projector at +baseline along camera x (Kinect v1: projector at the camera's right,
+    // so shadows fall on the left of near objects). A point at column u and depth z is
+    // lit at projector column u − b·f/z; scanning towards the projector, it is in shadow
+    // if a point between it and the projector is lit at a smaller projector column.
+    const float bf = float(o.baseline * o.intrinsics.fx);
     for (int v = 0; v < H; ++v) {
-      for (int u = 0; u < W; ++u) {
+      float m = std::numeric_limits<float>::infinity();
+      for (int u = W - 1; u >= 0; --u) {
         const size_t p = size_t(v) * W + u;
-        if (!ok[p]) continue;
-        float pg = 0.0f;
-        if (theta[p] >= t1) {
-          pg = 1.0f;
-        } else if (theta[p] > t0) {
-          pg = (theta[p] - t0) / (t1 - t0);
-        }
-        // Depth edge: a 4-neighbour differs by more than edge_jump (or has no surface).
-        const float z = Z[p];
-        bool edge = false;
-        if (u > 0) edge |= !(std::abs(Z[p - 1] - z) <= jump);
-        if (u + 1 < W) edge |= !(std::abs(Z[p + 1] - z) <= jump);
-        if (v > 0) edge |= !(std::abs(Z[p - W] - z) <= jump);
-        if (v + 1 < H) edge |= !(std::abs(Z[p + W] - z) <= jump);
-        const float pdrop = 1.0f - (1.0f - pg) * (1.0f - (edge ? pe : 0.0f));
-        const float uni = (float((bits[p] >> 48) & 0xFFFF) + 0.5f) / 65536.0f;
-        if (uni < pdrop) ok[p] = 0;
+        if (!lit[p]) continue;
+        const float up = float(u) - bf / Z[p];
+        if (up > m + 0.25f) lit[p] = 0;
+        m = std::min(m, up);
       }
     }
   }
+  if (o.dropouts && o.edge_dropout_probability > 0) {
+    // Depth edge: a 4-neighbour differs by more than edge_jump (or has no surface).
+    const float jump = float(o.edge_jump), pe = float(o.edge_dropout_probability);
+    // jr[p]: jump between p and its right neighbour; jd[p]: between p and the one below.
+    std::vector<uint8_t> jr(n, 0), jd(n, 0), edge(n, 0);
+    for (size_t p = 0; p + 1 < n; ++p) jr[p] = !(std::abs(Z[p + 1] - Z[p]) <= jump);
+    for (size_t p = 0; p + W < n; ++p) jd[p] = !(std::abs(Z[p + W] - Z[p]) <= jump);
+    for (int v = 0; v < H; ++v) jr[size_t(v) * W + W - 1] = 0;  // no wrap-around
+    edge[0] = jr[0] | jd[0];
+    for (size_t p = 1; p < n; ++p) edge[p] = jr[p] | jr[p - 1] | jd[p];
+    for (size_t p = W; p < n; ++p) edge[p] |= jd[p - W];
+    for (size_t p = 0; p < n; ++p)
+      pdrop[p] = edge[p] ? 1.0f - (1.0f - pdrop[p]) * (1.0f - pe) : pdrop[p];
+  }
 
-  // 2.–3. Lateral resampling, axial noise, quantisation, range cut.
-  const double bfq = o.baseline * o.disparity_focal;  // m·px, [K]
-  const double step = o.disparity_subpixel;           // px
-  const float half_pi = float(M_PI / 2), max_theta = float(85 * M_PI / 180);
-  const float sixty = float(M_PI / 3);
+  // 2. Per source pixel (raster order, one 64-bit draw each): random dropouts, axial
+  //    noise, quantisation, range cut → measured[p]; and the lateral offset of pixel p.
+  std::vector<float> measured(n, 0.0f);
+  std::vector<int8_t> offset(o.lateral ? 2 * n : 0);
+  for (size_t p = 0; p < n; ++p) {
+    const uint64_t b = rng.NextU64();
+    if (o.lateral) {
+      // Round to nearest without a libm call (+64 keeps the argument positive).
+      offset[2 * p] = int8_t(int(sl[p] * N[b & 0xFFFF] + 64.5f) - 64);
+      offset[2 * p + 1] = int8_t(int(sl[p] * N[(b >> 16) & 0xFFFF] + 64.5f) - 64);
+    }
+    if (!lit[p]) continue;
+    const float uni = (float((b >> 48) & 0xFFFF) + 0.5f) * (1.0f / 65536.0f);
+    if (uni < pdrop[p]) continue;
+    float z = Z[p];
+    if (o.axial) z += sg[p] * N[(b >> 32) & 0xFFFF];
+    if (o.quantize && z > 0) {
+      // [K] disparity d = b·f/Z, quantised to 1/8 px (round half up; d > 0).
+      const float d = float(int(bfq / (z * step) + 0.5f)) * step;
+      z = d > 0 ? bfq / d : 0.0f;
+    }
+    if (z >= zmin && z <= zmax) measured[p] = z;
+  }
+
+  // 3. Lateral noise: pixel p reports the measurement of pixel p + offset.
+  if (!o.lateral) return measured;
   for (int v = 0; v < H; ++v) {
     for (int u = 0; u < W; ++u) {
       const size_t p = size_t(v) * W + u;
-      const uint64_t b = bits[p];
-      size_t q = p;
-      if (o.lateral) {
-        // [N] σ_L = 0.8 + 0.035·θ/(π/2 − θ) px (θ capped at 85°, beyond it is dropped).
-        float sl = 0.8f;
-        if (std::isfinite(Z[p])) {
-          const float t = std::min(theta[p], max_theta);
-          sl += 0.035f * t / (half_pi - t);
-        }
-        const int du = int(std::lrint(sl * N[b & 0xFFFF]));
-        const int dv = int(std::lrint(sl * N[(b >> 16) & 0xFFFF]));
-        const int uu = u + du, vv = v + dv;
-        if (uu < 0 || uu >= W || vv < 0 || vv >= H) continue;
-        q = size_t(vv) * W + uu;
-      }
-      if (!ok[q]) continue;
-      double z = Z[q];
-      const double dz_step = z * z * step / bfq;  // [K] depth step at z
-      if (o.axial) {
-        // [N] σ_z = 0.0012 + 0.0019·(z − 0.4)² m for θ ≤ 60°, plus
-        // (0.0001/√z)·θ²/(π/2 − θ)² beyond 60° (their Eq. for large angles).
-        double sz = 0.0012 + 0.0019 * (z - 0.4) * (z - 0.4);
-        const float t = std::min(theta[q], max_theta);
-        if (t > sixty) sz += 0.0001 / std::sqrt(z) * double(t) * t / ((half_pi - t) * (half_pi - t));
-        // [N] measured σ_z on real, quantised readings: when we quantise too, only the
-        // rest is Gaussian (Sheppard: total variance ≈ σ_g² + ΔZ²/12).
-        double sg = sz;
-        if (o.quantize) sg = std::sqrt(std::max(sz * sz - dz_step * dz_step / 12, 0.0));
-        z += sg * N[(b >> 32) & 0xFFFF];
-      }
-      if (o.quantize && z > 0) {
-        // [K] disparity d = b·f/Z, quantised to 1/8 px.
-        const double d = std::nearbyint(bfq / z / step) * step;
-        z = d > 0 ? bfq / d : 0.0;
-      }
-      if (z >= zmin && z <= zmax) out[p] = float(z);
+      const int uu = u + offset[2 * p], vv = v + offset[2 * p + 1];
+      if (uu < 0 || uu >= W || vv < 0 || vv >= H) continue;
+      out[p] = measured[size_t(vv) * W + uu];
     }
   }
   return out;

@@ -139,6 +139,8 @@ struct SweepScene::Impl {
   Eigen::AlignedBox3d bounds;
   Eigen::Isometry3d camera_to_world;
   ExactFrame background_frame;    // cast once
+  // Camera-frame ray slopes per column, (u − cx)/fx, and row, (v − cy)/fy (padded to 4).
+  std::vector<float> ray_x, ray_y;
 
   ~Impl() {
     if (object) rtcReleaseScene(object);
@@ -154,11 +156,23 @@ struct SweepScene::Impl {
     const Intrinsics& K = options.kinect.intrinsics;
     const Eigen::Matrix3f R = camera_to_scene.linear().cast<float>();
     const Eigen::Vector3f o = camera_to_scene.translation().cast<float>();
+    const Eigen::Vector3f r0 = R.col(0), r1 = R.col(1), r2 = R.col(2);
     RTCIntersectContext context;
     rtcInitIntersectContext(&context);
     context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
     alignas(64) RTCRayHit16 rh;
     alignas(64) int valid[16];
+    // Rtc*Intersect16 only writes tfar and the hit: set the constant fields once.
+    for (int k = 0; k < 16; ++k) {
+      rh.ray.org_x[k] = o.x();
+      rh.ray.org_y[k] = o.y();
+      rh.ray.org_z[k] = o.z();
+      rh.ray.tnear[k] = 0.0f;
+      rh.ray.time[k] = 0.0f;
+      rh.ray.mask[k] = 0xFFFFFFFFu;
+      rh.ray.id[k] = unsigned(k);
+      rh.ray.flags[k] = 0;
+    }
     int counted = 0;
     for (int tv = rect.v0; tv < rect.v1; tv += 4) {
       for (int tu = rect.u0; tu < rect.u1; tu += 4) {
@@ -167,20 +181,11 @@ struct SweepScene::Impl {
           valid[k] = (u < K.width && v < K.height) ? -1 : 0;
           // Unnormalised direction with unit z in the camera: tfar is the z-depth
           // (rotation keeps the length).
-          const Eigen::Vector3f dc(float((u - K.cx) / K.fx), float((v - K.cy) / K.fy), 1.0f);
-          const Eigen::Vector3f d = R * dc;
-          rh.ray.org_x[k] = o.x();
-          rh.ray.org_y[k] = o.y();
-          rh.ray.org_z[k] = o.z();
+          const Eigen::Vector3f d = ray_x[u] * r0 + ray_y[v] * r1 + r2;
           rh.ray.dir_x[k] = d.x();
           rh.ray.dir_y[k] = d.y();
           rh.ray.dir_z[k] = d.z();
-          rh.ray.tnear[k] = 0.0f;
           rh.ray.tfar[k] = kInf;
-          rh.ray.time[k] = 0.0f;
-          rh.ray.mask[k] = 0xFFFFFFFFu;
-          rh.ray.id[k] = unsigned(k);
-          rh.ray.flags[k] = 0;
           rh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
         }
         rtcIntersect16(valid, scene, &context, &rh);
@@ -192,11 +197,10 @@ struct SweepScene::Impl {
           if (!(z < frame.depth[p])) continue;
           const float nx = rh.hit.Ng_x[k], ny = rh.hit.Ng_y[k], nz = rh.hit.Ng_z[k];
           const float dx = rh.ray.dir_x[k], dy = rh.ray.dir_y[k], dz = rh.ray.dir_z[k];
-          const float nn = std::sqrt(nx * nx + ny * ny + nz * nz);
-          const float dd = std::sqrt(dx * dx + dy * dy + dz * dz);
+          const float nn = std::sqrt((nx * nx + ny * ny + nz * nz) * (dx * dx + dy * dy + dz * dz));
           frame.depth[p] = z;
           frame.cos_incidence[p] =
-              nn > 0 ? std::min(1.0f, std::abs(nx * dx + ny * dy + nz * dz) / (nn * dd)) : 1.0f;
+              nn > 0 ? std::min(1.0f, std::abs(nx * dx + ny * dy + nz * dz) / nn) : 1.0f;
           if (rh.hit.geomID[k] == count_geom) ++counted;
         }
         frame.rays_cast += 16;
@@ -247,6 +251,8 @@ SweepScene::SweepScene(const TriMesh& hung, const SweepOptions& options)
 
   const Intrinsics& K = options.kinect.intrinsics;
   const size_t n = size_t(K.width) * K.height;
+  for (int u = 0; u < (K.width + 3) / 4 * 4; ++u) m.ray_x.push_back(float((u - K.cx) / K.fx));
+  for (int v = 0; v < (K.height + 3) / 4 * 4; ++v) m.ray_y.push_back(float((v - K.cy) / K.fy));
   m.background_frame.depth.assign(n, kInf);
   m.background_frame.cos_incidence.assign(n, 1.0f);
   if (options.scene) {
