@@ -20,6 +20,18 @@ struct SpringNetwork {
   std::vector<double> mass;         // kg, per node
   std::vector<char> fixed;          // per node: 1 = held
   Vec3 gravity = Vec3(0, -9.81, 0);
+  // One-sided contacts keeping a node on its side of a nearby triangle (layers lying on
+  // each other): penalty force k·max(0, gap − d)·dir with d = dir·(x_node − Σ w_j x_j),
+  // the plane direction and barycentric weights frozen at the starting state.
+  struct Contact {
+    int node;
+    std::array<int, 3> tri;
+    Vec3 w;    // barycentric weights
+    Vec3 dir;  // unit, pointing from the triangle to the node's side
+    double gap;
+  };
+  std::vector<Contact> contacts;
+  double contact_stiffness = 0;  // N/m
 
   int NumNodes() const { return static_cast<int>(mass.size()); }
 };
@@ -30,8 +42,8 @@ Points3 SpringForces(const SpringNetwork& net, const Points3& x);
 
 struct EquilibriumOptions {
   // Stop when max over free nodes of |F_i| / (m_i g) falls below this.
-  double relative_tolerance = 1e-6;
-  int max_iterations = 200;  // slack (buckled) directions need many line-searched steps
+  double relative_tolerance = 1e-4;
+  int max_iterations = 40;  // Newton iterations per continuation stage
   // A solve moving any node further than this is rejected (state kept), metres.
   double max_displacement = 0.03;
   void Validate() const;
@@ -53,7 +65,8 @@ struct EquilibriumReport {
 // Solves F(x) = 0 for the free nodes starting from x (#V×3, updated in place when the
 // solve converges and moves no node more than max_displacement). Newton–Krylov:
 // SPGMR with an analytic Jacobian-vector product, right-preconditioned by a sparse
-// LDLᵀ factorisation of the tension-only (positive definite) stiffness, line search.
+// LDLᵀ factorisation of the tension-only (positive definite) stiffness, line search,
+// inside a proximal continuation (F + c·M·(x_prev − x) = 0 with c → 0).
 EquilibriumReport SolveEquilibrium(const SpringNetwork& net, Points3& x,
                                    const EquilibriumOptions& options);
 

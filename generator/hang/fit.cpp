@@ -61,7 +61,7 @@ double SpringShear(SpringFit& s, double membrane) {
   }
   Points3 x = s.start;
   EquilibriumOptions eo;
-  eo.relative_tolerance = 1e-7;
+  eo.relative_tolerance = 1e-5;
   eo.max_displacement = 1.0;
   const EquilibriumReport r = SolveEquilibrium(net, x, eo);
   ++s.evaluations;

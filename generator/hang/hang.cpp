@@ -282,18 +282,23 @@ class Separator {
         const double s0 = (prev[i] - prev[a]).dot(n0);
         if (s0 == 0) continue;
         const double side = s0 > 0 ? 1.0 : -1.0;
-        const double C = side * s - h_;  // < 0: too close or crossed
-        if (C >= 0) continue;
+        // Closer than h: stop approaching (velocity); closer than h/2 or crossed: also
+        // move back to h/2. (Pushing every contact out to h each step fought the links
+        // and left the layers jittering at ~0.2 m/s.)
+        const double gap = side * s;
+        if (gap >= h_) continue;
         btSoftBody::Node* tri[3] = {&sb->m_nodes[a], &sb->m_nodes[b], &sb->m_nodes[c]};
         const double w[3] = {wa, wb, wc};
         double denom = node.m_im;
         for (int t = 0; t < 3; ++t) denom += w[t] * w[t] * tri[t]->m_im;
         if (denom <= 0) continue;
         const Vec3 dir = side * nrm;
-        const double lambda = -C / denom;
         auto bt = [](const Vec3& v) { return btVector3(btScalar(v.x()), btScalar(v.y()), btScalar(v.z())); };
-        node.m_x += bt(lambda * node.m_im * dir);
-        for (int t = 0; t < 3; ++t) tri[t]->m_x -= bt(lambda * w[t] * tri[t]->m_im * dir);
+        if (gap < h_ / 2) {
+          const double lambda = (h_ / 2 - gap) / denom;
+          node.m_x += bt(lambda * node.m_im * dir);
+          for (int t = 0; t < 3; ++t) tri[t]->m_x -= bt(lambda * w[t] * tri[t]->m_im * dir);
+        }
         // Remove the approaching relative normal velocity (inelastic contact).
         Vec3 vrel(node.m_v.x(), node.m_v.y(), node.m_v.z());
         for (int t = 0; t < 3; ++t) vrel -= w[t] * Vec3(tri[t]->m_v.x(), tri[t]->m_v.y(), tri[t]->m_v.z());
@@ -307,6 +312,51 @@ class Separator {
       }
     }
     return corrections;
+  }
+
+  // Node–triangle pairs closer than `radius` in state x (node over the triangle, not
+  // within two rings): the equilibrium solve's contacts, each kept at `gap` on its side.
+  std::vector<SpringNetwork::Contact> Contacts(const Points3& x, double radius, double gap) const {
+    std::vector<SpringNetwork::Contact> out;
+    const int nf = static_cast<int>(F_.rows());
+    std::vector<std::pair<double, int>> order(nf);
+    double reach = 0;
+    for (int f = 0; f < nf; ++f) {
+      double lo = x(F_(f, 0), 0), hi = lo;
+      for (int c = 1; c < 3; ++c) {
+        lo = std::min(lo, x(F_(f, c), 0));
+        hi = std::max(hi, x(F_(f, c), 0));
+      }
+      order[f] = {lo, f};
+      reach = std::max(reach, hi - lo);
+    }
+    std::sort(order.begin(), order.end());
+    for (int i = 0; i < x.rows(); ++i) {
+      const Vec3 p = x.row(i).transpose();
+      auto it = std::lower_bound(order.begin(), order.end(), std::make_pair(p.x() - reach - radius, -1));
+      for (; it != order.end() && it->first <= p.x() + radius; ++it) {
+        const int f = it->second;
+        const int a = F_(f, 0), b = F_(f, 1), c = F_(f, 2);
+        const auto& nr = near_[i];
+        if (std::binary_search(nr.begin(), nr.end(), a) || std::binary_search(nr.begin(), nr.end(), b) ||
+            std::binary_search(nr.begin(), nr.end(), c))
+          continue;
+        const Vec3 xa = x.row(a), xb = x.row(b), xc = x.row(c);
+        Vec3 nrm = (xb - xa).cross(xc - xa);
+        if (nrm.norm() < 1e-12) continue;
+        nrm.normalize();
+        const double sd = (p - xa).dot(nrm);
+        if (std::abs(sd) >= radius || sd == 0) continue;
+        const Vec3 q = p - sd * nrm, v0 = xb - xa, v1 = xc - xa, v2 = q - xa;
+        const double d00 = v0.dot(v0), d01 = v0.dot(v1), d11 = v1.dot(v1), d20 = v2.dot(v0), d21 = v2.dot(v1);
+        const double den = d00 * d11 - d01 * d01;
+        if (den <= 0) continue;
+        const double wb = (d11 * d20 - d01 * d21) / den, wc = (d00 * d21 - d01 * d20) / den, wa = 1 - wb - wc;
+        if (wa < 0 || wb < 0 || wc < 0) continue;
+        out.push_back({i, {a, b, c}, Vec3(wa, wb, wc), sd > 0 ? nrm : Vec3(-nrm), gap});
+      }
+    }
+    return out;
   }
 
  private:
@@ -401,7 +451,11 @@ RunOutcome RunBullet(const TriMesh& mesh, const Points3& start, const Points3& r
     const auto t0 = Clock::now();
     world.stepSimulation(btScalar(dt), 0, btScalar(dt));
     bullet_s += Seconds(t0, Clock::now());
-    if (sep) out.stats.collision_corrections = sep->Apply(sb.get(), prev);
+    if (sep) {
+      const auto t1 = Clock::now();
+      out.stats.collision_corrections = sep->Apply(sb.get(), prev);
+      out.stats.contact_seconds += Seconds(t1, Clock::now());
+    }
     if (step % quarter == 0) {
       double ke = 0, vmax = 0;
       bool finite = true;
@@ -454,44 +508,6 @@ RunOutcome RunBullet(const TriMesh& mesh, const Points3& start, const Points3& r
   out.ok = failure.empty();
   (void)seed;
   return out;
-}
-
-// Number of (node, triangle) pairs that changed side between a and b among pairs
-// closer than `radius` in a (a crossing check for the equilibrium solve).
-int CountCrossings(const TriMesh& mesh, const Points3& a, const Points3& b, double radius) {
-  // Brute force over a coarse grid is not needed: check each node against the triangles
-  // of its 3D neighbourhood via a sorted-by-x sweep.
-  const int nf = mesh.NumFaces();
-  std::vector<std::pair<double, int>> order(nf);
-  for (int f = 0; f < nf; ++f) order[f] = {a.row(mesh.F(f, 0)).x(), f};
-  std::sort(order.begin(), order.end());
-  const auto nbr = VertexNeighbours(mesh);
-  int crossings = 0;
-  double max_edge = 0;
-  for (const auto& e : UniqueEdges(mesh)) max_edge = std::max(max_edge, (a.row(e[0]) - a.row(e[1])).norm());
-  for (int i = 0; i < a.rows(); ++i) {
-    const Vec3 p = a.row(i);
-    auto lo = std::lower_bound(order.begin(), order.end(), std::make_pair(p.x() - max_edge - radius, -1));
-    for (auto it = lo; it != order.end() && it->first <= p.x() + max_edge + radius; ++it) {
-      const int f = it->second;
-      const int va = mesh.F(f, 0), vb = mesh.F(f, 1), vc = mesh.F(f, 2);
-      if (va == i || vb == i || vc == i) continue;
-      auto adjacent = [&](int v) { return std::binary_search(nbr[i].begin(), nbr[i].end(), v); };
-      if (adjacent(va) || adjacent(vb) || adjacent(vc)) continue;
-      auto side = [&](const Points3& x, double& dist) {
-        const Vec3 xa = x.row(va), xb = x.row(vb), xc = x.row(vc), q = x.row(i);
-        const Vec3 nn = (xb - xa).cross(xc - xa).normalized();
-        dist = (q - ClosestPointOnTriangle(q, xa, xb, xc)).norm();
-        return (q - xa).dot(nn);
-      };
-      double da, db;
-      const double sa = side(a, da);
-      if (da > radius) continue;
-      const double sb = side(b, db);
-      if (db < radius && sa * sb < 0) ++crossings;
-    }
-  }
-  return crossings;
 }
 
 double Strain(const ClothModel& model, const Points3& rest, const Points3& x, double* max_out) {
@@ -597,8 +613,18 @@ HangResult Hang(const Garment& garment, int anchor_vertex, const Vec3& grasp_off
 
   Points3 x = run.x;
   if (fit.spring_stiffness > 0) {
-    const SpringNetwork net = MakeNetwork(model, rest, fit.spring_stiffness, material.bending_stiffness, fixed);
+    SpringNetwork net = MakeNetwork(model, rest, fit.spring_stiffness, material.bending_stiffness, fixed);
+    if (options.self_collision && options.equilibrium_solve) {
+      // Layers resting on each other: keep them apart in the solve too (the spring
+      // model alone lets them pass through).
+      Separator sep(mesh, options.layer_thickness);
+      net.contacts = sep.Contacts(x, 2 * options.layer_thickness, options.layer_thickness / 2);
+      double ksum = 0;
+      for (size_t i = 0; i < net.springs.size(); ++i) ksum += net.stiffness[i] / net.rest_length[i];
+      net.contact_stiffness = 10 * ksum / std::max<size_t>(1, net.springs.size());
+    }
     EquilibriumReport eq;
+    const auto teq = Clock::now();
     if (options.equilibrium_solve) {
       EquilibriumOptions eo;
       eo.relative_tolerance = options.equilibrium_tolerance;
@@ -607,8 +633,13 @@ HangResult Hang(const Garment& garment, int anchor_vertex, const Vec3& grasp_off
       eq = SolveEquilibrium(net, solved, eo);
       if (eq.applied && options.self_collision) {
         // The spring model has no contact: reject a solve that pushes layers through.
-        const int crossings = CountCrossings(mesh, x, solved, 2 * options.layer_thickness);
-        if (crossings > std::max(2, n / 200)) {
+        int crossings = 0;
+        for (const auto& c : net.contacts) {
+          Vec3 q = solved.row(c.node).transpose();
+          for (int j = 0; j < 3; ++j) q -= c.w[j] * solved.row(c.tri[j]).transpose();
+          crossings += c.dir.dot(q) < 0;
+        }
+        if (crossings > std::max(2, n / 100)) {
           eq.applied = false;
           eq.message = "rejected: " + std::to_string(crossings) + " node/triangle crossings";
           eq.residual_after = eq.residual_before;
@@ -623,9 +654,11 @@ HangResult Hang(const Garment& garment, int anchor_vertex, const Vec3& grasp_off
       result.stats.force_residual = eq.residual_after;
       result.stats.force_residual_rel = eq.relative_after;
       result.stats.equilibrium_applied = eq.applied;
+      result.stats.equilibrium_converged = eq.applied && eq.converged;
       result.stats.equilibrium_iterations = eq.iterations;
       result.stats.equilibrium_displacement = eq.max_displacement;
       result.stats.equilibrium_message = eq.message;
+      result.stats.equilibrium_seconds = Seconds(teq, Clock::now());
     } else {
       const Points3 f = SpringForces(net, x);
       double amax = 0, rmax = 0;
