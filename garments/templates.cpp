@@ -38,7 +38,7 @@ void Require(bool ok, const std::string& what) {
 
 // Shirts (long sleeve and T-shirt) share one outline: body, shoulders, a curved
 // neckline, and sleeves pointing down-outwards at sleeve_angle below horizontal.
-Builder Shirt(const Params& p, bool long_sleeve) {
+Builder Shirt(const Params& p, double h, bool long_sleeve) {
   const double H = p.at("body_length"), cw = p.at("chest_width"), hw = p.at("hem_width");
   const double sw = p.at("shoulder_width"), nw = p.at("neck_width"), nd = p.at("neck_depth");
   const double sd = p.at("shoulder_drop"), ad = p.at("armhole_depth");
@@ -62,8 +62,10 @@ Builder Shirt(const Params& p, bool long_sleeve) {
   b.Add(cuff_bottom, cuff_l);
   b.Add(cuff_top);
   b.Add(shoulder);
-  // Neckline: half ellipse from the left neck point through the collar to the right.
-  const int kNeck = 12;
+  // Neckline: half ellipse from the left neck point through the collar to the right,
+  // in pieces about one target edge long (at least 4, so it stays a curve).
+  const double arc = M_PI * (nw / 2 + nd) / 2;  // ≈ half the ellipse perimeter
+  const int kNeck = std::max(4, static_cast<int>(std::ceil(arc / h)));
   for (int k = 0; k < kNeck; ++k) {
     const double t = M_PI * k / kNeck;
     b.Add(Vec2(nw / 2 * std::cos(t), H - nd * std::sin(t)), "neck");
@@ -104,16 +106,16 @@ Builder Shirt(const Params& p, bool long_sleeve) {
 }
 
 // Pants and shorts: waistband on top, two legs meeting at the crotch.
-Builder Trousers(const Params& p, bool shorts) {
+Builder Trousers(const Params& p, double, bool shorts) {
   const double ww = p.at("waist_width"), hipw = p.at("hip_width"), rise = p.at("rise");
   const double hd = p.at("hip_depth"), inseam = p.at("inseam"), lw = p.at("leg_width");
-  const double splay = p.at("leg_splay");
+  const double gap = p.at("leg_gap");
   Require(hd < rise, "hip_depth must be smaller than rise");
+  Require(gap > 0.005, "leg_gap must be at least 5 mm");
   const double H = rise + inseam;
-  const double xc = hipw / 4 + splay;  // centre of a leg opening
+  const double xc = gap / 2 + lw / 2;  // centre of a leg opening
   const Vec2 waist(ww / 2, H), hip(hipw / 2, H - hd), crotch(0, inseam);
-  const Vec2 leg_out(xc + lw / 2, 0), leg_in(xc - lw / 2, 0);
-  Require(leg_in.x() > 0.005, "leg_width too large for hip_width (the legs would overlap)");
+  const Vec2 leg_out(gap / 2 + lw, 0), leg_in(gap / 2, 0);
   Builder b;
   b.Add(leg_in, "left_leg");
   b.Add(leg_out);
@@ -146,7 +148,7 @@ Builder Trousers(const Params& p, bool shorts) {
   return b;
 }
 
-Builder Skirt(const Params& p) {
+Builder Skirt(const Params& p, double) {
   const double ww = p.at("waist_width"), hipw = p.at("hip_width"), hd = p.at("hip_depth");
   const double hw = p.at("hem_width"), L = p.at("length");
   Require(hd < L, "hip_depth must be smaller than length");
@@ -170,7 +172,7 @@ Builder Skirt(const Params& p) {
 }
 
 // A towel has no wearer: its left/right are as seen in the preview (−x / +x).
-Builder Towel(const Params& p) {
+Builder Towel(const Params& p, double) {
   const double w = p.at("width"), l = p.at("length");
   Builder b;
   b.Add(Vec2(-w / 2, 0));
@@ -191,7 +193,7 @@ Builder Towel(const Params& p) {
 
 struct TemplateDef {
   TemplateInfo info;
-  std::function<Builder(const Params&)> build;
+  std::function<Builder(const Params&, double)> build;
 };
 
 std::vector<TemplateParameter> ShirtParams(bool long_sleeve) {
@@ -227,7 +229,7 @@ std::vector<TemplateParameter> TrouserParams(bool shorts) {
         {"rise", "waist to crotch", 0.26, 0.28, 0.30},
         {"inseam", "height of the crotch above the leg openings", 0.74, 0.78, 0.82},
         {"leg_width", "flat width of a leg opening", 0.18, 0.19, 0.20},
-        {"leg_splay", "outward shift of a leg opening's centre", 0.03, 0.03, 0.03},
+        {"leg_gap", "distance between the inner corners of the two leg openings", 0.12, 0.12, 0.12},
     };
   }
   return {
@@ -237,7 +239,7 @@ std::vector<TemplateParameter> TrouserParams(bool shorts) {
       {"rise", "waist to crotch", 0.26, 0.28, 0.30},
       {"inseam", "height of the crotch above the leg openings", 0.16, 0.18, 0.20},
       {"leg_width", "flat width of a leg opening", 0.27, 0.29, 0.31},
-      {"leg_splay", "outward shift of a leg opening's centre", 0.03, 0.03, 0.03},
+      {"leg_gap", "distance between the inner corners of the two leg openings", 0.04, 0.04, 0.04},
   };
 }
 
@@ -265,26 +267,26 @@ Params Preset(const TemplateInfo& info, const std::string& size) {
 std::vector<TemplateDef> MakeDefs() {
   std::vector<TemplateDef> defs;
   auto add = [&](std::string name, std::string description, std::vector<TemplateParameter> params,
-                 std::function<Builder(const Params&)> build) {
+                 std::function<Builder(const Params&, double)> build) {
     TemplateDef d;
     d.info.name = name;
     d.info.category = name;
     d.info.description = std::move(description);
     d.info.parameters = std::move(params);
     d.build = std::move(build);
-    const Builder b = d.build(Preset(d.info, "M"));
+    const Builder b = d.build(Preset(d.info, "M"), 0.025);
     d.info.anchor_labels = Labels(b);
     d.info.openings = Openings(b);
     defs.push_back(std::move(d));
   };
   add("long_sleeve_shirt", "long-sleeve shirt / sweater laid flat, sleeves angled down",
-      ShirtParams(true), [](const Params& p) { return Shirt(p, true); });
+      ShirtParams(true), [](const Params& p, double h) { return Shirt(p, h, true); });
   add("tshirt", "short-sleeve T-shirt laid flat", ShirtParams(false),
-      [](const Params& p) { return Shirt(p, false); });
+      [](const Params& p, double h) { return Shirt(p, h, false); });
   add("pants", "long trousers / jeans laid flat", TrouserParams(false),
-      [](const Params& p) { return Trousers(p, false); });
+      [](const Params& p, double h) { return Trousers(p, h, false); });
   add("shorts", "short trousers laid flat", TrouserParams(true),
-      [](const Params& p) { return Trousers(p, true); });
+      [](const Params& p, double h) { return Trousers(p, h, true); });
   add("skirt", "A-line skirt laid flat",
       {{"waist_width", "flat width of the waistband", 0.34, 0.36, 0.39},
        {"hip_width", "flat width at the hip line", 0.44, 0.47, 0.50},
@@ -380,7 +382,7 @@ TemplateShape MakeTemplateShape(const std::string& name, const TemplateOptions& 
   shape.instance = instance;
   shape.params = p;
   try {
-    Builder b = def.build(p);
+    Builder b = def.build(p, options.edge_length);
     shape.contour = std::move(b.c);
     shape.anchors = std::move(b.anchors);
   } catch (const Error& e) {

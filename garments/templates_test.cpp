@@ -15,9 +15,9 @@ namespace {
 
 // Stated mesh-quality bounds at the default edge length h (see anchors.md / report):
 // every pattern edge within [0.4 h, 1.6 h], 90 % of them within [0.6 h, 1.35 h],
-// smallest triangle angle ≥ 25°.
+// smallest triangle angle ≥ 20° (what CGAL guarantees for B = 0.125).
 constexpr double kRatioMin = 0.4, kRatioMax = 1.6, kRatioP05 = 0.6, kRatioP95 = 1.35;
-constexpr double kMinAngleDeg = 25;
+constexpr double kMinAngleDeg = 20;
 
 // The paper's anchor counts (long-sleeve shirt 19, pants 12, shorts 8), towel 8+.
 int RequiredAnchors(const std::string& name) {
@@ -37,8 +37,7 @@ Vec2 ExpectedSize(const std::string& name, const std::map<std::string, double>& 
     return {2 * half, p.at("body_length")};
   }
   if (name == "pants" || name == "shorts") {
-    const double half = std::max(p.at("hip_width") / 2,
-                                 p.at("hip_width") / 4 + p.at("leg_splay") + p.at("leg_width") / 2);
+    const double half = std::max(p.at("hip_width") / 2, p.at("leg_gap") / 2 + p.at("leg_width"));
     return {2 * half, p.at("rise") + p.at("inseam")};
   }
   if (name == "skirt") return {std::max(p.at("hem_width"), p.at("hip_width")), p.at("length")};
