@@ -1,5 +1,6 @@
 // TSDF integration, space carving and queries (no OpenVDB here: it lives in vdb.cpp).
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <deque>
@@ -80,10 +81,6 @@ void Tsdf::Integrate(const DepthFrame& frame, const Intrinsics& K) {
     m.yhat.resize(H);
     for (int u = 0; u < W; ++u) m.xhat[u] = (u - K.cx) / K.fx;
     for (int v = 0; v < H; ++v) m.yhat[v] = (v - K.cy) / K.fy;
-    m.lambda.resize(size_t(W) * H);
-    for (int v = 0; v < H; ++v)
-      for (int u = 0; u < W; ++u)
-        m.lambda[size_t(v) * W + u] = float(std::sqrt(1 + m.xhat[u] * m.xhat[u] + m.yhat[v] * m.yhat[v]));
     m.rays_for = K;
     m.rays_valid = true;
   }
@@ -157,28 +154,39 @@ void Tsdf::Integrate(const DepthFrame& frame, const Intrinsics& K) {
   const std::vector<float>& carve = code;
 
   // 2. Allocate the blocks that the band [d - μ, d + μ] of each foreground pixel
-  // crosses (every 2nd pixel in u and v: a block spans >= 2.7 px up to 4 m at 384/m;
-  // samples along the ray every half block).
+  // crosses. Samples every half block along the ray, and every `stride` pixels with
+  // stride ≤ a third of a block's footprint at the farthest foreground depth, so
+  // no block the band crosses is skipped between samples.
   std::vector<int> touched;
   {
+    float far = 0;
+    for (size_t i = 0; i < code.size(); ++i) far = std::max(far, code[i] > 0 ? code[i] : 0.f);
+    const double block_px = far > 0 ? kBlockDim * h * std::min(K.fx, K.fy) / far : 1;
+    const int stride = std::clamp(static_cast<int>(block_px / 3), 1, 8);
     const int steps = static_cast<int>(std::ceil(2 * mu / (0.5 * kBlockDim * h)));
-    uint64_t last_key = ~uint64_t(0);
-    for (int v = 0; v < H; v += 2) {
-      for (int u = 0; u < W; u += 2) {
+    // Direct-mapped cache of blocks already stamped this frame: most samples fall in
+    // a block a neighbouring sample has just found.
+    constexpr int kCache = 1024;
+    std::array<uint64_t, kCache> cache;
+    cache.fill(~uint64_t(0));
+    for (int v = 0; v < H; v += stride) {
+      for (int u = 0; u < W; u += stride) {
         const float d = code[size_t(v) * W + u];
         if (!(d > 0)) continue;
         const double lambda = std::sqrt(1 + m.xhat[u] * m.xhat[u] + m.yhat[v] * m.yhat[v]);
+        const Vec3 ray = R * Vec3(m.xhat[u], m.yhat[v], 1.0);
         for (int s = 0; s <= steps; ++s) {
           const double along = -mu + 2 * mu * s / steps;  // metres along the ray
           const double z = d + along / lambda;
           if (z <= 0) continue;
-          const Vec3 p = R * Vec3(z * m.xhat[u], z * m.yhat[v], z) + t;
+          const Vec3 p = z * ray + t;
           const Eigen::Vector3i b(FloorDiv8(static_cast<int>(std::floor(p.x() / h + 0.5))),
                                   FloorDiv8(static_cast<int>(std::floor(p.y() / h + 0.5))),
                                   FloorDiv8(static_cast<int>(std::floor(p.z() / h + 0.5))));
           const uint64_t key = Impl::Key(b);
-          if (key == last_key) continue;
-          last_key = key;
+          uint64_t& slot = cache[(key * 0x9E3779B97F4A7C15ull) >> 54];
+          if (slot == key) continue;
+          slot = key;
           auto [it, inserted] = m.index.try_emplace(key, static_cast<int>(m.blocks.size()));
           if (inserted) {
             auto blk = std::make_unique<FusionBlock>();
@@ -209,7 +217,6 @@ void Tsdf::Integrate(const DepthFrame& frame, const Intrinsics& K) {
     const Eigen::Vector3f c0 = (Rt * (origin - t)).cast<float>();
     const Eigen::Vector3f ex = (Rt.col(0) * h).cast<float>(), ey = (Rt.col(1) * h).cast<float>(),
                           ez = (Rt.col(2) * h).cast<float>();
-    const float* lambda_table = m.lambda.data();
     int64_t n = 0;
     for (int x = 0; x < kBlockDim; ++x) {
       for (int y = 0; y < kBlockDim; ++y) {
@@ -219,13 +226,16 @@ void Tsdf::Integrate(const DepthFrame& frame, const Intrinsics& K) {
                       zc = cxy.z() + float(z) * ez.z();
           if (zc <= 1e-6f) continue;
           const float inv = 1.0f / zc;
-          const int iu = static_cast<int>(std::floor(fx * cxv * inv + cx + 0.5f));
-          const int iv = static_cast<int>(std::floor(fy * cyv * inv + cy + 0.5f));
-          if (iu < 0 || iv < 0 || iu >= W || iv >= H) continue;
+          // Rounded to the nearest pixel; truncation is floor for the non-negative
+          // values kept (std::floor is a libm call without SSE4.1).
+          const float uf = fx * cxv * inv + cx + 0.5f, vf = fy * cyv * inv + cy + 0.5f;
+          if (!(uf >= 0 && vf >= 0 && uf < float(W) && vf < float(H))) continue;
+          const int iu = static_cast<int>(uf), iv = static_cast<int>(vf);
           const size_t pix = size_t(iv) * W + iu;
           const float d = code[pix];
-          // Distance along the pixel's ray per unit of depth.
-          const float lambda = lambda_table[pix];
+          // Distance along the ray per unit of depth (computed, not looked up: one
+          // image fetch per voxel is the cache-bound part).
+          const float lambda = std::sqrt(cxv * cxv + cyv * cyv + zc * zc) * inv;
           float value;
           if (d > 0 && (d - zc) * lambda <= fmu) {
             const float sdf = (d - zc) * lambda;

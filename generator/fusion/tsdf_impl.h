@@ -42,7 +42,6 @@ struct Tsdf::Impl {
   // Cached ray directions for the last intrinsics.
   Intrinsics rays_for{};
   std::vector<double> xhat, yhat;
-  std::vector<float> lambda;  // |ray| per unit depth, per pixel
   bool rays_valid = false;
 
   // Completion (rules 2 and 3 of fusion.h), computed lazily after integration.
