@@ -83,7 +83,8 @@ class ReleaseTest : public ::testing::Test {
     fs::create_directories(root_);
   }
   void TearDown() override {
-    if (!HasFailure()) fs::remove_all(root_);
+    // DRAPE_KEEP_TEST_OUTPUT=1 keeps the releases for a look (drape info/ls/verify).
+    if (!HasFailure() && !std::getenv("DRAPE_KEEP_TEST_OUTPUT")) fs::remove_all(root_);
   }
   // A full release built sequentially.
   ReleaseWriter::Summary Build(const fs::path& dir, const ReleaseMeta& meta = MakeMeta()) {
