@@ -1,0 +1,365 @@
+// drape recognize / calibrate / eval: pose recognition against a release (paper
+// §"Pose Estimation"), RankSVM calibration of the weighted Hamming distance, and the
+// evaluation report.
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+
+#include "cli/args.h"
+#include "cli/command.h"
+#include "common/error.h"
+#include "generator/release/release.h"
+#include "runtime/recognition/calibrate.h"
+#include "runtime/recognition/evaluate.h"
+#include "runtime/recognition/query_pipeline.h"
+#include "runtime/recognition/release_source.h"
+
+namespace drape::cli {
+namespace {
+
+namespace fs = std::filesystem;
+using namespace drape::recognition;
+
+double Since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+Kernel ParseKernel(const std::string& s) {
+  if (s == "auto") return Kernel::kAuto;
+  if (s == "generic") return Kernel::kGeneric;
+  if (s == "popcnt") return Kernel::kPopcnt;
+  if (s == "avx512") return Kernel::kAvx512;
+  throw Error("--kernel: '" + s + "' is not one of auto, generic, popcnt, avx512");
+}
+
+// --weights PATH | none; default: <release>/calibration if it exists. Returns the path
+// used (empty = unweighted) and fills `w`.
+fs::path ResolveWeights(const Args& a, const Release& rel, Weights* w, bool* have) {
+  *have = false;
+  const std::string opt = a.Get("--weights", "");
+  if (opt == "none" || a.Flag("--unweighted")) return {};
+  fs::path p = opt.empty() ? DefaultWeightsDir(rel) / "weights.json" : fs::path(opt);
+  if (opt.empty() && !fs::exists(p)) return {};
+  *w = LoadWeights(p, rel.digest());
+  *have = true;
+  return p;
+}
+
+std::string Fmt(const char* f, double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, f, v);
+  return buf;
+}
+
+// ------------------------------------------------------------------ recognize
+
+const char* kRecognizeUsage =
+    "Usage: drape recognize RELEASE (--entry ID | --sweep DIR | --mesh FILE) [options]\n"
+    "\n"
+    "Recognises the category and the grasped anchor of a garment held by a gripper, by\n"
+    "nearest neighbour in the release's train split (the database): the category by the\n"
+    "unweighted rotation-invariant Hamming distance (paper Eq. match), the anchor inside\n"
+    "that category by the learned weighted distance (Eq. bestmatch) when the release has\n"
+    "weights from `drape calibrate`.\n"
+    "\n"
+    "Query (one of):\n"
+    "  --entry ID        a release entry (usually from the test split); its stored feature\n"
+    "                    is used, fusion/feature times come from the build's timing record\n"
+    "                    (add --refuse to re-fuse its kept sweep and time it here)\n"
+    "  --sweep DIR       a recorded sweep: 16-bit depth PNGs (mm) + cameras.json; fused and\n"
+    "                    featurised with the release's recipe options\n"
+    "  --mesh FILE       a hung mesh in the object frame (gripper at the origin, y up); a\n"
+    "                    synthetic sweep of it is fused and featurised like a test entry\n"
+    "Options:\n"
+    "  --weights PATH    weights.json (default: RELEASE/calibration/weights.json if present);\n"
+    "                    'none' or --unweighted for Eq. match only\n"
+    "  --category C      the category is known: search only its entries\n"
+    "  --instance I      search only database garment instance I\n"
+    "  --top-k K         distinct anchors listed (default 5)\n"
+    "  --refuse          with --entry: re-fuse the entry's kept sweep and time it\n"
+    "  --seed N          seed for a mesh query's synthetic sweep (default 0)\n"
+    "  --kernel K        auto | generic | popcnt | avx512 (default auto)\n"
+    "  --json            machine-readable output\n";
+
+int RunRecognize(const std::vector<std::string>& argv) {
+  Args a(argv, {"--json", "--unweighted", "--refuse"},
+         {"--entry", "--sweep", "--mesh", "--weights", "--category", "--instance", "--top-k", "--kernel", "--seed"});
+  if (a.help()) {
+    std::cout << kRecognizeUsage;
+    return 0;
+  }
+  a.RequirePositional(1, 1, "RELEASE");
+  const int nq = a.Get("--entry").has_value() + a.Get("--sweep").has_value() + a.Get("--mesh").has_value();
+  if (nq != 1) throw Error("give exactly one query: --entry ID, --sweep DIR or --mesh FILE");
+
+  auto t0 = std::chrono::steady_clock::now();
+  const Release rel = Release::Open(a.positional()[0]);
+  LoadReport lr;
+  Database db = LoadDatabase(rel, &lr, ParseKernel(a.Get("--kernel", "auto")));
+  const double load_s = Since(t0);
+  Weights w;
+  bool have_w = false;
+  const fs::path wpath = ResolveWeights(a, rel, &w, &have_w);
+  Recognizer rec(db, have_w ? &w : nullptr);
+
+  Code q;
+  Json query{{"kind", ""}};
+  Json timing{{"load_database_seconds", load_s}};
+  const uint64_t seed = static_cast<uint64_t>(a.GetInt("--seed").value_or(0));
+  if (auto id = a.Get("--entry")) {
+    const Release::EntryInfo* e = rel.Find(*id);
+    if (!e) throw Error("--entry: release has no entry '" + *id + "'");
+    if (e->failed) throw Error("--entry: entry " + *id + " failed in the build (" + e->failure + ")");
+    const EntryLabel l = LabelFromEntry(*e);
+    q = LoadEntryCode(rel, *e);
+    query = {{"kind", "entry"}, {"id", *id}, {"split", e->split}, {"true_category", l.category},
+             {"true_anchor", l.anchor}, {"instance", l.instance}};
+    if (e->split == "train") query["note"] = "a train entry is in the database: it matches itself at distance 0";
+    const StageTiming st = EntryStageTiming(rel.build_info(), *id);
+    timing["fusion_seconds"] = st.fusion_seconds >= 0 ? Json(st.fusion_seconds) : Json(nullptr);
+    timing["feature_seconds"] = st.feature_seconds >= 0 ? Json(st.feature_seconds) : Json(nullptr);
+    timing["fusion_feature_source"] = st.source.empty() ? "not recorded by the build" : st.source;
+    if (a.Flag("--refuse")) {
+      bool has_sweep = false;
+      for (const auto& f : e->files) has_sweep |= f.path == "sweep/cameras.json";
+      if (!has_sweep) throw Error("--refuse: entry " + *id + " kept no sweep (the recipe's keep_frames is off for its split)");
+      const PipelineResult pr = FeatureFromSweep(rel, rel.EntryPath(*id, "sweep"), seed);
+      timing["refused"] = {{"read_seconds", pr.timing.read_seconds},
+                           {"fusion_seconds", pr.timing.fusion_seconds},
+                           {"feature_seconds", pr.timing.feature_seconds}};
+      const Match m = MatchReference(q, pr.code);
+      query["refused_vs_stored_feature"] = {{"distance", m.distance}, {"rotation", m.rotation}};
+    }
+  } else {
+    const bool sweep = a.Get("--sweep").has_value();
+    const fs::path p = sweep ? *a.Get("--sweep") : *a.Get("--mesh");
+    const PipelineResult pr = sweep ? FeatureFromSweep(rel, p, seed) : FeatureFromMesh(rel, p, seed);
+    q = pr.code;
+    query = {{"kind", sweep ? "sweep" : "mesh"}, {"path", p.string()}, {"info", pr.info}};
+    timing["read_seconds"] = pr.timing.read_seconds;
+    if (!sweep) timing["sweep_seconds"] = pr.timing.sweep_seconds;
+    timing["fusion_seconds"] = pr.timing.fusion_seconds;
+    timing["feature_seconds"] = pr.timing.feature_seconds;
+    timing["fusion_feature_source"] = "measured in this run";
+  }
+
+  RecognizeOptions o;
+  o.top_k = static_cast<int>(a.GetInt("--top-k").value_or(5));
+  o.category = a.Get("--category", "");
+  o.instance = a.Get("--instance", "");
+  const Recognition r = rec.Recognize(q, o);
+  timing["matching_seconds"] = r.match_seconds;
+
+  const EntryLabel& bl = db.label(r.best.entry);
+  const auto hung = HungVertex(rel, bl.id, bl.anchor_vertex);
+  Json out{{"release", rel.dir().string()},
+           {"digest", rel.digest()},
+           {"weights", wpath.empty() ? Json(nullptr) : Json(wpath.string())},
+           {"query", query},
+           {"result", ToJson(r)},
+           {"anchor_position",
+            {{"entry", bl.id},
+             {"vertex", bl.anchor_vertex},
+             {"hung_object_frame", hung ? Json::array({(*hung)[0], (*hung)[1], (*hung)[2]}) : Json(nullptr)},
+             {"flat_uv", bl.anchor_uv ? Json::array({(*bl.anchor_uv)[0], (*bl.anchor_uv)[1]}) : Json(nullptr)}}},
+           {"timing", timing},
+           {"database", {{"entries", db.size()}, {"kernel", KernelName(db.matcher().kernel())}}}};
+  if (a.Flag("--json")) {
+    std::cout << out.dump(2) << "\n";
+    return 0;
+  }
+  std::cout << "query     " << query["kind"].get<std::string>() << " "
+            << (query.contains("id") ? query["id"].get<std::string>() : query.value("path", "")) << "\n";
+  if (query.contains("true_category")) {
+    std::cout << "truth     " << query["true_category"].get<std::string>() << " / "
+              << query["true_anchor"].get<std::string>() << " (" << query["split"].get<std::string>() << ")\n";
+  }
+  std::cout << "category  " << r.category << " (" << (r.category_source == "given" ? "given" : "unweighted nearest neighbour")
+            << ")\n"
+            << "anchor    " << r.anchor << "  — entry " << r.best.id << " (" << r.best.instance << "), distance "
+            << r.best.distance << " bits, rotation " << r.best.rotation << " ("
+            << Fmt("%.1f", 360.0 * r.best.rotation / db.sectors()) << "°)"
+            << (r.weighted ? ", weighted " + Fmt("%.4g", r.best.score) : std::string(", unweighted")) << "\n";
+  if (hung) {
+    std::cout << "position  on the matched hung mesh (object frame): (" << Fmt("%.3f", (*hung)[0]) << ", "
+              << Fmt("%.3f", (*hung)[1]) << ", " << Fmt("%.3f", (*hung)[2]) << ") m, vertex " << bl.anchor_vertex << "\n";
+  }
+  if (bl.anchor_uv) {
+    std::cout << "          on its flat pattern: uv (" << Fmt("%.3f", (*bl.anchor_uv)[0]) << ", "
+              << Fmt("%.3f", (*bl.anchor_uv)[1]) << ") m\n";
+  }
+  std::cout << "top " << r.top.size() << ":\n";
+  for (size_t i = 0; i < r.top.size(); ++i) {
+    std::cout << "  " << i + 1 << ". " << r.top[i].anchor << "  (" << r.top[i].id << ", distance " << r.top[i].distance
+              << (r.weighted ? ", weighted " + Fmt("%.4g", r.top[i].score) : std::string()) << ")\n";
+  }
+  std::cout << "time      load database " << Fmt("%.3f", load_s) << " s (" << db.size() << " entries, once)";
+  auto show = [&](const char* name, const char* key) {
+    if (timing.contains(key) && !timing[key].is_null()) std::cout << ", " << name << " " << Fmt("%.3f", timing[key].get<double>()) << " s";
+    else if (timing.contains(key)) std::cout << ", " << name << " n/a";
+  };
+  show("sweep", "sweep_seconds");
+  show("fusion", "fusion_seconds");
+  show("feature", "feature_seconds");
+  std::cout << ", matching " << Fmt("%.6f", r.match_seconds) << " s\n";
+  if (timing.contains("fusion_feature_source")) {
+    std::cout << "          (fusion/feature: " << timing["fusion_feature_source"].get<std::string>() << ")\n";
+  }
+  if (timing.contains("refused")) {
+    std::cout << "re-fused  fusion " << Fmt("%.3f", timing["refused"]["fusion_seconds"].get<double>()) << " s, feature "
+              << Fmt("%.3f", timing["refused"]["feature_seconds"].get<double>()) << " s; re-extracted vs stored feature: "
+              << query["refused_vs_stored_feature"]["distance"] << " bits\n";
+  }
+  if (!have_w) std::cout << "note      no weights (run `drape calibrate`): unweighted distance only\n";
+  return 0;
+}
+
+// ------------------------------------------------------------------ calibrate
+
+const char* kCalibrateUsage =
+    "Usage: drape calibrate RELEASE [options]\n"
+    "\n"
+    "Learns the weighted Hamming distance (paper Eq. learn), one weight vector per category,\n"
+    "with a RankSVM solved by the cutting-plane method (dlib svm_rank_trainer): for every\n"
+    "calibration query, database entries with its anchor must rank closer than the others.\n"
+    "Writes RELEASE/calibration/weights.json + weights.bin, tied to the release digest\n"
+    "(outside SHA256SUMS and the digest).\n"
+    "\n"
+    "Options:\n"
+    "  --c C             RankSVM penalty (default 10, the paper's; dlib scales it by 1/#pairs)\n"
+    "  --split S         split to learn from (default calibration)\n"
+    "  --frame F         database (default) | query: which frame w indexes (see docs)\n"
+    "  --epsilon E       solver tolerance (default 0.001)\n"
+    "  --out DIR         write the weights here instead\n"
+    "  --json            print the training statistics as JSON\n";
+
+int RunCalibrate(const std::vector<std::string>& argv) {
+  Args a(argv, {"--json"}, {"--c", "--split", "--frame", "--epsilon", "--out"});
+  if (a.help()) {
+    std::cout << kCalibrateUsage;
+    return 0;
+  }
+  a.RequirePositional(1, 1, "RELEASE");
+  const Release rel = Release::Open(a.positional()[0]);
+  CalibrateOptions opt;
+  opt.c = a.GetDouble("--c").value_or(10.0);
+  opt.epsilon = a.GetDouble("--epsilon").value_or(0.001);
+  opt.frame = ParseWeightFrame(a.Get("--frame", "database"));
+  opt.Validate();
+  const std::string split = a.Get("--split", "calibration");
+  LoadReport lr;
+  const Database db = LoadDatabase(rel, &lr);
+  LoadReport qr;
+  const std::vector<LabelledCode> queries = LoadSplit(rel, split, &qr);
+  if (queries.empty()) throw Error("calibrate: split '" + split + "' of " + rel.dir().string() + " has no usable entries");
+  const auto t0 = std::chrono::steady_clock::now();
+  CalibrationResult res = Calibrate(db, queries, opt, rel.digest());
+  const double secs = Since(t0);
+  res.weights.options["split"] = split;
+  res.weights.stats["seconds"] = secs;
+  res.weights.stats["database_entries"] = db.size();
+  res.weights.stats["queries"] = static_cast<int>(queries.size());
+  res.weights.stats["release"] = {{"name", rel.dataset().value("name", "")},
+                                  {"version", rel.dataset().value("version", "")}};
+  const fs::path out = a.Get("--out") ? fs::path(*a.Get("--out")) : DefaultWeightsDir(rel);
+  SaveWeights(res.weights, out);
+  if (a.Flag("--json")) {
+    std::cout << Json{{"weights", (out / "weights.json").string()}, {"stats", res.weights.stats}}.dump(2) << "\n";
+    return 0;
+  }
+  std::cout << "calibrated " << rel.dir().string() << " (" << db.size() << " database entries, " << queries.size()
+            << " " << split << " queries, C = " << opt.c << ", frame " << WeightFrameName(opt.frame) << ") in "
+            << Fmt("%.2f", secs) << " s\n";
+  std::cout << "category              queries skipped   pairs  pair-acc u→l   calib top-1 u→l   nonzero w\n";
+  for (const auto& c : res.categories) {
+    char line[256];
+    std::snprintf(line, sizeof line, "%-20s %8d %7d %7lld  %5.3f → %5.3f   %3d → %3d of %-3d   %5.1f %%\n",
+                  c.category.c_str(), c.queries, c.skipped, c.pairs, c.accuracy_before, c.accuracy_after,
+                  c.top1_before, c.top1_after, c.queries, 100 * c.nonzero_fraction);
+    std::cout << line;
+  }
+  for (const auto& wmsg : res.warnings) std::cout << "warning: " << wmsg << "\n";
+  std::cout << "wrote " << (out / "weights.json").string() << " + weights.bin (release digest " << rel.digest().substr(0, 12)
+            << "…)\n";
+  return 0;
+}
+
+// ------------------------------------------------------------------ eval
+
+const char* kEvalUsage =
+    "Usage: drape eval RELEASE [--split test] [--report DIR] [options]\n"
+    "\n"
+    "Pose recognition on a split, as the paper's table: per category, pose accuracy with\n"
+    "database instance 1 only, instance 2 only and both, unweighted vs learned distance;\n"
+    "category accuracy; top-3; grasp-point error (cm, on the flat pattern); time per query\n"
+    "(fusion and feature from the build's timing record, matching measured here).\n"
+    "\n"
+    "Options:\n"
+    "  --split S         queries (default test)\n"
+    "  --report DIR      write report.md, report.json and PNG plots there\n"
+    "  --weights PATH    weights.json (default RELEASE/calibration/weights.json if present)\n"
+    "  --unweighted      ignore weights\n"
+    "  --top-k K         k of the top-k accuracy (default 3)\n"
+    "  --kernel K        auto | generic | popcnt | avx512\n"
+    "  --json            print report.json to stdout\n";
+
+int RunEval(const std::vector<std::string>& argv) {
+  Args a(argv, {"--json", "--unweighted"}, {"--split", "--report", "--weights", "--top-k", "--kernel"});
+  if (a.help()) {
+    std::cout << kEvalUsage;
+    return 0;
+  }
+  a.RequirePositional(1, 1, "RELEASE");
+  const Release rel = Release::Open(a.positional()[0]);
+  const std::string split = a.Get("--split", "test");
+  auto t0 = std::chrono::steady_clock::now();
+  LoadReport lr;
+  const Database db = LoadDatabase(rel, &lr, ParseKernel(a.Get("--kernel", "auto")));
+  const double load_s = Since(t0);
+  LoadReport qr;
+  const std::vector<EvalQuery> queries = LoadEvalQueries(rel, split, &qr);
+  if (queries.empty()) throw Error("eval: split '" + split + "' of " + rel.dir().string() + " has no usable entries");
+  Weights w;
+  bool have_w = false;
+  const fs::path wpath = ResolveWeights(a, rel, &w, &have_w);
+  EvalOptions eo;
+  eo.top_k = static_cast<int>(a.GetInt("--top-k").value_or(3));
+  EvalResult res = Evaluate(db, have_w ? &w : nullptr, queries, AnchorUvs(rel), eo);
+  std::vector<std::string> warnings = lr.warnings;
+  warnings.insert(warnings.end(), qr.warnings.begin(), qr.warnings.end());
+  Json header{{"release", rel.dir().string()},
+              {"name", rel.dataset().value("name", "")},
+              {"version", rel.dataset().value("version", "")},
+              {"digest", rel.digest()},
+              {"split", split},
+              {"weights", wpath.empty() ? Json("none (unweighted only)") : Json(wpath.string())},
+              {"calibration", have_w ? Json{{"options", w.options}, {"stats", w.stats}} : Json(nullptr)},
+              {"database_load_seconds", load_s},
+              {"load_warnings", warnings}};
+  if (auto dir = a.Get("--report")) {
+    WriteReport(res, header, *dir);
+  }
+  if (a.Flag("--json")) {
+    Json full = header;
+    for (const auto& [k, v] : res.report.items()) full[k] = v;
+    std::cout << full.dump(2) << "\n";
+    return 0;
+  }
+  std::cout << "eval " << rel.dir().string() << " split " << split << ": " << queries.size() << " queries, "
+            << db.size() << " database entries, weights: "
+            << (have_w ? wpath.string() : std::string("none (unweighted only)")) << "\n\n"
+            << ReportMarkdown(res.report);
+  if (auto dir = a.Get("--report")) std::cout << "\nreport: " << (fs::path(*dir) / "report.md").string() << "\n";
+  return 0;
+}
+
+Register reg_recognize({"recognize", "recognise the category and grasp point of a hung garment", kRecognizeUsage,
+                        RunRecognize});
+Register reg_calibrate({"calibrate", "learn the weighted Hamming distance (RankSVM) for a release", kCalibrateUsage,
+                        RunCalibrate});
+Register reg_eval({"eval", "evaluate pose recognition on a split and write a report", kEvalUsage, RunEval});
+
+}  // namespace
+}  // namespace drape::cli
