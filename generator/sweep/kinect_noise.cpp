@@ -15,8 +15,9 @@
 // Order (one 64-bit draw per pixel, raster order, whatever the pixel holds):
 //   bits  0–15  lateral offset u     bits 32–47  axial noise
 //   bits 16–31  lateral offset v     bits 48–63  dropout uniform
-//  1. projector shadow on the exact image;
-//  2. per source pixel: grazing/edge dropouts, axial Gaussian noise, disparity
+//  1. a plan from the exact image (no randomness): σ_z, σ_L, dropout probability
+//     (grazing angle, depth edge), projector shadow — per pixel;
+//  2. per source pixel: random dropouts, axial Gaussian noise, disparity
 //     quantisation, range cut → a measurement;
 //  3. lateral noise: pixel p reports the measurement of pixel p + round(σ_L(θ_p)·n),
 //     n ~ N(0, 1) per axis (so a measurement may appear at two neighbouring pixels,
@@ -38,6 +39,14 @@ void NoiseParameters(const float* __restrict Zp, const float* __restrict Cp, flo
                      float* __restrict slp, float* __restrict pdp, size_t n, float big,
                      float max_theta, float half_pi, float sixty, float step, float bfq, float q12,
                      float t0, float inv_ramp);
+void DrawMeasurements(const float* __restrict Z, const float* __restrict sg,
+                      const float* __restrict pdrop, const float* __restrict lit,
+                      const float* __restrict uni, const float* __restrict na,
+                      float* __restrict out, size_t n, float axial, bool quantize, float bfq,
+                      float step, float zmin, float zmax);
+void LateralOffsets(const float* __restrict sl, const float* __restrict nu,
+                    const float* __restrict nv, int8_t* __restrict du, int8_t* __restrict dv,
+                    size_t n);
 }  // namespace detail
 namespace {
 
@@ -123,6 +132,40 @@ __attribute__((noinline)) void NoiseParameters(const float* __restrict Zp, const
   }
 }
 
+// Measured depth of every source pixel: axial noise, disparity quantisation, random
+// dropouts, range cut (0 = no data). Branch-free (vectorised).
+__attribute__((noinline)) void DrawMeasurements(const float* __restrict Z, const float* __restrict sg,
+                                                const float* __restrict pdrop,
+                                                const float* __restrict lit,
+                                                const float* __restrict uni,
+                                                const float* __restrict na, float* __restrict out,
+                                                size_t n, float axial, bool quantize, float bfq,
+                                                float step, float zmin, float zmax) {
+  const float qk = quantize ? 1.0f : 0.0f;
+  for (size_t p = 0; p < n; ++p) {
+    float z = Min(Z[p], 1e6f) + axial * sg[p] * na[p];
+    // [K] disparity d = b·f/Z, quantised to 1/8 px (round half up; clamped to stay an int).
+    const float k = float(int(Min(Max(bfq / (z * step), 0.0f), 1e7f) + 0.5f));
+    const float zq = bfq / (Max(k, 0.5f) * step);
+    z = qk * zq + (1.0f - qk) * z;
+    // Kept: lit, not dropped, in range, and a positive disparity when quantised.
+    const float keep = lit[p] * (uni[p] >= pdrop[p] ? 1.0f : 0.0f) * (z >= zmin ? 1.0f : 0.0f) *
+                       (z <= zmax ? 1.0f : 0.0f) * (k > 0.0f ? 1.0f : 1.0f - qk);
+    out[p] = keep > 0.0f ? z : 0.0f;
+  }
+}
+
+// Lateral offsets round(σ_L·n) per axis (round to nearest without libm; +64 keeps the
+// argument positive).
+__attribute__((noinline)) void LateralOffsets(const float* __restrict sl, const float* __restrict nu,
+                                              const float* __restrict nv, int8_t* __restrict du,
+                                              int8_t* __restrict dv, size_t n) {
+  for (size_t p = 0; p < n; ++p) {
+    du[p] = int8_t(int(Min(Max(sl[p] * nu[p], -60.0f), 60.0f) + 64.5f) - 64);
+    dv[p] = int8_t(int(Min(Max(sl[p] * nv[p], -60.0f), 60.0f) + 64.5f) - 64);
+  }
+}
+
 }  // namespace detail
 
 void KinectOptions::Validate() const {
@@ -148,109 +191,164 @@ void KinectOptions::Validate() const {
     throw Error("kinect.edge_dropout_probability: must be in [0, 1]");
 }
 
-std::vector<float> ApplyKinectNoise(const ExactFrame& exact, const KinectOptions& o, Rng& rng) {
-  const int W = o.intrinsics.width, H = o.intrinsics.height;
-  const size_t n = size_t(W) * H;
+namespace {
+
+void CheckSizes(const ExactFrame& exact, const KinectOptions& o) {
+  const size_t n = size_t(o.intrinsics.width) * o.intrinsics.height;
   DRAPE_CHECK(exact.depth.size() == n && exact.cos_incidence.size() == n,
               "exact frame size does not match the intrinsics");
-  const float zmin = float(o.min_range), zmax = float(o.max_range);
-  std::vector<float> out(n, 0.0f);
-  const std::vector<float>& Z = exact.depth;
-  if (!o.noise) {
-    for (size_t p = 0; p < n; ++p)
-      out[p] = (Z[p] >= zmin && Z[p] <= zmax) ? Z[p] : 0.0f;
-    return out;
-  }
-  const auto& N = NormalTable();
+}
 
-  // 1. Per-pixel noise parameters from the exact image: no randomness, branch-free
-  //    float loops (vectorised; this file is built with -O3 -fno-math-errno).
+}  // namespace
+
+void UpdateKinectPlan(const ExactFrame& exact, const KinectOptions& o, const PixelRect& region,
+                      KinectPlan& plan) {
+  CheckSizes(exact, o);
+  const int W = o.intrinsics.width, H = o.intrinsics.height;
+  const size_t n = size_t(W) * H;
+  if (plan.sigma_axial.size() != n) {
+    plan.sigma_axial.assign(n, 0.0f);
+    plan.sigma_lateral.assign(n, 0.0f);
+    plan.p_drop.assign(n, 0.0f);
+    plan.lit.assign(n, 0.0f);
+    plan.shadow_suffix.assign(n, std::numeric_limits<float>::infinity());
+  }
+  const int u0 = std::clamp(region.u0, 0, W), u1 = std::clamp(region.u1, 0, W);
+  const int v0 = std::clamp(region.v0, 0, H), v1 = std::clamp(region.v1, 0, H);
+  if (u1 <= u0 || v1 <= v0) return;
+  const float* Z = exact.depth.data();
   const float* C = exact.cos_incidence.data();
+  const float zmax = float(o.max_range);
   const float half_pi = float(M_PI / 2), max_theta = float(85 * M_PI / 180);
   const float sixty = float(M_PI / 3);
   const float t0 = float(o.grazing_start_deg * M_PI / 180),
               t1 = float(o.grazing_full_deg * M_PI / 180);
   const float bfq = float(o.baseline * o.disparity_focal);  // m·px, [K]
   const float step = float(o.disparity_subpixel);           // px
-  // Loop invariants as factors, so that the loop below has no control flow.
+  // Loop invariants as factors, so that the parameter loop has no control flow.
   const float q12 = o.quantize ? 1.0f / 12.0f : 0.0f;
   const float inv_ramp = t1 > t0 ? 1.0f / (t1 - t0) : 1e30f;
   const float big = zmax * 4;  // farther (and +inf = nothing hit) counts as no surface
-  std::vector<float> sg(n), sl(n), pdrop(n);
-  detail::NoiseParameters(Z.data(), C, sg.data(), sl.data(), pdrop.data(), n, big, max_theta, half_pi, sixty,
-                  step, bfq, q12, t0, inv_ramp);
-  if (!o.dropouts) std::fill(pdrop.begin(), pdrop.end(), 0.0f);
-
-  // Projector shadow (deterministic): which source pixels the pattern reaches.
-  std::vector<uint8_t> lit(n);
-  for (size_t p = 0; p < n; ++p) lit[p] = Z[p] <= zmax * 4 ? 1 : 0;
-  if (o.dropouts && o.projector_shadow) {
-    // Projector at +baseline along camera x (Kinect v1: projector at the camera's right,
-    // so shadows fall on the left of near objects). A point at column u and depth z is
-    // lit at projector column u − b·f/z; scanning towards the projector, it is in shadow
-    // if a point between it and the projector is lit at a smaller projector column.
-    const float bf = float(o.baseline * o.intrinsics.fx);
-    for (int v = 0; v < H; ++v) {
-      float m = std::numeric_limits<float>::infinity();
-      for (int u = W - 1; u >= 0; --u) {
-        const size_t p = size_t(v) * W + u;
-        if (!lit[p]) continue;
+  const float jump = float(o.edge_jump), pe = float(o.edge_dropout_probability);
+  const bool edges = o.dropouts && o.edge_dropout_probability > 0;
+  const bool shadow = o.dropouts && o.projector_shadow;
+  const float bf = float(o.baseline * o.intrinsics.fx);
+  for (int v = v0; v < v1; ++v) {
+    const size_t row = size_t(v) * W;
+    detail::NoiseParameters(Z + row + u0, C + row + u0, plan.sigma_axial.data() + row + u0,
+                            plan.sigma_lateral.data() + row + u0, plan.p_drop.data() + row + u0,
+                            size_t(u1 - u0), big, max_theta, half_pi, sixty, step, bfq, q12, t0,
+                            inv_ramp);
+    float* pd = plan.p_drop.data() + row;
+    if (!o.dropouts) std::fill(pd + u0, pd + u1, 0.0f);
+    // Projector shadow (deterministic). Projector at +baseline along camera x (Kinect v1:
+    // projector at the camera's right, so shadows fall on the left of near objects). A
+    // point at column u and depth z is lit at projector column u − b·f/z; scanning towards
+    // the projector, it is in shadow if a point between it and the projector is lit at a
+    // smaller projector column. The scan starts from the stored suffix minimum right of
+    // the region.
+    float m = u1 < W ? plan.shadow_suffix[row + u1] : std::numeric_limits<float>::infinity();
+    for (int u = u1 - 1; u >= u0; --u) {
+      const size_t p = row + u;
+      const bool surface = Z[p] <= big;
+      float lit = surface ? 1.0f : 0.0f;
+      if (surface) {
         const float up = float(u) - bf / Z[p];
-        if (up > m + 0.25f) lit[p] = 0;
+        if (shadow && up > m + 0.25f) lit = 0.0f;
         m = std::min(m, up);
+      }
+      plan.lit[p] = lit;
+      plan.shadow_suffix[p] = m;
+    }
+    if (edges) {
+      // Depth edge: a 4-neighbour differs by more than edge_jump (or has no surface).
+      for (int u = u0; u < u1; ++u) {
+        const size_t p = row + u;
+        const float z = Z[p];
+        bool e = false;
+        if (u > 0) e |= !(std::abs(Z[p - 1] - z) <= jump);
+        if (u + 1 < W) e |= !(std::abs(Z[p + 1] - z) <= jump);
+        if (v > 0) e |= !(std::abs(Z[p - W] - z) <= jump);
+        if (v + 1 < H) e |= !(std::abs(Z[p + W] - z) <= jump);
+        if (e) pd[u] = 1.0f - (1.0f - pd[u]) * (1.0f - pe);
       }
     }
   }
-  if (o.dropouts && o.edge_dropout_probability > 0) {
-    // Depth edge: a 4-neighbour differs by more than edge_jump (or has no surface).
-    const float jump = float(o.edge_jump), pe = float(o.edge_dropout_probability);
-    // jr[p]: jump between p and its right neighbour; jd[p]: between p and the one below.
-    std::vector<uint8_t> jr(n, 0), jd(n, 0), edge(n, 0);
-    for (size_t p = 0; p + 1 < n; ++p) jr[p] = !(std::abs(Z[p + 1] - Z[p]) <= jump);
-    for (size_t p = 0; p + W < n; ++p) jd[p] = !(std::abs(Z[p + W] - Z[p]) <= jump);
-    for (int v = 0; v < H; ++v) jr[size_t(v) * W + W - 1] = 0;  // no wrap-around
-    edge[0] = jr[0] | jd[0];
-    for (size_t p = 1; p < n; ++p) edge[p] = jr[p] | jr[p - 1] | jd[p];
-    for (size_t p = W; p < n; ++p) edge[p] |= jd[p - W];
-    for (size_t p = 0; p < n; ++p)
-      pdrop[p] = edge[p] ? 1.0f - (1.0f - pdrop[p]) * (1.0f - pe) : pdrop[p];
-  }
+}
 
-  // 2. Per source pixel (raster order, one 64-bit draw each): random dropouts, axial
-  //    noise, quantisation, range cut → measured[p]; and the lateral offset of pixel p.
-  std::vector<float> measured(n, 0.0f);
-  std::vector<int8_t> offset(o.lateral ? 2 * n : 0);
+KinectPlan PlanKinectNoise(const ExactFrame& exact, const KinectOptions& o) {
+  KinectPlan plan;
+  UpdateKinectPlan(exact, o, PixelRect{0, 0, o.intrinsics.width, o.intrinsics.height}, plan);
+  return plan;
+}
+
+std::vector<float> DrawKinectNoise(const ExactFrame& exact, const KinectPlan& plan,
+                                   const KinectOptions& o, Rng& rng, KinectScratch* scratch) {
+  CheckSizes(exact, o);
+  const int W = o.intrinsics.width, H = o.intrinsics.height;
+  const size_t n = size_t(W) * H;
+  const float zmin = float(o.min_range), zmax = float(o.max_range);
+  const float* Z = exact.depth.data();
+  std::vector<float> out(n, 0.0f);
+  if (!o.noise) {
+    for (size_t p = 0; p < n; ++p) out[p] = (Z[p] >= zmin && Z[p] <= zmax) ? Z[p] : 0.0f;
+    return out;
+  }
+  DRAPE_CHECK(plan.sigma_axial.size() == n, "noise plan size does not match the intrinsics");
+  const auto& N = NormalTable();
+  KinectScratch local;
+  KinectScratch& s = scratch ? *scratch : local;
+  // Sized without clearing: every element is written below.
+  s.bits.resize(n);
+  s.na.resize(n);
+  s.uni.resize(n);
+  s.nu.resize(n);
+  s.nv.resize(n);
+  s.measured.resize(n);
+  s.du.resize(n);
+  s.dv.resize(n);
+  auto& bits = s.bits;
+  auto& na = s.na;
+  auto& uni = s.uni;
+  auto& nu = s.nu;
+  auto& nv = s.nv;
+  // One 64-bit draw per pixel, raster order.
+  for (size_t p = 0; p < n; ++p) bits[p] = rng.NextU64();
+  // Table look-ups (scalar), then branch-free float loops (vectorised).
   for (size_t p = 0; p < n; ++p) {
-    const uint64_t b = rng.NextU64();
-    if (o.lateral) {
-      // Round to nearest without a libm call (+64 keeps the argument positive).
-      offset[2 * p] = int8_t(int(sl[p] * N[b & 0xFFFF] + 64.5f) - 64);
-      offset[2 * p + 1] = int8_t(int(sl[p] * N[(b >> 16) & 0xFFFF] + 64.5f) - 64);
-    }
-    if (!lit[p]) continue;
-    const float uni = (float((b >> 48) & 0xFFFF) + 0.5f) * (1.0f / 65536.0f);
-    if (uni < pdrop[p]) continue;
-    float z = Z[p];
-    if (o.axial) z += sg[p] * N[(b >> 32) & 0xFFFF];
-    if (o.quantize && z > 0) {
-      // [K] disparity d = b·f/Z, quantised to 1/8 px (round half up; d > 0).
-      const float d = float(int(bfq / (z * step) + 0.5f)) * step;
-      z = d > 0 ? bfq / d : 0.0f;
-    }
-    if (z >= zmin && z <= zmax) measured[p] = z;
+    na[p] = N[(bits[p] >> 32) & 0xFFFF];
+    uni[p] = (float(int(bits[p] >> 48)) + 0.5f) * (1.0f / 65536.0f);
   }
-
-  // 3. Lateral noise: pixel p reports the measurement of pixel p + offset.
+  if (o.lateral)
+    for (size_t p = 0; p < n; ++p) {
+      nu[p] = N[bits[p] & 0xFFFF];
+      nv[p] = N[(bits[p] >> 16) & 0xFFFF];
+    }
+  const float bfq = float(o.baseline * o.disparity_focal);  // m·px, [K]
+  const float step = float(o.disparity_subpixel);
+  auto& measured = s.measured;
+  detail::DrawMeasurements(Z, plan.sigma_axial.data(), plan.p_drop.data(), plan.lit.data(),
+                           uni.data(), na.data(), measured.data(), n, o.axial ? 1.0f : 0.0f,
+                           o.quantize, bfq, step, zmin, zmax);
   if (!o.lateral) return measured;
+  // Lateral noise: pixel p reports the measurement of pixel p + round(σ_L·n) per axis.
+  auto& du = s.du;
+  auto& dv = s.dv;
+  detail::LateralOffsets(plan.sigma_lateral.data(), nu.data(), nv.data(), du.data(), dv.data(), n);
   for (int v = 0; v < H; ++v) {
     for (int u = 0; u < W; ++u) {
       const size_t p = size_t(v) * W + u;
-      const int uu = u + offset[2 * p], vv = v + offset[2 * p + 1];
+      const int uu = u + du[p], vv = v + dv[p];
       if (uu < 0 || uu >= W || vv < 0 || vv >= H) continue;
       out[p] = measured[size_t(vv) * W + uu];
     }
   }
   return out;
+}
+
+std::vector<float> ApplyKinectNoise(const ExactFrame& exact, const KinectOptions& o, Rng& rng) {
+  if (!o.noise) return DrawKinectNoise(exact, KinectPlan{}, o, rng);
+  return DrawKinectNoise(exact, PlanKinectNoise(exact, o), o, rng);
 }
 
 }  // namespace drape

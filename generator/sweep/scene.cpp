@@ -141,6 +141,7 @@ struct SweepScene::Impl {
   ExactFrame background_frame;    // cast once
   // Camera-frame ray slopes per column, (u − cx)/fx, and row, (v − cy)/fy (padded to 4).
   std::vector<float> ray_x, ray_y;
+  std::shared_ptr<const KinectPlan> background_plan;  // if kinect.noise
 
   ~Impl() {
     if (object) rtcReleaseScene(object);
@@ -265,6 +266,29 @@ SweepScene::SweepScene(const TriMesh& hung, const SweepOptions& options)
     PixelRect all{0, 0, (K.width + 3) / 4 * 4, (K.height + 3) / 4 * 4};
     m.Cast(m.background, m.camera_to_world, all, m.background_frame, RTC_INVALID_GEOMETRY_ID);
   }
+  if (options.kinect.noise)
+    m.background_plan =
+        std::make_shared<const KinectPlan>(PlanKinectNoise(m.background_frame, options.kinect));
+}
+
+std::vector<float> SweepScene::RenderKinect(double angle, Rng& rng, KinectScratch* scratch) const {
+  const Impl& m = *impl_;
+  const KinectOptions& k = m.options.kinect;
+  KinectScratch local;
+  KinectScratch& s = scratch ? *scratch : local;
+  RenderExact(angle, s.exact);
+  if (!k.noise) return DrawKinectNoise(s.exact, KinectPlan{}, k, rng, &s);
+  // Only the garment's region changed: re-plan it, plus the widest projector shadow
+  // (b·f/z px at the nearest range) to its left and one pixel around for depth edges.
+  PixelRect r = Roi(angle);
+  const int shadow = int(std::ceil(k.baseline * k.intrinsics.fx / k.min_range)) + 2;
+  r.u0 -= shadow;
+  r.u1 += 2;
+  r.v0 -= 2;
+  r.v1 += 2;
+  s.plan = *m.background_plan;  // copies into the existing buffers
+  UpdateKinectPlan(s.exact, k, r, s.plan);
+  return DrawKinectNoise(s.exact, s.plan, k, rng, &s);
 }
 
 SweepScene::~SweepScene() = default;
@@ -304,15 +328,21 @@ PixelRect SweepScene::Roi(double angle) const {
 }
 
 ExactFrame SweepScene::RenderExact(double angle) const {
+  ExactFrame frame;
+  RenderExact(angle, frame);
+  return frame;
+}
+
+void SweepScene::RenderExact(double angle, ExactFrame& frame) const {
   const Impl& m = *impl_;
-  ExactFrame frame = m.background_frame;
+  frame.depth = m.background_frame.depth;  // into the existing buffers
+  frame.cos_incidence = m.background_frame.cos_incidence;
   frame.rays_cast = 0;
   const PixelRect roi = Roi(angle);
   frame.roi_pixels = roi.Area();
   const Eigen::Isometry3d camera_to_object =
       ObjectToWorld(m.options, angle).inverse() * m.camera_to_world;
   frame.garment_pixels = m.Cast(m.object, camera_to_object, roi, frame, m.garment_geom);
-  return frame;
 }
 
 double SweepScene::RangeAlongRay(const Vec3& origin, const Vec3& dir, double angle,

@@ -1,6 +1,7 @@
 // SimulateSweep: poses of the turning garment, one exact render + noise per frame.
 #include "generator/sweep/sweep.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <sstream>
@@ -69,20 +70,28 @@ Sweep SimulateSweep(const TriMesh& hung, const SweepOptions& options, uint64_t s
     int64_t rays = 0, roi = 0, garment = 0, valid = 0;
   };
   std::vector<Counters> counters(options.frames);
-  ParallelFor(options.frames, options.threads, [&](int i) {
-    const double angle = FrameAngle(options, i);
-    const ExactFrame exact = scene.RenderExact(angle);
-    Rng rng(DeriveSeed(seed, "frame/" + std::to_string(i)));
-    DepthFrame& f = sweep.frames[i];
-    f.depth = ApplyKinectNoise(exact, options.kinect, rng);
-    f.camera_to_world = camera_to_world;
-    f.camera_to_object = ObjectToWorld(options, angle).inverse() * camera_to_world;
-    f.gripper_angle = angle;
-    Counters& c = counters[i];
-    c.rays = exact.rays_cast;
-    c.roi = exact.roi_pixels;
-    c.garment = exact.garment_pixels;
-    for (float z : f.depth) c.valid += z > 0;
+  // Contiguous chunks of frames, one scratch per chunk (buffers reused between frames;
+  // every frame has its own seed, so the chunking does not change any byte).
+  const int chunks = std::max(1, std::min(options.frames, options.threads > 0 ? options.threads
+                                                                              : HardwareThreads()));
+  ParallelFor(chunks, chunks, [&](int c) {
+    KinectScratch scratch;
+    const int begin = int(int64_t(options.frames) * c / chunks);
+    const int end = int(int64_t(options.frames) * (c + 1) / chunks);
+    for (int i = begin; i < end; ++i) {
+      const double angle = FrameAngle(options, i);
+      Rng rng(DeriveSeed(seed, "frame/" + std::to_string(i)));
+      DepthFrame& f = sweep.frames[i];
+      f.depth = scene.RenderKinect(angle, rng, &scratch);
+      f.camera_to_world = camera_to_world;
+      f.camera_to_object = ObjectToWorld(options, angle).inverse() * camera_to_world;
+      f.gripper_angle = angle;
+      Counters& cn = counters[i];
+      cn.rays = scratch.exact.rays_cast;
+      cn.roi = scratch.exact.roi_pixels;
+      cn.garment = scratch.exact.garment_pixels;
+      for (float z : f.depth) cn.valid += z > 0;
+    }
   });
   SweepStats& st = sweep.stats;
   st.frames = options.frames;

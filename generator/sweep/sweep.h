@@ -120,6 +120,25 @@ struct PixelRect {
   int64_t Area() const { return int64_t(u1 - u0) * (v1 - v0); }
 };
 
+// The deterministic part of the noise model, per pixel (row-major height×width): Gaussian
+// σ of the axial noise (m), lateral σ (px), dropout probability (grazing angle, depth
+// edge), whether the projector lights the pixel's surface, and the running minimum of
+// projector columns from the right (for updating a region). ApplyKinectNoise =
+// DrawKinectNoise(PlanKinectNoise(exact)); a sweep plans the static background once and
+// re-plans only the region around the garment per frame (same bytes).
+struct KinectPlan {
+  std::vector<float> sigma_axial, sigma_lateral, p_drop, shadow_suffix;
+  std::vector<float> lit;  // 1 or 0
+};
+// Reusable buffers for the noise of one frame (per thread); no effect on results.
+struct KinectScratch {
+  ExactFrame exact;
+  KinectPlan plan;
+  std::vector<uint64_t> bits;
+  std::vector<float> na, uni, nu, nv, measured;
+  std::vector<int8_t> du, dv;
+};
+
 // Infrared range sensor at the gripper (Baxter's hand range sensor, a Sharp-style
 // triangulating IR sensor). Defaults are typical of such sensors, not measured.
 struct IrRangeOptions {
@@ -149,6 +168,13 @@ class SweepScene {
   PixelRect Roi(double angle) const;
   // Noise-free depth of the whole image at this gripper angle.
   ExactFrame RenderExact(double angle) const;
+  void RenderExact(double angle, ExactFrame& frame) const;  // reuses frame's buffers
+  // A Kinect frame (metres, 0 = no data) at this gripper angle with options().kinect's
+  // noise drawn from rng; identical to ApplyKinectNoise(RenderExact(angle), ...), but the
+  // noise plan of the static background is made once and only the region around the
+  // garment is re-planned.
+  // `scratch` (optional) keeps buffers between frames and receives the exact frame.
+  std::vector<float> RenderKinect(double angle, Rng& rng, KinectScratch* scratch = nullptr) const;
   // Distance (m) along the unit direction `dir` from `origin` (world frame, garment at
   // gripper angle `angle`) to the first surface, or +infinity if none lies within
   // [min_range, max_range]. With rng and ir.noise: Gaussian reading noise
@@ -167,6 +193,16 @@ class SweepScene {
 // `kinect` and random draws from rng (one 64-bit draw per pixel, raster order).
 std::vector<float> ApplyKinectNoise(const ExactFrame& exact, const KinectOptions& kinect,
                                     Rng& rng);
+
+KinectPlan PlanKinectNoise(const ExactFrame& exact, const KinectOptions& kinect);
+// Re-plans the pixels of `region` (whole rows of it, scanning the shadow from its right
+// edge). Exact if everything outside the region is as when it was planned and the region
+// reaches ≥ b·f/z_min px left of any change (a shadow's widest extent).
+void UpdateKinectPlan(const ExactFrame& exact, const KinectOptions& kinect,
+                      const PixelRect& region, KinectPlan& plan);
+std::vector<float> DrawKinectNoise(const ExactFrame& exact, const KinectPlan& plan,
+                                   const KinectOptions& kinect, Rng& rng,
+                                   KinectScratch* scratch = nullptr);
 
 // Renders the sweep; frame i's noise comes from Rng(DeriveSeed(seed, "frame/<i>")).
 // Same inputs → identical frames for any thread count.

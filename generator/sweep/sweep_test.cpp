@@ -159,7 +159,9 @@ TEST(Sweep, SphereDepthMatchesAnalytic) {
       // Misses must be empty; compare where the incidence cosine is > 0.5 (the
       // tessellation's sagitta, ~1.2e-5 m, grows as 1/cos along the ray).
       if (disc < 0) {
-        if (disc < -1e-3 * A) EXPECT_EQ(z, 0.0f) << u << "," << v;
+        if (disc < -1e-3 * A) {
+          EXPECT_EQ(z, 0.0f) << u << "," << v;
+        }
         continue;
       }
       if (std::sqrt(disc) / (2 * r * std::sqrt(A)) < 0.5) continue;
@@ -387,6 +389,23 @@ TEST(KinectNoise, GrazingAnglesAndShadowsDropOut) {
   // Right of the board: no shadow.
   const int right = int(K.cx + K.fx * 0.3 / 1.0) + 2;
   EXPECT_GT(sh.frames[0].depth[size_t(v) * K.width + right], 2.0f);
+}
+
+TEST(KinectNoise, SweepPlanCacheGivesTheSameFramesAsTheFullModel) {
+  // RenderKinect re-plans only the garment's region: it must equal noise on the whole
+  // exact frame, byte for byte, with the full scene (shadows, edges at the region border).
+  SweepOptions o;
+  SweepScene scene(WavySheet(), o);
+  for (double a : {0.0, 1.0, 2.5, 4.0, 5.5}) {
+    Rng r1(17), r2(17);
+    KinectScratch scratch;
+    const std::vector<float> fast = scene.RenderKinect(a, r1, &scratch);
+    const std::vector<float> full = ApplyKinectNoise(scene.RenderExact(a), o.kinect, r2);
+    ASSERT_EQ(fast.size(), full.size());
+    int diff = 0;
+    for (size_t p = 0; p < fast.size(); ++p) diff += fast[p] != full[p];
+    EXPECT_EQ(diff, 0) << "angle " << a;
+  }
 }
 
 TEST(KinectNoise, DeterministicPerSeedAndThreadCount) {
