@@ -23,6 +23,19 @@ void EquilibriumOptions::Validate() const {
   if (!(max_displacement > 0)) throw Error("equilibrium: max_displacement must be > 0");
 }
 
+namespace {
+// Contact push (m of penetration) smoothed as a softplus of width gap/4: a kinked
+// max(0, pen) made KINSOL's line search fail whenever contacts switched on or off.
+double ContactPush(double pen, double gap) {
+  const double e = gap / 4, z = pen / e;
+  return z > 30 ? pen : e * std::log1p(std::exp(z));
+}
+double ContactSlope(double pen, double gap) {  // d push / d pen
+  const double z = pen / (gap / 4);
+  return z > 30 ? 1.0 : 1.0 / (1.0 + std::exp(-z));
+}
+}  // namespace
+
 Points3 SpringForces(const SpringNetwork& net, const Points3& x) {
   const int n = net.NumNodes();
   Points3 f(n, 3);
@@ -39,9 +52,7 @@ Points3 SpringForces(const SpringNetwork& net, const Points3& x) {
   for (const auto& c : net.contacts) {
     Vec3 q = x.row(c.node).transpose();
     for (int j = 0; j < 3; ++j) q -= c.w[j] * x.row(c.tri[j]).transpose();
-    const double pen = c.gap - c.dir.dot(q);
-    if (pen <= 0) continue;
-    const Vec3 fc = net.contact_stiffness * pen * c.dir;
+    const Vec3 fc = net.contact_stiffness * ContactPush(c.gap - c.dir.dot(q), c.gap) * c.dir;
     f.row(c.node) += fc.transpose();
     for (int j = 0; j < 3; ++j) f.row(c.tri[j]) -= c.w[j] * fc.transpose();
   }
@@ -64,10 +75,10 @@ struct Problem {
   double c = 0;
   std::vector<double> u_ref;
 
-  bool Active(const SpringNetwork::Contact& c) const {
+  double Slope(const SpringNetwork::Contact& c) const {
     Vec3 q = x.row(c.node).transpose();
     for (int j = 0; j < 3; ++j) q -= c.w[j] * x.row(c.tri[j]).transpose();
-    return c.gap - c.dir.dot(q) > 0;
+    return ContactSlope(c.gap - c.dir.dot(q), c.gap);
   }
   void Scatter(const double* u) {
     for (size_t k = 0; k < free_nodes.size(); ++k)
@@ -124,9 +135,9 @@ int JacTimes(N_Vector v, N_Vector jv, N_Vector uu, sunbooleantype* new_uu, void*
     if (ba >= 0) Eigen::Map<Vec3>(out + 3 * ba) += kd;
     if (bb >= 0) Eigen::Map<Vec3>(out + 3 * bb) -= kd;
   }
-  // Active contacts: J = −k·g·gᵀ with g = (dir at the node, −w_j·dir at the triangle).
+  // Contacts: J = −k·σ·g·gᵀ with g = (dir at the node, −w_j·dir at the triangle).
   for (const auto& c : net.contacts) {
-    if (!p->Active(c)) continue;
+    const double sigma = p->Slope(c);
     const int nodes[4] = {c.node, c.tri[0], c.tri[1], c.tri[2]};
     const double coef[4] = {1.0, -c.w[0], -c.w[1], -c.w[2]};
     double gv = 0;
@@ -136,7 +147,7 @@ int JacTimes(N_Vector v, N_Vector jv, N_Vector uu, sunbooleantype* new_uu, void*
     }
     for (int t = 0; t < 4; ++t) {
       const int b = p->block[nodes[t]];
-      if (b >= 0) Eigen::Map<Vec3>(out + 3 * b) -= net.contact_stiffness * gv * coef[t] * c.dir;
+      if (b >= 0) Eigen::Map<Vec3>(out + 3 * b) -= sigma * net.contact_stiffness * gv * coef[t] * c.dir;
     }
   }
   if (p->c > 0)
@@ -170,8 +181,7 @@ int PrecSetup(N_Vector uu, N_Vector, N_Vector, N_Vector, void* data) {
       }
   }
   for (const auto& c : net.contacts) {
-    // Inactive contacts add explicit zeros: the pattern (analysed once) stays fixed.
-    const double on = p->Active(c) ? 1.0 : 0.0;
+    const double on = p->Slope(c);  // never exactly 0: the pattern stays fixed
     const int nodes[4] = {c.node, c.tri[0], c.tri[1], c.tri[2]};
     const double coef[4] = {1.0, -c.w[0], -c.w[1], -c.w[2]};
     const Eigen::Matrix3d D = on * net.contact_stiffness * c.dir * c.dir.transpose();

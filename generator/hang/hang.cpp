@@ -34,6 +34,7 @@ void HangOptions::Validate() const {
   if (!(max_speed > 0)) bad("max_speed", "must be > 0");
   if (!(equilibrium_tolerance > 0 && equilibrium_tolerance < 1)) bad("equilibrium_tolerance", "must be in (0, 1)");
   if (!(equilibrium_max_displacement > 0)) bad("equilibrium_max_displacement", "must be > 0");
+  if (equilibrium_iterations < 1) bad("equilibrium_iterations", "must be >= 1");
   if (!(fit_width > 0.05 && fit_height > 0.05)) bad("fit_width/fit_height", "must be > 0.05 m");
   if (!(fit_edge_length > 0.002 && fit_edge_length < 0.2)) bad("fit_edge_length", "must be in (0.002, 0.2) m");
   if (!(fit_tolerance_percent > 0)) bad("fit_tolerance_percent", "must be > 0");
@@ -629,6 +630,7 @@ HangResult Hang(const Garment& garment, int anchor_vertex, const Vec3& grasp_off
       EquilibriumOptions eo;
       eo.relative_tolerance = options.equilibrium_tolerance;
       eo.max_displacement = options.equilibrium_max_displacement;
+      eo.max_iterations = options.equilibrium_iterations;
       Points3 solved = x;
       eq = SolveEquilibrium(net, solved, eo);
       if (eq.applied && options.self_collision) {

@@ -29,16 +29,19 @@ struct HangOptions {
   double damping = 0.03;          // Bullet kDP (velocity damping per step, 0..1)
   bool self_collision = true;     // our layer/fold proximity pass
   double layer_thickness = 0.004; // m, minimum node–triangle distance kept by it
-  double settle_distance = 0.001; // m: settled when no node moved more than this ...
+  // m: settled when no node moved more than this ... (3 mm: contact jitter and PBD
+  // creep keep fine two-layer meshes above 1 mm; the equilibrium solve finishes the job)
+  double settle_distance = 0.003;
   double settle_window = 0.25;    // s: ... over this window
   double min_time = 0.75;         // s simulated before settling may be declared
-  double time_cap = 6.0;          // s simulated; not settled by then → retry/fail
+  double time_cap = 8.0;          // s simulated; not settled by then → retry/fail
   double jaw_width = 0.03;        // m; nodes within jaw_width/2 of the grasp point are held
   double jitter = 0.001;          // m, seeded start perturbation (breaks symmetry)
   double max_speed = 25.0;        // m/s; faster = blown up
   bool equilibrium_solve = true;  // KINSOL on the spring model after Bullet
   double equilibrium_tolerance = 1e-4;       // max |F_i|/(m_i g) to reach
   double equilibrium_max_displacement = 0.03;  // m; larger solves are rejected
+  int equilibrium_iterations = 40;  // Newton iterations per continuation stage (cost cap)
   // FitMaterial's reference: a single-layer strip of cloth hung from the middle of one
   // end. (A towel hung from a corner curls and buckles, so pick→lowest-point distance
   // falls 5–10 % short of the flat diagonal whatever the stiffness; a strip hangs
