@@ -3,6 +3,7 @@
 
 #include <fcntl.h>
 #include <sys/file.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -373,28 +374,46 @@ struct ReleaseWriter::Impl {
 
   void TakeLock() {
     const fs::path lp = dir / kLockFile;
-    lock_fd = ::open(lp.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
-    if (lock_fd < 0) throw Error(lp.string() + ": cannot open lock file: " + std::strerror(errno));
-    if (::flock(lock_fd, LOCK_EX | LOCK_NB) != 0) {
-      std::string holder;
-      try {
-        const Json h = Json::parse(ReadFile(lp));
-        holder = "pid " + std::to_string(h.value("pid", 0)) + " on host " + h.value("host", std::string("?")) +
-                 " (since " + h.value("started", std::string("?")) + ")";
-      } catch (...) {
-        holder = "another process";
+    // Retry if the file we locked was unlinked meanwhile (a finishing build removes it):
+    // the lock must be on the file that is at the path now.
+    for (int attempt = 0;; ++attempt) {
+      lock_fd = ::open(lp.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+      if (lock_fd < 0) throw Error(lp.string() + ": cannot open lock file: " + std::strerror(errno));
+      if (::flock(lock_fd, LOCK_EX | LOCK_NB) != 0) {
+        std::string holder;
+        try {
+          const Json h = Json::parse(ReadFile(lp));
+          holder = "pid " + std::to_string(h.value("pid", 0)) + " on host " + h.value("host", std::string("?")) +
+                   " (since " + h.value("started", std::string("?")) + ")";
+        } catch (...) {
+          holder = "another process";
+        }
+        ::close(lock_fd);
+        lock_fd = -1;
+        throw Error(dir.string() + ": another build is writing this release: " + holder + " holds " +
+                    lp.string() + ". Wait for it to finish, or stop it; a dead build's lock is released "
+                    "automatically.");
       }
+      struct stat a {}, b {};
+      if (::fstat(lock_fd, &a) == 0 && ::stat(lp.c_str(), &b) == 0 && a.st_ino == b.st_ino && a.st_dev == b.st_dev)
+        break;
       ::close(lock_fd);
       lock_fd = -1;
-      throw Error(dir.string() + ": another build is writing this release: " + holder +
-                  " holds " + lp.string() + ". Wait for it to finish, or stop it; a dead "
-                  "build's lock is released automatically.");
+      if (attempt > 10) throw Error(lp.string() + ": lock file keeps changing; is another build starting?");
     }
     const std::string info = Json{{"pid", ::getpid()}, {"host", HostName()}, {"started", NowUtc()}}.dump() + "\n";
     if (::ftruncate(lock_fd, 0) == 0) {
       ::lseek(lock_fd, 0, SEEK_SET);
       WriteAll(lock_fd, info, lp.string());
     }
+  }
+
+  // Gives up the lock and removes the lock file (while still holding it).
+  void DropLock() {
+    if (lock_fd < 0) return;
+    ::unlink((dir / kLockFile).c_str());
+    ::close(lock_fd);
+    lock_fd = -1;
   }
 
   // Loads committed entries from entries/*/entry.json; removes broken folders.
@@ -487,12 +506,29 @@ std::unique_ptr<ReleaseWriter> ReleaseWriter::Open(const fs::path& dir_in, const
   const bool existed = fs::exists(dir);
   if (existed && !fs::is_directory(dir)) throw Error(dir.string() + ": exists and is not a folder");
   if (resume && !existed) throw Error(dir.string() + ": nothing to resume (the folder does not exist)");
+  // Never leave a lock file in a folder that is not ours.
+  if (existed && !fs::exists(dir / kBuildDir) && !fs::exists(dir / "SHA256SUMS") &&
+      !DirHasOnly(dir, {kLockFile})) {
+    throw Error(dir.string() + ": folder is not empty and is not a drape release; refusing to write into it");
+  }
   fs::create_directories(dir);
 
   auto impl = std::make_unique<Impl>();
   impl->dir = dir;
   impl->meta = meta;
   impl->TakeLock();
+  try {
+    return OpenLocked(impl, meta, resume, existed);
+  } catch (...) {
+    // Refused after locking: leave the folder as it was (minus our lock file).
+    if (impl) impl->DropLock();
+    throw;
+  }
+}
+
+std::unique_ptr<ReleaseWriter> ReleaseWriter::OpenLocked(std::unique_ptr<Impl>& impl, const ReleaseMeta& meta,
+                                                         bool resume, bool existed) {
+  const fs::path dir = impl->dir;
   const auto& keys = meta.shard_keys.empty() ? meta.job_keys : meta.shard_keys;
   impl->expected.insert(keys.begin(), keys.end());
 
@@ -520,7 +556,6 @@ std::unique_ptr<ReleaseWriter> ReleaseWriter::Open(const fs::path& dir_in, const
     if (!diff.empty()) throw Error(diff);
     impl->published_digest = build_meta.value("published_digest", std::string());
   } else {
-    if (resume) throw Error(dir.string() + ": nothing to resume (no unfinished build here)");
     const bool has_sums = fs::exists(dir / "SHA256SUMS");
     const bool has_data = fs::exists(dir / "catalog.sqlite") || fs::exists(dir / "entries");
     if (has_sums && has_data) {
@@ -559,6 +594,8 @@ std::unique_ptr<ReleaseWriter> ReleaseWriter::Open(const fs::path& dir_in, const
       impl->published_digest = ds.value("digest", "");
     } else if (!DirHasOnly(dir, {kLockFile})) {
       throw Error(dir.string() + ": folder is not empty and is not a drape release; refusing to write into it");
+    } else if (resume) {
+      throw Error(dir.string() + ": nothing to resume (no build has started here)");
     }
     build_meta = Json{{"identity", identity},
                       {"started", NowUtc()},
@@ -758,9 +795,7 @@ ReleaseWriter::Summary ReleaseWriter::Finalize() {
   if (m.journal_fd >= 0) ::close(m.journal_fd);
   m.journal_fd = -1;
   fs::remove_all(m.build_dir());
-  fs::remove(m.dir / kLockFile);
-  ::close(m.lock_fd);
-  m.lock_fd = -1;
+  m.DropLock();
   return s;
 }
 

@@ -135,6 +135,8 @@ class ReleaseWriter {
  private:
   struct Impl;
   explicit ReleaseWriter(std::unique_ptr<Impl> impl);
+  static std::unique_ptr<ReleaseWriter> OpenLocked(std::unique_ptr<Impl>& impl, const ReleaseMeta& meta,
+                                                   bool resume, bool existed);
   std::unique_ptr<Impl> impl_;
 };
 

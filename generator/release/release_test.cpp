@@ -273,8 +273,12 @@ TEST_F(ReleaseTest, VersionIsImmutable) {
   ReleaseMeta other_code = MakeMeta();
   other_code.code_version = "newer";
   EXPECT_THROW(ReleaseWriter::Open(root_ / "v", other_code), Error);
-  // Same inputs: everything is done, finalizing again changes nothing.
-  auto w = ReleaseWriter::Open(root_ / "v", MakeMeta());
+  // A refused writer leaves the folder as it was.
+  EXPECT_FALSE(fs::exists(root_ / "v" / ".drape.lock"));
+  EXPECT_FALSE(fs::exists(root_ / "v" / ".drape-build"));
+  EXPECT_TRUE(Verify(root_ / "v").ok());
+  // Same inputs (also with --resume): everything is done, finalizing again changes nothing.
+  auto w = ReleaseWriter::Open(root_ / "v", MakeMeta(), /*resume=*/true);
   EXPECT_EQ(w->DoneKeys().size(), static_cast<size_t>(kJobs));
   EXPECT_EQ(w->Finalize().digest, a.digest);
   EXPECT_TRUE(Verify(root_ / "v").ok());
@@ -282,6 +286,12 @@ TEST_F(ReleaseTest, VersionIsImmutable) {
   fs::create_directories(root_ / "junk");
   WriteFileAtomic(root_ / "junk" / "notes.txt", "mine");
   EXPECT_THROW(ReleaseWriter::Open(root_ / "junk", MakeMeta()), Error);
+  EXPECT_FALSE(fs::exists(root_ / "junk" / ".drape.lock"));
+  // --resume with nothing to resume.
+  EXPECT_THROW(ReleaseWriter::Open(root_ / "none", MakeMeta(), true), Error);
+  fs::create_directories(root_ / "empty");
+  EXPECT_THROW(ReleaseWriter::Open(root_ / "empty", MakeMeta(), true), Error);
+  EXPECT_FALSE(fs::exists(root_ / "empty" / ".drape.lock"));
 }
 
 TEST_F(ReleaseTest, VerifyCatchesFlippedDeletedAndAddedFiles) {
