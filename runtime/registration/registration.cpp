@@ -160,4 +160,61 @@ RegistrationEvaluation RegisterAndEvaluate(const TriMesh& source, const TriMesh&
   return ev;
 }
 
+namespace {
+Json V3(const Vec3& v) { return Json::array({v.x(), v.y(), v.z()}); }
+Json Terms(const EnergyTerms& e) {
+  return Json{{"fit", e.fit}, {"area", e.area}, {"angle", e.angle}, {"hinge", e.hinge}, {"total", e.total()}};
+}
+Json Directed(const DirectedDistance& d) {
+  return Json{{"mean", d.mean}, {"rms", d.rms}, {"max", d.max}, {"samples", d.samples}};
+}
+}  // namespace
+
+Json ToJson(const RegistrationReport& r) {
+  Json j;
+  j["source"] = Json{{"centre", V3(r.source_frame.centre)}, {"size", r.source_frame.size}, {"area", r.source_frame.area}};
+  j["target"] = Json{{"centre", V3(r.target_frame.centre)}, {"size", r.target_frame.size}, {"area", r.target_frame.area}};
+  Json m = Json::array();
+  const Eigen::Matrix4d M = r.rigid.Matrix();
+  for (int i = 0; i < 4; ++i) m.push_back(Json::array({M(i, 0), M(i, 1), M(i, 2), M(i, 3)}));
+  j["scale"] = r.scaling.scale;
+  j["rigid_transform"] = m;
+  j["grid"] = Json{{"dims", Json::array({r.grid.nx, r.grid.ny, r.grid.nz})}, {"spacing", r.grid.spacing},
+                   {"band_nodes", r.grid.band_nodes}, {"passes", r.grid.passes}, {"sweep_updates", r.grid.sweep_updates}};
+  j["icp"] = Json{{"iterations", r.icp.iterations}, {"converged", r.icp.converged}, {"rms_before", r.icp.rms_before},
+                  {"rms_after", r.icp.rms_after}};
+  j["lm"] = Json{{"iterations", r.lm.iterations}, {"accepted", r.lm.accepted}, {"rejected", r.lm.rejected},
+                 {"fresh_jacobians", r.lm.fresh_jacobians}, {"secant_updates", r.lm.secant_updates},
+                 {"initial_cost", r.lm.initial_cost}, {"final_cost", r.lm.final_cost}, {"termination", r.lm.termination}};
+  j["energy_before"] = Terms(r.energy_before);
+  j["energy_after"] = Terms(r.energy_after);
+  j["hinges"] = r.hinges;
+  j["warnings"] = r.warnings;
+  j["timing"] = Json{{"grid_seconds", r.grid_seconds}, {"icp_seconds", r.icp_seconds},
+                     {"nonrigid_seconds", r.nonrigid_seconds}, {"total_seconds", r.total_seconds}};
+  return j;
+}
+
+Json ToJson(const RegistrationEvaluation& ev) {
+  Json j;
+  j["s_to_t_rigid"] = Directed(ev.s_to_t_rigid);
+  j["t_to_s_rigid"] = Directed(ev.t_to_s_rigid);
+  j["s_to_t_nonrigid"] = Directed(ev.s_to_t_nonrigid);
+  j["t_to_s_nonrigid"] = Directed(ev.t_to_s_nonrigid);
+  Json a = Json::array();
+  for (const AnchorTransfer& t : ev.anchors) {
+    Json e{{"label", t.label}, {"vertex", t.source_vertex}, {"rigid", V3(t.rigid)}, {"nonrigid", V3(t.nonrigid)}};
+    if (t.has_truth) e["error_rigid"] = t.error_rigid, e["error_nonrigid"] = t.error_nonrigid;
+    a.push_back(e);
+  }
+  j["anchors"] = a;
+  if (ev.anchors_with_truth > 0) {
+    j["anchor_error_rigid"] = ev.anchor_error_rigid;
+    j["anchor_error_nonrigid"] = ev.anchor_error_nonrigid;
+  }
+  j["report"] = ToJson(ev.report);
+  j["timing"] = Json{{"seconds", ev.seconds}};
+  return j;
+}
+
 }  // namespace drape::registration

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "common/json.h"
 #include "common/mesh.h"
 #include "runtime/registration/closest_point.h"
 #include "runtime/registration/energy.h"
@@ -102,5 +103,10 @@ RegistrationEvaluation RegisterAndEvaluate(const TriMesh& source, const TriMesh&
                                            const std::vector<AnchorPair>& anchors,
                                            const RegistrationOptions& options = {},
                                            RegistrationResult* result = nullptr);
+
+// JSON views for reports and the CLI: {"scaling", "icp", "grid", "lm", "energy", ...};
+// wall-clock times only under the "timing" key.
+Json ToJson(const RegistrationReport& report);
+Json ToJson(const RegistrationEvaluation& evaluation);
 
 }  // namespace drape::registration

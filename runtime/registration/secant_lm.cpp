@@ -87,9 +87,12 @@ SecantLmReport SolveSecantLm(const LeastSquaresProblem& problem, Eigen::VectorXd
     if (!btb_valid) BtB = Eigen::SparseMatrix<double>(B.transpose()) * B;
     btb_valid = true;
     const Eigen::SparseMatrix<double> A = BtB + mu * I;
+    auto tp = Clock::now();
+    rep.product_seconds += Since(t0);
     // B keeps one pattern, so the ordering is computed once.
     if (!analysed) ldlt.analyzePattern(A), analysed = true;
     ldlt.factorize(A);
+    rep.factor_seconds += Since(tp);
     if (ldlt.info() != Eigen::Success) throw NumericalError("secant LM: factorisation failed");
     h = ldlt.solve(-g);
     rep.solve_seconds += Since(t0);

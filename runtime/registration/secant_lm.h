@@ -51,6 +51,7 @@ struct SecantLmReport {
   std::string termination;
   std::vector<double> cost;  // after every iteration
   double jacobian_seconds = 0, solve_seconds = 0, residual_seconds = 0;  // timing only
+  double product_seconds = 0, factor_seconds = 0;  // parts of solve_seconds
 };
 
 // Minimises from x (updated in place). Throws drape::NumericalError if the residuals
