@@ -215,7 +215,7 @@ TriMesh ReadMesh(const fs::path& path, double unit_scale, Points2* uv) {
   auto read = [&](bool keep_uv) {
     importer.SetPropertyInteger(AI_CONFIG_PP_RVC_FLAGS,
                                 aiComponent_NORMALS | aiComponent_TANGENTS_AND_BITANGENTS | aiComponent_COLORS |
-                                    (keep_uv ? 0 : aiComponent_TEXCOORDS));
+                                    (keep_uv ? 0 : static_cast<int>(aiComponent_TEXCOORDS)));
     const aiScene* sc = importer.ReadFile(path.string(), aiProcess_RemoveComponent | aiProcess_Triangulate |
                                                              aiProcess_JoinIdenticalVertices |
                                                              aiProcess_PreTransformVertices);

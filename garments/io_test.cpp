@@ -70,8 +70,11 @@ TEST_P(RoundTrip, PreservesVerticesFacesAndAnchors) {
     const bool gltf = ext == "glb" || ext == "gltf";
     for (int v = 0; v < g.uv.rows(); ++v)
       for (int k = 0; k < 2; ++k) {
-        if (gltf) ASSERT_NEAR(h.uv(v, k), g.uv(v, k), 2e-7);
-        else ASSERT_EQ(h.uv(v, k), F32(g.uv(v, k)));
+        if (gltf) {
+          ASSERT_NEAR(h.uv(v, k), g.uv(v, k), 2e-7);
+        } else {
+          ASSERT_EQ(h.uv(v, k), F32(g.uv(v, k)));
+        }
       }
     EXPECT_EQ(h.category, g.category);
     EXPECT_EQ(h.instance, g.instance);

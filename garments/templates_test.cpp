@@ -79,7 +79,9 @@ TEST_P(TemplateTest, MeshIsManifoldOrientedAndWellShaped) {
       // A face of only seam/front vertices may still be a back face (seam-only faces are
       // excluded by construction), so decide by half: front faces come first.
       const bool is_front = f < g.mesh.NumFaces() / 2;
-      if (back) EXPECT_FALSE(is_front);
+      if (back) {
+        EXPECT_FALSE(is_front);
+      }
       const double nz = n(f, 2);
       ASSERT_GT(is_front ? nz : -nz, 0.5) << "face " << f << " is inverted or steep";
       const Vec2 a = g.uv.row(g.mesh.F(f, 0)), b = g.uv.row(g.mesh.F(f, 1)), c = g.uv.row(g.mesh.F(f, 2));
@@ -99,8 +101,11 @@ TEST_P(TemplateTest, MeshIsManifoldOrientedAndWellShaped) {
     // Layers: front z = +gap/2, back −gap/2, seam 0.
     for (int v = 0; v < g.mesh.NumVertices(); ++v) {
       const double z = g.mesh.V(v, 2);
-      if (g.layer[v] == 1) EXPECT_DOUBLE_EQ(z, -opt.layer_gap / 2);
-      else EXPECT_TRUE(z == 0 || z == opt.layer_gap / 2);
+      if (g.layer[v] == 1) {
+        EXPECT_DOUBLE_EQ(z, -opt.layer_gap / 2);
+      } else {
+        EXPECT_TRUE(z == 0 || z == opt.layer_gap / 2);
+      }
       EXPECT_EQ(g.mesh.V(v, 0), g.uv(v, 0));
       EXPECT_EQ(g.mesh.V(v, 1), g.uv(v, 1));
     }
@@ -129,8 +134,12 @@ TEST_P(TemplateTest, AnchorsAreLabelledAndOnTheFrontLayer) {
   }
   // Both sides: every left_X has its right_X.
   for (const auto& l : labels) {
-    if (l.rfind("left_", 0) == 0) EXPECT_TRUE(labels.count("right_" + l.substr(5))) << l;
-    if (l.rfind("right_", 0) == 0) EXPECT_TRUE(labels.count("left_" + l.substr(6))) << l;
+    if (l.rfind("left_", 0) == 0) {
+      EXPECT_TRUE(labels.count("right_" + l.substr(5))) << l;
+    }
+    if (l.rfind("right_", 0) == 0) {
+      EXPECT_TRUE(labels.count("left_" + l.substr(6))) << l;
+    }
   }
 }
 
@@ -154,8 +163,9 @@ TEST_P(TemplateTest, DimensionsMatchSizeParameters) {
     auto dist = [&](const char* a, const char* b) {
       return (g.FindAnchor(a)->position - g.FindAnchor(b)->position).norm();
     };
-    if (shape.params.count("waist_width"))
+    if (shape.params.count("waist_width")) {
       EXPECT_NEAR(dist("left_waist", "right_waist"), shape.params.at("waist_width"), 1e-9);
+    }
     if (name == "long_sleeve_shirt" || name == "tshirt") {
       EXPECT_NEAR(dist("left_armpit", "right_armpit"), shape.params.at("chest_width"), 1e-9);
       EXPECT_NEAR(dist("left_hem", "right_hem"), shape.params.at("hem_width"), 1e-9);
