@@ -271,23 +271,69 @@ SweepScene::SweepScene(const TriMesh& hung, const SweepOptions& options)
         std::make_shared<const KinectPlan>(PlanKinectNoise(m.background_frame, options.kinect));
 }
 
+namespace {
+
+// Copies rows [v0, v1), columns [u0, u1) of `from` into `to` (both width W).
+template <typename T>
+void CopyRect(const std::vector<T>& from, std::vector<T>& to, const PixelRect& r, int W) {
+  for (int v = r.v0; v < r.v1; ++v)
+    std::copy(from.begin() + size_t(v) * W + r.u0, from.begin() + size_t(v) * W + r.u1,
+              to.begin() + size_t(v) * W + r.u0);
+}
+
+PixelRect Clip(PixelRect r, int W, int H) {
+  r.u0 = std::clamp(r.u0, 0, W);
+  r.u1 = std::clamp(r.u1, r.u0, W);
+  r.v0 = std::clamp(r.v0, 0, H);
+  r.v1 = std::clamp(r.v1, r.v0, H);
+  return r;
+}
+
+}  // namespace
+
 std::vector<float> SweepScene::RenderKinect(double angle, Rng& rng, KinectScratch* scratch) const {
   const Impl& m = *impl_;
   const KinectOptions& k = m.options.kinect;
+  const int W = k.intrinsics.width, H = k.intrinsics.height;
   KinectScratch local;
   KinectScratch& s = scratch ? *scratch : local;
-  RenderExact(angle, s.exact);
+  // The scratch holds the background plus last frame's garment region: restore only that
+  // region (whole-image copies would cost more than the noise).
+  const PixelRect roi = Clip(Roi(angle), W, H);
+  if (s.owner == this) {
+    CopyRect(m.background_frame.depth, s.exact.depth, s.exact_dirty, W);
+    CopyRect(m.background_frame.cos_incidence, s.exact.cos_incidence, s.exact_dirty, W);
+  } else {
+    s.exact.depth = m.background_frame.depth;
+    s.exact.cos_incidence = m.background_frame.cos_incidence;
+    if (m.background_plan) s.plan = *m.background_plan;
+    s.owner = this;
+    s.plan_dirty = s.exact_dirty = PixelRect{};
+  }
+  const Eigen::Isometry3d camera_to_object =
+      ObjectToWorld(m.options, angle).inverse() * m.camera_to_world;
+  s.exact.rays_cast = 0;
+  s.exact.roi_pixels = Roi(angle).Area();
+  s.exact.garment_pixels = m.Cast(m.object, camera_to_object, Roi(angle), s.exact, m.garment_geom);
+  s.exact_dirty = roi;
   if (!k.noise) return DrawKinectNoise(s.exact, KinectPlan{}, k, rng, &s);
   // Only the garment's region changed: re-plan it, plus the widest projector shadow
   // (b·f/z px at the nearest range) to its left and one pixel around for depth edges.
-  PixelRect r = Roi(angle);
+  PixelRect r = roi;
   const int shadow = int(std::ceil(k.baseline * k.intrinsics.fx / k.min_range)) + 2;
   r.u0 -= shadow;
   r.u1 += 2;
   r.v0 -= 2;
   r.v1 += 2;
-  s.plan = *m.background_plan;  // copies into the existing buffers
+  r = Clip(r, W, H);
+  const KinectPlan& bg = *m.background_plan;
+  CopyRect(bg.sigma_axial, s.plan.sigma_axial, s.plan_dirty, W);
+  CopyRect(bg.sigma_lateral, s.plan.sigma_lateral, s.plan_dirty, W);
+  CopyRect(bg.p_drop, s.plan.p_drop, s.plan_dirty, W);
+  CopyRect(bg.shadow_suffix, s.plan.shadow_suffix, s.plan_dirty, W);
+  CopyRect(bg.lit, s.plan.lit, s.plan_dirty, W);
   UpdateKinectPlan(s.exact, k, r, s.plan);
+  s.plan_dirty = r;
   return DrawKinectNoise(s.exact, s.plan, k, rng, &s);
 }
 

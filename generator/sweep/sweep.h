@@ -134,6 +134,9 @@ struct KinectPlan {
 struct KinectScratch {
   ExactFrame exact;
   KinectPlan plan;
+  // What differs from the scene's background in exact/plan (restored before reuse).
+  const void* owner = nullptr;
+  PixelRect exact_dirty, plan_dirty;
   std::vector<uint64_t> bits;
   std::vector<float> na, uni, nu, nv, measured;
   std::vector<int8_t> du, dv;
