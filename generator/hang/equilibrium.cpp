@@ -294,7 +294,9 @@ EquilibriumReport SolveEquilibrium(const SpringNetwork& net, Points3& x,
   std::vector<double> best(ud, ud + m), saved;
   double best_rel = report.relative_before;
   int flag = KIN_SUCCESS, best_flag = KIN_SUCCESS;
-  for (size_t stage = 0; stage < schedule.size() && best_rel > options.relative_tolerance; ++stage) {
+  for (size_t stage = 0; stage < schedule.size() && best_rel > options.relative_tolerance &&
+                         report.iterations < options.max_total_iterations;
+       ++stage) {
     p.c = schedule[stage];
     p.u_ref.assign(ud, ud + m);
     saved = p.u_ref;
@@ -306,9 +308,13 @@ EquilibriumReport SolveEquilibrium(const SpringNetwork& net, Points3& x,
       KINSetErrHandlerFn(kin, SilentErrors, nullptr);
       KINSetPrintLevel(kin, 0);
       // KINSOL's test is on the max-norm of components; per node |F| ≤ √3 × that.
-      KINSetFuncNormTol(kin, 0.3 * options.relative_tolerance / std::sqrt(3.0));
+      // Intermediate stages only need to be roughly solved (they are a path to the
+      // final c = 0 stage); tight solves of every stage cost 5–10× more at 2k nodes.
+      const bool final_stage = p.c == 0;
+      KINSetFuncNormTol(kin, (final_stage ? 0.3 * options.relative_tolerance : 1e-2) / std::sqrt(3.0));
       KINSetScaledStepTol(kin, 1e-13);
-      KINSetNumMaxIters(kin, options.max_iterations);
+      const int budget = options.max_total_iterations - report.iterations;
+      KINSetNumMaxIters(kin, std::max(1, std::min(final_stage ? options.max_iterations : 8, budget)));
       KINSetMaxSetupCalls(kin, 1);  // fresh preconditioner every Newton step
       KINSetLinearSolver(kin, ls, nullptr);
       KINSetJacTimesVecFn(kin, JacTimes);
@@ -322,7 +328,10 @@ EquilibriumReport SolveEquilibrium(const SpringNetwork& net, Points3& x,
     report.linear_iterations += static_cast<int>(nli);
     KINFree(&kin);
     SUNLinSolFree(ls);
-    const bool ok = (flag == KIN_SUCCESS || flag == KIN_INITIAL_GUESS_OK) && std::isfinite(N_VMaxNorm(u));
+    // A stage out of iterations still made progress; only a failed line search or a
+    // bad state sends us back to the stage's start.
+    const bool ok = (flag == KIN_SUCCESS || flag == KIN_INITIAL_GUESS_OK || flag == KIN_MAXITER_REACHED) &&
+                    std::isfinite(N_VMaxNorm(u));
     if (!ok) {  // a failed stage: back to its start; smaller c would be harder still
       std::copy(saved.begin(), saved.end(), ud);
       break;

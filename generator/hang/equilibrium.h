@@ -43,7 +43,8 @@ Points3 SpringForces(const SpringNetwork& net, const Points3& x);
 struct EquilibriumOptions {
   // Stop when max over free nodes of |F_i| / (m_i g) falls below this.
   double relative_tolerance = 1e-4;
-  int max_iterations = 40;  // Newton iterations per continuation stage
+  int max_iterations = 40;         // Newton iterations of the final (c = 0) stage
+  int max_total_iterations = 100;  // over all stages (cost cap)
   // A solve moving any node further than this is rejected (state kept), metres.
   double max_displacement = 0.03;
   void Validate() const;

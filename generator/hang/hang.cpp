@@ -630,7 +630,7 @@ HangResult Hang(const Garment& garment, int anchor_vertex, const Vec3& grasp_off
       EquilibriumOptions eo;
       eo.relative_tolerance = options.equilibrium_tolerance;
       eo.max_displacement = options.equilibrium_max_displacement;
-      eo.max_iterations = options.equilibrium_iterations;
+      eo.max_total_iterations = options.equilibrium_iterations;
       Points3 solved = x;
       eq = SolveEquilibrium(net, solved, eo);
       if (eq.applied && options.self_collision) {

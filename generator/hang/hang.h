@@ -41,7 +41,7 @@ struct HangOptions {
   bool equilibrium_solve = true;  // KINSOL on the spring model after Bullet
   double equilibrium_tolerance = 1e-4;       // max |F_i|/(m_i g) to reach
   double equilibrium_max_displacement = 0.03;  // m; larger solves are rejected
-  int equilibrium_iterations = 40;  // Newton iterations per continuation stage (cost cap)
+  int equilibrium_iterations = 60;  // Newton iterations in total (cost cap)
   // FitMaterial's reference: a single-layer strip of cloth hung from the middle of one
   // end. (A towel hung from a corner curls and buckles, so pick→lowest-point distance
   // falls 5–10 % short of the flat diagonal whatever the stiffness; a strip hangs
