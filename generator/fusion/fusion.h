@@ -49,13 +49,18 @@ struct FusionOptions {
   // (a voxel just behind the back layer is > μ behind the front one and is left to
   // the views that see it from the other side).
   double truncation = 0;
-  // Segmentation box in the object frame (paper: a 2D box plus a depth range, one
-  // box for the whole set-up). A pixel is foreground iff its back-projected point
-  // lies in the box. Default: x, z ∈ [-0.6, 0.6] m, y ∈ [-1.7, -0.02] m — the space
-  // under the gripper that a garment up to 1.7 m long can hang in, excluding the
-  // gripper jaws (the 2 cm above y = -0.02) and the arm, table, wall and floor.
-  // Pixels outside the box still carve free space in front of them.
-  Eigen::AlignedBox3d box{Eigen::Vector3d(-0.6, -1.7, -0.6), Eigen::Vector3d(0.6, -0.02, 0.6)};
+  // Segmentation region in the object frame (paper: a 2D box plus a depth range, one
+  // box for the whole set-up): a pixel is foreground iff its back-projected point lies
+  // in `box` and within `radius` of the turning (y) axis. The radius makes the region
+  // a world-fixed cylinder as the garment turns (a box turning with the garment would
+  // sweep its corners 0.85 m out and catch the sweep scene's table at 0.63 m).
+  // Defaults, for the sweep's set-up (gripper 1.5 m above the floor): x, z ∈ [-0.6,
+  // 0.6] m, radius 0.55 m, y ∈ [-1.45, -0.02] m — the space under the gripper that a
+  // garment up to 1.45 m long hangs in, excluding the gripper's fingers (down to
+  // y = -0.015), the arm, the table, the wall and the floor (y = -1.5).
+  // Pixels outside the region still carve free space in front of them.
+  Eigen::AlignedBox3d box{Eigen::Vector3d(-0.6, -1.45, -0.6), Eigen::Vector3d(0.6, -0.02, 0.6)};
+  double radius = 0.55;  // metres; <= 0: no radial limit
   // A block is carved (outside) once seen as free space in this many frames; > 1
   // guards against stray dropouts.
   int carve_min_views = 2;

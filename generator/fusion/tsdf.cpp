@@ -35,6 +35,7 @@ void FusionOptions::Validate() const {
     Bad("box", "must be a non-empty finite box");
   if ((box.sizes().array() * voxels_per_metre / kBlockDim).prod() > 2e7)
     Bad("box", "too large for the carving grid at this voxel size");
+  if (!std::isfinite(radius)) Bad("radius", "must be finite (<= 0: no radial limit)");
   if (carve_min_views < 1) Bad("carve_min_views", "must be >= 1");
   if (hole_radius_px < 0 || hole_radius_px > 64) Bad("hole_radius_px", "must be in [0, 64]");
   if (frames_stride < 1) Bad("frames_stride", "must be >= 1");
@@ -89,6 +90,7 @@ void Tsdf::Integrate(const DepthFrame& frame, const Intrinsics& K) {
   const Eigen::Matrix3d R = frame.camera_to_object.linear();
   const Eigen::Vector3d t = frame.camera_to_object.translation();
   const Eigen::AlignedBox3d& box = m.opt.box;
+  const double radius2 = m.opt.radius > 0 ? m.opt.radius * m.opt.radius : 0;
 
   // 1. Segmentation. code > 0: foreground depth (in the box); code < 0: -depth of a
   // point outside the box (carves free space only); 0: background without data;
@@ -105,7 +107,7 @@ void Tsdf::Integrate(const DepthFrame& frame, const Intrinsics& K) {
         continue;
       }
       const Vec3 p = R * Vec3(d * m.xhat[u], d * m.yhat[v], d) + t;
-      if (box.contains(p)) {
+      if (box.contains(p) && (radius2 <= 0 || p.x() * p.x() + p.z() * p.z() <= radius2)) {
         code[i] = d;
         fg[i] = 1;
         ++fg_count;
@@ -244,7 +246,7 @@ void Tsdf::Integrate(const DepthFrame& frame, const Intrinsics& K) {
           } else {
             // Free space in front of anything, or background without data.
             const float cd = carve[pix];
-            if (std::isnan(cd) || (cd != 0 && (cd - zc) * lambda <= fmu)) continue;
+            if (std::isnan(cd) || (cd != 0 && (std::abs(cd) - zc) * lambda <= fmu)) continue;
             value = fmu;
           }
           const int o = LocalOffset(x, y, z);
@@ -280,7 +282,7 @@ void Tsdf::Integrate(const DepthFrame& frame, const Intrinsics& K) {
           const float d = carve[size_t(iv) * W + iu];
           if (std::isnan(d)) continue;
           const double lambda = c.norm() / c.z();
-          const bool free = d == 0 || (d - c.z()) * lambda > mu;
+          const bool free = d == 0 || (std::abs(d) - c.z()) * lambda > mu;
           if (free && m.free_count[ci] < cap) ++m.free_count[ci];
         }
       }
