@@ -29,7 +29,7 @@ struct Garment {
   std::string instance;  // unique name of this instance, e.g. "pants-M-s3"
   TriMesh mesh;
   Points2 uv;            // #V×2, metres on the flat pattern (empty if unknown, e.g. imports)
-  std::vector<int> layer;  // #V: 0 front, 1 back (empty if unknown)
+  std::vector<int> layer;  // #V: 0 front (incl. stitched seam vertices), 1 back (empty if unknown)
   std::vector<Anchor> anchors;
 
   // nullptr if there is no anchor with that label.

@@ -48,6 +48,11 @@ std::string RenderFlatPreview(const Garment& g, int width_px) {
     bool is_front = true;
     if (have_layer) {
       for (int k = 0; k < 3; ++k) is_front &= g.layer[m.F(f, k)] == 0;
+    } else if (have_uv) {
+      // Front faces run counter-clockwise on the pattern, back faces clockwise; this
+      // holds however the garment is draped in 3D.
+      const Vec2 p0 = pos2(m.F(f, 0)), p1 = pos2(m.F(f, 1)), p2 = pos2(m.F(f, 2));
+      is_front = (p1 - p0).x() * (p2 - p0).y() - (p1 - p0).y() * (p2 - p0).x() > 0;
     } else {
       is_front = normals(f, 2) >= 0;
     }

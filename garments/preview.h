@@ -10,7 +10,8 @@ namespace drape {
 
 // PNG bytes, width_px wide (height follows the garment's aspect ratio). Uses the
 // pattern uv when the garment has it, else the x–y of the vertices; the front layer
-// is layer 0 (or, without layers, faces whose normal points to +z). Deterministic.
+// is layer 0 (without layers: faces counter-clockwise on the pattern uv, or without
+// uv, faces whose normal points to +z). Deterministic.
 std::string RenderFlatPreview(const Garment& garment, int width_px = 800);
 
 }  // namespace drape
