@@ -205,6 +205,28 @@ TEST_P(TemplateTest, SeedsAreDeterministicAndDistinct) {
   EXPECT_NE(r7.bounds_max.x(), r8.bounds_max.x());
 }
 
+TEST_P(TemplateTest, PerturbedInstancesStaySound) {
+  // Larger perturbations than the default and a coarser and a finer mesh: the
+  // topology guarantees must hold for every instance, not just the presets.
+  const std::string name = GetParam();
+  const TemplateInfo* info = FindTemplate(name);
+  for (uint64_t seed = 1; seed <= 4; ++seed) {
+    for (double h : {0.02, 0.05}) {
+      TemplateOptions o;
+      o.seed = seed;
+      o.perturbation = 0.1;
+      o.edge_length = h;
+      o.size = seed % 2 ? "S" : "L";
+      const Garment g = MakeGarment(name, o);
+      const MeshReport r = InspectMesh(g.mesh);
+      EXPECT_TRUE(r.Manifold() && r.Oriented() && r.degenerate_faces.empty() && r.components == 1)
+          << g.instance << " h=" << h;
+      EXPECT_EQ(r.boundary_loops, static_cast<int>(info->openings.size())) << g.instance << " h=" << h;
+      EXPECT_EQ(g.anchors.size(), info->anchor_labels.size());
+    }
+  }
+}
+
 INSTANTIATE_TEST_SUITE_P(All, TemplateTest,
                          ::testing::Values("long_sleeve_shirt", "tshirt", "pants", "shorts", "skirt",
                                            "towel"),
