@@ -1,4 +1,5 @@
 // The dataset card (README.md) and the gallery (index.html) of a release.
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <map>
@@ -72,13 +73,18 @@ std::string DatasetCard(const Json& ds, const std::vector<Release::EntryInfo>& e
   std::ostringstream o;
   o << "---\n";
   o << "pretty_name: " << YamlString("drape " + name + " " + version) << "\n";
-  o << "license: " << ds.value("license", "other") << "\n";
+  {
+    // HF wants an identifier (cc-by-4.0, mit, other); quote anything else.
+    const std::string lic = ds.value("license", std::string("other"));
+    bool simple = !lic.empty();
+    for (char c : lic) simple = simple && (std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '.');
+    o << "license: " << (simple ? lic : YamlString(lic)) << "\n";
+  }
   o << "task_categories:\n- robotics\n- depth-estimation\n";
   o << "tags:\n- synthetic\n- garments\n- deformable-objects\n- cloth\n- depth\n- sdf\n";
   o << "size_categories:\n- " << SizeCategory(entries.size()) << "\n";
   o << "dataset_info:\n  splits:\n";
   for (const auto& s : splits) o << "  - name: " << s << "\n    num_examples: " << split_n[s] << "\n";
-  o << "  dataset_version: " << YamlString(version) << "\n";
   o << "---\n\n";
 
   o << "# " << name << " " << version << "\n\n";
@@ -135,7 +141,10 @@ std::string DatasetCard(const Json& ds, const std::vector<Release::EntryInfo>& e
        "- `SHA256SUMS`: hashes of every file; `build.json`: build times (not hashed).\n";
   o << "\n## Verify and rebuild\n\n```sh\nsha256sum -c SHA256SUMS        # files\n"
        "drape verify .                  # files + release digest\n"
-       "drape build recipe.yaml         # rebuild (recipe text is in dataset.json)\n```\n";
+       "drape verify . --rebuild        # rebuild from the recipe and compare entry by entry\n"
+       "# or by hand: the full recipe is in dataset.json\n"
+       "python3 -c \"import json;print(json.load(open('dataset.json'))['recipe']['text'],end='')\" > recipe.yaml\n"
+       "drape build recipe.yaml -o /tmp/rebuilt && drape verify /tmp/rebuilt --published .\n```\n";
   o << "\n## Provenance\n\n";
   o << "- release digest: `" << ds.value("digest", "") << "`\n";
   o << "- seed: " << ds.value("seed", Json()).dump() << "\n";
