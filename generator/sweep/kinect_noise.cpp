@@ -299,7 +299,6 @@ std::vector<float> DrawKinectNoise(const ExactFrame& exact, const KinectPlan& pl
   KinectScratch local;
   KinectScratch& s = scratch ? *scratch : local;
   // Sized without clearing: every element is written below.
-  s.bits.resize(n);
   s.na.resize(n);
   s.uni.resize(n);
   s.nu.resize(n);
@@ -307,23 +306,19 @@ std::vector<float> DrawKinectNoise(const ExactFrame& exact, const KinectPlan& pl
   s.measured.resize(n);
   s.du.resize(n);
   s.dv.resize(n);
-  auto& bits = s.bits;
   auto& na = s.na;
   auto& uni = s.uni;
   auto& nu = s.nu;
   auto& nv = s.nv;
-  // One 64-bit draw per pixel, raster order.
-  for (size_t p = 0; p < n; ++p) bits[p] = rng.NextU64();
-  // Table look-ups (scalar), then branch-free float loops (vectorised).
+  // One 64-bit draw per pixel, raster order, split into table look-ups (scalar); the
+  // arithmetic follows in branch-free loops (vectorised).
   for (size_t p = 0; p < n; ++p) {
-    na[p] = N[(bits[p] >> 32) & 0xFFFF];
-    uni[p] = (float(int(bits[p] >> 48)) + 0.5f) * (1.0f / 65536.0f);
+    const uint64_t b = rng.NextU64();
+    nu[p] = N[b & 0xFFFF];
+    nv[p] = N[(b >> 16) & 0xFFFF];
+    na[p] = N[(b >> 32) & 0xFFFF];
+    uni[p] = (float(int(b >> 48)) + 0.5f) * (1.0f / 65536.0f);
   }
-  if (o.lateral)
-    for (size_t p = 0; p < n; ++p) {
-      nu[p] = N[bits[p] & 0xFFFF];
-      nv[p] = N[(bits[p] >> 16) & 0xFFFF];
-    }
   const float bfq = float(o.baseline * o.disparity_focal);  // m·px, [K]
   const float step = float(o.disparity_subpixel);
   auto& measured = s.measured;

@@ -137,7 +137,6 @@ struct KinectScratch {
   // What differs from the scene's background in exact/plan (restored before reuse).
   const void* owner = nullptr;
   PixelRect exact_dirty, plan_dirty;
-  std::vector<uint64_t> bits;
   std::vector<float> na, uni, nu, nv, measured;
   std::vector<int8_t> du, dv;
 };
