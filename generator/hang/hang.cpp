@@ -229,8 +229,16 @@ class Separator {
     };
     auto cell = [&](double c) { return static_cast<int>(std::floor(c / cell_)); };
     start_.assign(buckets + 1, 0);
-    std::vector<std::array<int, 6>> box(nf);
+    box_.resize(nf);
+    normal_.resize(nf);
+    auto& box = box_;
     for (int f = 0; f < nf; ++f) {
+      // Unit normal once per face per step: most candidates are rejected by their
+      // plane distance before the (costlier) neighbourhood test.
+      const Vec3 xa = X(F_(f, 0));
+      Vec3 nn = (X(F_(f, 1)) - xa).cross(X(F_(f, 2)) - xa);
+      const double nl = nn.norm();
+      normal_[f] = nl > 1e-12 ? Vec3(nn / nl) : Vec3::Zero();
       Vec3 lo = X(F_(f, 0)), hi = lo;
       for (int c = 1; c < 3; ++c) {
         lo = lo.cwiseMin(X(F_(f, c)));
@@ -259,17 +267,16 @@ class Separator {
       for (int it = start_[k]; it < start_[k + 1]; ++it) {
         const int f = items_[it];
         const int a = F_(f, 0), b = F_(f, 1), c = F_(f, 2);
+        const Vec3 p = X(i), xa = X(a);
+        const Vec3 nrm = normal_[f];
+        if (nrm.isZero()) continue;
+        const double s = (p - xa).dot(nrm);
+        if (std::abs(s) >= h_) continue;
         const auto& nr = near_[i];
         if (std::binary_search(nr.begin(), nr.end(), a) || std::binary_search(nr.begin(), nr.end(), b) ||
             std::binary_search(nr.begin(), nr.end(), c))
           continue;
-        const Vec3 p = X(i), xa = X(a), xb = X(b), xc = X(c);
-        Vec3 nrm = (xb - xa).cross(xc - xa);
-        const double len = nrm.norm();
-        if (len < 1e-12) continue;
-        nrm /= len;
-        const double s = (p - xa).dot(nrm);
-        if (std::abs(s) >= h_) continue;
+        const Vec3 xb = X(b), xc = X(c);
         // Barycentric coordinates of the projection; only nodes over the triangle.
         const Vec3 q = p - s * nrm;
         const Vec3 v0 = xb - xa, v1 = xc - xa, v2 = q - xa;
@@ -366,6 +373,8 @@ class Separator {
   double cell_;
   std::vector<std::vector<int>> near_;
   std::vector<int> start_, items_, fill_;
+  std::vector<std::array<int, 6>> box_;
+  std::vector<Vec3> normal_;
 };
 
 struct RunOutcome {
