@@ -364,10 +364,12 @@ struct ReleaseWriter::Impl {
   std::string started_utc;
   double started_seconds = 0;
   std::string published_digest;
+  bool already_finished = false;  // opened on a finished release with the same inputs
 
   fs::path build_dir() const { return dir / kBuildDir; }
 
   ~Impl() {
+    if (already_finished) DropLock();  // a finished release keeps no lock file
     if (journal_fd >= 0) ::close(journal_fd);
     if (lock_fd >= 0) ::close(lock_fd);  // the kernel drops the flock with the descriptor
   }
@@ -582,6 +584,10 @@ std::unique_ptr<ReleaseWriter> ReleaseWriter::OpenLocked(std::unique_ptr<Impl>& 
                     "records/splits changed) or write elsewhere with -o. To check that this code "
                     "reproduces it, use `drape verify --rebuild`. Differences:");
       if (!diff.empty()) throw Error(diff);
+      // Same inputs: nothing to build. Leave the release (and its build.json) untouched.
+      impl->already_finished = true;
+      impl->LoadDone();
+      return std::unique_ptr<ReleaseWriter>(new ReleaseWriter(std::move(impl)));
     } else if (has_sums) {
       // A published reference (dataset.json + SHA256SUMS committed under datasets/).
       if (!DirHasOnly(dir, {"dataset.json", "SHA256SUMS", "README.md", kLockFile}))
@@ -641,6 +647,7 @@ void ReleaseWriter::Commit(const Entry& entry) {
   {
     std::lock_guard<std::mutex> g(m.mu);
     if (!m.expected.count(entry.key)) throw Error(where + ": job key is not one of this build's jobs");
+    if (m.already_finished) throw Error(where + ": the release is already finished");
     if (m.done.count(entry.key) || m.in_progress.count(entry.key))
       throw Error(where + ": job already committed");
     if (m.ids.count(entry.id)) throw Error(where + ": id already used by another job");
@@ -708,6 +715,21 @@ ReleaseWriter::Summary ReleaseWriter::Finalize() {
   Impl& m = *impl_;
   std::lock_guard<std::mutex> g(m.mu);
   if (m.lock_fd < 0) throw Error(m.dir.string() + ": release already finalized");
+  if (m.already_finished) {
+    // Report the finished release as it is; rewrite nothing.
+    const Release r = Release::Open(m.dir);
+    Summary s;
+    s.digest = r.digest();
+    s.entries = static_cast<int>(r.entries().size());
+    for (const auto& e : r.entries()) {
+      s.failed += e.failed;
+      for (const auto& f : e.files) s.bytes += f.size;
+    }
+    s.counts = r.dataset().value("counts", Json::object());
+    s.wall_seconds = r.build_info().value("wall_seconds", 0.0);
+    m.DropLock();
+    return s;
+  }
   std::vector<std::string> missing;
   const auto& keys = m.meta.shard_keys.empty() ? m.meta.job_keys : m.meta.shard_keys;
   for (const auto& k : keys) {

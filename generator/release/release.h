@@ -88,8 +88,8 @@ class ReleaseWriter {
   //    version and shard match, else refused (delete the folder or use the same inputs);
   //    leftover staging folders are removed, half-written entries are never done;
   //  - a finished release of the same version: refused if the recipe or code differs
-  //    ("bump the version"); otherwise every job is already done (Finalize rewrites the
-  //    same files);
+  //    ("bump the version"); otherwise every job is already done, Commit throws and
+  //    Finalize only reports the release (nothing is rewritten, build.json kept);
   //  - a folder holding only a published reference (dataset.json + SHA256SUMS, as
   //    committed under datasets/): built into; Finalize reports whether the digest matches;
   //  - anything else non-empty: refused.

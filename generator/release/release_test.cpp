@@ -278,9 +278,15 @@ TEST_F(ReleaseTest, VersionIsImmutable) {
   EXPECT_FALSE(fs::exists(root_ / "v" / ".drape-build"));
   EXPECT_TRUE(Verify(root_ / "v").ok());
   // Same inputs (also with --resume): everything is done, finalizing again changes nothing.
+  const std::string build_json = Slurp(root_ / "v" / "build.json");
   auto w = ReleaseWriter::Open(root_ / "v", MakeMeta(), /*resume=*/true);
   EXPECT_EQ(w->DoneKeys().size(), static_cast<size_t>(kJobs));
-  EXPECT_EQ(w->Finalize().digest, a.digest);
+  EXPECT_THROW(w->Commit(MakeEntry(0)), Error);
+  const auto again = w->Finalize();
+  EXPECT_EQ(again.digest, a.digest);
+  EXPECT_EQ(again.entries, kJobs);
+  EXPECT_EQ(Slurp(root_ / "v" / "build.json"), build_json);  // untouched
+  EXPECT_FALSE(fs::exists(root_ / "v" / ".drape.lock"));
   EXPECT_TRUE(Verify(root_ / "v").ok());
   // A non-release folder is not written into.
   fs::create_directories(root_ / "junk");
