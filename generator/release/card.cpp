@@ -172,9 +172,9 @@ std::string Gallery(const Json& ds, const std::vector<Release::EntryInfo>& entri
     << "<style>\n"
        "body{font-family:sans-serif;margin:1em;background:#fafafa}\n"
        "#grid{display:flex;flex-wrap:wrap;gap:10px}\n"
-       ".card{width:220px;background:#fff;border:1px solid #ccc;border-radius:6px;padding:6px;font-size:12px}\n"
-       ".card img{width:220px;height:165px;object-fit:contain;background:#eee}\n"
-       ".card .noimg{width:220px;height:165px;background:#eee;display:flex;align-items:center;justify-content:center;color:#888}\n"
+       ".card{width:330px;background:#fff;border:1px solid #ccc;border-radius:6px;padding:6px;font-size:12px}\n"
+       ".card img{width:330px;height:150px;object-fit:contain;background:#eee}\n"
+       ".card .noimg{width:330px;height:150px;background:#eee;display:flex;align-items:center;justify-content:center;color:#888}\n"
        ".card.failed{border-color:#c33}\n.card .fail{color:#c33}\n"
        ".card b{font-size:13px}\n"
        "</style>\n</head>\n<body>\n";
