@@ -461,12 +461,36 @@ void WriteReport(const EvalResult& result, const Json& header, const fs::path& d
   std::ostringstream md;
   md << "# Pose recognition report\n\n";
   for (const auto& [k, v] : header.items()) {
+    if (v.is_object() || v.is_array() || v.is_null()) continue;  // tables below / report.json
     md << "- **" << k << "**: " << (v.is_string() ? v.get<std::string>() : v.dump()) << "\n";
   }
   md << "- **queries**: " << result.report["queries"] << ", database entries: "
      << result.report["database"]["entries"] << " (kernel " << result.report["database"]["kernel"].get<std::string>()
      << ")\n\nEvery number below comes from this run (report.json has each query).\n\n";
   md << ReportMarkdown(result.report);
+  if (header.contains("calibration") && header["calibration"].is_object()) {
+    const Json& cal = header["calibration"];
+    md << "\n## Calibration (Eq. learn) of the weights used\n\n"
+       << "RankSVM, C = " << cal["options"].value("c", 0.0) << ", frame " << cal["options"].value("frame", "?")
+       << ", learned on split '" << cal["options"].value("split", "calibration") << "'. Pair accuracy = share of "
+       << "(right-anchor, wrong-anchor) database pairs ranked right for the calibration queries.\n\n"
+       << "| category | queries | skipped | pairs | pair accuracy u → l | calibration top-1 u → l | nonzero w |\n"
+       << "|---|---|---|---|---|---|---|\n";
+    for (const auto& c : cal["stats"].value("categories", Json::array())) {
+      char buf[256];
+      std::snprintf(buf, sizeof buf, "| %s | %d | %d | %lld | %.3f → %.3f | %d → %d | %.1f %% |\n",
+                    c.value("category", "").c_str(), c.value("queries", 0), c.value("skipped", 0),
+                    c.value("pairs", 0LL), c.value("ranking_accuracy_unweighted", 0.0),
+                    c.value("ranking_accuracy_learned", 0.0), c.value("top1_unweighted", 0),
+                    c.value("top1_learned", 0), 100 * c.value("nonzero_weight_fraction", 0.0));
+      md << buf;
+    }
+    for (const auto& w : cal["stats"].value("warnings", Json::array())) md << "- " << w.get<std::string>() << "\n";
+  }
+  if (header.contains("load_warnings") && !header["load_warnings"].empty()) {
+    md << "\n## Entries skipped while loading\n\n";
+    for (const auto& w : header["load_warnings"]) md << "- " << w.get<std::string>() << "\n";
+  }
   md << "\n## Plots\n\n![accuracy](accuracy.png)\n\n";
   for (const auto& [cat, c] : result.confusion) {
     md << "![" << cat << "](confusion_" << SafeName(cat) << ".png)\n\n";
