@@ -1,0 +1,531 @@
+#include "generator/build/build.h"
+
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <condition_variable>
+#include <cstdio>
+#include <future>
+#include <iomanip>
+#include <iostream>
+#include <mutex>
+#include <sstream>
+#include <thread>
+
+#include "common/error.h"
+#include "common/parallel.h"
+#include "common/rng.h"
+#include "garments/io.h"
+#include "garments/templates.h"
+#include "generator/feature/feature.h"
+#include "generator/fusion/fusion.h"
+#include "generator/hang/hang.h"
+#include "generator/release/release.h"
+#include "generator/sweep/sweep.h"
+
+#ifndef DRAPE_GIT_VERSION
+#define DRAPE_GIT_VERSION "unknown"
+#endif
+
+namespace fs = std::filesystem;
+
+namespace drape {
+
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+double Seconds(Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double>(b - a).count(); }
+
+// A value computed once per key by whichever job needs it first; other jobs wait.
+template <typename T>
+class OnceMap {
+ public:
+  template <typename Fn>
+  std::shared_ptr<const T> Get(const std::string& key, Fn&& make, bool* computed_here = nullptr) {
+    std::shared_future<std::shared_ptr<const T>> fut;
+    std::promise<std::shared_ptr<const T>> promise;
+    bool mine = false;
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      auto it = map_.find(key);
+      if (it == map_.end()) {
+        fut = promise.get_future().share();
+        map_.emplace(key, fut);
+        mine = true;
+      } else {
+        fut = it->second;
+      }
+    }
+    if (computed_here) *computed_here = mine;
+    if (mine) {
+      try {
+        promise.set_value(std::make_shared<const T>(make()));
+      } catch (...) {
+        promise.set_exception(std::current_exception());
+      }
+    }
+    return fut.get();
+  }
+
+ private:
+  std::mutex mu_;
+  std::map<std::string, std::shared_future<std::shared_ptr<const T>>> map_;
+};
+
+Json MaterialJson(const Material& m) {
+  return {{"stretch_percent", m.stretch_percent},
+          {"friction_deg", m.friction_deg},
+          {"area_density", m.area_density},
+          {"bending_stiffness", m.bending_stiffness}};
+}
+
+// Hang options as used for a garment: the material fit is done at the garment's
+// mesh resolution (its edge length), as hang.h recommends.
+HangOptions HangOptionsFor(const Recipe& recipe, const GarmentSpec& g) {
+  HangOptions h = recipe.hang;
+  if (!g.template_name.empty()) h.fit_edge_length = g.options.edge_length;
+  return h;
+}
+
+Json HangStatsJson(const HangStats& s) {
+  return {{"sim_time", s.sim_time},
+          {"steps", s.steps},
+          {"time_step", s.time_step},
+          {"kinetic_energy", s.kinetic_energy},
+          {"max_speed", s.max_speed},
+          {"strain_mean", s.strain_mean},
+          {"strain_max", s.strain_max},
+          {"settled", s.settled},
+          {"force_residual", s.force_residual},
+          {"force_residual_rel", s.force_residual_rel},
+          {"bullet_force_residual_rel", s.bullet_force_residual_rel},
+          {"equilibrium_applied", s.equilibrium_applied},
+          {"equilibrium_iterations", s.equilibrium_iterations},
+          {"equilibrium_displacement", s.equilibrium_displacement},
+          {"collision_corrections", s.collision_corrections},
+          {"retries", s.retries}};
+}
+
+}  // namespace
+
+struct JobCache::Impl {
+  OnceMap<Garment> garments;
+  OnceMap<MaterialFit> fits;
+};
+JobCache::JobCache() : impl(std::make_unique<Impl>()) {}
+JobCache::~JobCache() = default;
+
+fs::path DefaultOutput(const Recipe& recipe) { return fs::path("datasets") / recipe.name / recipe.version; }
+
+Entry BuildEntry(const Recipe& recipe, const Job& job, JobCache& cache) {
+  const auto t_start = Clock::now();
+  const GarmentSpec& g = recipe.garments.at(job.garment);
+  const SensingSpec& sensing = recipe.sensing.at(job.sensing);
+  Entry e;
+  e.id = job.id;
+  e.key = job.key;
+  e.split = job.split;
+  Json timing = Json::object();
+  auto stage = [&](const char* name, auto&& fn) {
+    const auto t0 = Clock::now();
+    fn();
+    timing[name] = Seconds(t0, Clock::now());
+  };
+
+  // The garment of this instance (cached: every anchor of it shares it).
+  std::shared_ptr<const Garment> garment;
+  stage("garment", [&] {
+    const std::string gkey = job.instance_name + "@" + std::to_string(job.size_scale);
+    garment = cache.impl->garments.Get(gkey, [&] {
+      Garment out;
+      if (!g.template_name.empty()) {
+        TemplateOptions o = g.options;
+        o.seed = job.instance_seed;
+        out = MakeGarment(g.template_name, o);
+      } else {
+        ImportOptions io;
+        io.unit_scale = g.unit_scale;
+        io.category = g.category;
+        io.instance = g.name;
+        out = ImportGarment(g.file, g.anchors, io);
+      }
+      if (job.size_scale != 1.0) {
+        // Size perturbation: the whole pattern scaled about its origin.
+        out.mesh.V *= job.size_scale;
+        if (out.uv.rows()) out.uv *= job.size_scale;
+        for (auto& a : out.anchors) {
+          a.uv *= job.size_scale;
+          a.position *= job.size_scale;
+        }
+      }
+      return out;
+    });
+  });
+
+  // The material's stiffness (cached per material values and fit resolution).
+  const HangOptions hang_options = HangOptionsFor(recipe, g);
+  std::shared_ptr<const MaterialFit> fit;
+  stage("fit", [&] {
+    std::ostringstream fkey;
+    fkey << std::setprecision(17) << job.material.stretch_percent << "/" << job.material.friction_deg << "/"
+         << job.material.area_density << "/" << job.material.bending_stiffness << "/" << hang_options.fit_edge_length;
+    fit = cache.impl->fits.Get(fkey.str(), [&] { return FitMaterial(job.material, hang_options); });
+  });
+
+  const Anchor* anchor = garment->FindAnchor(job.anchor);
+  if (!anchor) throw Error(job.key + ": garment '" + g.name + "' has no anchor '" + job.anchor + "'");
+  const Vec3 offset(job.grasp_offset.x(), job.grasp_offset.y(), 0.0);
+
+  Json& rec = e.record;
+  rec["category"] = garment->category;
+  rec["garment"] = g.name;
+  rec["template"] = g.template_name.empty() ? g.file.filename().string() : g.template_name;
+  rec["instance"] = job.instance_name;
+  rec["instance_name"] = garment->instance;
+  if (!g.template_name.empty()) rec["size"] = g.options.size;
+  rec["size_scale"] = job.size_scale;
+  rec["material"] = job.material_name;
+  rec["material_values"] = MaterialJson(job.material);
+  rec["material_fit"] = {{"stiffness", fit->stiffness},
+                         {"spring_stiffness", fit->spring_stiffness},
+                         {"target_stretch_percent", fit->target_stretch_percent},
+                         {"reproduced_stretch_percent", fit->reproduced_stretch_percent},
+                         {"equilibrium_stretch_percent", fit->equilibrium_stretch_percent},
+                         {"converged", fit->converged}};
+  rec["anchor"] = {{"label", anchor->label}, {"vertex", anchor->vertex}, {"uv", {anchor->uv.x(), anchor->uv.y()}}};
+  rec["grasp_offset"] = {offset.x(), offset.y(), offset.z()};
+  rec["seed"] = job.seed;
+  if (job.repeat) rec["repeat"] = job.repeat;
+  rec["garment_mesh"] = {{"vertices", garment->mesh.NumVertices()}, {"faces", garment->mesh.NumFaces()}};
+
+  auto fail = [&](const std::string& why) {
+    e.failed = true;
+    e.failure = why;
+    timing["total"] = Seconds(t_start, Clock::now());
+    e.timing = timing;
+    return e;
+  };
+
+  try {
+    HangResult hung;
+    stage("hang", [&] {
+      hung = Hang(*garment, anchor->vertex, offset, job.material, *fit, hang_options, DeriveSeed(job.seed, "hang"));
+    });
+    rec["hang"] = HangStatsJson(hung.stats);
+    timing["bullet"] = hung.stats.bullet_seconds;
+    if (!hung.ok) return fail("hang: " + hung.failure);
+
+    Sweep sweep;
+    stage("sweep", [&] {
+      SweepOptions so = sensing.sweep;
+      so.threads = 1;  // jobs run in parallel; one thread each
+      sweep = SimulateSweep(hung.mesh, so, DeriveSeed(job.seed, "sweep"));
+    });
+    rec["sweep"] = {{"frames", sweep.stats.frames},
+                    {"degrees", sensing.sweep.degrees},
+                    {"back_and_forth", sensing.sweep.back_and_forth},
+                    {"noise", sensing.sweep.kinect.noise},
+                    {"garment_pixels_mean", sweep.stats.garment_pixels_mean},
+                    {"valid_fraction_mean", sweep.stats.valid_fraction_mean},
+                    {"warnings", sweep.stats.warnings}};
+
+    FusionResult fused;
+    stage("fusion", [&] {
+      FusionOptions fo = recipe.fusion;
+      fo.threads = 1;
+      fused = FuseFrames(sweep.frames, sweep.intrinsics, fo, DeriveSeed(job.seed, "fusion"));
+    });
+    if (fused.mesh.NumFaces() == 0) return fail("fusion: the fused surface is empty (garment not in view?)");
+    Accuracy acc;
+    stage("accuracy", [&] { acc = MeasureAccuracy(fused.mesh, hung.mesh); });
+    rec["fusion"] = {{"recon_to_truth_mean", acc.recon_to_truth_mean},
+                     {"recon_to_truth_p95", acc.recon_to_truth_p95},
+                     {"truth_to_recon_mean", acc.truth_to_recon_mean},
+                     {"truth_to_recon_p95", acc.truth_to_recon_p95},
+                     {"voxels_per_metre", recipe.fusion.voxels_per_metre},
+                     {"truncation", recipe.fusion.Truncation()},
+                     {"frames_integrated", fused.stats.frames_integrated},
+                     {"surface_blocks", fused.stats.surface_blocks},
+                     {"mesh_vertices", fused.mesh.NumVertices()},
+                     {"mesh_faces", fused.mesh.NumFaces()}};
+
+    Feature feature;
+    stage("feature", [&] {
+      const Tsdf& tsdf = *fused.tsdf;
+      feature = ExtractFeature(fused.mesh.V, [&tsdf](const Vec3& p) { return tsdf.Sdf(p); }, recipe.feature);
+    });
+    rec["feature"] = {{"layers", feature.layers},
+                      {"rings", feature.rings},
+                      {"sectors", feature.sectors},
+                      {"ones", feature.PopCount()}};
+
+    stage("encode", [&] {
+      e.files.push_back({"hang.ply", EncodeMesh(hung.mesh)});
+      e.files.push_back({"recon.ply", EncodeMesh(fused.mesh)});
+      e.files.push_back({"sdf.vdb", fused.tsdf->EncodeVdb()});
+      e.files.push_back({"feature.bin", EncodeFeature(feature)});
+      if (sensing.keep_frames)
+        for (auto& [path, bytes] : EncodeSweep(sweep)) e.files.push_back({path, std::move(bytes)});
+    });
+    stage("preview", [&] {
+      // The frame a quarter turn in shows the garment from the side.
+      std::string depth_png;
+      if (!sweep.frames.empty())
+        depth_png = RenderDepthPreview(sweep.frames[sweep.frames.size() / 4], sweep.intrinsics);
+      const Vec3 anchor_hung = anchor->vertex >= 0 && anchor->vertex < hung.mesh.NumVertices()
+                                   ? Vec3(hung.mesh.V.row(anchor->vertex).transpose())
+                                   : Vec3::Zero();
+      e.files.push_back({"preview.png", RenderEntryPreview(hung.mesh, anchor_hung, depth_png, fused.mesh,
+                                                           job.key + " (" + job.split + ")")});
+    });
+  } catch (const NumericalError& err) {
+    return fail(std::string("numerical: ") + err.what());
+  }
+  timing["total"] = Seconds(t_start, Clock::now());
+  e.timing = timing;
+  return e;
+}
+
+namespace {
+
+std::string FormatDuration(double s) {
+  if (!std::isfinite(s) || s < 0) return "--";
+  const long t = std::lround(s);
+  char buf[32];
+  if (t >= 3600) std::snprintf(buf, sizeof buf, "%ldh%02ldm", t / 3600, (t / 60) % 60);
+  else if (t >= 60) std::snprintf(buf, sizeof buf, "%ldm%02lds", t / 60, t % 60);
+  else std::snprintf(buf, sizeof buf, "%lds", t);
+  return buf;
+}
+
+Json RecipeSummary(const Recipe& r, const std::vector<Job>& jobs) {
+  Json s;
+  Json splits = Json::object();
+  for (const auto& j : jobs) splits[j.split] = splits.value(j.split, 0) + 1;
+  s["jobs"] = jobs.size();
+  s["jobs_per_split"] = splits;
+  Json garments = Json::array();
+  for (const auto& g : r.garments)
+    garments.push_back({{"name", g.name},
+                        {"template", g.template_name.empty() ? g.file.filename().string() : g.template_name},
+                        {"category", g.category},
+                        {"instances", g.instances},
+                        {"materials", g.materials},
+                        {"anchors", g.anchor_labels}});
+  s["garments"] = garments;
+  Json sensing = Json::object();
+  for (const auto& [k, v] : r.sensing)
+    sensing[k] = {{"frames", v.sweep.frames},
+                  {"degrees", v.sweep.degrees},
+                  {"back_and_forth", v.sweep.back_and_forth},
+                  {"noise", v.sweep.kinect.noise},
+                  {"keep_frames", v.keep_frames}};
+  s["sensing"] = sensing;
+  s["fusion"] = {{"voxels_per_metre", r.fusion.voxels_per_metre}, {"truncation", r.fusion.Truncation()}};
+  s["feature"] = {{"layers", r.feature.layers}, {"rings", r.feature.rings}, {"sectors", r.feature.sectors}};
+  return s;
+}
+
+}  // namespace
+
+BuildReport RunBuild(const Recipe& recipe, const BuildOptions& options) {
+  const auto t0 = Clock::now();
+  std::ostream& log = options.log ? *options.log : std::cerr;
+  BuildReport report;
+  report.output = options.output.empty() ? DefaultOutput(recipe) : options.output;
+
+  const std::vector<Job> jobs = ExpandJobs(recipe);
+  report.total_jobs = static_cast<int>(jobs.size());
+  const std::vector<int> shard = ShardJobs(report.total_jobs, options.shard_index, options.shard_count);
+  report.shard_jobs = static_cast<int>(shard.size());
+
+  ReleaseMeta meta;
+  meta.name = recipe.name;
+  meta.version = recipe.version;
+  meta.seed = recipe.seed;
+  meta.recipe_text = recipe.text;
+  meta.code_version = options.code_version.empty() ? DRAPE_GIT_VERSION : options.code_version;
+  meta.description = recipe.description;
+  meta.license = recipe.license;
+  meta.recipe_summary = RecipeSummary(recipe, jobs);
+  for (const auto& j : jobs) meta.job_keys.push_back(j.key);
+  if (options.shard_count > 1)
+    for (int i : shard) meta.shard_keys.push_back(jobs[i].key);
+  meta.shard_index = options.shard_index - 1;
+  meta.shard_count = options.shard_count;
+
+  auto writer = ReleaseWriter::Open(report.output, meta, options.resume);
+  const std::set<std::string> done = writer->DoneKeys();
+  std::vector<int> todo;
+  for (int i : shard)
+    if (!done.count(jobs[i].key)) todo.push_back(i);
+  report.already_done = report.shard_jobs - static_cast<int>(todo.size());
+
+  const int threads = std::max(1, std::min<int>(options.threads > 0 ? options.threads : HardwareThreads(),
+                                                std::max<size_t>(1, todo.size())));
+  ProgressMode mode = options.progress;
+  if (mode == ProgressMode::kAuto)
+    mode = (&log == &std::cerr && isatty(STDERR_FILENO)) || (&log == &std::cout && isatty(STDOUT_FILENO))
+               ? ProgressMode::kTty
+               : ProgressMode::kPlain;
+
+  if (mode != ProgressMode::kQuiet) {
+    log << "drape build: " << recipe.name << " " << recipe.version << " → " << report.output.string() << "\n"
+        << "  " << report.total_jobs << " jobs";
+    if (options.shard_count > 1)
+      log << ", shard " << options.shard_index << "/" << options.shard_count << ": " << report.shard_jobs;
+    if (report.already_done) log << ", " << report.already_done << " already done (resuming)";
+    log << ", " << todo.size() << " to run on " << threads << " thread" << (threads > 1 ? "s" : "") << "\n";
+    log.flush();
+  }
+
+  JobCache cache;
+  std::mutex mu;
+  std::condition_variable cv;
+  std::atomic<size_t> next{0};
+  std::atomic<bool> abort{false};
+  int finished = 0, running = 0;
+  double busy_seconds = 0;  // summed job wall time, for the ETA
+
+  auto stopping = [&] { return abort.load() || (options.stop && options.stop->load()); };
+  auto worker = [&] {
+    for (;;) {
+      if (stopping()) return;
+      const size_t k = next.fetch_add(1);
+      if (k >= todo.size()) return;
+      const Job& job = jobs[todo[k]];
+      {
+        std::lock_guard<std::mutex> lock(mu);
+        ++running;
+      }
+      const auto tj = Clock::now();
+      Entry entry;
+      bool have = false;
+      std::string error;
+      try {
+        entry = BuildEntry(recipe, job, cache);
+        have = true;
+      } catch (const std::exception& ex) {
+        error = ex.what();
+        if (options.keep_going) {
+          entry = Entry{};
+          entry.id = job.id;
+          entry.key = job.key;
+          entry.split = job.split;
+          entry.failed = true;
+          entry.failure = std::string("error: ") + ex.what();
+          entry.record = {{"seed", job.seed}};
+          have = true;
+        }
+      }
+      if (have) {
+        try {
+          writer->Commit(entry);
+        } catch (const std::exception& ex) {
+          have = false;
+          error = std::string("committing ") + job.key + ": " + ex.what();
+        }
+      }
+      std::lock_guard<std::mutex> lock(mu);
+      --running;
+      if (!have) {
+        if (!abort.exchange(true)) report.error = job.key + ": " + error;
+        report.aborted = true;
+      } else {
+        ++finished;
+        ++report.built;
+        busy_seconds += Seconds(tj, Clock::now());
+        if (entry.failed) {
+          ++report.failed;
+          report.failures.push_back({job.key, entry.failure});
+        }
+        for (auto it = entry.timing.begin(); it != entry.timing.end(); ++it)
+          if (it->is_number() && it.key() != "total") report.stage_seconds[it.key()] += it->get<double>();
+      }
+      cv.notify_all();
+    }
+  };
+
+  int alive = threads;
+  std::vector<std::thread> pool;
+  for (int t = 0; t < threads; ++t)
+    pool.emplace_back([&] {
+      worker();
+      std::lock_guard<std::mutex> lock(mu);
+      --alive;
+      cv.notify_all();
+    });
+
+  // Progress: the main thread only watches until every worker has returned.
+  {
+    std::unique_lock<std::mutex> lock(mu);
+    auto last_plain = Clock::now();
+    int last_reported = -1;
+    bool stop_noted = false;
+    for (;;) {
+      const bool over = alive == 0;
+      const double elapsed = Seconds(t0, Clock::now());
+      const int remaining = static_cast<int>(todo.size()) - finished;
+      const double eta = finished ? busy_seconds / finished * remaining / threads : NAN;
+      std::ostringstream line;
+      line << "[" << report.already_done + finished << "/" << report.shard_jobs << "] " << report.failed
+           << " failed, " << FormatDuration(elapsed) << " elapsed, ETA " << (remaining ? FormatDuration(eta) : "0s");
+      if (options.stop && options.stop->load() && !stop_noted && mode != ProgressMode::kQuiet) {
+        stop_noted = true;
+        log << (mode == ProgressMode::kTty ? "\n" : "") << "drape build: interrupted; letting " << running
+            << " running job(s) finish and commit (Ctrl-C again quits at once; --resume continues)\n";
+      }
+      if (mode == ProgressMode::kTty) {
+        log << "\r\033[K" << line.str() << std::flush;
+      } else if (mode == ProgressMode::kPlain && finished != last_reported &&
+                 (over || Seconds(last_plain, Clock::now()) >= options.progress_interval)) {
+        log << line.str() << "\n" << std::flush;
+        last_plain = Clock::now();
+        last_reported = finished;
+      }
+      if (over) break;
+      cv.wait_for(lock, std::chrono::milliseconds(500));
+    }
+    if (mode == ProgressMode::kTty) log << "\n";
+  }
+  for (auto& t : pool) t.join();
+
+  report.interrupted = !report.aborted && report.already_done + report.built < report.shard_jobs;
+  writer->SetBuildInfo("threads", threads);
+  writer->SetBuildInfo("stage_seconds", Json(report.stage_seconds));
+
+  if (mode != ProgressMode::kQuiet && !report.stage_seconds.empty()) {
+    double sum = 0;
+    for (const auto& [k, v] : report.stage_seconds)
+      if (k != "bullet") sum += v;
+    log << "stage wall time (summed over jobs):";
+    for (const char* k : {"garment", "fit", "hang", "bullet", "sweep", "fusion", "accuracy", "feature", "encode",
+                          "preview"}) {
+      auto it = report.stage_seconds.find(k);
+      if (it == report.stage_seconds.end()) continue;
+      log << " " << k << " " << std::fixed << std::setprecision(1) << it->second << "s";
+      if (std::string(k) != "bullet" && sum > 0) log << " (" << std::lround(100 * it->second / sum) << "%)";
+    }
+    log << std::defaultfloat << "\n";
+  }
+
+  if (!report.aborted && !report.interrupted) {
+    const auto summary = writer->Finalize();
+    report.finalized = true;
+    report.digest = summary.digest;
+    report.release_failed = summary.failed;
+    if (mode != ProgressMode::kQuiet) {
+      log << "release " << report.output.string() << ": " << summary.entries << " entries, " << summary.failed
+          << " failed, digest " << summary.digest << "\n";
+      if (!summary.published_digest.empty())
+        log << (summary.matches_published ? "matches" : "DIFFERS FROM") << " the published digest "
+            << summary.published_digest << "\n";
+    }
+  }
+  report.wall_seconds = Seconds(t0, Clock::now());
+  return report;
+}
+
+}  // namespace drape

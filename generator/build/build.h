@@ -1,0 +1,88 @@
+// The build: recipe → jobs → per-job pipeline (garment, material fit, hang, sweep,
+// fusion, accuracy, feature, preview) → entries → release writer.
+//
+// Determinism: an entry depends only on the recipe and its job (seeds come from
+// DeriveSeed(recipe seed, job key)); caches (garment per instance, material fit per
+// material) hold deterministic values, so entries are byte-identical for any thread
+// count, shard layout or resume history. Wall times go to Entry::timing only.
+#pragma once
+
+#include <atomic>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include "generator/recipe/jobs.h"
+#include "generator/recipe/recipe.h"
+#include "generator/release/entry.h"
+
+namespace drape {
+
+enum class ProgressMode { kAuto, kTty, kPlain, kQuiet };
+
+struct BuildOptions {
+  std::filesystem::path output;  // empty = datasets/<name>/<version>/ (relative to the working folder)
+  int threads = 0;               // jobs run at once; <= 0 = all cores
+  bool resume = false;           // expect an unfinished build in `output` (plain builds resume anyway)
+  int shard_index = 1, shard_count = 1;  // shard K of N (1-based): jobs with index % N == K − 1
+  // Without keep_going, an unexpected error in a job (a bug, bad input found late)
+  // stops handing out jobs and fails the build (committed entries are kept for
+  // --resume). With keep_going it becomes a failed entry like a numerical failure.
+  // Numerical failures (hang not settled, NumericalError) are always failed entries.
+  bool keep_going = false;
+  ProgressMode progress = ProgressMode::kAuto;  // kAuto: TTY line if `log` is a terminal
+  double progress_interval = 10;  // seconds between plain progress lines
+  std::ostream* log = nullptr;    // progress and summary (nullptr = std::cerr)
+  const std::atomic<bool>* stop = nullptr;  // set (e.g. by SIGINT) → hand out no more jobs
+  std::string code_version;       // recorded in dataset.json; empty = this binary's git version
+};
+
+struct BuildReport {
+  std::filesystem::path output;
+  int total_jobs = 0;      // in the recipe
+  int shard_jobs = 0;      // this shard's share
+  int already_done = 0;    // skipped: committed by an earlier (interrupted) run
+  int built = 0;           // committed by this run
+  int failed = 0;          // failed entries committed by this run
+  std::vector<std::pair<std::string, std::string>> failures;  // job key, reason (this run)
+  bool interrupted = false;  // stopped by `stop` before every job ran
+  bool aborted = false;      // an unexpected job error stopped the build (see error)
+  std::string error;
+  bool finalized = false;
+  std::string digest;            // release digest, when finalized
+  int release_failed = 0;        // failed entries in the whole release, when finalized
+  std::map<std::string, double> stage_seconds;  // summed wall time per stage (this run)
+  double wall_seconds = 0;
+};
+
+// Caches shared by the jobs of one build (thread-safe): the garment of each
+// instance and the material fit of each material.
+class JobCache {
+ public:
+  JobCache();
+  ~JobCache();
+  struct Impl;
+  std::unique_ptr<Impl> impl;
+};
+
+// Runs one job's pipeline. A hang that fails or a NumericalError gives a failed
+// entry; other exceptions propagate. Thread-safe over distinct jobs.
+Entry BuildEntry(const Recipe& recipe, const Job& job, JobCache& cache);
+
+// Builds the recipe's jobs (this shard's, minus those already committed) into the
+// release folder and finalizes it unless interrupted or aborted.
+BuildReport RunBuild(const Recipe& recipe, const BuildOptions& options);
+
+// Default output folder: datasets/<name>/<version>.
+std::filesystem::path DefaultOutput(const Recipe& recipe);
+
+// The preview.png composite: hung mesh with the anchor marked, one colour-mapped
+// depth frame (PNG bytes from RenderDepthPreview, may be empty) and the fused mesh,
+// side by side; orthographic, object frame seen from +z. PNG bytes.
+std::string RenderEntryPreview(const TriMesh& hung, const Vec3& anchor_position, const std::string& depth_png,
+                               const TriMesh& recon, const std::string& title);
+
+}  // namespace drape
