@@ -30,7 +30,7 @@ const char* kUsage =
     "  --anchors PATH      SOURCE's anchors sidecar (default: SOURCE's NAME.anchors.json if present)\n"
     "  --json              print the full report as JSON\n"
     "  --no-scale          skip the scaling step\n"
-    "  --grid-cells N      closest-point grid cells along the longest side (default 96)\n"
+    "  --grid-cells N      closest-point grid cells along the longest side (default 64)\n"
     "  --kappa K, --beta B, --alpha A   energy weights (defaults 1e-4, 1e-4, 1e-8)\n"
     "  --iterations N      maximum Levenberg-Marquardt iterations (default 60)\n"
     "  --paper-query       use the paper's 8-point grid query for ICP and fitting\n";

@@ -106,18 +106,20 @@ ClosestPointGrid::ClosestPointGrid(const TriMesh& target, const GridOptions& opt
             // variant of Tsai's sweep; the 3 axis neighbours alone leave ~0.2 h errors
             // near the medial axis).
             int64_t nb[7];
+            double reach[7];
             int nn = 0;
             for (int c = 1; c < 8; ++c) {
               const int ai = c & 1, aj = (c >> 1) & 1, ak = (c >> 2) & 1;
               if ((ai && ii == 0) || (aj && jj == 0) || (ak && kk == 0)) continue;
+              reach[nn] = h_ * std::sqrt(double(ai + aj + ak));
               nb[nn++] = Index(i - ai * di, j - aj * dj, k - ak * dk);
             }
             for (int t = 0; t < nn; ++t) {
               const int64_t q = nb[t];
               const Cell& o = nodes_[q];
               if (o.tri < 0 || o.tri == cell.tri) continue;
-              // Lower bound on the distance to o's triangle: d(o) − |x − o| ≥ d(o) − √3 h.
-              if (double(o.d) - 1.7320508075688772 * h_ >= double(cell.d)) continue;
+              // Lower bound on the distance to o's triangle: d(o) − |x − o|.
+              if (double(o.d) - reach[t] >= double(cell.d)) continue;
               const ClosestPoint c = ClosestOnTriangle(target_, o.tri, NodePosition(i, j, k));
               // Strict improvement beyond float rounding, so equidistant triangles (a
               // shared edge or vertex) do not flip back and forth between passes.

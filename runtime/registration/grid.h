@@ -15,10 +15,10 @@
 namespace drape::registration {
 
 struct GridOptions {
-  int cells = 96;          // grid cells along the longest side of the padded box
-  double padding = 0.15;   // box padding on every side, as a fraction of the longest side
+  int cells = 64;          // grid cells along the longest side of the padded box
+  double padding = 0.1;    // box padding on every side, as a fraction of the longest side
   double band = 1.5;       // narrow band half-width (in cells) where values are exact
-  int max_passes = 3;      // rounds of the 8 sweeps (stops early when nothing changes)
+  int max_passes = 2;      // rounds of the 8 sweeps (stops early when nothing changes)
   int64_t max_nodes = 6'000'000;  // refuse larger grids (memory: 20 bytes per node)
   int threads = 0;         // narrow-band threads (<= 0: all cores); results do not depend on it
   void Validate() const;   // throws drape::Error naming the bad field

@@ -60,11 +60,11 @@ Errors Measure(const TriMesh& mesh, const GridOptions& opt, int samples, uint64_
 }
 
 // Observed bounds (stated in the report; h = grid spacing): nodes in the narrow band are
-// exact (float rounding, < 1e-7 h); swept nodes are within 0.06 h of exact (the error
+// exact (float rounding, < 1e-7 h); swept nodes are within 0.061 h of exact (the error
 // sits near the medial axis, far from the surface); the paper's 8-point query
 // overestimates the exact distance by at most 0.64 h (mean 0.03–0.14 h; the
 // triangle-inequality bound is √3 h); the refined query (exact distance to the ≤8 stored
-// triangles) by at most 0.36 h (mean ≤ 0.005 h) — its worst cases are points whose
+// triangles) by at most 0.46 h (mean ≤ 0.0034 h) — its worst cases are points whose
 // closest triangle is smaller than a cell and stored at no corner (thin two-layer parts).
 TEST(ClosestPointGrid, SphereMatchesBruteForce) {
   GridOptions opt;
@@ -73,7 +73,7 @@ TEST(ClosestPointGrid, SphereMatchesBruteForce) {
   EXPECT_LT(e.band_max, 1e-5);
   EXPECT_LT(e.node_max, 0.1);
   EXPECT_LT(e.query_max, 0.75);
-  EXPECT_LT(e.refined_max, 0.5);
+  EXPECT_LT(e.refined_max, 0.6);
   EXPECT_LT(e.refined_mean, 0.01);
 }
 
@@ -84,7 +84,7 @@ TEST(ClosestPointGrid, WavySheetMatchesBruteForce) {
   EXPECT_LT(e.band_max, 1e-5);
   EXPECT_LT(e.node_max, 0.1);
   EXPECT_LT(e.query_max, 0.75);
-  EXPECT_LT(e.refined_max, 0.5);
+  EXPECT_LT(e.refined_max, 0.6);
   EXPECT_LT(e.refined_mean, 0.01);
 }
 
@@ -95,7 +95,7 @@ TEST(ClosestPointGrid, TwoLayerTubeMatchesBruteForce) {
   EXPECT_LT(e.band_max, 1e-5);
   EXPECT_LT(e.node_max, 0.1);
   EXPECT_LT(e.query_max, 0.75);
-  EXPECT_LT(e.refined_max, 0.5);
+  EXPECT_LT(e.refined_max, 0.6);
   EXPECT_LT(e.refined_mean, 0.01);
 }
 

@@ -74,7 +74,7 @@ void Errors(const Pair& p, const Points3& moved, const ExactClosestPoint& tq, do
 }
 
 void IcpComparison() {
-  std::printf("\n== Rigid ICP: ours (closest-point grid, 96 cells) vs Open3D point-to-point ICP ==\n");
+  std::printf("\n== Rigid ICP: ours (closest-point grid, 64 cells) vs Open3D point-to-point ICP ==\n");
   const bool o3d = HaveOpen3d();
   if (!o3d)
     std::printf("(python3-open3d not found under /usr/bin/python3: `apt-get install -y python3-open3d` to compare)\n");

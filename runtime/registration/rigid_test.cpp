@@ -44,7 +44,8 @@ void RecoverSimilarity(const TriMesh& target, double angle, bool refined, double
   RegistrationOptions o;
   o.nonrigid = false;
   o.grid.cells = 64;
-  o.icp.max_iterations = 200;
+  o.icp.max_iterations = 300;
+  o.icp.angle_tolerance = o.icp.translation_tolerance = 1e-7;
   o.icp.refined_query = refined;
   const RegistrationResult r = Register(source, target, o);
   const double size = AreaWeightedFrame(target).size;
