@@ -143,6 +143,7 @@ std::vector<DepthFrame> RenderTurntable(const Scene& scene, const Intrinsics& K,
         // Unnormalised direction with camera z = 1: t is the z-depth.
         const Vec3 dir = pose.linear() * Vec3((u - K.cx) / K.fx, (v - K.cy) / K.fy, 1);
         double t = scene.Intersect(eye, dir);
+        if (!std::isfinite(t) && opt.background_depth > 0) t = opt.background_depth;
         if (!(t < opt.max_range)) continue;
         if (opt.noise_sigma > 0) t += rng.Normal(0, opt.noise_sigma);
         f.depth[size_t(v) * K.width + u] = float(t);

@@ -45,6 +45,9 @@ struct TurntableOptions {
   double target_y = -0.4;      // the camera looks at (0, target_y, 0)
   double noise_sigma = 0;      // Gaussian depth noise, metres
   double max_range = 4.0;      // beyond: no data
+  // Depth of a backdrop where a ray misses the scene (like the sweep scene's wall and
+  // floor); 0 = no data there.
+  double background_depth = 3.0;
   uint64_t seed = 0;
 };
 

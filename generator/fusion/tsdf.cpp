@@ -36,7 +36,10 @@ void FusionOptions::Validate() const {
   if ((box.sizes().array() * voxels_per_metre / kBlockDim).prod() > 2e7)
     Bad("box", "too large for the carving grid at this voxel size");
   if (!std::isfinite(radius)) Bad("radius", "must be finite (<= 0: no radial limit)");
+  if (min_weight < 1) Bad("min_weight", "must be >= 1");
   if (carve_min_views < 1) Bad("carve_min_views", "must be >= 1");
+  if (!(carve_min_fraction >= 0 && carve_min_fraction <= 1))
+    Bad("carve_min_fraction", "must be in [0, 1]");
   if (hole_radius_px < 0 || hole_radius_px > 64) Bad("hole_radius_px", "must be in [0, 64]");
   if (frames_stride < 1) Bad("frames_stride", "must be >= 1");
   if (!(pose_noise_degrees >= 0 && pose_noise_degrees <= 45))
@@ -115,6 +118,32 @@ void Tsdf::Integrate(const DepthFrame& frame, const Intrinsics& K) {
         code[i] = -d;
       }
     }
+  }
+  // Pixels without data that the foreground encloses (not connected to the image
+  // border through non-foreground pixels) are dropouts on the garment (grazing
+  // angles, folds), not background → ignored. Without this, dropouts carve the
+  // unobserved interior over a long sweep.
+  if (fg_count > 0) {
+    std::vector<uint8_t> outside(size_t(W) * H, 0);
+    std::vector<int> queue;
+    queue.reserve(size_t(W) * H / 4);
+    auto push = [&](int u, int v) {
+      const size_t i = size_t(v) * W + u;
+      if (fg[i] || outside[i]) return;
+      outside[i] = 1;
+      queue.push_back(static_cast<int>(i));
+    };
+    for (int u = 0; u < W; ++u) push(u, 0), push(u, H - 1);
+    for (int v = 0; v < H; ++v) push(0, v), push(W - 1, v);
+    for (size_t head = 0; head < queue.size(); ++head) {
+      const int i = queue[head], u = i % W, v = i / W;
+      if (u > 0) push(u - 1, v);
+      if (u + 1 < W) push(u + 1, v);
+      if (v > 0) push(u, v - 1);
+      if (v + 1 < H) push(u, v + 1);
+    }
+    for (size_t i = 0; i < code.size(); ++i)
+      if (code[i] == 0 && !outside[i]) code[i] = std::numeric_limits<float>::quiet_NaN();
   }
   // Pixels without data within hole_radius_px of a foreground pixel → ignored.
   if (fg_count > 0) {
@@ -244,9 +273,11 @@ void Tsdf::Integrate(const DepthFrame& frame, const Intrinsics& K) {
             if (sdf < -fmu) continue;
             value = sdf;  // the band around an observed garment surface
           } else {
-            // Free space in front of anything, or background without data.
+            // Free space in front of an observed depth (garment or scene). Pixels
+            // without data carve only at block level (step 4), where a share of the
+            // views is required: dropouts are too frequent over a long sweep.
             const float cd = carve[pix];
-            if (std::isnan(cd) || (cd != 0 && (std::abs(cd) - zc) * lambda <= fmu)) continue;
+            if (!(std::abs(cd) > 0) || (std::abs(cd) - zc) * lambda <= fmu) continue;  // NaN, 0 too
             value = fmu;
           }
           const int o = LocalOffset(x, y, z);
@@ -264,13 +295,13 @@ void Tsdf::Integrate(const DepthFrame& frame, const Intrinsics& K) {
   // 4. Space carving at block resolution over the box (block centres).
   {
     const int cap = std::numeric_limits<uint16_t>::max();
-    const int min_views = m.opt.carve_min_views;
     const Eigen::Vector3i& dims = m.carve_dims;
     for (int bx = 0; bx < dims.x(); ++bx) {
       for (int by = 0; by < dims.y(); ++by) {
         for (int bz = 0; bz < dims.z(); ++bz) {
           const size_t ci = (size_t(bx) * dims.y() + by) * dims.z() + bz;
-          if (m.free_count[ci] >= min_views && m.view_count[ci] > 0) continue;
+          // Free in half of 16+ views: outside for good, whatever follows.
+          if (m.view_count[ci] >= 16 && 2 * m.free_count[ci] >= m.view_count[ci]) continue;
           const Eigen::Vector3i b = m.carve_lo + Eigen::Vector3i(bx, by, bz);
           const Vec3 p = (b.cast<double>() * kBlockDim + Vec3::Constant(3.5)) * h;
           const Vec3 c = Rt * (p - t);
@@ -299,6 +330,7 @@ void Tsdf::Impl::EnsureComplete() const {
   std::lock_guard<std::mutex> lock(complete_mutex);
   if (!dirty.load(std::memory_order_relaxed)) return;
   const float fmu = float(mu);
+  const float min_weight = float(std::max(1, opt.min_weight));
   completed.resize(blocks.size());
   has_observed.assign(blocks.size(), 0);
   observed_voxels = 0;
@@ -313,7 +345,7 @@ void Tsdf::Impl::EnsureComplete() const {
     auto& out = completed[bi];
     int head = 0, tail = 0;
     for (int o = 0; o < kBlockVoxels; ++o) {
-      if (blk.weight[o] > 0) {
+      if (blk.weight[o] >= min_weight) {
         out[o] = blk.tsdf[o];
         sign[o] = blk.tsdf[o] < 0 ? -1 : 1;
         queue[tail++] = o;
@@ -348,7 +380,9 @@ void Tsdf::Impl::EnsureComplete() const {
     for (int by = 0; by < carve_dims.y(); ++by) {
       for (int bz = 0; bz < carve_dims.z(); ++bz) {
         const size_t ci = (size_t(bx) * carve_dims.y() + by) * carve_dims.z() + bz;
-        if (view_count[ci] == 0 || free_count[ci] >= opt.carve_min_views) continue;
+        if (view_count[ci] == 0 || (free_count[ci] >= opt.carve_min_views &&
+                                    free_count[ci] >= opt.carve_min_fraction * view_count[ci]))
+          continue;
         const Eigen::Vector3i b = carve_lo + Eigen::Vector3i(bx, by, bz);
         if ((b.array() < hull_lo.array()).any() || (b.array() > hull_hi.array()).any()) continue;
         const int bi = FindBlock(b);

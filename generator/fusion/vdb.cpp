@@ -39,7 +39,7 @@ openvdb::FloatGrid::Ptr BuildSdfGrid(const Tsdf::Impl& m, bool voxelize_inside) 
     auto* leaf = tree.touchLeaf(LeafOrigin(blk.coord));
     for (int o = 0; o < kBlockVoxels; ++o) {
       const float v = m.completed[bi][o];
-      if (blk.weight[o] > 0 || voxelize_inside) {
+      if (blk.weight[o] >= float(m.opt.min_weight) || voxelize_inside) {
         leaf->setValueOn(o, v);
       } else {
         leaf->setValueOff(o, v);
