@@ -146,8 +146,10 @@ TEST(Feature, FusedGarmentRotatedMatchesWithinAFewBits) {
     s.rotation = Rk * s.rotation;
     turned.shapes.push_back(s);
   }
-  const FusionResult a = FuseFrames(synthetic::RenderTurntable(garment, K, t), K, FusionOptions(), 1);
-  const FusionResult b = FuseFrames(synthetic::RenderTurntable(turned, K, t), K, FusionOptions(), 1);
+  FusionOptions fo;
+  fo.frames_stride = 1;
+  const FusionResult a = FuseFrames(synthetic::RenderTurntable(garment, K, t), K, fo, 1);
+  const FusionResult b = FuseFrames(synthetic::RenderTurntable(turned, K, t), K, fo, 1);
   const Feature fa = ExtractFeature(a.mesh.V, [&](const Vec3& p) { return a.tsdf->Sdf(p); }, o);
   const Feature fb = ExtractFeature(b.mesh.V, [&](const Vec3& p) { return b.tsdf->Sdf(p); }, o);
   const Match m = Distance(fa, fb);

@@ -78,8 +78,12 @@ struct FusionOptions {
   // the image border through non-foreground pixels and no foreground pixel lies within
   // this many pixels (Chebyshev distance); others are dropouts on the garment, ignored.
   int hole_radius_px = 1;
-  // Use every k-th frame (1 = all).
-  int frames_stride = 1;
+  // FuseFrames uses every k-th frame. Default 3: a 300-frame sweep turns 1.2° per
+  // frame, and every 3rd frame (100 frames, 3.6° apart) gives nearly the same result
+  // (measured on a 300-frame Embree Kinect sweep of a garment-sized object: recon→truth
+  // mean / p95 1.18 / 5.4 mm with all frames, 1.25 / 6.0 mm with every 3rd) at a third
+  // of the cost (~25 ms per 640×480 frame on one loaded core: 8.0 s → 2.5 s).
+  int frames_stride = 3;
   // Simulated gripper-encoder error: each frame's rotation about the gripper (y) axis
   // is perturbed by N(0, σ) degrees, seeded from FuseFrames' seed. 0 = exact poses.
   double pose_noise_degrees = 0;

@@ -67,6 +67,7 @@ FusionResult Fuse(const Scene& scene, double noise, int frames = 60, int threads
   const Intrinsics K = SmallCamera();
   FusionOptions o;
   o.threads = threads;
+  o.frames_stride = 1;
   return FuseFrames(synthetic::RenderTurntable(scene, K, t), K, o, seed);
 }
 
@@ -238,6 +239,7 @@ TEST(Fusion, PoseNoiseIsSeededAndDegradesGracefully) {
   const Shape box = Shape::Box(Vec3(0, -0.45, 0), Vec3(0.12, 0.2, 0.06));
   const auto frames = synthetic::RenderTurntable(Scene{{box}}, K, t);
   FusionOptions o;
+  o.frames_stride = 1;
   o.pose_noise_degrees = 1.0;
   const FusionResult a = FuseFrames(frames, K, o, 11), b = FuseFrames(frames, K, o, 11),
                      c = FuseFrames(frames, K, o, 12);
@@ -290,7 +292,9 @@ TEST(Fusion, KinectSweepOfAHangingSlab) {
   SweepOptions so;
   so.frames = 60;
   const Sweep sweep = SimulateSweep(truth, so, 5);
-  const FusionResult r = FuseFrames(sweep.frames, sweep.intrinsics, FusionOptions(), 5);
+  FusionOptions o;
+  o.frames_stride = 1;
+  const FusionResult r = FuseFrames(sweep.frames, sweep.intrinsics, o, 5);
   ASSERT_GT(r.mesh.NumFaces(), 1000);
   const Accuracy a = MeasureAccuracy(r.mesh, truth);
   std::printf("kinect sweep (60 frames, noisy): recon->truth mean %.2f p95 %.2f mm, truth->recon mean %.2f p95 %.2f mm; %d inside blocks\n",
