@@ -20,7 +20,7 @@ const char* kTiny = R"(
 name: tiny
 version: 0.0.1
 seed: 5
-simulation: {time_cap: 4}
+simulation: {time_cap: 8}
 sensing:
   database: {frames: 8, noise: false}
   sensed: {frames: 8}
@@ -29,7 +29,7 @@ feature: {layers: 8, rings: 8, sectors: 8}
 garments:
   - template: towel
     instances: 2
-    edge_length: 0.07
+    edge_length: 0.05
     params: {width: 0.4, length: 0.5}
     materials: [towel_a]
     anchors: [top_left]
