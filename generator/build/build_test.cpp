@@ -112,7 +112,24 @@ TEST(Build, TinyRecipeEndToEndIsDeterministicAcrossThreadsAndResume) {
   const BuildReport rc2 = Build(r, c, 1);
   ASSERT_TRUE(rc2.finalized) << rc2.error;
   EXPECT_EQ(rc2.digest, ra.digest);
-  for (const auto& d : {a, b, c}) fs::remove_all(d);
+
+  // Shards 1/2 and 2/2 merged give the one-process digest.
+  const fs::path s1 = TempDir("s1"), s2 = TempDir("s2"), merged = TempDir("merged");
+  for (int k = 1; k <= 2; ++k) {
+    BuildOptions o;
+    o.output = k == 1 ? s1 : s2;
+    o.threads = 1;
+    o.shard_index = k;
+    o.shard_count = 2;
+    o.progress = ProgressMode::kQuiet;
+    o.code_version = "test";
+    const BuildReport rs = RunBuild(r, o);
+    ASSERT_TRUE(rs.finalized) << rs.error;
+    EXPECT_EQ(rs.shard_jobs, 1);
+  }
+  const auto summary = Merge({s1, s2}, merged);
+  EXPECT_EQ(summary.digest, ra.digest);
+  for (const auto& d : {a, b, c, s1, s2, merged}) fs::remove_all(d);
 }
 
 }  // namespace
