@@ -35,6 +35,12 @@ Args::Args(const std::vector<std::string>& argv, const std::vector<std::string>&
       value = a.substr(eq + 1);
       has_value = true;
     }
+    // Short options glued to their value, as in "-j2" or "-oOUT".
+    if (!has_value && a.size() > 2 && a[1] != '-' && is(options, a.substr(0, 2))) {
+      name = a.substr(0, 2);
+      value = a.substr(2);
+      has_value = true;
+    }
     if (is(flags, name)) {
       if (has_value) throw Error("option " + name + " takes no value");
       flags_[name] = true;

@@ -30,6 +30,13 @@ TEST(Args, RejectsUnknownOptionsAndBadNumbers) {
   }
 }
 
+TEST(Args, ShortOptionGluedToItsValue) {
+  Args a({"-j2", "-oout.ply"}, {}, {"-j", "-o"});
+  EXPECT_EQ(*a.GetInt("-j"), 2);
+  EXPECT_EQ(*a.Get("-o"), "out.ply");
+  EXPECT_THROW(Args({"-x2"}, {}, {"-j"}), Error);
+}
+
 TEST(Args, NegativeNumbersArePositional) {
   Args a({"-0.5", "--x", "-2"}, {}, {"--x"});
   EXPECT_EQ(a.positional(), (std::vector<std::string>{"-0.5"}));
