@@ -138,7 +138,7 @@ std::string DatasetCard(const Json& ds, const std::vector<Release::EntryInfo>& e
        "object frame — gripper at the origin, y up —, `recon.ply`, `sdf.vdb`, `feature.bin`, "
        "`preview.png`, optionally `sweep/` 16-bit depth PNGs in mm + `cameras.json`).\n"
        "- `index.html`: a gallery to open in a browser.\n"
-       "- `SHA256SUMS`: hashes of every file; `build.json`: build times (not hashed).\n";
+       "- `SHA256SUMS`: hashes of every file; `build.json`: build times (not hashed); `calibration/`: learned weights written by `drape calibrate` (bound to the digest, not hashed).\n";
   o << "\n## Verify and rebuild\n\n```sh\nsha256sum -c SHA256SUMS        # files\n"
        "drape verify .                  # files + release digest\n"
        "drape verify . --rebuild        # rebuild from the recipe and compare entry by entry\n"

@@ -345,6 +345,15 @@ TEST_F(ReleaseTest, VerifyCatchesFlippedDeletedAndAddedFiles) {
     WriteFileAtomic(d / "build.json", "{}");
     EXPECT_TRUE(Verify(d).ok());
   }
+  {
+    // drape calibrate writes its weights beside the release content; a stray file
+    // elsewhere at the top level is still extra.
+    const fs::path d = copy("calibrated");
+    WriteFileAtomic(d / "calibration/weights.json", "{}");
+    EXPECT_TRUE(Verify(d).ok());
+    WriteFileAtomic(d / "calibration.json", "{}");
+    EXPECT_EQ(Verify(d).extra, std::vector<std::string>{"calibration.json"});
+  }
 }
 
 TEST_F(ReleaseTest, CoreutilsSha256sumAcceptsSha256Sums) {

@@ -47,7 +47,11 @@ VerifyReport Verify(const fs::path& dir) {
     if (have != want) r.changed.push_back(path);
   }
   for (const auto& p : on_disk) {
-    if (sums.count(p) || p == "SHA256SUMS" || p == "build.json" || p == kLockFile) continue;
+    // Not release content: the sums themselves, build timings, the lock, and the
+    // runtime's calibration artifacts (bound to the digest by their own record).
+    if (sums.count(p) || p == "SHA256SUMS" || p == "build.json" || p == kLockFile ||
+        p.rfind("calibration/", 0) == 0)
+      continue;
     r.extra.push_back(p);
   }
 
