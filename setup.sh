@@ -3,6 +3,7 @@
 #   ./setup.sh          install packages, build, and build the quickstart release
 #   ./setup.sh test     install packages, build, and run the test suite
 #   ./setup.sh build    install packages and build only
+#   ./setup.sh bench    also install what the benchmarks compare against (Open3D), build
 # Safe to run again: packages already present are skipped, the build is incremental.
 set -euo pipefail
 cd "$(dirname "$0")"
@@ -22,15 +23,19 @@ PACKAGES=(
   libopenmpi-dev openmpi-bin
   libgtest-dev libgmock-dev libbenchmark-dev
   python3-numpy
+  chromium            # headless check of a release's index.html gallery
 )
+
+# Only the benchmarks need these (registration_bench compares with Open3D's ICP).
+BENCH_PACKAGES=(python3-open3d)
 
 install_packages() {
   local missing=()
-  for p in "${PACKAGES[@]}"; do
+  for p in "${PACKAGES[@]}" "$@"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
   done
   if [ ${#missing[@]} -eq 0 ]; then
-    echo "setup: all ${#PACKAGES[@]} packages present"
+    echo "setup: all packages present"
     return
   fi
   echo "setup: installing ${missing[*]}"
@@ -60,8 +65,12 @@ case "${1:-main}" in
     install_packages
     build
     ;;
+  bench)
+    install_packages "${BENCH_PACKAGES[@]}"
+    build
+    ;;
   *)
-    echo "usage: ./setup.sh [main|test|build]" >&2
+    echo "usage: ./setup.sh [main|test|build|bench]" >&2
     exit 2
     ;;
 esac
