@@ -14,6 +14,9 @@
 #include "runtime/recognition/calibrate.h"
 #include "runtime/recognition/evaluate.h"
 #include "runtime/recognition/query_pipeline.h"
+#ifdef DRAPE_HAVE_REGISTRATION_EVAL
+#include "runtime/recognition/registration_eval.h"
+#endif
 #include "runtime/recognition/release_source.h"
 
 namespace drape::cli {
@@ -303,10 +306,22 @@ const char* kEvalUsage =
     "  --unweighted      ignore weights\n"
     "  --top-k K         k of the top-k accuracy (default 3)\n"
     "  --kernel K        auto | generic | popcnt | avx512\n"
-    "  --json            print report.json to stdout\n";
+    "  --json            print report.json to stdout\n"
+    "\n"
+    "Registration table (paper's Table \"Registration results\"; on by default):\n"
+    "  --registration / --no-registration\n"
+    "                    register each test entry's database mesh (train hang.ply of the true\n"
+    "                    category and anchor) to its recon.ply: S->T, T->S for R and R+N, anchor\n"
+    "                    transfer error (cm), time; figures registration_<category>.png\n"
+    "  --registration-pairs N   at most N pairs per category (default 0 = all)\n"
+    "  --threads N       pairs registered in parallel (default: all cores; same numbers for any N)\n";
 
 int RunEval(const std::vector<std::string>& argv) {
-  Args a(argv, {"--json", "--unweighted"}, {"--split", "--report", "--weights", "--top-k", "--kernel"});
+  Args a(argv, {"--json", "--unweighted", "--registration", "--no-registration"},
+         {"--split", "--report", "--weights", "--top-k", "--kernel", "--registration-pairs", "--threads"});
+  if (a.Flag("--registration") && a.Flag("--no-registration")) {
+    throw Error("eval: --registration and --no-registration contradict each other");
+  }
   if (a.help()) {
     std::cout << kEvalUsage;
     return 0;
@@ -338,6 +353,22 @@ int RunEval(const std::vector<std::string>& argv) {
               {"calibration", have_w ? Json{{"options", w.options}, {"stats", w.stats}} : Json(nullptr)},
               {"database_load_seconds", load_s},
               {"load_warnings", warnings}};
+  if (!a.Flag("--no-registration")) {
+#ifdef DRAPE_HAVE_REGISTRATION_EVAL
+    RegistrationEvalOptions ro;
+    ro.max_pairs_per_category = static_cast<int>(a.GetInt("--registration-pairs").value_or(0));
+    ro.threads = static_cast<int>(a.GetInt("--threads").value_or(0));
+    if (!a.Flag("--json")) std::cout << "registering test entries (pose known)...\n" << std::flush;
+    RegistrationEvalResult rr = EvaluateRegistration(rel, db, res.report["per_query"], split, ro);
+    if (auto dir = a.Get("--report")) {
+      fs::create_directories(*dir);
+      rr.table["figures"] = WriteRegistrationFigures(rr, *dir);
+    }
+    res.report["registration"] = rr.table;
+#else
+    if (a.Flag("--registration")) throw Error("eval: --registration: this build has no registration stage");
+#endif
+  }
   if (auto dir = a.Get("--report")) {
     WriteReport(res, header, *dir);
   }

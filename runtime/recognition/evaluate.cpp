@@ -299,6 +299,58 @@ std::string Pair(const Json& obj) { return Percent(obj["unweighted"]) + " / " + 
 
 }  // namespace
 
+std::string RegistrationMarkdown(const Json& t) {
+  std::ostringstream md;
+  auto d = [](const Json& v) { return Num(v, "%.4f"); };
+  md << "## Registration (pose known), split " << t.value("split", "?") << "\n\n"
+     << "Source S = the database mesh (train entry's hang.ply) of the test entry's true category and anchor; "
+     << "target T = the test entry's reconstruction (recon.ply), full resolution. Paper's metric: one sample per "
+     << "triangle of the measured-from mesh, area-weighted mean distance to the other mesh, metres. "
+     << "Anchor error: transferred database anchor vertex vs the true anchor vertex on the test entry's hung mesh, "
+     << "cm (both in the object frame). Rows: category / test garment instance.\n\n"
+     << "| garment | pairs | S→T (R) | T→S (R) | S→T (R+N) | T→S (R+N) | anchor cm (R / R+N) | s per registration |\n"
+     << "|---|---|---|---|---|---|---|---|\n";
+  auto row = [&](const Json& g, bool bold) {
+    const std::string b = bold ? "**" : "";
+    md << "| " << b << g.value("garment", "") << b << " | " << g.value("pairs", 0) << " | " << d(g["s_to_t_rigid"])
+       << " | " << d(g["t_to_s_rigid"]) << " | " << d(g["s_to_t_nonrigid"]) << " | " << d(g["t_to_s_nonrigid"])
+       << " | " << Num(g["anchor_error_cm"]["rigid"], "%.1f") << " / " << Num(g["anchor_error_cm"]["nonrigid"], "%.1f")
+       << " | " << Num(g["timing"]["seconds_per_registration"], "%.2f") << " |\n";
+  };
+  for (const Json& g : t.value("garments", Json::array())) row(g, false);
+  if (t.contains("average")) row(t["average"], true);
+  if (t.contains("paper")) {
+    const Json& p = t["paper"];
+    md << "\nPaper (real Kinect data):\n\n| garment | S→T (R) | T→S (R) | S→T (R+N) | T→S (R+N) |\n|---|---|---|---|---|\n";
+    std::vector<Json> rows(p["rows"].begin(), p["rows"].end());
+    rows.push_back(p["average"]);
+    for (const Json& g : rows) {
+      md << "| " << g.value("garment", "") << " | " << d(g["s_to_t_rigid"]) << " | " << d(g["t_to_s_rigid"]) << " | "
+         << d(g["s_to_t_nonrigid"]) << " | " << d(g["t_to_s_nonrigid"]) << " |\n";
+    }
+  }
+  if (t.contains("average")) {
+    const Json& tm = t["average"]["timing"];
+    md << "\nTime per registration (mean, s): grid " << Num(tm["grid_seconds"]) << ", ICP " << Num(tm["icp_seconds"])
+       << ", non-rigid " << Num(tm["nonrigid_seconds"]) << ", total " << Num(tm["seconds_per_registration"])
+       << "; whole table " << Num(t["timing"]["wall_seconds"], "%.1f") << " s wall on " << t["timing"].value("threads", 0)
+       << " threads.\n";
+  }
+  int recognised = 0, first = 0;
+  for (const Json& p : t.value("pairs", Json::array())) {
+    (p.value("source_choice", "") == "recognised" ? recognised : first) += 1;
+  }
+  md << "\nSource instance: " << recognised << " pairs use the entry recognition matched (right anchor), " << first
+     << " the first database instance with the true anchor.";
+  if (t.value("failed", 0) > 0) md << " Failed registrations: " << t["failed"].get<int>() << ".";
+  if (t.value("limited_out", 0) > 0) md << " Left out by --registration-pairs: " << t["limited_out"].get<int>() << ".";
+  md << "\n";
+  for (const Json& s : t.value("skipped", Json::array())) {
+    md << "- skipped " << s.value("id", "") << ": " << s.value("reason", "") << "\n";
+  }
+  return md.str();
+}
+
 std::string ReportMarkdown(const Json& r) {
   std::ostringstream md;
   std::vector<Json> rows(r["categories"].begin(), r["categories"].end());
@@ -345,6 +397,7 @@ std::string ReportMarkdown(const Json& r) {
        << " | " << Num(t["matching"], "%.6f") << " | " << Num(t["total"]) << " | "
        << (c["paper"].is_null() ? std::string("—") : Num(c["paper"]["seconds"], "%.2f")) << " |\n";
   }
+  if (r.contains("registration") && r["registration"].is_object()) md << "\n" << RegistrationMarkdown(r["registration"]);
   if (!r["warnings"].empty()) {
     md << "\n## Warnings\n\n";
     for (const auto& w : r["warnings"]) md << "- " << w.get<std::string>() << "\n";
@@ -455,6 +508,9 @@ void WriteReport(const EvalResult& result, const Json& header, const fs::path& d
     WriteConfusionPlot(cat, c, dir / name);
     plots.push_back(name);
   }
+  if (result.report.contains("registration")) {
+    for (const auto& f : result.report["registration"].value("figures", Json::array())) plots.push_back(f);
+  }
   full["plots"] = plots;
   WriteFileAtomic(dir / "report.json", full.dump(2) + "\n");
 
@@ -494,6 +550,11 @@ void WriteReport(const EvalResult& result, const Json& header, const fs::path& d
   md << "\n## Plots\n\n![accuracy](accuracy.png)\n\n";
   for (const auto& [cat, c] : result.confusion) {
     md << "![" << cat << "](confusion_" << SafeName(cat) << ".png)\n\n";
+  }
+  if (result.report.contains("registration")) {
+    for (const auto& f : result.report["registration"].value("figures", Json::array())) {
+      md << "![" << f.get<std::string>() << "](" << f.get<std::string>() << ")\n\n";
+    }
   }
   WriteFileAtomic(dir / "report.md", md.str());
 }

@@ -59,6 +59,10 @@ EvalResult Evaluate(const Database& db, const Weights* weights, const std::vecto
 // and printed at the top of report.md.
 void WriteReport(const EvalResult& result, const Json& header, const std::filesystem::path& dir);
 
+// The registration table (report.json "registration", see registration_eval.h) as
+// markdown, with the paper's table; ReportMarkdown appends it when present.
+std::string RegistrationMarkdown(const Json& table);
+
 // The markdown tables alone (report.md without the header), for printing.
 std::string ReportMarkdown(const Json& report);
 
