@@ -308,14 +308,16 @@ std::string RegistrationMarkdown(const Json& t) {
      << "triangle of the measured-from mesh, area-weighted mean distance to the other mesh, metres. "
      << "Anchor error: transferred database anchor vertex vs the true anchor vertex on the test entry's hung mesh, "
      << "cm (both in the object frame). Rows: category / test garment instance.\n\n"
-     << "| garment | pairs | S→T (R) | T→S (R) | S→T (R+N) | T→S (R+N) | anchor cm (R / R+N) | s per registration |\n"
-     << "|---|---|---|---|---|---|---|---|\n";
+     << "| garment | pairs | S→T (R) | T→S (R) | S→T (R+N) | T→S (R+N) | anchor cm, mean (R / R+N) | "
+        "anchor cm, median (R / R+N) | s per registration |\n"
+     << "|---|---|---|---|---|---|---|---|---|\n";
   auto row = [&](const Json& g, bool bold) {
     const std::string b = bold ? "**" : "";
     md << "| " << b << g.value("garment", "") << b << " | " << g.value("pairs", 0) << " | " << d(g["s_to_t_rigid"])
        << " | " << d(g["t_to_s_rigid"]) << " | " << d(g["s_to_t_nonrigid"]) << " | " << d(g["t_to_s_nonrigid"])
        << " | " << Num(g["anchor_error_cm"]["rigid"], "%.1f") << " / " << Num(g["anchor_error_cm"]["nonrigid"], "%.1f")
-       << " | " << Num(g["timing"]["seconds_per_registration"], "%.2f") << " |\n";
+       << " | " << Num(g["anchor_error_cm"].value("rigid_median", Json()), "%.1f") << " / "
+       << Num(g["anchor_error_cm"].value("nonrigid_median", Json()), "%.1f") << " | " << Num(g["timing"]["seconds_per_registration"], "%.2f") << " |\n";
   };
   for (const Json& g : t.value("garments", Json::array())) row(g, false);
   if (t.contains("average")) row(t["average"], true);
@@ -342,6 +344,10 @@ std::string RegistrationMarkdown(const Json& t) {
   }
   md << "\nSource instance: " << recognised << " pairs use the entry recognition matched (right anchor), " << first
      << " the first database instance with the true anchor.";
+  if (t.contains("average") && t["average"].value("pairs_with_warnings", 0) > 0) {
+    md << " Pairs whose registration warned (e.g. ICP not converged; report.json has each): "
+       << t["average"]["pairs_with_warnings"].get<int>() << ".";
+  }
   if (t.value("failed", 0) > 0) md << " Failed registrations: " << t["failed"].get<int>() << ".";
   if (t.value("limited_out", 0) > 0) md << " Left out by --registration-pairs: " << t["limited_out"].get<int>() << ".";
   md << "\n";

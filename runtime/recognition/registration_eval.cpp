@@ -88,8 +88,11 @@ struct Sum {
   int n = 0, anchors = 0;
   double st_r = 0, ts_r = 0, st_n = 0, ts_n = 0, a_r = 0, a_n = 0;
   double grid = 0, icp = 0, nonrigid = 0, total = 0;
+  std::vector<double> anchor_r, anchor_n;  // cm, for the median (one bad pair dominates a mean)
+  int warned = 0;                          // pairs whose registration reported a warning
   void Add(const PairOutcome& o) {
     ++n;
+    warned += !o.ev.report.warnings.empty();
     st_r += o.ev.s_to_t_rigid.mean, ts_r += o.ev.t_to_s_rigid.mean;
     st_n += o.ev.s_to_t_nonrigid.mean, ts_n += o.ev.t_to_s_nonrigid.mean;
     grid += o.ev.report.grid_seconds, icp += o.ev.report.icp_seconds;
@@ -97,17 +100,30 @@ struct Sum {
     if (o.ev.anchors_with_truth > 0) {
       ++anchors;
       a_r += 100 * o.ev.anchor_error_rigid, a_n += 100 * o.ev.anchor_error_nonrigid;
+      anchor_r.push_back(100 * o.ev.anchor_error_rigid), anchor_n.push_back(100 * o.ev.anchor_error_nonrigid);
     }
   }
   Json ToJson(const std::string& name) const {
     auto mean = [&](double s, int k) { return k > 0 ? Json(s / k) : Json(nullptr); };
+    auto median = [](std::vector<double> v) {
+      if (v.empty()) return Json(nullptr);
+      std::sort(v.begin(), v.end());
+      const size_t h = v.size() / 2;
+      return Json(v.size() % 2 ? v[h] : 0.5 * (v[h - 1] + v[h]));
+    };
     return Json{{"garment", name},
                 {"pairs", n},
                 {"s_to_t_rigid", mean(st_r, n)},
                 {"t_to_s_rigid", mean(ts_r, n)},
                 {"s_to_t_nonrigid", mean(st_n, n)},
                 {"t_to_s_nonrigid", mean(ts_n, n)},
-                {"anchor_error_cm", {{"rigid", mean(a_r, anchors)}, {"nonrigid", mean(a_n, anchors)}, {"pairs", anchors}}},
+                {"anchor_error_cm",
+                 {{"rigid", mean(a_r, anchors)},
+                  {"nonrigid", mean(a_n, anchors)},
+                  {"rigid_median", median(anchor_r)},
+                  {"nonrigid_median", median(anchor_n)},
+                  {"pairs", anchors}}},
+                {"pairs_with_warnings", warned},
                 {"timing",
                  {{"grid_seconds", mean(grid, n)},
                   {"icp_seconds", mean(icp, n)},
