@@ -75,6 +75,24 @@ void BM_Sweep(benchmark::State& state) {
 }
 BENCHMARK(BM_Sweep)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->UseRealTime();
 
+// What pinning Embree's ISA costs (issue 5): the same noise-free sweep with the pinned
+// AVX2 kernels against Embree's own choice (AVX-512 on this machine's kind).
+void BM_SweepIsa(benchmark::State& state) {
+  SweepOptions o;
+  o.kinect.noise = false;
+  o.embree_isa = state.range(0) ? "" : "avx2";
+  double seconds = 0;
+  for (auto _ : state) {
+    const double t0 = CpuSeconds();
+    Sweep s = SimulateSweep(Garment(), o, 1);
+    seconds += CpuSeconds() - t0;
+    benchmark::DoNotOptimize(s.frames[0].depth.data());
+  }
+  state.counters["cpu_s_per_sweep"] = seconds / state.iterations();
+  state.SetLabel(state.range(0) ? "Embree's best ISA" : "isa=avx2 (pinned, release default)");
+}
+BENCHMARK(BM_SweepIsa)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->UseRealTime();
+
 // The same rays (the per-frame region of interest, object frame, 4×4 tiles, plus one
 // background frame) through bare rtcIntersect16 on the same triangles: no noise, no
 // images, no bookkeeping.
