@@ -7,6 +7,7 @@
 #include "cli/command.h"
 #include "common/error.h"
 #include "generator/build/build.h"
+#include "generator/build/build_mpi.h"
 #include "generator/recipe/recipe.h"
 #include "generator/release/release.h"
 
@@ -32,10 +33,20 @@ Builds the release a recipe describes (recipes/README.md documents recipes).
   --keep-going    turn unexpected per-job errors into failed entries instead of stopping
   --quiet         no progress output
 
+Under mpirun (mpirun -np N drape build RECIPE -o DIR) rank 0 hands out jobs and writes
+the release while ranks 1..N-1 simulate, one job each at a time (-j is ignored); same
+release digest as a one-process build (docs/cluster.md).
+
 Ctrl-C stops handing out jobs, lets running ones finish and commit, and exits; run the
 same command (or add --resume) to continue. Exit status: 0 all entries built, 1 bad
 input, 4 the release was built but some entries failed (listed), 5 stopped early
 (interrupted, or an unexpected job error without --keep-going).)";
+
+// Exit status of a build that did not throw (see kUsage).
+int ExitStatus(const BuildReport& r) {
+  if (r.aborted || r.interrupted) return 5;
+  return r.release_failed > 0 ? 4 : 0;
+}
 
 int Run(const std::vector<std::string>& argv) {
   Args args(argv, {"--resume", "--keep-going", "--quiet"}, {"-o", "-j", "--shard"});
@@ -45,7 +56,11 @@ int Run(const std::vector<std::string>& argv) {
   }
   args.RequirePositional(1, 1, "RECIPE");
   const Recipe recipe = LoadRecipe(args.positional()[0]);
-  for (const auto& w : recipe.warnings) std::cerr << "drape build: warning: " << w << "\n";
+  // Under mpirun every rank runs this command; rank 0 speaks for all of them.
+  const bool mpi = MpiRequested();
+  const bool speaker = !mpi || MpiLaunchRank() == 0;
+  if (speaker)
+    for (const auto& w : recipe.warnings) std::cerr << "drape build: warning: " << w << "\n";
 
   BuildOptions o;
   if (auto out = args.Get("-o")) o.output = *out;
@@ -70,7 +85,18 @@ int Run(const std::vector<std::string>& argv) {
   auto previous = std::signal(SIGINT, OnSigint);
   BuildReport r;
   try {
-    r = RunBuild(recipe, o);
+    if (mpi) {
+      // Rank 0 coordinates and rethrows its errors; the other ranks simulate and
+      // exit with rank 0's status without printing (see generator/build/build_mpi.h).
+      MpiBuildOutcome m = RunBuildMpi(recipe, o);
+      if (!m.coordinator) {
+        std::signal(SIGINT, previous);
+        return m.exit_status >= 0 ? m.exit_status : ExitStatus(m.report);
+      }
+      r = std::move(m.report);
+    } else {
+      r = RunBuild(recipe, o);
+    }
   } catch (...) {
     std::signal(SIGINT, previous);
     throw;
@@ -95,7 +121,7 @@ int Run(const std::vector<std::string>& argv) {
               << " jobs; continue with: " << again << "\n";
     return 5;
   }
-  return r.release_failed > 0 ? 4 : 0;
+  return ExitStatus(r);
 }
 
 Register reg({"build", "build a release (database) from a recipe", kUsage, Run});

@@ -330,17 +330,8 @@ Json RecipeSummary(const Recipe& r, const std::vector<Job>& jobs) {
 
 }  // namespace
 
-BuildReport RunBuild(const Recipe& recipe, const BuildOptions& options) {
-  const auto t0 = Clock::now();
-  std::ostream& log = options.log ? *options.log : std::cerr;
-  BuildReport report;
-  report.output = options.output.empty() ? DefaultOutput(recipe) : options.output;
-
-  const std::vector<Job> jobs = ExpandJobs(recipe);
-  report.total_jobs = static_cast<int>(jobs.size());
-  const std::vector<int> shard = ShardJobs(report.total_jobs, options.shard_index, options.shard_count);
-  report.shard_jobs = static_cast<int>(shard.size());
-
+ReleaseMeta MakeReleaseMeta(const Recipe& recipe, const std::vector<Job>& jobs, const std::vector<int>& shard,
+                            const BuildOptions& options) {
   ReleaseMeta meta;
   meta.name = recipe.name;
   meta.version = recipe.version;
@@ -355,6 +346,37 @@ BuildReport RunBuild(const Recipe& recipe, const BuildOptions& options) {
     for (int i : shard) meta.shard_keys.push_back(jobs[i].key);
   meta.shard_index = options.shard_index - 1;
   meta.shard_count = options.shard_count;
+  return meta;
+}
+
+void LogStageSeconds(std::ostream& log, const std::map<std::string, double>& stage_seconds) {
+  if (stage_seconds.empty()) return;
+  double sum = 0;
+  for (const auto& [k, v] : stage_seconds)
+    if (k != "bullet") sum += v;
+  log << "stage wall time (summed over jobs):";
+  for (const char* k : {"garment", "fit", "hang", "bullet", "sweep", "fusion", "accuracy", "feature", "encode",
+                        "preview"}) {
+    auto it = stage_seconds.find(k);
+    if (it == stage_seconds.end()) continue;
+    log << " " << k << " " << std::fixed << std::setprecision(1) << it->second << "s";
+    if (std::string(k) != "bullet" && sum > 0) log << " (" << std::lround(100 * it->second / sum) << "%)";
+  }
+  log << std::defaultfloat << "\n";
+}
+
+BuildReport RunBuild(const Recipe& recipe, const BuildOptions& options) {
+  const auto t0 = Clock::now();
+  std::ostream& log = options.log ? *options.log : std::cerr;
+  BuildReport report;
+  report.output = options.output.empty() ? DefaultOutput(recipe) : options.output;
+
+  const std::vector<Job> jobs = ExpandJobs(recipe);
+  report.total_jobs = static_cast<int>(jobs.size());
+  const std::vector<int> shard = ShardJobs(report.total_jobs, options.shard_index, options.shard_count);
+  report.shard_jobs = static_cast<int>(shard.size());
+
+  const ReleaseMeta meta = MakeReleaseMeta(recipe, jobs, shard, options);
 
   auto writer = ReleaseWriter::Open(report.output, meta, options.resume);
   const std::set<std::string> done = writer->DoneKeys();
@@ -496,20 +518,7 @@ BuildReport RunBuild(const Recipe& recipe, const BuildOptions& options) {
   writer->SetBuildInfo("threads", threads);
   writer->SetBuildInfo("stage_seconds", Json(report.stage_seconds));
 
-  if (mode != ProgressMode::kQuiet && !report.stage_seconds.empty()) {
-    double sum = 0;
-    for (const auto& [k, v] : report.stage_seconds)
-      if (k != "bullet") sum += v;
-    log << "stage wall time (summed over jobs):";
-    for (const char* k : {"garment", "fit", "hang", "bullet", "sweep", "fusion", "accuracy", "feature", "encode",
-                          "preview"}) {
-      auto it = report.stage_seconds.find(k);
-      if (it == report.stage_seconds.end()) continue;
-      log << " " << k << " " << std::fixed << std::setprecision(1) << it->second << "s";
-      if (std::string(k) != "bullet" && sum > 0) log << " (" << std::lround(100 * it->second / sum) << "%)";
-    }
-    log << std::defaultfloat << "\n";
-  }
+  if (mode != ProgressMode::kQuiet) LogStageSeconds(log, report.stage_seconds);
 
   if (!report.aborted && !report.interrupted) {
     const auto summary = writer->Finalize();

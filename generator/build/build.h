@@ -18,6 +18,7 @@
 #include "generator/recipe/jobs.h"
 #include "generator/recipe/recipe.h"
 #include "generator/release/entry.h"
+#include "generator/release/release.h"
 
 namespace drape {
 
@@ -75,6 +76,14 @@ Entry BuildEntry(const Recipe& recipe, const Job& job, JobCache& cache);
 // Builds the recipe's jobs (this shard's, minus those already committed) into the
 // release folder and finalizes it unless interrupted or aborted.
 BuildReport RunBuild(const Recipe& recipe, const BuildOptions& options);
+
+// What RunBuild (and the MPI build's rank 0) tells the release writer: recipe, job
+// keys, this shard's keys (`shard` = indices into `jobs`), code version.
+ReleaseMeta MakeReleaseMeta(const Recipe& recipe, const std::vector<Job>& jobs, const std::vector<int>& shard,
+                            const BuildOptions& options);
+
+// The "stage wall time (summed over jobs): ..." line of the build summary.
+void LogStageSeconds(std::ostream& log, const std::map<std::string, double>& stage_seconds);
 
 // Default output folder: datasets/<name>/<version>.
 std::filesystem::path DefaultOutput(const Recipe& recipe);
