@@ -371,15 +371,18 @@ MpiBuildOutcome Coordinate(const Recipe& recipe, const BuildOptions& options, in
   auto last_plain = Clock::now();
   int last_reported = -1;
   bool stop_noted = false;
+  auto note_stop = [&] {
+    if (mode == ProgressMode::kQuiet || error || stop_noted || !options.stop || !options.stop->load()) return;
+    stop_noted = true;
+    int in_flight = 0;
+    for (int j : running) in_flight += j >= 0;
+    log << (mode == ProgressMode::kTty ? "\n" : "") << "drape build: interrupted; letting " << in_flight
+        << " running job(s) finish and commit (--resume continues)\n";
+  };
   auto progress = [&](bool over) {
     if (mode == ProgressMode::kQuiet || error) return;
     int in_flight = 0;
     for (int j : running) in_flight += j >= 0;
-    if (options.stop && options.stop->load() && !stop_noted) {
-      stop_noted = true;
-      log << (mode == ProgressMode::kTty ? "\n" : "") << "drape build: interrupted; letting " << in_flight
-          << " running job(s) finish and commit (--resume continues)\n";
-    }
     const int remaining = static_cast<int>(todo.size()) - finished;
     const double eta = finished ? busy_seconds / finished * remaining / std::max(1, workers) : NAN;
     std::ostringstream line;
@@ -401,6 +404,7 @@ MpiBuildOutcome Coordinate(const Recipe& recipe, const BuildOptions& options, in
     int flag = 0;
     MPI_Status st;
     MPI_Iprobe(MPI_ANY_SOURCE, MPI_ANY_TAG, MPI_COMM_WORLD, &flag, &st);
+    note_stop();
     if (!flag) {
       if (Seconds(last_tick, Clock::now()) >= 0.5) {
         progress(false);
