@@ -35,6 +35,8 @@ void HangOptions::Validate() const {
   if (!(equilibrium_tolerance > 0 && equilibrium_tolerance < 1)) bad("equilibrium_tolerance", "must be in (0, 1)");
   if (!(equilibrium_max_displacement > 0)) bad("equilibrium_max_displacement", "must be > 0");
   if (equilibrium_iterations < 1) bad("equilibrium_iterations", "must be >= 1");
+  if (!(equilibrium_rescue_motion >= 0)) bad("equilibrium_rescue_motion", "must be >= 0 m");
+  if (equilibrium_rescue_iterations < 1) bad("equilibrium_rescue_iterations", "must be >= 1");
   if (!(fit_width > 0.05 && fit_height > 0.05)) bad("fit_width/fit_height", "must be > 0.05 m");
   if (!(fit_edge_length > 0.002 && fit_edge_length < 0.2)) bad("fit_edge_length", "must be in (0.002, 0.2) m");
   if (!(fit_tolerance_percent > 0)) bad("fit_tolerance_percent", "must be > 0");
@@ -379,6 +381,7 @@ class Separator {
 
 struct RunOutcome {
   bool ok = false;
+  bool timed_out = false;  // ran to time_cap without settling (no blow-up)
   std::string failure;
   Points3 x;  // final positions (object frame)
   HangStats stats;
@@ -421,7 +424,11 @@ RunOutcome RunBullet(const TriMesh& mesh, const Points3& start, const Points3& r
   for (const auto& e : model.bend) sb->appendLink(e[0], e[1], bend_mat);
   for (int f = 0; f < mesh.NumFaces(); ++f) sb->appendFace(mesh.F(f, 0), mesh.F(f, 1), mesh.F(f, 2), stretch_mat);
   sb->m_cfg.piterations = opt.solver_iterations;
-  sb->m_cfg.kDP = btScalar(opt.damping);
+  // kDP removes that fraction of the velocity every step: keep the damping per second
+  // the same at a retry's smaller step (the same kDP per half step doubles the drag, and
+  // over-damped slow modes then creep even slower).
+  const double kdp = 1 - std::pow(1 - opt.damping, dt / opt.time_step);
+  sb->m_cfg.kDP = btScalar(kdp);
   sb->m_cfg.collisions = 0;  // nothing rigid to touch; self contact is ours
   sb->getCollisionShape()->setMargin(0.002f);
   for (int i = 0; i < n; ++i)
@@ -488,8 +495,8 @@ RunOutcome RunBullet(const TriMesh& mesh, const Points3& start, const Points3& r
       if (ring.size() > 5) ring.erase(ring.begin());
       if (ring.size() == 5 && step >= min_steps) {
         double moved = 0;
-        for (int i = 0; i < n && moved < opt.settle_distance; ++i)
-          moved = std::max(moved, (ring.back()[i] - ring.front()[i]).norm());
+        for (int i = 0; i < n; ++i) moved = std::max(moved, (ring.back()[i] - ring.front()[i]).norm());
+        out.stats.settle_motion = moved;
 
         if (moved < opt.settle_distance) { settled = true; break; }
       }
@@ -512,8 +519,11 @@ RunOutcome RunBullet(const TriMesh& mesh, const Points3& start, const Points3& r
   out.stats.max_speed = vmax;
   world.removeSoftBody(sb.get());
   if (failure.empty() && !out.x.allFinite()) failure = "NaN in the simulation state";
-  if (failure.empty() && !settled)
-    failure = "not settled within time_cap " + std::to_string(opt.time_cap) + " s";
+  if (failure.empty() && !settled) {
+    failure = "not settled within time_cap " + std::to_string(opt.time_cap) + " s (still moving " +
+              std::to_string(out.stats.settle_motion) + " m per settle_window)";
+    out.timed_out = true;
+  }
   out.failure = failure;
   out.ok = failure.empty();
   (void)seed;
@@ -599,30 +609,11 @@ HangResult Hang(const Garment& garment, int anchor_vertex, const Vec3& grasp_off
   Points3 rest_obj(n, 3);
   for (int i = 0; i < n; ++i) rest_obj.row(i) = (R * (rest.row(i).transpose() - grasp)).transpose();
 
-  RunOutcome run;
-  int retries = 0;
-  double dt = options.time_step;
-  for (int attempt = 0; attempt < 2; ++attempt) {
-    run = RunBullet(mesh, start, rest_obj, model, fixed, fit.stiffness, material.bending_stiffness, options, dt, seed);
-    if (run.ok) break;
-    if (attempt == 0) {
-      ++retries;
-      dt /= 2;  // smaller step: stiffer, more stable
-    }
-  }
-  result.stats = run.stats;
-  result.stats.retries = retries;
-  if (!run.ok) {
-    result.ok = false;
-    result.failure = run.failure + " (after retry at time_step " + std::to_string(dt) + " s)";
-    result.mesh.F = mesh.F;
-    result.mesh.V = run.x.allFinite() ? run.x : start;
-    result.stats.wall_seconds = Seconds(wall0, Clock::now());
-    return result;
-  }
-
-  Points3 x = run.x;
-  if (fit.spring_stiffness > 0) {
+  // KINSOL on the spring model (+ contact penalty) from Bullet's state x_in. Fills the
+  // equilibrium fields of `st`; returns the state to keep (x_in when not applied).
+  auto equilibrate = [&](const Points3& x_in, int iterations, HangStats& st, bool* converged) {
+    Points3 x = x_in;
+    *converged = false;
     SpringNetwork net = MakeNetwork(model, rest, fit.spring_stiffness, material.bending_stiffness, fixed);
     if (options.self_collision && options.equilibrium_solve) {
       // Layers resting on each other: keep them apart in the solve too (the spring
@@ -639,7 +630,7 @@ HangResult Hang(const Garment& garment, int anchor_vertex, const Vec3& grasp_off
       EquilibriumOptions eo;
       eo.relative_tolerance = options.equilibrium_tolerance;
       eo.max_displacement = options.equilibrium_max_displacement;
-      eo.max_total_iterations = options.equilibrium_iterations;
+      eo.max_total_iterations = iterations;
       Points3 solved = x;
       eq = SolveEquilibrium(net, solved, eo);
       if (eq.applied && options.self_collision) {
@@ -661,15 +652,16 @@ HangResult Hang(const Garment& garment, int anchor_vertex, const Vec3& grasp_off
       } else if (eq.applied) {
         x = solved;
       }
-      result.stats.bullet_force_residual_rel = eq.relative_before;
-      result.stats.force_residual = eq.residual_after;
-      result.stats.force_residual_rel = eq.relative_after;
-      result.stats.equilibrium_applied = eq.applied;
-      result.stats.equilibrium_converged = eq.applied && eq.converged;
-      result.stats.equilibrium_iterations = eq.iterations;
-      result.stats.equilibrium_displacement = eq.max_displacement;
-      result.stats.equilibrium_message = eq.message;
-      result.stats.equilibrium_seconds = Seconds(teq, Clock::now());
+      st.bullet_force_residual_rel = eq.relative_before;
+      st.force_residual = eq.residual_after;
+      st.force_residual_rel = eq.relative_after;
+      st.equilibrium_applied = eq.applied;
+      st.equilibrium_converged = eq.applied && eq.converged;
+      st.equilibrium_iterations = eq.iterations;
+      st.equilibrium_displacement = eq.max_displacement;
+      st.equilibrium_message = eq.message;
+      st.equilibrium_seconds += Seconds(teq, Clock::now());
+      *converged = st.equilibrium_converged;
     } else {
       const Points3 f = SpringForces(net, x);
       double amax = 0, rmax = 0;
@@ -678,10 +670,58 @@ HangResult Hang(const Garment& garment, int anchor_vertex, const Vec3& grasp_off
           amax = std::max(amax, f.row(i).norm());
           rmax = std::max(rmax, f.row(i).norm() / (9.81 * net.mass[i]));
         }
-      result.stats.force_residual = amax;
-      result.stats.force_residual_rel = result.stats.bullet_force_residual_rel = rmax;
-      result.stats.equilibrium_message = "not requested";
+      st.force_residual = amax;
+      st.force_residual_rel = st.bullet_force_residual_rel = rmax;
+      st.equilibrium_message = "not requested";
     }
+    return x;
+  };
+
+  RunOutcome run;
+  int retries = 0;
+  double dt = options.time_step;
+  const bool can_rescue = options.equilibrium_solve && fit.spring_stiffness > 0 &&
+                          options.equilibrium_rescue_motion > 0;
+  bool rescued = false;
+  Points3 x;
+  for (int attempt = 0; attempt < 2; ++attempt) {
+    run = RunBullet(mesh, start, rest_obj, model, fixed, fit.stiffness, material.bending_stiffness, options, dt, seed);
+    if (run.ok) break;
+    // Reached the time cap barely creeping: if the static problem from this state
+    // converges, that is the stationary state Bullet was creeping towards.
+    if (run.timed_out && can_rescue && run.stats.settle_motion <= options.equilibrium_rescue_motion) {
+      HangStats st = run.stats;
+      bool converged = false;
+      Points3 solved = equilibrate(run.x, options.equilibrium_rescue_iterations, st, &converged);
+      if (converged) {
+        run.stats = st;
+        run.stats.settled_by_equilibrium = true;
+        x = solved;
+        rescued = true;
+        break;
+      }
+      run.stats.equilibrium_seconds = st.equilibrium_seconds;
+      run.failure += "; equilibrium rescue: " + st.equilibrium_message;
+    }
+    if (attempt == 0) {
+      ++retries;
+      dt /= 2;  // smaller step: stiffer, more stable
+    }
+  }
+  result.stats = run.stats;
+  result.stats.retries = retries;
+  if (!run.ok && !rescued) {
+    result.ok = false;
+    result.failure = run.failure + " (after retry at time_step " + std::to_string(dt) + " s)";
+    result.mesh.F = mesh.F;
+    result.mesh.V = run.x.allFinite() ? run.x : start;
+    result.stats.wall_seconds = Seconds(wall0, Clock::now());
+    return result;
+  }
+  if (!rescued) {
+    x = run.x;
+    bool converged = false;
+    if (fit.spring_stiffness > 0) x = equilibrate(run.x, options.equilibrium_iterations, result.stats, &converged);
   }
   result.stats.strain_mean = Strain(model, rest, x, &result.stats.strain_max);
   result.mesh.V = x;

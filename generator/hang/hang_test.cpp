@@ -316,6 +316,39 @@ TEST(Hang, BlowUpIsRetriedThenReported) {
   EXPECT_DOUBLE_EQ(r.stats.time_step, o.time_step / 2);
 }
 
+TEST(Hang, TimedOutCreepIsAcceptedOnlyWhenTheEquilibriumConverges) {
+  HangOptions o = TestOptions();
+  o.settle_distance = 1e-9;  // Bullet can never meet it: every run reaches time_cap
+  o.min_time = 0.5;
+  o.time_cap = 3;
+  const Garment towel = MakeRectangleGarment(0.2, 0.3, 0.05, false);
+  const HangResult r = Hang(towel, towel.anchors[4].vertex, Vec3::Zero(), Towel(), TowelFit(), o, 1);
+  EXPECT_FALSE(r.stats.settled);
+  // KNOWN GAP: KINSOL stalls short of equilibrium_tolerance from these states (as in
+  // PantsFromWaistAndLegDiffer), so the rescue is not forced here; when it is taken it
+  // must be the converged solve's.
+  if (r.ok) {
+    // Accepted only as the solver's state: converged, within the displacement limit,
+    // Bullet's last window below the rescue bound.
+    EXPECT_TRUE(r.stats.settled_by_equilibrium);
+    EXPECT_TRUE(r.stats.equilibrium_converged);
+    EXPECT_LT(r.stats.force_residual_rel, o.equilibrium_tolerance);
+    EXPECT_LE(r.stats.equilibrium_displacement, o.equilibrium_max_displacement);
+    EXPECT_LE(r.stats.settle_motion, o.equilibrium_rescue_motion);
+    EXPECT_EQ(r.stats.retries, 0);
+  } else {
+    EXPECT_FALSE(r.stats.settled_by_equilibrium);
+    EXPECT_NE(r.failure.find("rescue"), std::string::npos) << r.failure;
+  }
+  // Still moving more than the rescue bound: failed, and the failure says how much.
+  o.equilibrium_rescue_motion = 1e-9;
+  const HangResult f = Hang(towel, towel.anchors[4].vertex, Vec3::Zero(), Towel(), TowelFit(), o, 1);
+  EXPECT_FALSE(f.ok);
+  EXPECT_FALSE(f.stats.settled_by_equilibrium);
+  EXPECT_NE(f.failure.find("still moving"), std::string::npos) << f.failure;
+  EXPECT_EQ(f.stats.retries, 1);
+}
+
 TEST(Hang, BadInputNamesTheField) {
   const Garment towel = MakeRectangleGarment(0.2, 0.3, 0.05, false);
   HangOptions o = TestOptions();
