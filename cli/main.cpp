@@ -7,6 +7,7 @@
 
 #include "cli/command.h"
 #include "common/error.h"
+#include "common/version.h"
 
 namespace drape::cli {
 std::vector<Command>& Registry() {
@@ -20,7 +21,7 @@ namespace {
 void PrintHelp() {
   auto cmds = drape::cli::Registry();
   std::sort(cmds.begin(), cmds.end(), [](auto& a, auto& b) { return a.name < b.name; });
-  std::cout << "drape " << DRAPE_VERSION << " (" << DRAPE_GIT_VERSION << ")\n"
+  std::cout << "drape " << DRAPE_VERSION << " (" << drape::GitVersion() << ")\n"
             << "Builds versioned databases of simulated garments and runs the algorithms "
                "that use them.\n\nUsage: drape COMMAND [ARGS...]   (drape COMMAND --help for more)\n\n"
                "Commands:\n";
@@ -39,7 +40,7 @@ int main(int argc, char** argv) {
     return args.empty() ? 2 : 0;
   }
   if (args[0] == "--version") {
-    std::cout << "drape " << DRAPE_VERSION << " (" << DRAPE_GIT_VERSION << ")\n";
+    std::cout << "drape " << DRAPE_VERSION << " (" << drape::GitVersion() << ")\n";
     return 0;
   }
   const auto& cmds = drape::cli::Registry();

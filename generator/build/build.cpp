@@ -16,6 +16,7 @@
 #include "common/error.h"
 #include "common/parallel.h"
 #include "common/rng.h"
+#include "common/version.h"
 #include "garments/io.h"
 #include "garments/templates.h"
 #include "generator/feature/feature.h"
@@ -24,9 +25,6 @@
 #include "generator/release/release.h"
 #include "generator/sweep/sweep.h"
 
-#ifndef DRAPE_GIT_VERSION
-#define DRAPE_GIT_VERSION "unknown"
-#endif
 
 namespace fs = std::filesystem;
 
@@ -98,6 +96,8 @@ Json HangStatsJson(const HangStats& s) {
           {"strain_mean", s.strain_mean},
           {"strain_max", s.strain_max},
           {"settled", s.settled},
+          {"settled_by_equilibrium", s.settled_by_equilibrium},
+          {"settle_motion", s.settle_motion},
           {"force_residual", s.force_residual},
           {"force_residual_rel", s.force_residual_rel},
           {"bullet_force_residual_rel", s.bullet_force_residual_rel},
@@ -337,7 +337,7 @@ ReleaseMeta MakeReleaseMeta(const Recipe& recipe, const std::vector<Job>& jobs, 
   meta.version = recipe.version;
   meta.seed = recipe.seed;
   meta.recipe_text = recipe.text;
-  meta.code_version = options.code_version.empty() ? DRAPE_GIT_VERSION : options.code_version;
+  meta.code_version = options.code_version.empty() ? std::string(GitVersion()) : options.code_version;
   meta.description = recipe.description;
   meta.license = recipe.license;
   meta.recipe_summary = RecipeSummary(recipe, jobs);

@@ -13,6 +13,7 @@
 #include <thread>
 #include <vector>
 
+#include "common/version.h"
 #include "common/error.h"
 #include "common/hash.h"
 #include "common/json.h"
@@ -23,9 +24,6 @@
 #include <mpi.h>
 #endif
 
-#ifndef DRAPE_GIT_VERSION
-#define DRAPE_GIT_VERSION "unknown"
-#endif
 
 namespace drape {
 
@@ -249,7 +247,7 @@ MPI_Status WaitMessage(int source) {
 
 // What every rank must agree on before it may compute entries for rank 0.
 std::string Fingerprint(const Recipe& recipe, const BuildOptions& options, size_t jobs) {
-  const std::string code = options.code_version.empty() ? DRAPE_GIT_VERSION : options.code_version;
+  const std::string code = options.code_version.empty() ? std::string(GitVersion()) : options.code_version;
   return "recipe sha256 " + Sha256Hex(recipe.text) + ", code " + code + ", " + std::to_string(jobs) + " jobs";
 }
 
