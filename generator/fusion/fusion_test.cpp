@@ -180,8 +180,17 @@ TEST(Fusion, SphereMeshAccuracyNoiseFree) {
   EXPECT_LT(a.truth_to_recon_p95, 0.003);
 }
 
+// Faces that repeat a vertex (collapsed marching-cubes quads): assimp rejects them.
+int RepeatedVertexFaces(const TriMesh& m) {
+  int n = 0;
+  for (int f = 0; f < m.NumFaces(); ++f)
+    n += m.F(f, 0) == m.F(f, 1) || m.F(f, 1) == m.F(f, 2) || m.F(f, 0) == m.F(f, 2);
+  return n;
+}
+
 TEST(Fusion, SphereMeshAccuracyNoisy) {
   const FusionResult r = Fuse(Scene{{kSphere}}, 0.002);
+  EXPECT_EQ(RepeatedVertexFaces(r.mesh), 0);
   const Accuracy a = MeasureAccuracy(r.mesh, synthetic::MeshShape(kSphere, 6));
   std::printf("sphere sigma=2mm: recon->truth mean %.3f p95 %.3f mm, truth->recon mean %.3f p95 %.3f mm\n",
               a.recon_to_truth_mean * 1e3, a.recon_to_truth_p95 * 1e3, a.truth_to_recon_mean * 1e3,

@@ -87,13 +87,19 @@ TriMesh Tsdf::ExtractMesh() const {
     mesh.V.row(i) = Vec3(points[i].x(), points[i].y(), points[i].z());
   mesh.F.resize(static_cast<Eigen::Index>(tris.size() + 2 * quads.size()), 3);
   // volumeToMesh winds polygons clockwise seen from outside (positive side) for a
-  // negative-inside field; reverse to drape's counter-clockwise convention.
+  // negative-inside field; reverse to drape's counter-clockwise convention. Its quads
+  // can collapse (a repeated corner): the triangles that repeat a vertex are dropped,
+  // since they are degenerate and readers such as assimp reject them.
   Eigen::Index f = 0;
-  for (const auto& t : tris) mesh.F.row(f++) << int(t[0]), int(t[2]), int(t[1]);
+  auto add = [&](unsigned a, unsigned b, unsigned c) {
+    if (a != b && b != c && a != c) mesh.F.row(f++) << int(a), int(b), int(c);
+  };
+  for (const auto& t : tris) add(t[0], t[2], t[1]);
   for (const auto& q : quads) {
-    mesh.F.row(f++) << int(q[0]), int(q[2]), int(q[1]);
-    mesh.F.row(f++) << int(q[0]), int(q[3]), int(q[2]);
+    add(q[0], q[2], q[1]);
+    add(q[0], q[3], q[2]);
   }
+  mesh.F.conservativeResize(f, 3);
   return mesh;
 }
 
