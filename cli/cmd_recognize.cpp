@@ -14,9 +14,7 @@
 #include "runtime/recognition/calibrate.h"
 #include "runtime/recognition/evaluate.h"
 #include "runtime/recognition/query_pipeline.h"
-#ifdef DRAPE_HAVE_REGISTRATION_EVAL
 #include "runtime/recognition/registration_eval.h"
-#endif
 #include "runtime/recognition/release_source.h"
 
 namespace drape::cli {
@@ -354,7 +352,6 @@ int RunEval(const std::vector<std::string>& argv) {
               {"database_load_seconds", load_s},
               {"load_warnings", warnings}};
   if (!a.Flag("--no-registration")) {
-#ifdef DRAPE_HAVE_REGISTRATION_EVAL
     RegistrationEvalOptions ro;
     ro.max_pairs_per_category = static_cast<int>(a.GetInt("--registration-pairs").value_or(0));
     ro.threads = static_cast<int>(a.GetInt("--threads").value_or(0));
@@ -365,9 +362,6 @@ int RunEval(const std::vector<std::string>& argv) {
       rr.table["figures"] = WriteRegistrationFigures(rr, *dir);
     }
     res.report["registration"] = rr.table;
-#else
-    if (a.Flag("--registration")) throw Error("eval: --registration: this build has no registration stage");
-#endif
   }
   if (auto dir = a.Get("--report")) {
     WriteReport(res, header, *dir);

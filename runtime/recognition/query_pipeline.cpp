@@ -75,7 +75,6 @@ PipelineResult FuseAndExtract(const Sweep& sweep, const BuildOptions& o, uint64_
 
 }  // namespace
 
-bool PipelineAvailable() { return true; }
 
 PipelineResult FeatureFromSweep(const Release& release, const fs::path& dir, uint64_t seed) {
   if (!fs::exists(dir / "cameras.json")) {

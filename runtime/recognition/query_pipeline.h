@@ -32,10 +32,7 @@ struct PipelineResult {
   Json info = Json::object();  // frames, voxels, … for the output
 };
 
-// False when drape was built without the sweep/fusion/feature/recipe stages.
-bool PipelineAvailable();
-
-// Throws drape::Error naming the folder/file on bad input, or if !PipelineAvailable().
+// Throws drape::Error naming the folder/file on bad input.
 PipelineResult FeatureFromSweep(const Release& release, const std::filesystem::path& sweep_dir, uint64_t seed);
 PipelineResult FeatureFromMesh(const Release& release, const std::filesystem::path& mesh_file, uint64_t seed);
 
