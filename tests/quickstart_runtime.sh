@@ -5,7 +5,7 @@ source "$(dirname "$0")/e2e_lib.sh"
 rel="$WORK/../quickstart_reference/quickstart"
 [ -f "$rel/dataset.json" ] || fail "the quickstart fixture did not build $rel"
 "$DRAPE" calibrate "$rel"
-test_entry=$("$DRAPE" ls "$rel" --split test | awk 'NR>1 && $1 ~ /^[0-9]{5}-/ {print $1; exit}')
+test_entry=$("$DRAPE" ls "$rel" --split test | awk 'NR>1 && $1 ~ /^[0-9][0-9][0-9][0-9][0-9]-/ {print $1; exit}')
 [ -n "$test_entry" ] || fail "no test entry listed"
 "$DRAPE" recognize "$rel" --entry "$test_entry"
 rm -rf "$WORK/report"
