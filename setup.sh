@@ -54,7 +54,12 @@ case "${1:-main}" in
   main)
     install_packages
     build
-    "$BUILD_DIR/bin/drape" build recipes/quickstart.yaml
+    # A fresh build each time (the code may have changed since the last one), then the
+    # check against the published reference that CI also makes.
+    rm -rf "$BUILD_DIR/quickstart"
+    "$BUILD_DIR/bin/drape" build recipes/quickstart.yaml -o "$BUILD_DIR/quickstart" -j "$JOBS"
+    "$BUILD_DIR/bin/drape" verify "$BUILD_DIR/quickstart" --published datasets/quickstart/1.0.0
+    echo "setup: the quickstart release is in $BUILD_DIR/quickstart (open its index.html)"
     ;;
   test)
     install_packages
