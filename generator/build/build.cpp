@@ -365,6 +365,23 @@ void LogStageSeconds(std::ostream& log, const std::map<std::string, double>& sta
   log << std::defaultfloat << "\n";
 }
 
+void FinishBuild(ReleaseWriter& writer, BuildReport& report, ProgressMode mode, std::ostream& log) {
+  report.interrupted = !report.aborted && report.already_done + report.built < report.shard_jobs;
+  writer.SetBuildInfo("stage_seconds", Json(report.stage_seconds));
+  if (mode != ProgressMode::kQuiet) LogStageSeconds(log, report.stage_seconds);
+  if (report.aborted || report.interrupted) return;
+  const auto summary = writer.Finalize();
+  report.finalized = true;
+  report.digest = summary.digest;
+  report.release_failed = summary.failed;
+  if (mode == ProgressMode::kQuiet) return;
+  log << "release " << report.output.string() << ": " << summary.entries << " entries, " << summary.failed
+      << " failed, digest " << summary.digest << "\n";
+  if (!summary.published_digest.empty())
+    log << (summary.matches_published ? "matches" : "DIFFERS FROM") << " the published digest "
+        << summary.published_digest << "\n";
+}
+
 BuildReport RunBuild(const Recipe& recipe, const BuildOptions& options) {
   const auto t0 = Clock::now();
   std::ostream& log = options.log ? *options.log : std::cerr;
@@ -514,25 +531,8 @@ BuildReport RunBuild(const Recipe& recipe, const BuildOptions& options) {
   }
   for (auto& t : pool) t.join();
 
-  report.interrupted = !report.aborted && report.already_done + report.built < report.shard_jobs;
   writer->SetBuildInfo("threads", threads);
-  writer->SetBuildInfo("stage_seconds", Json(report.stage_seconds));
-
-  if (mode != ProgressMode::kQuiet) LogStageSeconds(log, report.stage_seconds);
-
-  if (!report.aborted && !report.interrupted) {
-    const auto summary = writer->Finalize();
-    report.finalized = true;
-    report.digest = summary.digest;
-    report.release_failed = summary.failed;
-    if (mode != ProgressMode::kQuiet) {
-      log << "release " << report.output.string() << ": " << summary.entries << " entries, " << summary.failed
-          << " failed, digest " << summary.digest << "\n";
-      if (!summary.published_digest.empty())
-        log << (summary.matches_published ? "matches" : "DIFFERS FROM") << " the published digest "
-            << summary.published_digest << "\n";
-    }
-  }
+  FinishBuild(*writer, report, mode, log);
   report.wall_seconds = Seconds(t0, Clock::now());
   return report;
 }

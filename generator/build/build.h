@@ -19,6 +19,7 @@
 #include "generator/recipe/recipe.h"
 #include "generator/release/entry.h"
 #include "generator/release/release.h"
+#include "generator/release/release.h"
 
 namespace drape {
 
@@ -84,6 +85,11 @@ ReleaseMeta MakeReleaseMeta(const Recipe& recipe, const std::vector<Job>& jobs, 
 
 // The "stage wall time (summed over jobs): ..." line of the build summary.
 void LogStageSeconds(std::ostream& log, const std::map<std::string, double>& stage_seconds);
+
+// The end of a build, shared by RunBuild and the MPI build's rank 0: records the stage
+// times in build.json, logs them, and finalizes the release unless the build was
+// aborted or interrupted (sets report.interrupted, finalized, digest, release_failed).
+void FinishBuild(ReleaseWriter& writer, BuildReport& report, ProgressMode mode, std::ostream& log);
 
 // Default output folder: datasets/<name>/<version>.
 std::filesystem::path DefaultOutput(const Recipe& recipe);

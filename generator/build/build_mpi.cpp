@@ -484,25 +484,10 @@ MpiBuildOutcome Coordinate(const Recipe& recipe, const BuildOptions& options, in
 
   if (!error) {
     try {
-      report.interrupted = !report.aborted && report.already_done + report.built < report.shard_jobs;
       writer->SetBuildInfo("threads", 1);
       writer->SetBuildInfo("mpi_ranks", size);
       writer->SetBuildInfo("mpi_workers", workers);
-      writer->SetBuildInfo("stage_seconds", Json(report.stage_seconds));
-      if (mode != ProgressMode::kQuiet) LogStageSeconds(log, report.stage_seconds);
-      if (!report.aborted && !report.interrupted) {
-        const auto summary = writer->Finalize();
-        report.finalized = true;
-        report.digest = summary.digest;
-        report.release_failed = summary.failed;
-        if (mode != ProgressMode::kQuiet) {
-          log << "release " << report.output.string() << ": " << summary.entries << " entries, " << summary.failed
-              << " failed, digest " << summary.digest << "\n";
-          if (!summary.published_digest.empty())
-            log << (summary.matches_published ? "matches" : "DIFFERS FROM") << " the published digest "
-                << summary.published_digest << "\n";
-        }
-      }
+      FinishBuild(*writer, report, mode, log);
     } catch (...) {
       error = std::current_exception();
     }
