@@ -7,6 +7,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "common/error.h"
+#include "garments/render.h"
 #include "generator/build/build.h"
 
 namespace drape {
@@ -14,15 +15,8 @@ namespace {
 
 constexpr int kPanelW = 360, kPanelH = 440, kTitleH = 28;
 
-struct View {
-  double scale = 1, cx = 0, cy = 0;  // pixels per metre; object-frame centre of the panel
-  cv::Point2d Project(const Vec3& p) const {
-    return {kPanelW / 2.0 + (p.x() - cx) * scale, kPanelH / 2.0 - (p.y() - cy) * scale};
-  }
-};
-
-View FitView(const TriMesh& mesh) {
-  View v;
+OrthoView FitView(const TriMesh& mesh) {
+  OrthoView v{kPanelW, kPanelH};
   if (mesh.NumVertices() == 0) {
     v.scale = 300;
     return v;
@@ -38,30 +32,13 @@ View FitView(const TriMesh& mesh) {
   return v;
 }
 
-void DrawMesh(cv::Mat& img, const TriMesh& mesh, const View& view, const cv::Scalar& base) {
+void DrawMesh(cv::Mat& img, const TriMesh& mesh, const OrthoView& view, const cv::Scalar& base) {
   if (mesh.NumFaces() == 0) {
     cv::putText(img, "(empty)", {kPanelW / 2 - 40, kPanelH / 2}, cv::FONT_HERSHEY_SIMPLEX, 0.6, {80, 80, 80}, 1,
                 cv::LINE_AA);
     return;
   }
-  const Points3 n = FaceNormals(mesh);
-  const Points3 c = FaceCentroids(mesh);
-  std::vector<int> order(mesh.NumFaces());
-  std::iota(order.begin(), order.end(), 0);
-  // Far (small z) first; ties by index keep it deterministic.
-  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return c(a, 2) < c(b, 2); });
-  const Vec3 light = Vec3(0.3, 0.5, 1.0).normalized();
-  constexpr int kShift = 4;  // sub-pixel vertex positions
-  for (int f : order) {
-    const double shade = 0.25 + 0.75 * std::abs(n.row(f).dot(light));
-    cv::Point pts[3];
-    for (int k = 0; k < 3; ++k) {
-      const cv::Point2d p = view.Project(mesh.V.row(mesh.F(f, k)).transpose());
-      pts[k] = cv::Point(static_cast<int>(std::lround(p.x * (1 << kShift))),
-                         static_cast<int>(std::lround(p.y * (1 << kShift))));
-    }
-    cv::fillConvexPoly(img, pts, 3, base * shade, cv::LINE_8, kShift);
-  }
+  DrawShadedMesh(img, mesh, view, base);
 }
 
 cv::Mat Panel(const std::string& label) {
@@ -74,7 +51,7 @@ cv::Mat Panel(const std::string& label) {
 
 std::string RenderEntryPreview(const TriMesh& hung, const Vec3& anchor_position, const std::string& depth_png,
                                const TriMesh& recon, const std::string& title) {
-  const View view = FitView(hung);  // both meshes in the same frame and scale
+  const OrthoView view = FitView(hung);  // both meshes in the same frame and scale
   cv::Mat a = Panel("hung (anchor in red)");
   DrawMesh(a, hung, view, cv::Scalar(200, 150, 90));
   const cv::Point2d gp = view.Project(Vec3::Zero());

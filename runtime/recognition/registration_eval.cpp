@@ -15,6 +15,7 @@
 #include "common/files.h"
 #include "common/parallel.h"
 #include "garments/io.h"
+#include "garments/render.h"
 #include "runtime/recognition/release_source.h"
 
 namespace drape::recognition {
@@ -335,45 +336,20 @@ RegistrationEvalResult EvaluateRegistration(const Release& release, const Databa
 // ---------------------------------------------------------------- figures
 namespace {
 
-// Same approach as generator/build/preview.cpp: orthographic view from +z, painter's
-// algorithm over faces sorted far to near, flat shading by |n·l|. One view for all four
-// panels so they compare.
+// Drawn with garments/render.h like the build's previews. One view for all four panels
+// so they compare.
 constexpr int kPanelW = 320, kPanelH = 400, kTitleH = 28;
-
-struct View {
-  double scale = 1, cx = 0, cy = 0;
-  cv::Point2d Project(const Vec3& p) const {
-    return {kPanelW / 2.0 + (p.x() - cx) * scale, kPanelH / 2.0 + 10 - (p.y() - cy) * scale};
-  }
-};
 
 cv::Point Px(const cv::Point2d& p) {
   return {static_cast<int>(std::lround(p.x)), static_cast<int>(std::lround(p.y))};
 }
 
-void DrawMesh(cv::Mat& img, const TriMesh& mesh, const View& view, const cv::Scalar& base) {
-  if (mesh.NumFaces() == 0) return;
-  const Points3 n = FaceNormals(mesh);
-  const Points3 c = FaceCentroids(mesh);
-  std::vector<int> order(mesh.NumFaces());
-  std::iota(order.begin(), order.end(), 0);
-  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return c(a, 2) < c(b, 2); });
-  const Vec3 light = Vec3(0.3, 0.5, 1.0).normalized();
-  constexpr int kShift = 4;
-  for (int f : order) {
-    const double shade = 0.25 + 0.75 * std::abs(n.row(f).dot(light));
-    cv::Point pts[3];
-    for (int k = 0; k < 3; ++k) {
-      const cv::Point2d p = view.Project(mesh.V.row(mesh.F(f, k)).transpose());
-      pts[k] = cv::Point(static_cast<int>(std::lround(p.x * (1 << kShift))),
-                         static_cast<int>(std::lround(p.y * (1 << kShift))));
-    }
-    cv::fillConvexPoly(img, pts, 3, base * shade, cv::LINE_8, kShift);
-  }
+void DrawMesh(cv::Mat& img, const TriMesh& mesh, const OrthoView& view, const cv::Scalar& base) {
+  if (mesh.NumFaces() > 0) DrawShadedMesh(img, mesh, view, base);
 }
 
 // Target drawn as a thin grey backdrop under a registered source: shows the fit.
-void DrawOverlay(cv::Mat& img, const TriMesh& target, const TriMesh& source, const View& view) {
+void DrawOverlay(cv::Mat& img, const TriMesh& target, const TriMesh& source, const OrthoView& view) {
   DrawMesh(img, target, view, cv::Scalar(200, 200, 200));
   DrawMesh(img, source, view, cv::Scalar(90, 150, 220));
 }
@@ -391,7 +367,8 @@ std::string RenderRegistrationFigure(const RegistrationFigure& f) {
   for (const TriMesh* m : {&f.source, &f.target, &f.rigid, &f.nonrigid}) {
     if (m->NumVertices() > 0) box.extend(Bounds(*m));
   }
-  View v;
+  OrthoView v{kPanelW, kPanelH};
+  v.y_offset = 10;  // room for the caption above
   const Vec3 size = box.sizes();
   v.scale = 0.85 * std::min(kPanelW / std::max(size.x(), 1e-3), (kPanelH - 40) / std::max(size.y(), 1e-3));
   v.cx = box.center().x();
