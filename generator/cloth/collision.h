@@ -70,7 +70,13 @@ struct CollisionOptions {
   // caller sets max_strain from the material's stretch.
   double max_strain = 0.06;
   double max_compression = 0.0;
-  int strain_iterations = 40;       // Gauss–Seidel sweeps (stops early when all edges are within)
+  int strain_iterations = 20;       // Gauss–Seidel sweeps (stops early when all edges are within)
+  // Sweeps run outwards from the kinematic nodes (mesh hops); on an edge between two
+  // hop levels the node nearer to a held node gets its inverse mass scaled by this
+  // (1: plain mass weighting, which needs hundreds of sweeps to carry a grip's pull
+  // through a 1000-node garment; 0: Müller's follow-the-leader, which kinks the cloth).
+  // 0.3 keeps a hanging 30×30 sheet within 0.2 % of the limit with 5 sweeps.
+  double strain_lead_weight = 0.3;
   int proximity_iterations = 2;     // Gauss–Seidel sweeps over the close pairs
   int ccd_iterations = 6;           // impulse passes before the fail-safe
   int max_zone_iterations = 50;     // impact-zone merges before the whole-mesh zone
@@ -116,9 +122,11 @@ class CollisionHandler {
 
  private:
   Faces F_;
+  Points3 rest_;  // m: the flat garment (pairs closer than thickness at rest keep that distance)
   int num_vertices_ = 0;
   CollisionOptions options_;
   std::vector<std::array<int, 2>> edges_;  // unique, sorted
+  std::vector<int> adjacency_start_, adjacency_;  // vertex → neighbouring vertices (CSR)
   Eigen::VectorXd rest_lengths_;           // m, per edge
   double mean_edge_length_ = 0;            // m: broad-phase cell size
 };
