@@ -1,127 +1,66 @@
 // FitMaterial: paper §"Parameter Adaptation" — find the simulation stiffness whose hung
-// shear_frac equals the measured one.
+// shear_frac equals the measured stretch, and the friction coefficient at which a flat
+// garment starts to slide at the measured friction angle.
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <numbers>
 
 #include "common/error.h"
 #include "common/rng.h"
-#include "generator/hang/equilibrium.h"
 #include "generator/hang/hang.h"
 
 namespace drape {
 namespace {
 
-struct SpringFit {
-  const Garment* towel;
-  const Material* material;
-  const HangOptions* options;
-  Points3 start;  // Bullet's hung reference state
-  std::vector<char> fixed;
-  Vec3 grasp;
-  double target;  // shear_frac
-  int evaluations = 0;
-  bool failed = false;
-  double last_sf = 0;
-};
+constexpr double kDeg = std::numbers::pi / 180;
 
-// Shear fraction of the spring model's equilibrium, started from Bullet's state.
-double SpringShear(SpringFit& s, double membrane) {
-  const TriMesh& mesh = s.towel->mesh;
-  const int n = mesh.NumVertices();
-  // Same springs as Hang: rebuild via a zero-time hang would be wasteful; replicate.
-  SpringNetwork net;
-  net.mass.assign(n, 0);
-  net.fixed = s.fixed;
-  const Eigen::VectorXd area = FaceAreas(mesh);
-  for (int f = 0; f < mesh.NumFaces(); ++f)
-    for (int c = 0; c < 3; ++c) net.mass[mesh.F(f, c)] += s.material->area_density * area[f] / 3;
-  const EdgeTopology topo = BuildEdgeTopology(mesh);
-  auto opposite = [&](int f, int a, int b) {
-    for (int c = 0; c < 3; ++c)
-      if (mesh.F(f, c) != a && mesh.F(f, c) != b) return mesh.F(f, c);
-    return -1;
-  };
-  auto add = [&](int a, int b, double ar, double rel) {
-    const double l0 = (mesh.V.row(a) - mesh.V.row(b)).norm();
-    net.springs.push_back({std::min(a, b), std::max(a, b)});
-    net.rest_length.push_back(l0);
-    net.stiffness.push_back(rel * membrane * ar / l0);
-  };
-  for (const EdgeFaces& e : topo.edges) {
-    double ar = area[e.faces[0]] / 3 + (e.faces[1] >= 0 ? area[e.faces[1]] / 3 : 0);
-    add(e.edge[0], e.edge[1], ar, 1.0);
-  }
-  for (const EdgeFaces& e : topo.edges) {
-    if (e.faces[1] < 0) continue;
-    double ar = area[e.faces[0]] / 3 + area[e.faces[1]] / 3;
-    const int c = opposite(e.faces[0], e.edge[0], e.edge[1]), d = opposite(e.faces[1], e.edge[0], e.edge[1]);
-    if (c >= 0 && d >= 0 && c != d) add(c, d, ar, s.material->bending_stiffness);
-  }
-  Points3 x = s.start;
-  EquilibriumOptions eo;
-  eo.relative_tolerance = 1e-5;
-  eo.max_displacement = 1.0;
-  const EquilibriumReport r = SolveEquilibrium(net, x, eo);
-  ++s.evaluations;
-  if (!r.applied) {
-    s.failed = true;
-    return NAN;
-  }
-  TriMesh hung{x, mesh.F};
-  s.last_sf = ShearFraction(hung, s.towel->mesh.V, s.grasp);
-  return s.last_sf;
-}
-
-}  // namespace
-
-MaterialFit FitMaterial(const Material& material, const HangOptions& options_in) {
-  const auto t0 = std::chrono::steady_clock::now();
-  material.Validate();
-  options_in.Validate();
-  HangOptions options = options_in;
-  options.equilibrium_solve = false;
-  MaterialFit fit;
-  fit.target_stretch_percent = material.stretch_percent;
+// Secant on (log k, log shear) with a kept bracket (Illinois): a settled state is only
+// stationary to settle_distance, so shear(k) carries ~1e-4 noise that a Newton step on
+// a difference quotient would amplify; a bracket cannot be lost to noise.
+void FitStiffness(const Material& material, const HangOptions& options, MaterialFit& fit) {
   const double target = material.stretch_percent / 100;
-  const Garment towel = MakeRectangleGarment(options.fit_width, options.fit_height, options.fit_edge_length, false);
-  // Garment::FindAnchor lives in drape_garments; we only use garment.h's data.
-  DRAPE_CHECK(towel.anchors.size() == 5 && towel.anchors[4].label == "top_centre", "reference strip end");
-  const Anchor* corner = &towel.anchors[4];
+  const Garment strip = MakeRectangleGarment(options.fit_width, options.fit_height, options.fit_edge_length, false);
+  DRAPE_CHECK(strip.anchors.size() == 5 && strip.anchors[4].label == "top_centre", "reference strip end");
+  const Anchor& end = strip.anchors[4];
   const uint64_t seed = DeriveSeed(0, "fit/" + material.name);
-
-  // 1. Bullet link stiffness: secant on (log k, log shear) with a kept bracket
-  //    (Illinois). KINSOL is not used here: a settled Bullet state is only stationary
-  //    to settle_distance, so shear(k) carries ~1e-4 noise that a difference-quotient
-  //    Jacobian would amplify; a bracket cannot be lost to noise.
-  HangResult last;
+  HangOptions o = options;
+  // The strip is the reference of the stretch itself: judge it by settling, not by the
+  // strain acceptance bounds (a trial stiffness far off the answer breaks them).
+  o.accept_strain_max = o.accept_strain_p99 = 1e9;
   auto shear = [&](double k) {
     MaterialFit trial;
     trial.stiffness = k;
-    last = Hang(towel, corner->vertex, Vec3::Zero(), material, trial, options, seed);
+    const HangResult r = Hang(strip, end.vertex, Vec3::Zero(), material, trial, o, seed);
     ++fit.iterations;
-    if (!last.ok) throw NumericalError("FitMaterial(" + material.name + "): reference hang failed at kLST " +
-                                       std::to_string(k) + ": " + last.failure);
-    return ShearFraction(last.mesh, towel.mesh.V, corner->position);
+    if (!r.ok)
+      throw NumericalError("FitMaterial(" + material.name + "): reference hang failed at kLST " + std::to_string(k) +
+                           ": " + r.failure);
+    return ShearFraction(r.mesh, strip.mesh.V, end.position);
   };
   double k_hi = 1.0, s_hi = shear(k_hi);  // stiffest: least stretch
-  HangResult best = last;
   double best_k = k_hi, best_s = s_hi;
   const double tol = options.fit_tolerance_percent / 100;
+  auto keep = [&](double k, double s) {
+    if (std::abs(s - target) < std::abs(best_s - target)) {
+      best_k = k;
+      best_s = s;
+    }
+  };
   if (s_hi > target) {
-    fit.note = "target stretch below Bullet's minimum at this resolution/iterations (" +
-               std::to_string(100 * s_hi) + " %); using kLST 1";
+    fit.note = "target stretch below Bullet's minimum at this resolution/iterations (" + std::to_string(100 * s_hi) +
+               " %); using kLST 1";
   } else if (std::abs(s_hi - target) > tol) {
     // Guess from shear ∝ 1/k, then bracket downwards.
     double k_lo = std::clamp(k_hi * s_hi / target, 1e-3, 0.9), s_lo = shear(k_lo);
-    if (std::abs(s_lo - target) < std::abs(best_s - target)) { best = last; best_k = k_lo; best_s = s_lo; }
+    keep(k_lo, s_lo);
     while (s_lo < target && k_lo > 1e-3 && fit.iterations < options.fit_max_iterations) {
       k_hi = k_lo;
       s_hi = s_lo;
       k_lo = std::max(1e-3, k_lo * 0.5);
       s_lo = shear(k_lo);
-      if (std::abs(s_lo - target) < std::abs(best_s - target)) { best = last; best_k = k_lo; best_s = s_lo; }
+      keep(k_lo, s_lo);
     }
     int side = 0;
     double fl = std::log(s_lo / target), fh = std::log(s_hi / target);
@@ -129,14 +68,16 @@ MaterialFit FitMaterial(const Material& material, const HangOptions& options_in)
     while (std::abs(best_s - target) > tol && fit.iterations < options.fit_max_iterations && fl > 0 && fh < 0) {
       const double lm = (ll * fh - lh * fl) / (fh - fl);
       const double km = std::exp(lm), sm = shear(km);
-      if (std::abs(sm - target) < std::abs(best_s - target)) { best = last; best_k = km; best_s = sm; }
+      keep(km, sm);
       const double fm = std::log(sm / target);
       if (fm > 0) {
-        ll = lm; fl = fm;
+        ll = lm;
+        fl = fm;
         if (side == -1) fh /= 2;
         side = -1;
       } else {
-        lh = lm; fh = fm;
+        lh = lm;
+        fh = fm;
         if (side == 1) fl /= 2;
         side = 1;
       }
@@ -145,42 +86,94 @@ MaterialFit FitMaterial(const Material& material, const HangOptions& options_in)
   fit.stiffness = best_k;
   fit.reproduced_stretch_percent = 100 * best_s;
   fit.converged = std::abs(best_s - target) <= tol;
+}
 
-  // 2. Membrane stiffness of the equilibrium spring model reproducing the same target,
-  //    from Bullet's hung state (each evaluation is a KINSOL equilibrium solve).
-  SpringFit sf;
-  sf.towel = &towel;
-  sf.material = &material;
-  sf.options = &options;
-  sf.start = best.mesh.V;
-  sf.fixed.assign(towel.mesh.NumVertices(), 0);
-  for (int v : best.held_vertices) sf.fixed[v] = 1;
-  sf.grasp = corner->position;
-  sf.target = target;
-  // Initial guess: mean strain of a hanging strip ≈ ½ ρ g H / Y.
-  const double diag = options.fit_height;
-  const double y0 = material.area_density * 9.81 * diag / (2 * target);
-  // Fixed point Y ← Y·shear(Y)/target: in the small-strain regime shear ∝ 1/Y, so this
-  // is Newton on log shear vs log Y with the known slope −1 (KINSOL's 1-D Newton with a
-  // difference-quotient Jacobian hit repeated failing evaluations far from the answer).
-  double y = y0, z = std::log(y0);
-  for (int it = 0; it < 12; ++it) {
-    const double s_eq = SpringShear(sf, y);
-    ++fit.equilibrium_iterations;
-    if (!(s_eq > 0)) {
-      // Keep the last Y; Hang then reports its own equilibrium outcome per job.
-      fit.note += (fit.note.empty() ? "" : "; ") + std::string("spring equilibrium did not converge at Y ") +
-                  std::to_string(y) + " N/m; spring fit incomplete";
-      break;
-    }
-    const double ratio = s_eq / target;
-    y *= std::clamp(ratio, 0.2, 5.0);
-    z = std::log(y);
-    if (std::abs(ratio - 1) < 1e-3) break;
+}  // namespace
+
+bool SlidesOnTilt(double tilt_deg, double mu, const Material& material, const MaterialFit& fit,
+                  const HangOptions& o) {
+  const Garment sq = MakeRectangleGarment(o.friction_size, o.friction_size, o.fit_edge_length, false);
+  ClothMaterial cm;
+  cm.area_density = material.area_density;
+  cm.link_stiffness = fit.stiffness;
+  cm.bending = material.bending_stiffness;
+  cm.max_strain = o.strain_limit * material.stretch_percent / 100;
+  ClothOptions co;
+  co.time_step = o.time_step;
+  co.solver_iterations = o.solver_iterations;
+  co.damping = o.damping;
+  co.collision.thickness = o.layer_thickness;
+  co.max_speed = o.max_speed;
+  // The square lies flat 5 mm above a table top through the origin, both tilted about z.
+  const Eigen::Matrix3d tilt = Eigen::AngleAxisd(tilt_deg * kDeg, Vec3::UnitZ()).toRotationMatrix();
+  Eigen::Matrix3d flat;  // pattern x → x, pattern y → −z, pattern normal → +y
+  flat << 1, 0, 0,  //
+          0, 0, 1,  //
+          0, -1, 0;
+  const Vec3 centre(0, o.friction_size / 2, 0);
+  Points3 start(sq.mesh.NumVertices(), 3);
+  for (int i = 0; i < start.rows(); ++i)
+    start.row(i) = (tilt * (flat * (sq.mesh.V.row(i).transpose() - centre) + Vec3(0, 0.005, 0))).transpose();
+  ClothWorld world(MakeClothModel(TriMesh{start, sq.mesh.F}, sq.layer, cm, co), start);
+  BoxCollider table;
+  table.half_extents = Vec3(1, 0.05, 1);
+  table.pose.linear() = tilt;
+  table.pose.translation() = tilt * Vec3(0, -0.05, 0);
+  table.friction = mu;
+  world.AddCollider(table);
+  while (world.time() < 0.25) world.Step();  // land
+  const Vec3 c0 = world.positions().colwise().mean().transpose();
+  while (world.time() < 0.25 + o.friction_time) world.Step();
+  if (!world.Health().empty())
+    throw NumericalError("friction reference on a " + std::to_string(tilt_deg) + "° table: " + world.Health());
+  return (world.positions().colwise().mean().transpose() - c0).norm() > o.friction_slide_distance;
+}
+
+double SlidingAngle(double mu, const Material& material, const MaterialFit& fit, const HangOptions& o,
+                    double lo_deg, double hi_deg, int* runs) {
+  int count = 0;
+  // Invariant: stays at lo, slides at hi (checked at the ends first).
+  auto slides = [&](double deg) {
+    ++count;
+    return SlidesOnTilt(deg, mu, material, fit, o);
+  };
+  double lo = lo_deg, hi = hi_deg;
+  if (slides(lo)) hi = lo, lo = std::max(0.0, lo - 10);
+  else if (!slides(hi)) lo = hi, hi = std::min(89.0, hi + 10);
+  while (hi - lo > o.friction_tolerance_deg) {
+    const double mid = 0.5 * (lo + hi);
+    (slides(mid) ? hi : lo) = mid;
   }
-  fit.spring_stiffness = std::exp(z);
-  const double s_final = SpringShear(sf, fit.spring_stiffness);
-  fit.equilibrium_stretch_percent = s_final > 0 ? 100 * s_final : NAN;
+  if (runs) *runs += count;
+  return 0.5 * (lo + hi);
+}
+
+MaterialFit FitMaterial(const Material& material, const HangOptions& options) {
+  const auto t0 = std::chrono::steady_clock::now();
+  material.Validate();
+  options.Validate();
+  MaterialFit fit;
+  fit.target_stretch_percent = material.stretch_percent;
+  fit.target_friction_deg = material.friction_deg;
+  FitStiffness(material, options, fit);
+
+  // Friction: bisection on μ at the measured angle θ (the square stays with μ ≥ μ*,
+  // slides below), bracket [½ tan θ, 2 tan θ]; then the angle it starts to slide at with
+  // the fitted μ, found by bisection over the tilt.
+  const double theta = material.friction_deg;
+  double mu_lo = 0.5 * std::tan(theta * kDeg), mu_hi = 2 * std::tan(theta * kDeg);
+  // Stop when the bracket in μ is narrower than the angle tolerance would need.
+  const double mu_tol = std::tan((theta + options.friction_tolerance_deg / 4) * kDeg) - std::tan(theta * kDeg);
+  if (theta > 0) {
+    while (mu_hi - mu_lo > mu_tol) {
+      const double mid = 0.5 * (mu_lo + mu_hi);
+      ++fit.friction_iterations;
+      (SlidesOnTilt(theta, mid, material, fit, options) ? mu_lo : mu_hi) = mid;
+    }
+    fit.friction = mu_hi;
+    fit.reproduced_friction_deg =
+        SlidingAngle(fit.friction, material, fit, options, theta - 2, theta + 2, &fit.friction_iterations);
+  }
   fit.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return fit;
 }

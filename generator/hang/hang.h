@@ -1,16 +1,18 @@
-// Hanging a garment from one grasp point with a Bullet soft body until it is
-// stationary (paper §"Simulating Deformable Objects"), finished by a KINSOL solve of
-// the static force balance; and fitting a material's stiffness to its measured
-// stretch (paper §"Parameter Adaptation").
+// Hanging a garment from one grasp point until it is stationary (paper §"Simulating
+// Deformable Objects") as one use of the cloth core (generator/cloth/world.h): one
+// gripper closes on the flat garment at the grasp point and the world settles; and
+// fitting a material's stiffness to its measured stretch and its friction to its
+// measured friction angle (paper §"Parameter Adaptation").
 //
-// Model. One classic btSoftBody per job (btSoftRigidDynamicsWorld, nothing shared
-// between calls): structural links along the mesh edges (Bullet link stiffness
-// MaterialFit::stiffness), bending links across every interior edge (× the material's
-// relative bending_stiffness), node masses from face areas × area density. Bullet's
-// own soft-soft collision does not act inside one body, so layers and folds are kept
-// apart by our proximity pass after every step (node vs non-adjacent triangle within
-// layer_thickness, pushed back to the side it was on before the step).
-// The gripper pins (mass 0) every node within jaw_width/2 of the grasp point.
+// Model. The garment is a Bullet soft body (links along mesh edges with kLST =
+// MaterialFit::stiffness, bending links × the material's bending_stiffness, node masses
+// from face areas × area density), made intersection-free and strain-limited after
+// every step by the collision handler (generator/cloth/collision.h: edges clamped to
+// strain_limit × the material's stretch, VF + EE repulsion within layer_thickness,
+// continuous collision detection, rigid impact zones). There is no equilibrium solve
+// any more: the state returned is the settled simulation's own, measured (CGAL's exact
+// self-intersection test, clearance, edge strain) and failed with its reason when it
+// intersects itself, breaks the strain bounds or never settled.
 #pragma once
 
 #include <cstdint>
@@ -19,6 +21,8 @@
 
 #include "common/mesh.h"
 #include "garments/garment.h"
+#include "generator/cloth/rectangle.h"
+#include "generator/cloth/world.h"
 #include "generator/hang/material.h"
 
 namespace drape {
@@ -26,111 +30,137 @@ namespace drape {
 struct HangOptions {
   double time_step = 1.0 / 240;   // s; 1/60 does not settle
   int solver_iterations = 8;      // Bullet position iterations (piterations)
-  // Bullet kDP: fraction of node velocity removed per step of time_step, 0..1. 0.03 (7 /s
-  // at 1/240 s) over-damps the garment's soft twist about the vertical through the
-  // gripper: it then creeps at ~0.1 rad/s for many seconds and does not settle by the
-  // time cap (shirts from a shoulder/hem, pants from a leg); 0.01 settles them in 5–8 s.
+  // Bullet kDP: fraction of node velocity removed per step of time_step, 0..1 (kept per
+  // second at a retry's half step). 0.01 settles shirts and pants in 5–8 s; 0.03
+  // over-damps the garment's twist about the gripper.
   double damping = 0.01;
-  bool self_collision = true;     // our layer/fold proximity pass
-  double layer_thickness = 0.004; // m, minimum node–triangle distance kept by it
-  // m: settled when no node moved more than this ... (3 mm: contact jitter and PBD
-  // creep keep fine two-layer meshes above 1 mm; the equilibrium solve finishes the job)
+  // Run the collision handler (self contact, strain limit). Off only to measure its cost.
+  bool self_collision = true;
+  double layer_thickness = 0.004; // m: VF/EE pairs closer than this are repelled ...
+  // ... when repulsion is on. Off by default: the handler repels after clamping the
+  // strain, which re-stretches edges next to contacts far past the limit (hang.cpp).
+  bool repulsion = false;
+  // Edge strain limit as a multiple of the material's stretch (shear_frac): edges are
+  // clamped to (1 + strain_limit × stretch)·L0 in every collision pass. A uniform strip
+  // hung from one end carries a load growing linearly towards the grip, so its top edges
+  // stretch about twice its mean (the measured stretch): 2× is the natural clamp; 1.8×
+  // keeps the Gauss–Seidel clamp's residual inside the 2× p99 acceptance bound below,
+  // and cuts off the grip concentration (50–100 % strain before this clamp).
+  double strain_limit = 1.8;
+  // Acceptance: a hung mesh whose edge strain max / p99 exceed these multiples of the
+  // material's stretch is failed (so is one that intersects itself or never settled).
+  double accept_strain_max = 3.0;
+  double accept_strain_p99 = 2.0;
+  // m: settled when no node moved more than this ... (3 mm: contact jitter keeps fine
+  // two-layer meshes above 1 mm)
   double settle_distance = 0.003;
   double settle_window = 0.25;    // s: ... over this window
   double min_time = 0.75;         // s simulated before settling may be declared
   double time_cap = 8.0;          // s simulated; not settled by then → retry/fail
-  double jaw_width = 0.03;        // m; nodes within jaw_width/2 of the grasp point are held
+  // The gripper (cloth/world.h Jaw): pads jaw_width × jaw_width, open jaw_opening across
+  // the layers; it holds the nodes inside that box around the grasp point (at least the
+  // nearest node's one ring: a jaw narrower than the mesh would hold one node, about
+  // which the garment spins without settling).
+  double jaw_width = 0.03;        // m
+  double jaw_opening = 0.08;      // m (Baxter's parallel gripper opens about 8 cm)
   double jitter = 0.001;          // m, seeded start perturbation (breaks symmetry)
   double max_speed = 25.0;        // m/s; faster = blown up
-  bool equilibrium_solve = true;  // KINSOL on the spring model after Bullet
-  double equilibrium_tolerance = 1e-4;       // max |F_i|/(m_i g) to reach
-  double equilibrium_max_displacement = 0.03;  // m; larger solves are rejected
-  int equilibrium_iterations = 60;  // Newton iterations in total (cost cap)
-  // A run that reaches time_cap still creeping by at most this much (m, max node move
-  // over the last settle window) is handed to the equilibrium solve; when the solve
-  // converges (equilibrium_tolerance, within equilibrium_max_displacement) that state is
-  // accepted as stationary (HangStats::settled_by_equilibrium) instead of retrying.
-  // 0 = never. A garment still moving more than this stays failed.
-  double equilibrium_rescue_motion = 0.05;
-  int equilibrium_rescue_iterations = 200;  // Newton cost cap of that rescue solve
-  // FitMaterial's reference: a single-layer strip of cloth hung from the middle of one
-  // end. (A towel hung from a corner curls and buckles, so pick→lowest-point distance
-  // falls 5–10 % short of the flat diagonal whatever the stiffness; a strip hangs
-  // straight and measures stretch alone.)
+  // FitMaterial's stretch reference: a single-layer strip of cloth hung from the middle
+  // of one end (a towel hung from a corner curls and buckles; a strip hangs straight and
+  // measures stretch alone).
   double fit_width = 0.1, fit_height = 0.7;  // m
   double fit_edge_length = 0.025;            // m; use the garments' edge length
   double fit_tolerance_percent = 0.05;       // |reproduced − target| in stretch %
   int fit_max_iterations = 12;
+  // FitMaterial's friction reference: a flat single-layer square of this side on a
+  // table tilted by the measured friction angle (paper: the angle at which the garment
+  // starts to slide); "slides" = its centroid moves more than friction_slide_distance
+  // within friction_time after landing.
+  double friction_size = 0.24;               // m
+  double friction_time = 1.5;                // s
+  double friction_slide_distance = 0.005;    // m
+  double friction_tolerance_deg = 0.1;       // bracket width of the angle found, degrees
   void Validate() const;
 };
 
-// A material's measured stretch turned into simulation stiffness.
+// A material's measured stretch and friction turned into simulation parameters.
 struct MaterialFit {
   double stiffness = 0.5;          // Bullet structural link kLST (0, 1]
-  double spring_stiffness = 0;     // membrane stiffness of the equilibrium spring model, N/m
   double target_stretch_percent = 0;
-  double reproduced_stretch_percent = 0;   // Bullet, on the reference towel
-  double equilibrium_stretch_percent = 0;  // spring model at equilibrium, same towel
-  int iterations = 0;              // Bullet hangs used (secant on kLST)
-  int equilibrium_iterations = 0;  // KINSOL iterations of the spring-stiffness fit
+  double reproduced_stretch_percent = 0;  // on the reference strip, with the strain limit
+  int iterations = 0;              // reference hangs used (secant on kLST)
   bool converged = false;
+  double friction = 0;             // Coulomb μ of the cloth on colliders (tables)
+  double target_friction_deg = 0;  // measured: the tilt at which the garment starts to slide
+  // Reproduced: the tilt at which the reference square starts to slide with `friction`
+  // (midpoint of a bracket friction_tolerance_deg wide: stays below, slides above).
+  double reproduced_friction_deg = 0;
+  int friction_iterations = 0;     // tilted-table runs used
   std::string note;                // e.g. target out of Bullet's reach at this resolution
   double wall_seconds = 0;         // timing only
 };
 
-// Deterministic; callers cache it per material (and per HangOptions).
+// Deterministic; callers cache it per material (and per HangOptions). Throws
+// NumericalError when a reference run fails.
 MaterialFit FitMaterial(const Material& material, const HangOptions& options);
+
+// The tilt (degrees) at which the reference square starts to slide with Coulomb
+// friction mu on the table, found by bisection to options.friction_tolerance_deg in
+// [lo_deg, hi_deg]; *runs counts the simulations. (FitMaterial's friction check.)
+double SlidingAngle(double mu, const Material& material, const MaterialFit& fit, const HangOptions& options,
+                    double lo_deg, double hi_deg, int* runs = nullptr);
+// Did the reference square slide on a table tilted by tilt_deg with friction mu?
+bool SlidesOnTilt(double tilt_deg, double mu, const Material& material, const MaterialFit& fit,
+                  const HangOptions& options);
 
 struct HangStats {
   double sim_time = 0;        // s simulated in the accepted run
   int steps = 0;
   double time_step = 0;       // s, of the accepted run
-  double kinetic_energy = 0;  // J, Bullet's final state
-  double max_speed = 0;       // m/s, Bullet's final state
-  double strain_mean = 0;     // mean of (l − L0)/L0 over mesh edges, final state
-  double strain_max = 0;      // max of (l − L0)/L0
-  bool settled = false;       // windowed criterion met in Bullet
-  // Bullet reached time_cap still creeping, and the equilibrium solve from its state
-  // converged: the accepted state is the solver's (settled stays false).
-  bool settled_by_equilibrium = false;
-  double settle_motion = 0;   // m, max node move over the last settle window in Bullet
-  double force_residual = 0;      // max |F_i| over free nodes (spring model), N, final state
-  double force_residual_rel = 0;  // same / node weight
-  double bullet_force_residual_rel = 0;  // before the equilibrium solve
-  bool equilibrium_applied = false;    // state replaced by the solve's (converged or ≥10× better)
-  bool equilibrium_converged = false;  // residual met equilibrium_tolerance
-  int equilibrium_iterations = 0;
-  double equilibrium_displacement = 0;  // m, max node move of the solve
-  std::string equilibrium_message;
-  int collision_corrections = 0;  // proximity corrections in the last step
+  double kinetic_energy = 0;  // J, final state
+  double max_speed = 0;       // m/s, final state
+  bool settled = false;       // windowed criterion met
+  double settle_motion = 0;   // m, max node move over the last settle window
+  int held_nodes = 0;         // nodes inside the gripper's jaw
+  int held_layers = 0;        // garment layers among them
+  // The hung mesh as measured (generator/cloth/measure.h).
+  int intersecting_pairs = 0;   // CGAL exact self-intersection test
+  double min_distance = 0;      // m, smallest distance between non-adjacent elements
+  double strain_mean = 0;       // edge strain (l − L0)/L0 over the mesh edges
+  double strain_median = 0;
+  double strain_p99 = 0;
+  double strain_max = 0;
+  double strain_limit = 0;      // the clamp used (strain_limit × stretch)
+  // Collision handling over the accepted run.
+  long ccd_collisions = 0;      // colliding pairs found by CCD, summed over steps
+  int fail_safe_steps = 0;      // steps that needed rigid impact zones
+  long remaining_collisions = 0;  // crossings left by the handler (0 with one still gripper)
   int retries = 0;
-  double wall_seconds = 0;    // timing only (never hashed)
-  double bullet_seconds = 0;  // timing only: inside stepSimulation
-  double contact_seconds = 0;      // timing only: our proximity pass
-  double equilibrium_seconds = 0;  // timing only: KINSOL solve + crossing check
+  double wall_seconds = 0;        // timing only (never hashed), from here down
+  double bullet_seconds = 0;      // inside Bullet's stepSimulation
+  double collision_seconds = 0;   // the collision handler in total
+  double broad_seconds = 0;       // ... its broad phase
+  double ccd_seconds = 0;         // ... CCD + impulses
+  double zone_seconds = 0;        // ... rigid impact zones (fail-safe)
+  double other_collision_seconds = 0;  // ... strain limiting, repulsion, colliders
+  double measure_seconds = 0;     // CGAL test + clearance + strain
 };
 
 struct HangResult {
   bool ok = false;
   std::string failure;  // reason when !ok
   TriMesh mesh;         // object frame: grasp point at origin, y up, hanging below; garment's F
-  std::vector<int> held_vertices;  // pinned by the gripper, sorted
+  std::vector<int> held_vertices;  // held by the gripper, sorted
   HangStats stats;
 };
 
 // Hangs `garment` from the point `grasp_offset` (metres, on the flat pattern, i.e. in the
 // garment's flat frame; z ignored) away from vertex `anchor_vertex`. Throws drape::Error
-// on bad input; numerical failure is returned as ok=false. Thread-safe.
+// on bad input; numerical failure (blow-up, never settled, self-intersecting or
+// over-stretched result) is returned as ok=false with the reason. Thread-safe.
 HangResult Hang(const Garment& garment, int anchor_vertex, const Vec3& grasp_offset,
                 const Material& material, const MaterialFit& fit, const HangOptions& options,
                 uint64_t seed);
-
-// A rectangle garment: width × height (m) in the x–y plane, y up, vertex grid at
-// about edge_length. two_layers: front z=+gap/2 and back z=−gap/2 stitched on the
-// left, right and bottom sides (open at the top, a pillow case); otherwise one sheet
-// at z=0. Anchors "top_left", "top_right", "bottom_left", "bottom_right", "top_centre".
-Garment MakeRectangleGarment(double width, double height, double edge_length, bool two_layers,
-                             double gap = 0.01);
 
 // shear_frac = (L1 − L2)/L2 of a hung mesh (object frame: grasp at origin):
 // L1 = |lowest vertex|, L2 = flat distance from the grasp point to that vertex.

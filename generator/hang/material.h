@@ -20,8 +20,8 @@ struct Material {
   double area_density = 0.2;
   // Bending stiffness RELATIVE to stretch stiffness, dimensionless in (0, 1]: the
   // stiffness of the bending springs (links across each interior edge, between the two
-  // opposite vertices) as a fraction of the structural links' stiffness, both in Bullet
-  // (link kLST) and in the equilibrium spring model. ~0.02 limp jersey, ~0.2 denim.
+  // opposite vertices) as a fraction of the structural links' stiffness (Bullet link
+  // kLST). ~0.02 limp jersey, ~0.2 denim.
   double bending_stiffness = 0.05;
 
   // Friction coefficient μ = tan(friction_deg).

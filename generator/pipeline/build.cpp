@@ -93,18 +93,20 @@ Json HangStatsJson(const HangStats& s) {
           {"time_step", s.time_step},
           {"kinetic_energy", s.kinetic_energy},
           {"max_speed", s.max_speed},
-          {"strain_mean", s.strain_mean},
-          {"strain_max", s.strain_max},
           {"settled", s.settled},
-          {"settled_by_equilibrium", s.settled_by_equilibrium},
           {"settle_motion", s.settle_motion},
-          {"force_residual", s.force_residual},
-          {"force_residual_rel", s.force_residual_rel},
-          {"bullet_force_residual_rel", s.bullet_force_residual_rel},
-          {"equilibrium_applied", s.equilibrium_applied},
-          {"equilibrium_iterations", s.equilibrium_iterations},
-          {"equilibrium_displacement", s.equilibrium_displacement},
-          {"collision_corrections", s.collision_corrections},
+          {"held_nodes", s.held_nodes},
+          {"held_layers", s.held_layers},
+          {"intersecting_pairs", s.intersecting_pairs},
+          {"min_distance", s.min_distance},
+          {"strain_mean", s.strain_mean},
+          {"strain_median", s.strain_median},
+          {"strain_p99", s.strain_p99},
+          {"strain_max", s.strain_max},
+          {"strain_limit", s.strain_limit},
+          {"ccd_collisions", s.ccd_collisions},
+          {"fail_safe_steps", s.fail_safe_steps},
+          {"remaining_collisions", s.remaining_collisions},
           {"retries", s.retries}};
 }
 
@@ -189,11 +191,12 @@ Entry BuildEntry(const Recipe& recipe, const Job& job, JobCache& cache) {
   rec["material"] = job.material_name;
   rec["material_values"] = MaterialJson(job.material);
   rec["material_fit"] = {{"stiffness", fit->stiffness},
-                         {"spring_stiffness", fit->spring_stiffness},
                          {"target_stretch_percent", fit->target_stretch_percent},
                          {"reproduced_stretch_percent", fit->reproduced_stretch_percent},
-                         {"equilibrium_stretch_percent", fit->equilibrium_stretch_percent},
-                         {"converged", fit->converged}};
+                         {"converged", fit->converged},
+                         {"friction", fit->friction},
+                         {"target_friction_deg", fit->target_friction_deg},
+                         {"reproduced_friction_deg", fit->reproduced_friction_deg}};
   rec["anchor"] = {{"label", anchor->label}, {"vertex", anchor->vertex}, {"uv", {anchor->uv.x(), anchor->uv.y()}}};
   rec["grasp_offset"] = {offset.x(), offset.y(), offset.z()};
   rec["seed"] = job.seed;
@@ -215,6 +218,8 @@ Entry BuildEntry(const Recipe& recipe, const Job& job, JobCache& cache) {
     });
     rec["hang"] = HangStatsJson(hung.stats);
     timing["bullet"] = hung.stats.bullet_seconds;
+    timing["collision"] = hung.stats.collision_seconds;
+    timing["hang_measure"] = hung.stats.measure_seconds;
     if (!hung.ok) return fail("hang: " + hung.failure);
 
     Sweep sweep;
@@ -351,16 +356,19 @@ ReleaseMeta MakeReleaseMeta(const Recipe& recipe, const std::vector<Job>& jobs, 
 
 void LogStageSeconds(std::ostream& log, const std::map<std::string, double>& stage_seconds) {
   if (stage_seconds.empty()) return;
+  // Parts of the hang stage (Bullet's step, the collision handler, the mesh
+  // measurement) are shown without a share of the total.
+  auto part = [](const std::string& k) { return k == "bullet" || k == "collision" || k == "hang_measure"; };
   double sum = 0;
   for (const auto& [k, v] : stage_seconds)
-    if (k != "bullet") sum += v;
+    if (!part(k)) sum += v;
   log << "stage wall time (summed over jobs):";
-  for (const char* k : {"garment", "fit", "hang", "bullet", "sweep", "fusion", "accuracy", "feature", "encode",
-                        "preview"}) {
+  for (const char* k : {"garment", "fit", "hang", "bullet", "collision", "hang_measure", "sweep", "fusion", "accuracy",
+                        "feature", "encode", "preview"}) {
     auto it = stage_seconds.find(k);
     if (it == stage_seconds.end()) continue;
     log << " " << k << " " << std::fixed << std::setprecision(1) << it->second << "s";
-    if (std::string(k) != "bullet" && sum > 0) log << " (" << std::lround(100 * it->second / sum) << "%)";
+    if (!part(k) && sum > 0) log << " (" << std::lround(100 * it->second / sum) << "%)";
   }
   log << std::defaultfloat << "\n";
 }

@@ -64,14 +64,16 @@ const std::vector<OptionKey<HangOptions>>& SimulationKeys() {
       {"time_step", Ref(&H::time_step), "s", "Bullet step (1/60 does not settle)"},
       {"solver_iterations", Ref(&H::solver_iterations), "count", "Bullet position iterations"},
       {"damping", Ref(&H::damping), "fraction per step", "Bullet kDP: node velocity removed per step"},
-      {"self_collision", Ref(&H::self_collision), "bool", "layer/fold proximity pass"},
-      {"layer_thickness", Ref(&H::layer_thickness), "m", "minimum node–triangle distance kept by it"},
+      {"self_collision", Ref(&H::self_collision), "bool", "the collision handler after every step (off only to measure its cost: no guarantee)"},
+      {"layer_thickness", Ref(&H::layer_thickness), "m", "vertex–face and edge–edge pairs closer than this are repelled (with repulsion)"},
+      {"repulsion", Ref(&H::repulsion), "bool", "proximity repulsion in the collision handler (off: it re-stretches edges past strain_limit; CCD alone keeps the mesh intersection-free)"},
+      {"strain_limit", Ref(&H::strain_limit), "× stretch", "edges clamped to (1 + strain_limit × the material's stretch) × rest length"},
       {"settle.distance", Ref(&H::settle_distance), "m", "settled when no node moved more than this ..."},
       {"settle.window", Ref(&H::settle_window), "s", "... over this window"},
       {"min_time", Ref(&H::min_time), "s", "simulated time before settling may be declared"},
       {"time_cap", Ref(&H::time_cap), "s", "not settled by then → retried with a smaller step, then failed"},
-      {"jaw_width", Ref(&H::jaw_width), "m", "nodes within jaw_width/2 of the grasp point are held"},
-      {"equilibrium", Ref(&H::equilibrium_solve), "bool", "finish with a KINSOL solve of the static force balance"},
+      {"jaw_width", Ref(&H::jaw_width), "m", "gripper pad size: the nodes inside the jaw (pads × opening) at the grasp point are held"},
+      {"jaw_opening", Ref(&H::jaw_opening), "m", "gripper opening across the layers"},
   };
   return t;
 }

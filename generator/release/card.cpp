@@ -1,4 +1,5 @@
 // The dataset card (README.md) and the gallery (index.html) of a release.
+#include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
@@ -52,6 +53,75 @@ std::string SizeCategory(size_t n) {
   if (n < 10000) return "1K<n<10K";
   if (n < 100000) return "10K<n<100K";
   return "100K<n<1M";
+}
+
+// Number at record path a.b (or NaN).
+double Num(const Json& r, const char* a, const char* b) {
+  if (!r.is_object() || !r.contains(a) || !r[a].is_object() || !r[a].contains(b) || !r[a][b].is_number())
+    return std::nan("");
+  return r[a][b].get<double>();
+}
+
+std::string Fmt(double v, int digits) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.*f", digits, v);
+  return buf;
+}
+
+// The hung meshes as measured by the build (record "hang"): self-intersections by
+// CGAL's exact test, clearance, edge strain against each material's stretch; and the
+// material fits (record "material_fit"). Empty when no entry has these fields.
+std::string SimulationQuality(const std::vector<Release::EntryInfo>& entries) {
+  int measured = 0, intersecting = 0;
+  double min_dist = INFINITY, worst_max = 0, worst_p99 = 0, worst_max_rel = 0, worst_p99_rel = 0;
+  std::vector<double> medians_rel;
+  std::map<std::string, const Json*> fits;
+  for (const auto& e : entries) {
+    if (e.failed) continue;
+    const Json& r = e.record;
+    const double pairs = Num(r, "hang", "intersecting_pairs");
+    if (std::isnan(pairs)) continue;
+    ++measured;
+    intersecting += pairs > 0;
+    min_dist = std::min(min_dist, Num(r, "hang", "min_distance"));
+    const double stretch = Num(r, "material_values", "stretch_percent") / 100;
+    const double mx = Num(r, "hang", "strain_max"), p99 = Num(r, "hang", "strain_p99");
+    worst_max = std::max(worst_max, mx);
+    worst_p99 = std::max(worst_p99, p99);
+    if (stretch > 0) {
+      worst_max_rel = std::max(worst_max_rel, mx / stretch);
+      worst_p99_rel = std::max(worst_p99_rel, p99 / stretch);
+      medians_rel.push_back(Num(r, "hang", "strain_median") / stretch);
+    }
+    const std::string mat = Str(r, "material");
+    if (!mat.empty() && r.contains("material_fit") && r["material_fit"].is_object()) fits[mat] = &r["material_fit"];
+  }
+  if (measured == 0) return "";
+  std::ostringstream o;
+  o << "\n## Simulation quality\n\n";
+  o << "Hung meshes of the published entries as the build measured them (an entry whose mesh "
+       "intersects itself, breaks the strain bounds or never settled is failed, not published):\n\n";
+  o << "- intersecting triangle pairs (CGAL exact test): " << intersecting << " of " << measured
+    << " meshes intersect themselves\n";
+  o << "- smallest distance between non-adjacent elements: " << Fmt(1000 * min_dist, 3) << " mm\n";
+  o << "- edge strain, worst entry: max " << Fmt(100 * worst_max, 2) << " % (" << Fmt(worst_max_rel, 2)
+    << " × its material's stretch), p99 " << Fmt(100 * worst_p99, 2) << " % (" << Fmt(worst_p99_rel, 2) << " ×)\n";
+  if (!medians_rel.empty()) {
+    std::sort(medians_rel.begin(), medians_rel.end());
+    o << "- median edge strain / material stretch, median over entries: "
+      << Fmt(medians_rel[medians_rel.size() / 2], 2) << "\n";
+  }
+  if (!fits.empty()) {
+    o << "\n| material | stretch % measured | reproduced | friction angle ° measured | reproduced | μ (sim) |\n"
+         "|---|---|---|---|---|---|\n";
+    for (const auto& [name, f] : fits) {
+      auto val = [&](const char* k) { return f->contains(k) && (*f)[k].is_number() ? (*f)[k].get<double>() : NAN; };
+      o << "| " << name << " | " << Fmt(val("target_stretch_percent"), 2) << " | "
+        << Fmt(val("reproduced_stretch_percent"), 3) << " | " << Fmt(val("target_friction_deg"), 1) << " | "
+        << Fmt(val("reproduced_friction_deg"), 2) << " | " << Fmt(val("friction"), 3) << " |\n";
+    }
+  }
+  return o.str();
 }
 
 }  // namespace
@@ -123,6 +193,7 @@ std::string DatasetCard(const Json& ds, const std::vector<Release::EntryInfo>& e
     o << "\nFailed entries (kept in the catalog with their reason):\n\n";
     for (const auto* e : failed) o << "- `" << e->id << "`: " << e->failure << "\n";
   }
+  o << SimulationQuality(entries);
   if (ds.contains("summary") && ds["summary"].is_object() && !ds["summary"].empty()) {
     o << "\n## Recipe summary\n\n";
     for (auto it = ds["summary"].begin(); it != ds["summary"].end(); ++it) {
