@@ -8,6 +8,7 @@
 
 #include "common/error.h"
 #include "common/rng.h"
+#include "generator/cloth/world.h"
 
 namespace drape::hardware {
 
@@ -88,8 +89,6 @@ void SimOptions::Validate() const {
   if (!ir_mount.allFinite()) throw Error("sim.ir_mount: must be finite");
   if (table.isEmpty()) throw Error("sim.table: empty box");
 }
-
-struct SimWorld::Impl;
 
 namespace {
 
@@ -347,6 +346,118 @@ double SimIr::Read() {
   const double r = w.ir_scene->RangeAlongRay(origin, p.approach.normalized(), 0.0, w.o.ir, &w.ir_rng[k_]);
   w.sense_seconds += Since(t0);
   return r;
+}
+
+void PlaceFlatOptions::Validate() const {
+  if (!(spread > 0 && spread <= 1.2)) throw Error("place_flat.spread: must be in (0, 1.2]");
+  if (!(lift_time > 0) || !(lay_time > 0) || !(settle_cap > 0)) throw Error("place_flat: times must be > 0 s");
+  if (!(min_pad > 0 && min_pad < 0.5)) throw Error("place_flat.min_pad: must be in (0, 0.5) m");
+}
+
+namespace {
+// Cloth-world gripper frame (generator/cloth Jaw: x = closing, y = towards the wrist).
+Eigen::Isometry3d JawFrame(const GripperPose& p) {
+  const Vec3 x = p.closing.normalized(), y = -p.approach.normalized();
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear().col(0) = x;
+  T.linear().col(1) = y;
+  T.linear().col(2) = x.cross(y);
+  T.translation() = p.position;
+  return T;
+}
+}  // namespace
+
+PlaceFlatReport SimWorld::PlaceFlat(const PlaceFlatOptions& po) {
+  po.Validate();
+  Impl& w = *impl_;
+  if (w.state != ClothState::kHeldByTwo) throw Error("place flat: both grippers must hold the garment");
+  const auto t0 = Clock::now();
+  PlaceFlatReport rep;
+  ClothMaterial cm;
+  cm.area_density = w.material.area_density;
+  cm.link_stiffness = w.fit.stiffness;
+  cm.bending = std::clamp(w.material.bending_stiffness, 1e-3, 1.0);
+  ClothOptions co;
+  co.time_step = w.o.hang.time_step;
+  co.solver_iterations = w.o.hang.solver_iterations;
+  co.damping = w.o.hang.damping;
+  ClothWorld cw(MakeClothModel(w.garment.mesh, w.garment.layer, cm, co), w.mesh.V);
+  BoxCollider table;
+  table.pose.translation() = w.o.table.center();
+  table.half_extents = w.o.table.sizes() / 2;
+  table.friction = w.material.FrictionCoefficient();
+  cw.AddCollider(table);
+  // Pads: 1.5 mean edges at least, so a coarse mesh has nodes between them.
+  double edge = 0;
+  const auto edges = UniqueEdges(w.garment.mesh);
+  for (const auto& e : edges) edge += (w.garment.mesh.V.row(e[0]) - w.garment.mesh.V.row(e[1])).norm();
+  edge /= std::max<size_t>(1, edges.size());
+  Jaw jaw;
+  jaw.opening = w.o.jaw_opening;
+  jaw.pad_length = std::max({po.min_pad, w.o.finger_depth, 1.5 * edge});
+  jaw.pad_width = std::max({po.min_pad, w.o.finger_width, 1.5 * edge});
+  int g[2];
+  for (int k = 0; k < 2; ++k) {
+    g[k] = cw.AddGripper(jaw, JawFrame(w.arms[k].pose));
+    rep.held_nodes[k] = cw.Close(g[k]).nodes;
+  }
+  if (rep.held_nodes[0] == 0 || rep.held_nodes[1] == 0) {
+    rep.failure = "a gripper holds no cloth node in the cloth world";
+    return rep;
+  }
+  // Spread above the near edge of the table, then lower while carrying across it.
+  const Vec3 a = w.arms[0].pose.position, b = w.arms[1].pose.position;
+  const Vec3 mid = 0.5 * (a + b);
+  double hang = 0;
+  for (int i = 0; i < w.mesh.NumVertices(); ++i) hang = std::max(hang, mid.y() - w.mesh.V(i, 1));
+  const Vec2 ua = w.arms[0].pinch.rest.head<2>();
+  const Vec2 ub = w.arms[1].pinch.rest.head<2>();
+  const double d = std::max(0.05, po.spread * (ua - ub).norm());
+  const double top = w.o.table.max().y();
+  const double z0 = w.o.table.min().z() + 0.05, x0 = w.o.table.center().x();
+  const double z1 = std::min(w.o.table.max().z() - 0.05, z0 + hang);
+  const double sx = b.x() >= a.x() ? 1 : -1;  // keep the arms' left/right order along x
+  auto key = [&](int k, const Vec3& c) {
+    GripperPose p = w.arms[k].pose;
+    p.position = c + Vec3((k == 0 ? -0.5 : 0.5) * sx * d, 0, 0);
+    return JawFrame(p);
+  };
+  const double T0 = cw.time(), T1 = T0 + po.lift_time, T2 = T1 + po.lay_time;
+  for (int k = 0; k < 2; ++k) {
+    GripperPath path;
+    path.times = {T0, T1, T2};
+    path.poses = {JawFrame(w.arms[k].pose), key(k, Vec3(x0, top + hang + 0.05, z0)), key(k, Vec3(x0, top + 0.03, z1))};
+    cw.SetPath(g[k], path);
+  }
+  while (cw.time() < T2) {
+    cw.Step();
+    const std::string h = cw.Health();
+    if (!h.empty()) {
+      rep.failure = "cloth world: " + h;
+      w.sim_seconds += Since(t0);
+      return rep;
+    }
+  }
+  for (int k = 0; k < 2; ++k) cw.Open(g[k]);
+  SettleOptions so;
+  so.min_time = 0.25;
+  so.time_cap = po.settle_cap;
+  so.distance = 0.005;
+  const SettleReport sr = cw.Settle(so);
+  rep.settled = sr.settled;
+  if (!sr.failure.empty() && !sr.timed_out) rep.failure = "cloth world: " + sr.failure;
+  rep.sim_time = cw.time();
+  w.mesh.V = cw.positions();
+  for (int k = 0; k < 2; ++k) {
+    w.arms[k].pose.position = cw.GripperPose(g[k]).translation();
+    w.arms[k].closed = false;
+    w.arms[k].holds = false;
+  }
+  w.state = ClothState::kOnTable;
+  ++w.version;
+  rep.ok = rep.failure.empty();
+  w.sim_seconds += Since(t0);
+  return rep;
 }
 
 SimWorld::SimWorld(Garment garment, Material material, MaterialFit fit, const SimOptions& options, uint64_t seed)

@@ -44,9 +44,35 @@ struct SimOptions {
   // IR sensor on the gripper (x = closing, y = approach × closing, z = approach), metres:
   // beside the fingers (3 cm off the jaw plane), 6 cm behind the jaw centre.
   Vec3 ir_mount = Vec3(0, 0.03, -0.06);
-  // Table top (world, m): 1.0 × 0.8 m, 0.75 m high, in front of the robot.
-  Eigen::AlignedBox3d table{Vec3(-0.5, 0.72, 0.2), Vec3(0.5, 0.75, 1.0)};
+  // Table top (world, m): 1.6 × 1.4 m, 0.75 m high, in front of the robot (room for
+  // pants laid at full length).
+  Eigen::AlignedBox3d table{Vec3(-0.8, 0.72, 0.2), Vec3(0.8, 0.75, 1.6)};
   void Validate() const;  // throws drape::Error naming the bad field
+};
+
+// Placing the garment flat with both grippers holding it (paper: "the two arms open to
+// slightly stretch the garment and place it on a table"), simulated with the cloth core
+// (generator/cloth ClothWorld: Bullet + collision handling, the table as a box collider
+// with the material's friction): the grippers take the cloth nodes between their pads
+// where they pinch it, move apart to `spread` × the pinched points' distance on the
+// pattern above the near edge of the table, lower the garment while carrying it across
+// the table so that it lies down behind them, open, and the cloth settles.
+struct PlaceFlatOptions {
+  double spread = 0.9;         // of the pinched points' distance on the flat pattern
+  double lift_time = 1.0;      // s to spread and lift
+  double lay_time = 2.0;       // s to lower and carry across the table
+  double settle_cap = 3.0;     // s of settling at most after opening
+  // Pads of the cloth world's grippers, m: at least this, and 1.5 mesh edges so that a
+  // coarse mesh still has nodes between them.
+  double min_pad = 0.03;
+  void Validate() const;
+};
+struct PlaceFlatReport {
+  bool ok = false;
+  std::string failure;
+  int held_nodes[2] = {0, 0};  // cloth-world nodes each gripper took
+  double sim_time = 0;         // s simulated
+  bool settled = false;
 };
 
 // Where the garment is.
@@ -66,6 +92,11 @@ class SimWorld {
   DepthCamera& camera();
   RangeSensor& ir(int arm);
   Table& table();
+
+  // Both grippers hold the garment (ClothState::kHeldByTwo): lay it on the table (see
+  // PlaceFlatOptions); afterwards the state is kOnTable, both grippers open, and mesh()
+  // is the garment as it lies. Throws drape::Error in another state.
+  PlaceFlatReport PlaceFlat(const PlaceFlatOptions& options = {});
 
   // Ground truth, for evaluation and pictures (the loop never decides on it).
   ClothState state() const;

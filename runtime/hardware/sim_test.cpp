@@ -3,8 +3,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <iostream>
 
 #include "common/error.h"
+#include "runtime/unfolding/loop.h"
 #include "runtime/unfolding/refine.h"
 
 namespace drape::hardware {
@@ -166,6 +168,41 @@ TEST(SimHardware, IrScanOfAKnownRidgeFindsItsCrest) {
     // The reading there: from the sensor (0.21 m above the crest) to the crest.
     EXPECT_NEAR(res.range, 0.21, 0.01);
   }
+}
+
+TEST(SimHardware, HeldByTwoCornersItIsPlacedFlatOnTheTable) {
+  Fixture f;
+  SimWorld w(f.garment, f.material, f.fit, f.options, 5);
+  Arm& left = w.arm(0);
+  Arm& right = w.arm(1);
+  const Vec3 p = w.mesh().V.row(f.garment.FindAnchor("top_left")->vertex).transpose();
+  left.Move(StraightPath(left.pose(), Down(p)));
+  ASSERT_NE(left.Close().outcome, GraspOutcome::kMiss);
+  left.Move(StraightPath(left.pose(), Down(Vec3(0, 1.5, 0))));
+  EXPECT_THROW(w.PlaceFlat(), Error);  // one gripper only
+  // The other top corner, wherever it hangs now, taken from the side.
+  GripperPose side;
+  side.position = w.mesh().V.row(f.garment.FindAnchor("top_right")->vertex).transpose();
+  side.approach = -Vec3(side.position.x(), 0, side.position.z()).normalized();
+  side.closing = Vec3::UnitY().cross(side.approach);
+  right.Move(StraightPath(right.pose(), side));
+  ASSERT_NE(right.Close().outcome, GraspOutcome::kMiss);
+  ASSERT_EQ(w.state(), ClothState::kHeldByTwo);
+  const PlaceFlatReport r = w.PlaceFlat();
+  ASSERT_TRUE(r.ok) << r.failure;
+  EXPECT_GT(r.held_nodes[0], 0);
+  EXPECT_GT(r.held_nodes[1], 0);
+  EXPECT_EQ(w.state(), ClothState::kOnTable);
+  EXPECT_FALSE(left.HoldsCloth());
+  // On the table top, and spread: most of its flat area seen from above.
+  const double top = w.options().table.max().y();
+  EXPECT_GT(w.mesh().V.col(1).minCoeff(), top - 0.002);
+  EXPECT_LT(w.mesh().V.col(1).maxCoeff(), top + 0.05);
+  const double coverage = unfolding::Coverage(w.mesh(), f.garment);
+  EXPECT_GT(coverage, 0.7);
+  EXPECT_LT(coverage, 1.1);
+  std::cout << "placed flat: coverage " << coverage << ", " << r.sim_time << " s simulated, settled " << r.settled
+            << "\n";
 }
 
 }  // namespace

@@ -9,6 +9,7 @@
 #include "common/error.h"
 #include "common/files.h"
 #include "garments/render.h"
+#include "runtime/folding/table.h"
 #include "runtime/unfolding/objective.h"
 
 namespace drape::unfolding {
@@ -194,8 +195,21 @@ std::vector<std::string> WriteTrialFigures(const TrialResult& t, const Garment& 
       .copyTo(fin(cv::Rect(0, 0, kW, kH)));
   if (t.final_mesh.NumFaces() > 0) {
     cv::Mat b = fin(cv::Rect(kW, 0, kW, kH));
-    DrawShadedMesh(b, t.final_mesh, Fit(Points(t.final_mesh)), kGrey);
-    Title(b, "final state: " + t.final_state);
+    if (t.placed) {
+      // Seen from above as it lies on the table, fitted into the panel.
+      const cv::Mat top = folding::TopDownPicture(t.final_mesh, folding::FrameCamera(t.final_mesh.V, 0.003), kGrey);
+      const double s = std::min(double(kW) / top.cols, double(kH - 40) / top.rows);
+      cv::Mat scaled;
+      cv::resize(top, scaled, cv::Size(std::max(1, int(top.cols * s)), std::max(1, int(top.rows * s))), 0, 0,
+                 cv::INTER_AREA);
+      scaled.copyTo(b(cv::Rect((kW - scaled.cols) / 2, 40, scaled.cols, scaled.rows)));
+      char buf[96];
+      std::snprintf(buf, sizeof buf, "laid on the table (top view), coverage %.2f", t.coverage);
+      Title(b, buf);
+    } else {
+      DrawShadedMesh(b, t.final_mesh, Fit(Points(t.final_mesh)), kGrey);
+      Title(b, "final state: " + t.final_state + (t.place_failure.empty() ? "" : " (" + t.place_failure + ")"));
+    }
   }
   Save(fin, dir / "final.png");
   files.push_back("final.png");

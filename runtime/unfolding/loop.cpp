@@ -13,6 +13,7 @@
 #include "generator/recipe/jobs.h"
 #include "runtime/recognition/calibrate.h"
 #include "runtime/recognition/release_source.h"
+#include "runtime/folding/table.h"
 #include "runtime/registration/closest_point.h"
 
 namespace drape::unfolding {
@@ -37,6 +38,19 @@ void LoopOptions::Validate() const {
   if (!(grasp_depth >= 0 && grasp_depth < 0.1)) throw Error("unfold.grasp_depth: must be in [0, 0.1) m");
   if (!(sensing_height > 0.5 && sensing_height < 3)) throw Error("unfold.sensing_height: must be in (0.5, 3) m");
   if (!(success_distance > 0)) throw Error("unfold.success_distance: must be > 0 m");
+}
+
+double Coverage(const TriMesh& lying, const Garment& garment, double mpp) {
+  TriMesh flat;
+  flat.F = garment.mesh.F;
+  flat.V = folding::LayFlat(garment.mesh, folding::TableOptions{});
+  auto area = [mpp](const TriMesh& m) {
+    const cv::Mat mask = folding::TopDownMask(m, folding::FrameCamera(m.V, mpp));
+    return double(cv::countNonZero(mask));
+  };
+  const double a = area(flat);
+  DRAPE_CHECK(a > 0, "the flat garment has no top-down area");
+  return area(lying) / a;
 }
 
 std::string NearestAnchor(const Garment& g, const Vec2& uv) {
@@ -427,7 +441,6 @@ TrialResult RunTrial(const ReleaseModel& model, const std::string& category, con
   } catch (const NumericalError& e) {
     res.failure = std::string("simulation: ") + e.what();
   }
-  res.times.simulation = world.simulation_seconds();
   bool all_held = res.regrasps > 0;
   for (const Step& s : res.steps)
     if (s.regrasp.outcome == hw::GraspOutcome::kMiss && !s.current_anchor.empty()) all_held = false;
@@ -438,6 +451,18 @@ TrialResult RunTrial(const ReleaseModel& model, const std::string& category, con
   res.unfolded = res.converged && res.final_uv.size() == 2 &&
                  IsDesiredPair(world.garment(), DesiredPairsFor(category), res.final_uv[0], res.final_uv[1],
                                options.success_distance);
+  if (res.converged && options.place_flat && world.state() == hw::ClothState::kHeldByTwo) {
+    if (progress) progress("placing flat");
+    try {
+      const hw::PlaceFlatReport pr = world.PlaceFlat(options.place);
+      res.placed = pr.ok;
+      res.place_failure = pr.failure;
+      if (pr.ok) res.coverage = Coverage(world.mesh(), world.garment());
+    } catch (const NumericalError& e) {
+      res.place_failure = e.what();
+    }
+  }
+  res.times.simulation = world.simulation_seconds();
   res.final_state = hw::ClothStateName(world.state());
   res.final_mesh = world.mesh();
   res.seconds = Since(t_start);
@@ -489,6 +514,9 @@ Json TrialResult::ToJson() const {
           {"final_f", final_f},
           {"final_uv", fu},
           {"final_state", final_state},
+          {"placed", placed},
+          {"place_failure", place_failure},
+          {"coverage", placed ? Json(coverage) : Json(nullptr)},
           {"failure", failure},
           {"timing", times.ToJson()},
           {"seconds", seconds}};

@@ -52,6 +52,8 @@ struct LoopOptions {
   // Evaluation only: unfolded when each gripper pinches within this distance (m, on the
   // flat pattern) of the desired pair's anchors.
   double success_distance = 0.06;
+  bool place_flat = true;       // lay the garment on the table when f ≥ ξ (cloth core)
+  hardware::PlaceFlatOptions place;
   void Validate() const;  // throws drape::Error naming the bad field
 };
 
@@ -144,7 +146,13 @@ struct TrialResult {
   std::vector<Vec2> final_uv;    // truth: pinched points at the end
   std::string failure;           // why the trial ended early ("" if it ran to the end)
   std::string final_state;
-  TriMesh final_mesh;            // world frame
+  TriMesh final_mesh;            // world frame (laid on the table when placed)
+  // Placing flat (cloth core) once f ≥ ξ: coverage = top-down silhouette area of the
+  // garment as it lies / that of the garment laid out flat (the metric of current
+  // cloth-unfolding work); -1 when not placed.
+  bool placed = false;
+  std::string place_failure;
+  double coverage = -1;
   StageTimes times;
   double seconds = 0;
   Json ToJson() const;           // the trace (no meshes)
@@ -155,6 +163,10 @@ struct TrialResult {
 // step. Numerical failures of the simulation end the trial with `failure` set.
 TrialResult RunTrial(const ReleaseModel& model, const std::string& category, const LoopOptions& options,
                      uint64_t seed, const std::function<void(const std::string&)>& progress = {});
+
+// Top-down silhouette area of `lying` (world mesh on a table) over that of `garment`
+// laid out flat, both rasterised at `metres_per_pixel`.
+double Coverage(const TriMesh& lying, const Garment& garment, double metres_per_pixel = 0.003);
 
 // The test garment's labelled anchor nearest a pattern point.
 std::string NearestAnchor(const Garment& g, const Vec2& uv);

@@ -14,6 +14,10 @@ TableRow Summarise(const std::string& category, const std::string& variant, cons
     r.recognised += t.recognition_success;
     r.regrasped += t.regrasp_success;
     r.seconds += t.seconds;
+    if (t.placed) {
+      ++r.placed;
+      r.coverage += t.coverage;
+    }
     if (t.unfolded) {
       ++r.unfolded;
       r.regrasps_on_success += t.regrasps;
@@ -23,6 +27,7 @@ TableRow Summarise(const std::string& category, const std::string& variant, cons
     r.times.registration += t.times.registration, r.times.refinement += t.times.refinement;
   }
   if (r.unfolded) r.regrasps_on_success /= r.unfolded;
+  if (r.placed) r.coverage /= r.placed;
   if (r.trials) r.seconds /= r.trials;
   return r;
 }
@@ -49,6 +54,8 @@ Json ReportJson(const std::vector<TableRow>& rows) {
                            {"successful_regrasping", r.regrasped},
                            {"successful_unfolding", r.unfolded},
                            {"avg_regrasps_success_only", r.unfolded ? Json(r.regrasps_on_success) : Json(nullptr)},
+                           {"placed_flat", r.placed},
+                           {"mean_coverage", r.placed ? Json(r.coverage) : Json(nullptr)},
                            {"seconds_per_trial", r.seconds},
                            {"stage_seconds", r.times.ToJson()}});
   }
@@ -66,18 +73,20 @@ Json ReportJson(const std::vector<TableRow>& rows) {
 std::string ReportMarkdown(const std::vector<TableRow>& rows) {
   std::ostringstream os;
   os << "| garment | variant | # trials | successful recognition | successful regrasping | successful unfolding | "
-        "avg. # regrasps (success only) | s / trial |\n"
-     << "|---|---|---|---|---|---|---|---|\n";
+        "avg. # regrasps (success only) | coverage (placed) | s / trial |\n"
+     << "|---|---|---|---|---|---|---|---|---|\n";
   char buf[256];
   for (const TableRow& r : rows) {
-    std::snprintf(buf, sizeof buf, "| %s | %s | %d | %d/%d | %d/%d | %d/%d | %s | %.0f |\n", r.category.c_str(),
+    char cov[32] = "–";
+    if (r.placed) std::snprintf(cov, sizeof cov, "%.2f (%d)", r.coverage, r.placed);
+    std::snprintf(buf, sizeof buf, "| %s | %s | %d | %d/%d | %d/%d | %d/%d | %s | %s | %.0f |\n", r.category.c_str(),
                   r.variant.c_str(), r.trials, r.recognised, r.trials, r.regrasped, r.trials, r.unfolded, r.trials,
-                  r.unfolded ? (std::to_string(r.regrasps_on_success).substr(0, 4)).c_str() : "–", r.seconds);
+                  r.unfolded ? (std::to_string(r.regrasps_on_success).substr(0, 4)).c_str() : "–", cov, r.seconds);
     os << buf;
   }
-  os << "| **paper (Baxter, average of 7 garments)** | | 10 | 8.3/10 | 8.7/10 | 8.0/10 | 1.6 | |\n";
+  os << "| **paper (Baxter, average of 7 garments)** | | 10 | 8.3/10 | 8.7/10 | 8.0/10 | 1.6 | – | |\n";
   for (const PaperRow& p : kPaper) {
-    std::snprintf(buf, sizeof buf, "| paper: %s | | 10 | %d/10 | %d/10 | %d/10 | %.1f | |\n", p.garment, p.recognised,
+    std::snprintf(buf, sizeof buf, "| paper: %s | | 10 | %d/10 | %d/10 | %d/10 | %.1f | – | |\n", p.garment, p.recognised,
                   p.regrasped, p.unfolded, p.regrasps);
     os << buf;
   }

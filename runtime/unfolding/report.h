@@ -17,6 +17,8 @@ struct TableRow {
   std::string category, variant;
   int trials = 0, recognised = 0, regrasped = 0, unfolded = 0;
   double regrasps_on_success = 0;  // mean over unfolded trials (0 if none)
+  int placed = 0;                  // trials laid on the table
+  double coverage = 0;             // mean coverage over placed trials (0 if none)
   double seconds = 0;              // mean wall seconds per trial
   StageTimes times;                // summed
 };
