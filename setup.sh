@@ -29,6 +29,7 @@ PACKAGES=(
   python3-torch       # drape.torch.GarmentDataset
   nodejs              # npm, for three.js (the gallery's 3D view)
   npm                 # (nodesource's nodejs provides it: counted as present)
+  zlib1g-dev          # gzip of the gallery's 3D mesh scripts
 )
 
 # Only the benchmarks need these (registration_bench compares with Open3D's ICP).

@@ -88,8 +88,11 @@ def test_viewer_files_once_per_release(release, release_dir):
     assert meshes == [e.id for e in release.entries()]
     sums = (release_dir / "SHA256SUMS").read_text()
     assert "  viewer/three.min.js\n" in sums and f"  viewer/meshes/{meshes[0]}.js\n" in sums
-    # The mesh scripts hold the entries' PLY bytes exactly.
+    # The mesh scripts hold the entries' PLY bytes exactly (gzip + base64).
     import base64
+    import gzip
     text = (viewer / "meshes" / f"{meshes[0]}.js").read_text()
-    hang = re.search(r'"hang":"([^"]+)"', text).group(1)
-    assert base64.b64decode(hang) == (release_dir / "entries" / meshes[0] / "hang.ply").read_bytes()
+    for name in ("hang", "recon"):
+        b64 = re.search(rf'"{name}":"([^"]+)"', text).group(1)
+        ply = (release_dir / "entries" / meshes[0] / f"{name}.ply").read_bytes()
+        assert gzip.decompress(base64.b64decode(b64)) == ply

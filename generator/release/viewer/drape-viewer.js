@@ -4,7 +4,8 @@
 //
 // Works from file:// (where pages cannot fetch() local files): each entry's meshes come
 // as viewer/meshes/<id>.js, a classic script calling drapeViewerData(id, {...}) with the
-// entry's hang.ply / recon.ply bytes in base64, parsed by three.js's PLYLoader. The
+// entry's hang.ply / recon.ply bytes gzipped and in base64, inflated here
+// (DecompressionStream) and parsed by three.js's PLYLoader. The
 // three.js files (npm "three", pinned) are loaded on first use, from viewer/.
 (function () {
   'use strict';
@@ -39,10 +40,12 @@
       script('viewer/meshes/' + encodeURIComponent(id) + '.js').catch(reject);
     });
   }
+  // base64 → gzip → the PLY file's bytes (a Promise of an ArrayBuffer).
   function bytes(b64) {
     var s = atob(b64), a = new Uint8Array(s.length);
     for (var i = 0; i < s.length; i++) a[i] = s.charCodeAt(i);
-    return a.buffer;
+    var inflated = new Blob([a]).stream().pipeThrough(new DecompressionStream('gzip'));
+    return new Response(inflated).arrayBuffer();
   }
   function status(text) { document.getElementById('v3d-status').textContent = text; }
 
@@ -81,12 +84,12 @@
     scene.add(d);
   }
 
-  function make(id, d) {
+  function make(id, d, hangPly, reconPly) {
     var canvas = document.getElementById('v3d-canvas');
     var renderer = new THREE.WebGLRenderer({ canvas: canvas, antialias: true, preserveDrawingBuffer: true });
     renderer.setPixelRatio(window.devicePixelRatio || 1);
     renderer.autoClear = false;
-    var hang = meshOf(bytes(d.hang), 0x4a7fc1, 1), recon = meshOf(bytes(d.recon), 0xd9a441, 1);
+    var hang = meshOf(hangPly, 0x4a7fc1, 1), recon = meshOf(reconPly, 0xd9a441, 1);
     var left = new THREE.Scene(), right = new THREE.Scene();
     lit(left); lit(right);
     left.add(hang); right.add(recon);
@@ -184,7 +187,9 @@
     status('loading…');
     document.body.style.overflow = 'hidden';
     Promise.all([loadLibs(), loadData(id)]).then(function (r) {
-      make(id, r[1]);
+      return Promise.all([r[1], bytes(r[1].hang), bytes(r[1].recon)]);
+    }).then(function (r) {
+      make(id, r[0], r[1], r[2]);
       // Once laid out: draw at the final size and report what was drawn.
       setTimeout(function () {
         if (!view) return;
