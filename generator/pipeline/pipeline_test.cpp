@@ -1,6 +1,6 @@
 // End-to-end builds of a tiny recipe (two coarse towel jobs, few frames, low voxel
 // density) through every stage and the release writer. Slow-ish: tens of seconds.
-#include "generator/build/build.h"
+#include "generator/pipeline/build.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -42,7 +42,7 @@ splits:
 )";
 
 fs::path TempDir(const std::string& tag) {
-  const fs::path d = fs::temp_directory_path() / ("drape_build_test_" + std::to_string(::getpid()) + "_" + tag);
+  const fs::path d = fs::temp_directory_path() / ("drape_pipeline_test_" + std::to_string(::getpid()) + "_" + tag);
   fs::remove_all(d);
   return d;
 }
