@@ -6,8 +6,8 @@
 #include "cli/args.h"
 #include "cli/command.h"
 #include "common/error.h"
-#include "generator/build/build.h"
-#include "generator/build/build_mpi.h"
+#include "generator/pipeline/build.h"
+#include "generator/pipeline/build_mpi.h"
 #include "generator/recipe/recipe.h"
 #include "generator/release/release.h"
 
@@ -87,7 +87,7 @@ int Run(const std::vector<std::string>& argv) {
   try {
     if (mpi) {
       // Rank 0 coordinates and rethrows its errors; the other ranks simulate and
-      // exit with rank 0's status without printing (see generator/build/build_mpi.h).
+      // exit with rank 0's status without printing (see generator/pipeline/build_mpi.h).
       MpiBuildOutcome m = RunBuildMpi(recipe, o);
       if (!m.coordinator) {
         std::signal(SIGINT, previous);

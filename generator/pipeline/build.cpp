@@ -1,4 +1,4 @@
-#include "generator/build/build.h"
+#include "generator/pipeline/build.h"
 
 #include <unistd.h>
 

@@ -1,4 +1,4 @@
-#include "generator/build/build_mpi.h"
+#include "generator/pipeline/build_mpi.h"
 
 #include <unistd.h>
 

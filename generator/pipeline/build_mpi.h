@@ -29,7 +29,7 @@
 #include <string>
 #include <string_view>
 
-#include "generator/build/build.h"
+#include "generator/pipeline/build.h"
 #include "generator/recipe/recipe.h"
 #include "generator/release/entry.h"
 

@@ -1,6 +1,6 @@
 // End-to-end builds of a tiny recipe (two coarse towel jobs, few frames, low voxel
 // density) through every stage and the release writer. Slow-ish: tens of seconds.
-#include "generator/build/build.h"
+#include "generator/pipeline/build.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>

@@ -8,7 +8,7 @@
 
 #include "common/error.h"
 #include "garments/render.h"
-#include "generator/build/build.h"
+#include "generator/pipeline/build.h"
 
 namespace drape {
 namespace {
