@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "common/error.h"
+#include "common/format.h"
 #include "common/hash.h"
 #include "common/rng.h"
 
@@ -340,11 +341,11 @@ void TemplateOptions::Validate() const {
   if (size != "S" && size != "M" && size != "L")
     throw Error("size must be S, M or L, got '" + size + "'");
   if (!(edge_length >= 0.005 && edge_length <= 0.2))
-    throw Error("edge_length must be in [0.005, 0.2] m, got " + std::to_string(edge_length));
+    throw Error("edge_length must be in [0.005, 0.2] m, got " + FormatNumber(edge_length));
   if (!(layer_gap >= 0 && layer_gap <= 0.05))
-    throw Error("layer_gap must be in [0, 0.05] m, got " + std::to_string(layer_gap));
+    throw Error("layer_gap must be in [0, 0.05] m, got " + FormatNumber(layer_gap));
   if (!(perturbation >= 0 && perturbation <= 0.3))
-    throw Error("perturbation must be in [0, 0.3], got " + std::to_string(perturbation));
+    throw Error("perturbation must be in [0, 0.3], got " + FormatNumber(perturbation));
   for (const auto& [k, v] : params)
     if (!std::isfinite(v) || v < 0)
       throw Error("parameter " + k + " must be a finite non-negative number, got " + std::to_string(v));
