@@ -66,8 +66,9 @@ const std::regex kNameRe("[A-Za-z0-9][A-Za-z0-9_-]*");
 // located errors.
 class Parser {
  public:
-  Parser(const std::string& label, fs::path base, bool allow_outside)
-      : label_(label), base_(std::move(base)), allow_outside_(allow_outside) {}
+  Parser(const std::string& label, fs::path base, bool allow_outside,
+         const std::map<std::string, fs::path>* files = nullptr)
+      : label_(label), base_(std::move(base)), allow_outside_(allow_outside), files_(files) {}
 
   [[noreturn]] void Fail(const YAML::Mark& m, const std::string& path, const std::string& what) const {
     std::ostringstream os;
@@ -219,6 +220,12 @@ class Parser {
   fs::path File(const YAML::Node& map, const std::string& key, const std::string& path) const {
     const auto s = String(map, key, path);
     const std::string p = Sub(path, key);
+    if (files_) {
+      const auto it = files_->find(*s);
+      if (it == files_->end()) Fail(map[key], p, "'" + *s + "' is not among the files carried with the recipe");
+      if (!fs::is_regular_file(it->second)) Fail(map[key], p, "file not found: " + it->second.string());
+      return it->second;
+    }
     const fs::path rel(*s);
     const fs::path full = (rel.is_absolute() ? rel : base_ / rel).lexically_normal();
     const fs::path base = fs::weakly_canonical(base_);
@@ -264,6 +271,7 @@ class Parser {
   std::string label_;
   fs::path base_;
   bool allow_outside_;
+  const std::map<std::string, fs::path>* files_;  // path as written → file (a release's copy)
 };
 
 // Option field names, for mapping a Validate() message to the recipe key.
@@ -485,7 +493,11 @@ GarmentSpec ParseGarment(const Parser& P, const YAML::Node& n, const std::string
     for (const char* k : {"size", "params", "edge_length", "layer_gap", "perturbation"})
       if (n[k].IsDefined()) P.Fail(P.KeyNode(n, k), Parser::Sub(path, k), "applies to templates only");
     g.file = P.File(n, "file", path);
-    if (n["anchors_file"].IsDefined()) g.anchors = P.File(n, "anchors_file", path);
+    g.file_as_written = n["file"].Scalar();
+    if (n["anchors_file"].IsDefined()) {
+      g.anchors = P.File(n, "anchors_file", path);
+      g.anchors_as_written = n["anchors_file"].Scalar();
+    }
     P.DoubleTo(n, "unit_scale", path, g.unit_scale, 0, 1e6, true);
     g.category = P.String(n, "category", path).value_or("custom");
     g.name = n["name"].IsDefined() ? P.Name(n, "name", path) : g.file.stem().string();
@@ -681,7 +693,8 @@ void ParseSplits(const Parser& P, const YAML::Node& n, Recipe& r) {
 
 }  // namespace
 
-Recipe ParseRecipe(const std::string& text, const std::string& file_label, const fs::path& base_dir) {
+Recipe ParseRecipe(const std::string& text, const std::string& file_label, const fs::path& base_dir,
+                   const std::map<std::string, fs::path>* files) {
   YAML::Node loaded;
   try {
     loaded = YAML::Load(text);
@@ -698,7 +711,7 @@ Recipe ParseRecipe(const std::string& text, const std::string& file_label, const
   if (!root.IsMap()) P0.Fail(root, "(top level)", "a recipe is a mapping of keys (name, version, seed, garments, ...)");
   P0.CheckKeys(root, "", kTopKeys);
   P0.Bool(root, "allow_outside_paths", "", r.allow_outside_paths);
-  const Parser P(file_label, base_dir, r.allow_outside_paths);
+  const Parser P(file_label, base_dir, r.allow_outside_paths, files);
 
   r.name = P.Name(root, "name", "");
   const auto version = P.String(root, "version", "");
