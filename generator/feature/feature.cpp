@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "common/error.h"
+#include "common/field_error.h"
 
 namespace drape {
 
@@ -65,9 +66,9 @@ uint32_t GetU32(std::string_view s, size_t at) {
 }  // namespace
 
 void FeatureOptions::Validate() const {
-  if (layers < 1 || layers > kMaxDim) throw Error("FeatureOptions.layers: must be in [1, 1024]");
-  if (rings < 1 || rings > kMaxDim) throw Error("FeatureOptions.rings: must be in [1, 1024]");
-  if (sectors < 1 || sectors > 64) throw Error("FeatureOptions.sectors: must be in [1, 64]");
+  if (layers < 1 || layers > kMaxDim) BadField(layers, "FeatureOptions.layers", "must be in [1, 1024]");
+  if (rings < 1 || rings > kMaxDim) BadField(rings, "FeatureOptions.rings", "must be in [1, 1024]");
+  if (sectors < 1 || sectors > 64) BadField(sectors, "FeatureOptions.sectors", "must be in [1, 64]");
   if (int64_t(layers) * rings * sectors > (int64_t(1) << 24))
     throw Error("FeatureOptions: layers·rings·sectors must be at most 2^24 bits");
 }

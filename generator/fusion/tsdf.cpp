@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "common/error.h"
+#include "common/field_error.h"
 #include "common/parallel.h"
 #include "common/rng.h"
 #include "generator/fusion/fusion.h"
@@ -17,33 +18,34 @@ namespace drape {
 
 namespace {
 
-[[noreturn]] void Bad(const std::string& field, const std::string& what) {
-  throw Error("FusionOptions." + field + ": " + what);
+template <typename T>
+[[noreturn]] void Bad(const T& field, const std::string& name, const std::string& what) {
+  BadField(field, "FusionOptions." + name, what);
 }
 
 }  // namespace
 
 void FusionOptions::Validate() const {
   if (!(voxels_per_metre >= 10 && voxels_per_metre <= 4096))
-    Bad("voxels_per_metre", "must be in [10, 4096]");
-  if (!std::isfinite(truncation) || truncation < 0) Bad("truncation", "must be >= 0 (0 = 4 voxels)");
+    Bad(voxels_per_metre, "voxels_per_metre", "must be in [10, 4096]");
+  if (!std::isfinite(truncation) || truncation < 0) Bad(truncation, "truncation", "must be >= 0 (0 = 4 voxels)");
   if (truncation > 0 && truncation < 1.0 / voxels_per_metre)
-    Bad("truncation", "must be at least one voxel");
+    Bad(truncation, "truncation", "must be at least one voxel");
   if (truncation > 16.0 / voxels_per_metre)
-    Bad("truncation", "must be at most 16 voxels (2 blocks), the band is allocated in 8³ blocks");
+    Bad(truncation, "truncation", "must be at most 16 voxels (2 blocks), the band is allocated in 8³ blocks");
   if (box.isEmpty() || !box.min().allFinite() || !box.max().allFinite())
-    Bad("box", "must be a non-empty finite box");
+    Bad(box, "box", "must be a non-empty finite box");
   if ((box.sizes().array() * voxels_per_metre / kBlockDim).prod() > 2e7)
-    Bad("box", "too large for the carving grid at this voxel size");
-  if (!std::isfinite(radius)) Bad("radius", "must be finite (<= 0: no radial limit)");
-  if (min_weight < 1) Bad("min_weight", "must be >= 1");
-  if (carve_min_views < 1) Bad("carve_min_views", "must be >= 1");
+    Bad(box, "box", "too large for the carving grid at this voxel size");
+  if (!std::isfinite(radius)) Bad(radius, "radius", "must be finite (<= 0: no radial limit)");
+  if (min_weight < 1) Bad(min_weight, "min_weight", "must be >= 1");
+  if (carve_min_views < 1) Bad(carve_min_views, "carve_min_views", "must be >= 1");
   if (!(carve_min_fraction >= 0 && carve_min_fraction <= 1))
-    Bad("carve_min_fraction", "must be in [0, 1]");
-  if (hole_radius_px < 0 || hole_radius_px > 64) Bad("hole_radius_px", "must be in [0, 64]");
-  if (frames_stride < 1) Bad("frames_stride", "must be >= 1");
+    Bad(carve_min_fraction, "carve_min_fraction", "must be in [0, 1]");
+  if (hole_radius_px < 0 || hole_radius_px > 64) Bad(hole_radius_px, "hole_radius_px", "must be in [0, 64]");
+  if (frames_stride < 1) Bad(frames_stride, "frames_stride", "must be >= 1");
   if (!(pose_noise_degrees >= 0 && pose_noise_degrees <= 45))
-    Bad("pose_noise_degrees", "must be in [0, 45]");
+    Bad(pose_noise_degrees, "pose_noise_degrees", "must be in [0, 45]");
 }
 
 Tsdf::Tsdf(const FusionOptions& options) : impl_(std::make_unique<Impl>()) {

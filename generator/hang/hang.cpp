@@ -13,35 +13,34 @@
 
 #include "common/error.h"
 #include "common/format.h"
+#include "common/field_error.h"
 #include "common/rng.h"
 #include "generator/hang/equilibrium.h"
 
 namespace drape {
 
 void HangOptions::Validate() const {
-  auto bad = [](const char* field, const std::string& what) {
-    throw Error(std::string("simulation: ") + field + " " + what);
-  };
-  if (!(time_step > 1e-5 && time_step <= 1.0 / 30)) bad("time_step", "must be in (1e-5, 1/30] s");
-  if (solver_iterations < 1 || solver_iterations > 100) bad("solver_iterations", "must be in [1, 100]");
-  if (!(damping >= 0 && damping < 1)) bad("damping", "must be in [0, 1)");
-  if (!(layer_thickness > 0 && layer_thickness < 0.05)) bad("layer_thickness", "must be in (0, 0.05) m");
-  if (!(settle_distance > 0)) bad("settle_distance", "must be > 0");
-  if (!(settle_window >= 4 * time_step)) bad("settle_window", "must be >= 4 time steps");
-  if (!(min_time >= 0)) bad("min_time", "must be >= 0");
-  if (!(time_cap > min_time + settle_window)) bad("time_cap", "must exceed min_time + settle_window");
-  if (!(jaw_width > 0 && jaw_width < 0.5)) bad("jaw_width", "must be in (0, 0.5) m");
-  if (!(jitter >= 0 && jitter < 0.01)) bad("jitter", "must be in [0, 0.01) m");
-  if (!(max_speed > 0)) bad("max_speed", "must be > 0");
-  if (!(equilibrium_tolerance > 0 && equilibrium_tolerance < 1)) bad("equilibrium_tolerance", "must be in (0, 1)");
-  if (!(equilibrium_max_displacement > 0)) bad("equilibrium_max_displacement", "must be > 0");
-  if (equilibrium_iterations < 1) bad("equilibrium_iterations", "must be >= 1");
-  if (!(equilibrium_rescue_motion >= 0)) bad("equilibrium_rescue_motion", "must be >= 0 m");
-  if (equilibrium_rescue_iterations < 1) bad("equilibrium_rescue_iterations", "must be >= 1");
-  if (!(fit_width > 0.05 && fit_height > 0.05)) bad("fit_width/fit_height", "must be > 0.05 m");
-  if (!(fit_edge_length > 0.002 && fit_edge_length < 0.2)) bad("fit_edge_length", "must be in (0.002, 0.2) m");
-  if (!(fit_tolerance_percent > 0)) bad("fit_tolerance_percent", "must be > 0");
-  if (fit_max_iterations < 2) bad("fit_max_iterations", "must be >= 2");
+  auto bad = [](const auto& field, const char* name, const std::string& what) { BadField(field, name, what); };
+  if (!(time_step > 1e-5 && time_step <= 1.0 / 30)) bad(time_step, "time_step", "must be in (1e-5, 1/30] s");
+  if (solver_iterations < 1 || solver_iterations > 100) bad(solver_iterations, "solver_iterations", "must be in [1, 100]");
+  if (!(damping >= 0 && damping < 1)) bad(damping, "damping", "must be in [0, 1)");
+  if (!(layer_thickness > 0 && layer_thickness < 0.05)) bad(layer_thickness, "layer_thickness", "must be in (0, 0.05) m");
+  if (!(settle_distance > 0)) bad(settle_distance, "settle_distance", "must be > 0");
+  if (!(settle_window >= 4 * time_step)) bad(settle_window, "settle_window", "must be >= 4 time steps");
+  if (!(min_time >= 0)) bad(min_time, "min_time", "must be >= 0");
+  if (!(time_cap > min_time + settle_window)) bad(time_cap, "time_cap", "must exceed min_time + settle_window");
+  if (!(jaw_width > 0 && jaw_width < 0.5)) bad(jaw_width, "jaw_width", "must be in (0, 0.5) m");
+  if (!(jitter >= 0 && jitter < 0.01)) bad(jitter, "jitter", "must be in [0, 0.01) m");
+  if (!(max_speed > 0)) bad(max_speed, "max_speed", "must be > 0");
+  if (!(equilibrium_tolerance > 0 && equilibrium_tolerance < 1)) bad(equilibrium_tolerance, "equilibrium_tolerance", "must be in (0, 1)");
+  if (!(equilibrium_max_displacement > 0)) bad(equilibrium_max_displacement, "equilibrium_max_displacement", "must be > 0");
+  if (equilibrium_iterations < 1) bad(equilibrium_iterations, "equilibrium_iterations", "must be >= 1");
+  if (!(equilibrium_rescue_motion >= 0)) bad(equilibrium_rescue_motion, "equilibrium_rescue_motion", "must be >= 0 m");
+  if (equilibrium_rescue_iterations < 1) bad(equilibrium_rescue_iterations, "equilibrium_rescue_iterations", "must be >= 1");
+  if (!(fit_width > 0.05 && fit_height > 0.05)) bad(fit_width, "fit_width/fit_height", "must be > 0.05 m");
+  if (!(fit_edge_length > 0.002 && fit_edge_length < 0.2)) bad(fit_edge_length, "fit_edge_length", "must be in (0.002, 0.2) m");
+  if (!(fit_tolerance_percent > 0)) bad(fit_tolerance_percent, "fit_tolerance_percent", "must be > 0");
+  if (fit_max_iterations < 2) bad(fit_max_iterations, "fit_max_iterations", "must be >= 2");
 }
 
 // ---------------------------------------------------------------------------------

@@ -44,7 +44,7 @@ splits:
 )";
 
 fs::path TempDir(const std::string& tag) {
-  const fs::path d = fs::temp_directory_path() / ("drape_build_test_" + std::to_string(::getpid()) + "_" + tag);
+  const fs::path d = fs::temp_directory_path() / ("drape_pipeline_test_" + std::to_string(::getpid()) + "_" + tag);
   fs::remove_all(d);
   return d;
 }

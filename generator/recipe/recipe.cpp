@@ -5,14 +5,18 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <optional>
 #include <regex>
 #include <set>
 #include <sstream>
+#include <variant>
 
 #include "common/error.h"
+#include "common/field_error.h"
 #include "common/files.h"
 #include "garments/io.h"
+#include "generator/recipe/keys.h"
 
 namespace fs = std::filesystem;
 
@@ -61,6 +65,13 @@ std::string Join(const std::vector<std::string>& v) {
 }
 
 const std::regex kNameRe("[A-Za-z0-9][A-Za-z0-9_-]*");
+
+// A field of an options struct and the recipe key that set it.
+struct SetField {
+  const void* field;
+  YAML::Node node;
+  std::string path;
+};
 
 // Parsing context: the file label and the recipe folder, plus helpers that build
 // located errors.
@@ -117,11 +128,14 @@ class Parser {
     return YAML::Node();
   }
 
-  std::optional<double> Double(const YAML::Node& map, const std::string& key, const std::string& path,
-                               double lo, double hi, bool lo_open = false) const {
+  // Scalars. Only the type is checked here (a finite number, an integer that fits,
+  // true/false, a string); ranges are the Options structs' Validate().
+  std::optional<double> Double(const YAML::Node& map, const std::string& key, const std::string& path) const {
     const YAML::Node n = map[key];
     if (!n.IsDefined()) return std::nullopt;
-    const std::string p = Sub(path, key);
+    return Number(n, Sub(path, key));
+  }
+  double Number(const YAML::Node& n, const std::string& p) const {
     if (!n.IsScalar()) Fail(n, p, "expected a number, got " + Describe(n));
     double v;
     try {
@@ -130,22 +144,15 @@ class Parser {
       Fail(n, p, "expected a number, got " + Describe(n));
     }
     if (!std::isfinite(v)) Fail(n, p, "must be finite");
-    if ((lo_open ? v <= lo : v < lo) || v > hi) {
-      std::ostringstream os;
-      os << "out of range: " << n.Scalar() << " (allowed " << (lo_open ? "(" : "[") << lo << ", " << hi << "])";
-      Fail(n, p, os.str());
-    }
     return v;
   }
-  void DoubleTo(const YAML::Node& map, const std::string& key, const std::string& path, double& out,
-                double lo, double hi, bool lo_open = false) const {
-    if (auto v = Double(map, key, path, lo, hi, lo_open)) out = *v;
-  }
 
-  std::optional<long long> Int(const YAML::Node& map, const std::string& key, const std::string& path,
-                               long long lo, long long hi) const {
+  void Read(const YAML::Node& map, const std::string& key, const std::string& path, double& out) const {
+    if (auto v = Double(map, key, path)) out = *v;
+  }
+  void Read(const YAML::Node& map, const std::string& key, const std::string& path, int& out) const {
     const YAML::Node n = map[key];
-    if (!n.IsDefined()) return std::nullopt;
+    if (!n.IsDefined()) return;
     const std::string p = Sub(path, key);
     if (!n.IsScalar()) Fail(n, p, "expected an integer, got " + Describe(n));
     long long v;
@@ -154,16 +161,15 @@ class Parser {
     } catch (const YAML::Exception&) {
       Fail(n, p, "expected an integer, got " + Describe(n));
     }
-    if (v < lo || v > hi) {
-      std::ostringstream os;
-      os << "out of range: " << v << " (allowed " << lo << ".." << hi << ")";
-      Fail(n, p, os.str());
-    }
-    return v;
+    if (v < std::numeric_limits<int>::min() || v > std::numeric_limits<int>::max())
+      Fail(n, p, "out of range for an integer: " + n.Scalar());
+    out = static_cast<int>(v);
   }
-  void IntTo(const YAML::Node& map, const std::string& key, const std::string& path, int& out, long long lo,
-             long long hi) const {
-    if (auto v = Int(map, key, path, lo, hi)) out = static_cast<int>(*v);
+  void Read(const YAML::Node& map, const std::string& key, const std::string& path, std::string& out) const {
+    if (auto v = String(map, key, path)) out = *v;
+  }
+  void Read(const YAML::Node& map, const std::string& key, const std::string& path, bool& out) const {
+    Bool(map, key, path, out);
   }
 
   void Bool(const YAML::Node& map, const std::string& key, const std::string& path, bool& out) const {
@@ -240,28 +246,56 @@ class Parser {
     return canon;
   }
 
-  // Runs an options struct's Validate(); its message names a field, which we map
-  // back to the recipe key that set it (fields: option field name → key node, key path).
-  struct FieldKey {
-    std::string field;
-    YAML::Node node;
-    std::string path;
-  };
+  // Runs an options struct's Validate(). A FieldError for a field that a key of the
+  // recipe set is reported at that key; any other error at the section.
   template <typename Options>
   void Validate(const Options& o, const YAML::Node& section, const std::string& section_path,
-                const std::vector<FieldKey>& fields) const {
+                const std::vector<SetField>& set) const {
     try {
       o.Validate();
+    } catch (const FieldError& e) {
+      for (const auto& f : set)
+        if (f.field == e.field()) Fail(f.node, f.path, e.reason());
+      Fail(section, section_path, e.what());
     } catch (const Error& e) {
-      const std::string msg = e.what();
-      const FieldKey* best = nullptr;
-      for (const auto& f : fields)
-        if (f.node.IsDefined() && msg.find(f.field) != std::string::npos &&
-            (!best || f.field.size() > best->field.size()))
-          best = &f;
-      if (best) Fail(best->node, best->path, msg);
-      Fail(section, section_path, msg);
+      Fail(section, section_path, e.what());
     }
+  }
+
+  // Checks `n`'s keys against `table`, reads the scalar keys present into `o` and
+  // returns where each field came from (for Validate).
+  template <typename O>
+  std::vector<SetField> Keys(const YAML::Node& n, const std::string& path,
+                             const std::vector<recipe_keys::OptionKey<O>>& table, O& o) const {
+    std::vector<std::string> here;                        // keys of this mapping, in table order
+    std::vector<std::pair<std::string, std::string>> sub;  // (sub-map, key) of "a.b" keys
+    for (const auto& k : table) {
+      const size_t dot = k.key.find('.');
+      const std::string head = k.key.substr(0, dot);
+      if (std::find(here.begin(), here.end(), head) == here.end()) here.push_back(head);
+      if (dot != std::string::npos) sub.emplace_back(head, k.key.substr(dot + 1));
+    }
+    CheckKeys(n, path, here);
+    for (const auto& head : here) {
+      std::vector<std::string> known;
+      for (const auto& [h, k] : sub)
+        if (h == head) known.push_back(k);
+      if (!known.empty() && n[head].IsDefined()) CheckKeys(n[head], Sub(path, head), known);
+    }
+    std::vector<SetField> set;
+    for (const auto& k : table) {
+      if (!k.ref) continue;
+      const size_t dot = k.key.find('.');
+      const YAML::Node map = dot == std::string::npos ? n : n[k.key.substr(0, dot)];
+      const std::string leaf = dot == std::string::npos ? k.key : k.key.substr(dot + 1);
+      const std::string map_path = dot == std::string::npos ? path : Sub(path, k.key.substr(0, dot));
+      if (!map.IsDefined() || !map[leaf].IsDefined()) continue;
+      const recipe_keys::OptionRef ref = k.ref(o);
+      std::visit([&](auto* field) { Read(map, leaf, map_path, *field); }, ref);
+      set.push_back({std::visit([](auto* field) -> const void* { return field; }, ref), map[leaf],
+                     Sub(path, k.key)});
+    }
+    return set;
   }
 
   const std::string& label() const { return label_; }
@@ -274,39 +308,8 @@ class Parser {
   const std::map<std::string, fs::path>* files_;  // path as written → file (a release's copy)
 };
 
-// Option field names, for mapping a Validate() message to the recipe key.
-std::vector<Parser::FieldKey> Fields(const YAML::Node& map, const std::string& path,
-                                     const std::vector<std::pair<std::string, std::string>>& key_to_field) {
-  std::vector<Parser::FieldKey> out;
-  if (!map.IsMap()) return out;
-  for (const auto& [key, field] : key_to_field) {
-    std::string sub_key = key, rest;
-    YAML::Node n = map;
-    std::string p = path;
-    // "settle.distance" style keys walk into sub-maps.
-    std::stringstream ss(key);
-    std::string part;
-    bool ok = true;
-    while (std::getline(ss, part, '.')) {
-      const YAML::Node cur = n;  // const: lookups must not insert keys
-      if (!cur.IsMap() || !cur[part].IsDefined()) {
-        ok = false;
-        break;
-      }
-      n.reset(cur[part]);  // (operator= would assign into the map)
-      p = Parser::Sub(p, part);
-    }
-    if (ok) out.push_back({field, n, p});
-  }
-  return out;
-}
-
-const std::vector<std::string> kTopKeys = {
-    "name",       "version",   "seed",   "description", "license", "allow_outside_paths", "materials",
-    "garments",   "simulation", "sensing", "fusion",     "feature", "splits"};
-
 Material ParseMaterial(const Parser& P, const std::string& name, const YAML::Node& n, const std::string& path) {
-  P.CheckKeys(n, path, {"preset", "stretch_percent", "friction_deg", "area_density", "bending"});
+  P.RequireMap(n, path);
   Material m;
   if (auto preset = P.String(n, "preset", path)) {
     const Material* base = FindMaterialPreset(*preset);
@@ -322,94 +325,20 @@ Material ParseMaterial(const Parser& P, const std::string& name, const YAML::Nod
       P.Fail(n, path, "a custom material needs stretch_percent and friction_deg (or preset: NAME)");
   }
   m.name = name;
-  P.DoubleTo(n, "stretch_percent", path, m.stretch_percent, 0, 100, true);
-  P.DoubleTo(n, "friction_deg", path, m.friction_deg, 0, 90);
-  P.DoubleTo(n, "area_density", path, m.area_density, 0, 10, true);
-  P.DoubleTo(n, "bending", path, m.bending_stiffness, 0, 1e6);
-  P.Validate(m, n, path,
-             Fields(n, path, {{"stretch_percent", "stretch_percent"}, {"friction_deg", "friction_deg"},
-                              {"area_density", "area_density"}, {"bending", "bending"}}));
+  P.Validate(m, n, path, P.Keys(n, path, recipe_keys::MaterialKeys(), m));
   return m;
 }
 
 void ParseSimulation(const Parser& P, const YAML::Node& n, HangOptions& h) {
-  const std::string path = "simulation";
-  P.CheckKeys(n, path, {"time_step", "solver_iterations", "damping", "self_collision", "layer_thickness", "settle",
-                        "min_time", "time_cap", "jaw_width", "equilibrium"});
-  P.DoubleTo(n, "time_step", path, h.time_step, 0, 0.1, true);
-  P.IntTo(n, "solver_iterations", path, h.solver_iterations, 1, 1000);
-  P.DoubleTo(n, "layer_thickness", path, h.layer_thickness, 0, 0.1);
-  P.DoubleTo(n, "min_time", path, h.min_time, 0, 3600);
-  P.DoubleTo(n, "damping", path, h.damping, 0, 1);
-  P.Bool(n, "self_collision", path, h.self_collision);
-  if (n["settle"].IsDefined()) {
-    const YAML::Node s = n["settle"];
-    P.CheckKeys(s, "simulation.settle", {"distance", "window"});
-    P.DoubleTo(s, "distance", "simulation.settle", h.settle_distance, 0, 1, true);
-    P.DoubleTo(s, "window", "simulation.settle", h.settle_window, 0, 100, true);
-  }
-  P.DoubleTo(n, "time_cap", path, h.time_cap, 0, 3600, true);
-  P.DoubleTo(n, "jaw_width", path, h.jaw_width, 0, 1);
-  P.Bool(n, "equilibrium", path, h.equilibrium_solve);
-  P.Validate(h, n, path,
-             Fields(n, path,
-                    {{"time_step", "time_step"}, {"solver_iterations", "solver_iterations"}, {"damping", "damping"},
-                     {"self_collision", "self_collision"}, {"layer_thickness", "layer_thickness"},
-                     {"min_time", "min_time"}, {"settle.distance", "settle_distance"},
-                     {"settle.window", "settle_window"}, {"time_cap", "time_cap"}, {"jaw_width", "jaw_width"},
-                     {"equilibrium", "equilibrium_solve"}}));
+  P.Validate(h, n, "simulation", P.Keys(n, "simulation", recipe_keys::SimulationKeys(), h));
 }
 
-const std::vector<std::string> kSensingKeys = {"frames", "degrees",  "back_and_forth", "noise",
-                                               "keep_frames", "scene", "camera"};
-
 void ParseSensing(const Parser& P, const YAML::Node& n, const std::string& path, SensingSpec& s) {
-  P.CheckKeys(n, path, kSensingKeys);
-  SweepOptions& o = s.sweep;
-  P.IntTo(n, "frames", path, o.frames, 1, 100000);
-  P.DoubleTo(n, "degrees", path, o.degrees, 0, 3600, true);
-  P.Bool(n, "back_and_forth", path, o.back_and_forth);
-  P.Bool(n, "noise", path, o.kinect.noise);
-  P.Bool(n, "keep_frames", path, s.keep_frames);
-  P.Bool(n, "scene", path, o.scene);
-  if (n["camera"].IsDefined()) {
-    const YAML::Node c = n["camera"];
-    const std::string cp = path + ".camera";
-    P.CheckKeys(c, cp, {"height", "distance", "gripper_height", "look_at_height", "image_width", "image_height",
-                        "fx", "fy", "cx", "cy", "min_range", "max_range"});
-    P.DoubleTo(c, "gripper_height", cp, o.gripper_height, -10, 10);
-    P.DoubleTo(c, "look_at_height", cp, o.look_at_height, -10, 10);
-    P.DoubleTo(c, "height", cp, o.camera_height, -10, 10);
-    P.DoubleTo(c, "distance", cp, o.camera_distance, 0, 20, true);
-    P.IntTo(c, "image_width", cp, o.kinect.intrinsics.width, 8, 8192);
-    P.IntTo(c, "image_height", cp, o.kinect.intrinsics.height, 8, 8192);
-    P.DoubleTo(c, "fx", cp, o.kinect.intrinsics.fx, 0, 1e5, true);
-    P.DoubleTo(c, "fy", cp, o.kinect.intrinsics.fy, 0, 1e5, true);
-    P.DoubleTo(c, "cx", cp, o.kinect.intrinsics.cx, -1e5, 1e5);
-    P.DoubleTo(c, "cy", cp, o.kinect.intrinsics.cy, -1e5, 1e5);
-    P.DoubleTo(c, "min_range", cp, o.kinect.min_range, 0, 100);
-    P.DoubleTo(c, "max_range", cp, o.kinect.max_range, 0, 100, true);
-  }
-  auto fields = Fields(n, path,
-                       {{"frames", "frames"}, {"degrees", "degrees"}, {"back_and_forth", "back_and_forth"},
-                        {"noise", "noise"}, {"scene", "scene"}, {"camera.height", "camera_height"},
-                        {"camera.distance", "camera_distance"}, {"camera.gripper_height", "gripper_height"},
-                        {"camera.look_at_height", "look_at_height"}, {"camera.image_width", "width"},
-                        {"camera.image_height", "height"}, {"camera.fx", "fx"}, {"camera.fy", "fy"},
-                        {"camera.cx", "cx"}, {"camera.cy", "cy"}, {"camera.min_range", "min_range"},
-                        {"camera.max_range", "max_range"}});
-  P.Validate(o, n, path, fields);
+  P.Validate(s.sweep, n, path, P.Keys(n, path, recipe_keys::SensingKeys(), s));
 }
 
 void ParseFusion(const Parser& P, const YAML::Node& n, FusionOptions& f) {
-  const std::string path = "fusion";
-  P.CheckKeys(n, path, {"voxels_per_metre", "truncation", "box", "pose_noise_degrees", "frames_stride",
-                        "carve_min_views"});
-  P.DoubleTo(n, "voxels_per_metre", path, f.voxels_per_metre, 0, 5000, true);
-  P.DoubleTo(n, "truncation", path, f.truncation, 0, 1);
-  P.DoubleTo(n, "pose_noise_degrees", path, f.pose_noise_degrees, 0, 45);
-  P.IntTo(n, "frames_stride", path, f.frames_stride, 1, 100000);
-  P.IntTo(n, "carve_min_views", path, f.carve_min_views, 1, 100000);
+  std::vector<SetField> set = P.Keys(n, "fusion", recipe_keys::FusionKeys(), f);
   if (n["box"].IsDefined()) {
     const YAML::Node b = n["box"];
     P.CheckKeys(b, "fusion.box", {"min", "max"});
@@ -417,108 +346,85 @@ void ParseFusion(const Parser& P, const YAML::Node& n, FusionOptions& f) {
     const Vec3 lo = P.Vector3(b["min"], "fusion.box.min"), hi = P.Vector3(b["max"], "fusion.box.max");
     if (!(lo.array() < hi.array()).all()) P.Fail(b, "fusion.box", "min must be below max on every axis");
     f.box = Eigen::AlignedBox3d(lo, hi);
+    set.push_back({&f.box, b, "fusion.box"});
   }
-  P.Validate(f, n, path,
-             Fields(n, path, {{"voxels_per_metre", "voxels_per_metre"}, {"truncation", "truncation"}, {"box", "box"},
-                              {"pose_noise_degrees", "pose_noise_degrees"}, {"frames_stride", "frames_stride"},
-                              {"carve_min_views", "carve_min_views"}}));
+  P.Validate(f, n, "fusion", set);
 }
 
 void ParseFeature(const Parser& P, const YAML::Node& n, FeatureOptions& f) {
-  const std::string path = "feature";
-  P.CheckKeys(n, path, {"layers", "rings", "sectors"});
-  P.IntTo(n, "layers", path, f.layers, 1, 1024);
-  P.IntTo(n, "rings", path, f.rings, 1, 1024);
-  P.IntTo(n, "sectors", path, f.sectors, 1, 1024);
-  P.Validate(f, n, path, Fields(n, path, {{"layers", "layers"}, {"rings", "rings"}, {"sectors", "sectors"}}));
+  P.Validate(f, n, "feature", P.Keys(n, "feature", recipe_keys::FeatureKeys(), f));
 }
 
-const std::vector<std::string> kGarmentKeys = {"name",   "template",  "file",         "anchors_file", "unit_scale",
-                                               "category", "size",    "params",       "instances",    "edge_length",
-                                               "layer_gap", "perturbation", "materials", "anchors"};
-
-GarmentSpec ParseGarment(const Parser& P, const YAML::Node& n, const std::string& path, const Recipe& r) {
-  P.CheckKeys(n, path, kGarmentKeys);
-  GarmentSpec g;
-  const bool has_t = n["template"].IsDefined(), has_f = n["file"].IsDefined();
-  if (has_t == has_f) P.Fail(n, path, "give exactly one of 'template' or 'file'");
-  if (has_t) {
-    const std::string t = *P.String(n, "template", path);
-    const TemplateInfo* info = nullptr;
-    std::vector<std::string> names;
-    for (const auto& ti : Templates()) {
-      names.push_back(ti.name);
-      if (ti.name == t) info = &ti;
-    }
-    if (!info)
-      P.Fail(n["template"], path + ".template",
-             "unknown template '" + t + "'" + Suggest(t, names) + "; templates: " + Join(names));
-    for (const char* k : {"anchors_file", "unit_scale", "category"})
-      if (n[k].IsDefined()) P.Fail(P.KeyNode(n, k), Parser::Sub(path, k), "applies to imported files only");
-    g.template_name = t;
-    g.category = info->category;
-    g.all_anchor_labels = info->anchor_labels;
-    if (auto s = P.String(n, "size", path)) g.options.size = *s;
-    P.DoubleTo(n, "edge_length", path, g.options.edge_length, 0, 1, true);
-    P.DoubleTo(n, "layer_gap", path, g.options.layer_gap, 0, 0.5);
-    P.DoubleTo(n, "perturbation", path, g.options.perturbation, 0, 1);
-    if (n["params"].IsDefined()) {
-      const YAML::Node pm = n["params"];
-      std::vector<std::string> pnames;
-      for (const auto& tp : info->parameters) pnames.push_back(tp.name);
-      P.CheckKeys(pm, path + ".params", pnames);
-      for (auto it = pm.begin(); it != pm.end(); ++it) {
-        const std::string k = it->first.Scalar();
-        g.options.params[k] = *P.Double(pm, k, path + ".params", -1e6, 1e6);
-      }
-    }
-    auto fields = Fields(n, path,
-                         {{"size", "size"}, {"edge_length", "edge_length"}, {"layer_gap", "layer_gap"},
-                          {"perturbation", "perturbation"}, {"params", "params"}});
-    // A parameter name in the message points at that parameter.
-    if (n["params"].IsDefined() && n["params"].IsMap())
-      for (auto it = n["params"].begin(); it != n["params"].end(); ++it)
-        fields.push_back({it->first.Scalar(), it->first, path + ".params." + it->first.Scalar()});
-    P.Validate(g.options, n, path, fields);
-    // The outline of the preset instance: catches bad sizes and parameter
-    // combinations (self-intersecting outlines) here rather than mid-build.
-    struct ShapeCheck {
-      const std::string& t;
-      const TemplateOptions& o;
-      void Validate() const { MakeTemplateShape(t, o); }
-    };
-    P.Validate(ShapeCheck{t, g.options}, n, path, fields);
-    g.name = n["name"].IsDefined() ? P.Name(n, "name", path) : t;
-  } else {
-    for (const char* k : {"size", "params", "edge_length", "layer_gap", "perturbation"})
-      if (n[k].IsDefined()) P.Fail(P.KeyNode(n, k), Parser::Sub(path, k), "applies to templates only");
-    g.file = P.File(n, "file", path);
-    g.file_as_written = n["file"].Scalar();
-    if (n["anchors_file"].IsDefined()) {
-      g.anchors = P.File(n, "anchors_file", path);
-      g.anchors_as_written = n["anchors_file"].Scalar();
-    }
-    P.DoubleTo(n, "unit_scale", path, g.unit_scale, 0, 1e6, true);
-    g.category = P.String(n, "category", path).value_or("custom");
-    g.name = n["name"].IsDefined() ? P.Name(n, "name", path) : g.file.stem().string();
-    if (!std::regex_match(g.name, kNameRe))
-      P.Fail(n["file"], path + ".file", "file name '" + g.name + "' is not a valid garment name; add name: NAME");
-    ImportOptions io;
-    io.unit_scale = g.unit_scale;
-    io.category = g.category;
-    io.instance = g.name;
-    try {
-      const Garment imported = ImportGarment(g.file, g.anchors, io);
-      for (const auto& a : imported.anchors) g.all_anchor_labels.push_back(a.label);
-    } catch (const Error& e) {
-      P.Fail(n["file"], path + ".file", e.what());
-    }
-    if (g.all_anchor_labels.empty())
-      P.Fail(n, path, "the imported garment has no labelled anchors (give anchors_file: PATH)");
+// A template garment: its template, parameters and preset outline.
+void ParseTemplateGarment(const Parser& P, const YAML::Node& n, const std::string& path, GarmentSpec& g,
+                          std::vector<SetField> set) {
+  const std::string t = *P.String(n, "template", path);
+  const TemplateInfo* info = nullptr;
+  std::vector<std::string> names;
+  for (const auto& ti : Templates()) {
+    names.push_back(ti.name);
+    if (ti.name == t) info = &ti;
   }
-  P.IntTo(n, "instances", path, g.instances, 1, 100000);
+  if (!info)
+    P.Fail(n["template"], path + ".template",
+           "unknown template '" + t + "'" + Suggest(t, names) + "; templates: " + Join(names));
+  g.template_name = t;
+  g.category = info->category;
+  g.all_anchor_labels = info->anchor_labels;
+  if (n["params"].IsDefined()) {
+    const YAML::Node pm = n["params"];
+    std::vector<std::string> pnames;
+    for (const auto& tp : info->parameters) pnames.push_back(tp.name);
+    P.CheckKeys(pm, path + ".params", pnames);
+    for (auto it = pm.begin(); it != pm.end(); ++it) {
+      const std::string k = it->first.Scalar(), kp = path + ".params." + k;
+      double& v = g.options.params[k];
+      v = P.Number(it->second, kp);
+      set.push_back({&v, it->second, kp});
+    }
+  }
+  P.Validate(g.options, n, path, set);
+  // The outline of the preset instance: catches bad sizes and parameter
+  // combinations (self-intersecting outlines) here rather than mid-build.
+  struct ShapeCheck {
+    const std::string& t;
+    const TemplateOptions& o;
+    void Validate() const { MakeTemplateShape(t, o); }
+  };
+  P.Validate(ShapeCheck{t, g.options}, n, path, set);
+  g.name = n["name"].IsDefined() ? P.Name(n, "name", path) : t;
+}
 
-  // Materials: names from the presets or the recipe's materials section.
+// An imported mesh file: loaded once here for its anchor labels.
+void ParseImportedGarment(const Parser& P, const YAML::Node& n, const std::string& path, GarmentSpec& g) {
+  g.file = P.File(n, "file", path);
+  g.file_as_written = n["file"].Scalar();
+  if (n["anchors_file"].IsDefined()) {
+    g.anchors = P.File(n, "anchors_file", path);
+    g.anchors_as_written = n["anchors_file"].Scalar();
+  }
+  g.category = P.String(n, "category", path).value_or("custom");
+  g.name = n["name"].IsDefined() ? P.Name(n, "name", path) : g.file.stem().string();
+  if (!std::regex_match(g.name, kNameRe))
+    P.Fail(n["file"], path + ".file", "file name '" + g.name + "' is not a valid garment name; add name: NAME");
+  ImportOptions io;
+  io.unit_scale = g.unit_scale;
+  io.category = g.category;
+  io.instance = g.name;
+  P.Validate(io, n, path, {});  // unit_scale
+  try {
+    const Garment imported = ImportGarment(g.file, g.anchors, io);
+    for (const auto& a : imported.anchors) g.all_anchor_labels.push_back(a.label);
+  } catch (const Error& e) {
+    P.Fail(n["file"], path + ".file", e.what());
+  }
+  if (g.all_anchor_labels.empty())
+    P.Fail(n, path, "the imported garment has no labelled anchors (give anchors_file: PATH)");
+}
+
+// Materials: names from the presets or the recipe's materials section.
+void ParseGarmentMaterials(const Parser& P, const YAML::Node& n, const std::string& path, const Recipe& r,
+                           GarmentSpec& g) {
   if (!n["materials"].IsDefined()) P.Fail(n, path, "missing key 'materials' (a list of material names)");
   g.materials = P.Strings(n["materials"], path + ".materials");
   if (g.materials.empty()) P.Fail(n["materials"], path + ".materials", "the list is empty");
@@ -533,7 +439,10 @@ GarmentSpec ParseGarment(const Parser& P, const YAML::Node& n, const std::string
       P.Fail(n["materials"][i], path + ".materials[" + std::to_string(i) + "]", "material listed twice");
   }
 
-  // Anchors: `all` (default) or a list of labels the garment has.
+}
+
+// Anchors: `all` (default) or a list of labels the garment has.
+void ParseGarmentAnchors(const Parser& P, const YAML::Node& n, const std::string& path, GarmentSpec& g) {
   const YAML::Node a = n["anchors"];
   if (!a.IsDefined() || (a.IsScalar() && a.Scalar() == "all")) {
     g.anchor_labels = g.all_anchor_labels;
@@ -552,6 +461,23 @@ GarmentSpec ParseGarment(const Parser& P, const YAML::Node& n, const std::string
       if (std::count(g.anchor_labels.begin(), g.anchor_labels.begin() + i, l)) P.Fail(a[i], ip, "label listed twice");
     }
   }
+}
+
+GarmentSpec ParseGarment(const Parser& P, const YAML::Node& n, const std::string& path, const Recipe& r) {
+  GarmentSpec g;
+  const std::vector<SetField> set = P.Keys(n, path, recipe_keys::GarmentKeys(), g);
+  const bool has_t = n["template"].IsDefined(), has_f = n["file"].IsDefined();
+  if (has_t == has_f) P.Fail(n, path, "give exactly one of 'template' or 'file'");
+  const std::string kind = has_t ? "templates" : "imports";
+  for (const auto& k : recipe_keys::GarmentKeys())
+    if (!k.scope.empty() && k.scope != kind && n[k.key].IsDefined())
+      P.Fail(P.KeyNode(n, k.key), Parser::Sub(path, k.key),
+             has_t ? "applies to imported files only" : "applies to templates only");
+  if (has_t) ParseTemplateGarment(P, n, path, g, set);
+  else ParseImportedGarment(P, n, path, g);
+  P.Validate(g, n, path, set);
+  ParseGarmentMaterials(P, n, path, r, g);
+  ParseGarmentAnchors(P, n, path, g);
   return g;
 }
 
@@ -582,36 +508,77 @@ std::vector<int> ParseInstances(const Parser& P, const YAML::Node& n, const std:
 }
 
 void ParsePerturbation(const Parser& P, const YAML::Node& n, const std::string& path, Perturbation& pt) {
-  P.CheckKeys(n, path, {"grasp_offset", "size_scale", "material_jitter"});
-  P.DoubleTo(n, "grasp_offset", path, pt.grasp_offset, 0, 0.5);
-  P.DoubleTo(n, "material_jitter", path, pt.material_jitter, 0, 0.9);
+  std::vector<SetField> set = P.Keys(n, path, recipe_keys::PerturbationKeys(), pt);
   if (n["size_scale"].IsDefined()) {
     const YAML::Node s = n["size_scale"];
     const std::string sp = path + ".size_scale";
     if (s.IsScalar()) {
-      pt.size_scale_min = pt.size_scale_max = *P.Double(n, "size_scale", path, 0, 10, true);
+      pt.size_scale_min = pt.size_scale_max = P.Number(s, sp);
+      set.push_back({&pt.size_scale_min, s, sp});
+      set.push_back({&pt.size_scale_max, s, sp});
     } else if (s.IsSequence() && s.size() == 2) {
-      for (int i = 0; i < 2; ++i) {
-        double v;
-        try {
-          v = s[i].as<double>();
-        } catch (const YAML::Exception&) {
-          P.Fail(s[i], sp + "[" + std::to_string(i) + "]", "expected a number, got " + P.Describe(s[i]));
-        }
-        if (!(v > 0 && v <= 10)) P.Fail(s[i], sp + "[" + std::to_string(i) + "]", "out of range (allowed (0, 10])");
-        (i ? pt.size_scale_max : pt.size_scale_min) = v;
-      }
-      if (pt.size_scale_min > pt.size_scale_max) P.Fail(s, sp, "expected [min, max] with min <= max");
+      pt.size_scale_min = P.Number(s[0], sp + "[0]");
+      pt.size_scale_max = P.Number(s[1], sp + "[1]");
+      set.push_back({&pt.size_scale_min, s[0], sp + "[0]"});
+      set.push_back({&pt.size_scale_max, s[1], sp + "[1]"});
     } else {
       P.Fail(s, sp, "expected a number or [min, max], got " + P.Describe(s));
     }
   }
+  P.Validate(pt, n, path, set);
 }
 
 struct InstanceUse {
   std::string split;
   YAML::Mark mark;
 };
+
+// One entry of a split's `garments:` list. `used` records which split each
+// instance went to: an instance belongs to one split only.
+SplitSelector ParseSelector(const Parser& P, const YAML::Node& e, const std::string& ep, const Recipe& r,
+                            const std::string& split, std::map<std::pair<std::string, int>, InstanceUse>& used) {
+  SplitSelector sel;
+  P.Validate(sel, e, ep, P.Keys(e, ep, recipe_keys::SelectorKeys(), sel));
+  const auto gname = P.String(e, "garment", ep);
+  if (!gname) P.Fail(e, ep, "missing key 'garment'");
+  const GarmentSpec* g = r.FindGarment(*gname);
+  if (!g) {
+    std::vector<std::string> gn;
+    for (const auto& gg : r.garments) gn.push_back(gg.name);
+    P.Fail(e["garment"], ep + ".garment",
+           "unknown garment '" + *gname + "'" + Suggest(*gname, gn) + "; garments: " + Join(gn));
+  }
+  sel.garment = g->name;
+  sel.instances = ParseInstances(P, e["instances"], ep + ".instances", g->instances);
+  if (e["materials"].IsDefined()) {
+    sel.materials = P.Strings(e["materials"], ep + ".materials");
+    if (sel.materials.empty()) P.Fail(e["materials"], ep + ".materials", "the list is empty");
+    for (size_t k = 0; k < sel.materials.size(); ++k)
+      if (std::find(g->materials.begin(), g->materials.end(), sel.materials[k]) == g->materials.end())
+        P.Fail(e["materials"][k], ep + ".materials[" + std::to_string(k) + "]",
+               "garment '" + g->name + "' has no material '" + sel.materials[k] + "'" +
+                   Suggest(sel.materials[k], g->materials) + "; its materials: " + Join(g->materials));
+  }
+  if (e["anchors"].IsDefined() && !(e["anchors"].IsScalar() && e["anchors"].Scalar() == "all")) {
+    sel.anchors = P.Strings(e["anchors"], ep + ".anchors");
+    if (sel.anchors.empty()) P.Fail(e["anchors"], ep + ".anchors", "the list is empty");
+    for (size_t k = 0; k < sel.anchors.size(); ++k)
+      if (std::find(g->anchor_labels.begin(), g->anchor_labels.end(), sel.anchors[k]) == g->anchor_labels.end())
+        P.Fail(e["anchors"][k], ep + ".anchors[" + std::to_string(k) + "]",
+               "anchor label '" + sel.anchors[k] + "' is not among garment '" + g->name + "''s anchors" +
+                   Suggest(sel.anchors[k], g->anchor_labels) + "; its anchors: " + Join(g->anchor_labels));
+  }
+  const YAML::Node inode = e["instances"].IsDefined() ? e["instances"] : e;
+  for (int inst : sel.instances) {
+    auto [it, fresh] = used.insert({{g->name, inst}, {split, inode.Mark()}});
+    if (!fresh)
+      P.Fail(inode, ep + ".instances",
+             "instance " + std::to_string(inst) + " of '" + g->name + "' is already in split '" + it->second.split +
+                 "' (line " + std::to_string(it->second.mark.line + 1) +
+                 "); all anchors of one instance stay in one split");
+  }
+  return sel;
+}
 
 void ParseSplits(const Parser& P, const YAML::Node& n, Recipe& r) {
   const std::vector<std::string> names = {"train", "calibration", "test"};
@@ -621,67 +588,22 @@ void ParseSplits(const Parser& P, const YAML::Node& n, Recipe& r) {
     const YAML::Node s = n[split];
     if (!s.IsDefined()) continue;
     const std::string path = "splits." + split;
-    P.CheckKeys(s, path, {"garments", "sensing", "perturbation", "repeats"});
     SplitSpec sp;
     sp.name = split;
+    P.Validate(sp, s, path, P.Keys(s, path, recipe_keys::SplitKeys(), sp));
     sp.sensing = P.String(s, "sensing", path).value_or(split == "train" ? "database" : "sensed");
     if (sp.sensing != "database" && sp.sensing != "sensed")
       P.Fail(s["sensing"], path + ".sensing",
              "unknown sensing kind '" + sp.sensing + "'" + Suggest(sp.sensing, {"database", "sensed"}) +
                  "; kinds: database, sensed");
     if (s["perturbation"].IsDefined()) ParsePerturbation(P, s["perturbation"], path + ".perturbation", sp.perturbation);
-    P.IntTo(s, "repeats", path, sp.repeats, 1, 1000);
     const YAML::Node gl = s["garments"];
     if (!gl.IsDefined()) P.Fail(s, path, "missing key 'garments' (a list of {garment, instances, ...})");
     if (!gl.IsSequence()) P.Fail(gl, path + ".garments", "expected a list, got " + P.Describe(gl));
     if (gl.size() == 0) P.Fail(gl, path + ".garments", "the list is empty");
-    for (size_t i = 0; i < gl.size(); ++i) {
-      const YAML::Node e = gl[i];
-      const std::string ep = path + ".garments[" + std::to_string(i) + "]";
-      P.CheckKeys(e, ep, {"garment", "instances", "materials", "anchors", "max_anchors"});
-      SplitSelector sel;
-      const auto gname = P.String(e, "garment", ep);
-      if (!gname) P.Fail(e, ep, "missing key 'garment'");
-      const GarmentSpec* g = r.FindGarment(*gname);
-      if (!g) {
-        std::vector<std::string> gn;
-        for (const auto& gg : r.garments) gn.push_back(gg.name);
-        P.Fail(e["garment"], ep + ".garment",
-               "unknown garment '" + *gname + "'" + Suggest(*gname, gn) + "; garments: " + Join(gn));
-      }
-      sel.garment = g->name;
-      sel.instances = ParseInstances(P, e["instances"], ep + ".instances", g->instances);
-      if (e["materials"].IsDefined()) {
-        sel.materials = P.Strings(e["materials"], ep + ".materials");
-        if (sel.materials.empty()) P.Fail(e["materials"], ep + ".materials", "the list is empty");
-        for (size_t k = 0; k < sel.materials.size(); ++k)
-          if (std::find(g->materials.begin(), g->materials.end(), sel.materials[k]) == g->materials.end())
-            P.Fail(e["materials"][k], ep + ".materials[" + std::to_string(k) + "]",
-                   "garment '" + g->name + "' has no material '" + sel.materials[k] + "'" +
-                       Suggest(sel.materials[k], g->materials) + "; its materials: " + Join(g->materials));
-      }
-      if (e["anchors"].IsDefined() && !(e["anchors"].IsScalar() && e["anchors"].Scalar() == "all")) {
-        sel.anchors = P.Strings(e["anchors"], ep + ".anchors");
-        if (sel.anchors.empty()) P.Fail(e["anchors"], ep + ".anchors", "the list is empty");
-        for (size_t k = 0; k < sel.anchors.size(); ++k)
-          if (std::find(g->anchor_labels.begin(), g->anchor_labels.end(), sel.anchors[k]) == g->anchor_labels.end())
-            P.Fail(e["anchors"][k], ep + ".anchors[" + std::to_string(k) + "]",
-                   "anchor label '" + sel.anchors[k] + "' is not among garment '" + g->name + "''s anchors" +
-                       Suggest(sel.anchors[k], g->anchor_labels) + "; its anchors: " + Join(g->anchor_labels));
-      }
-      P.IntTo(e, "max_anchors", ep, sel.max_anchors, 1, 100000);
-      // Splits are by garment instance: one instance belongs to one split only.
-      const YAML::Node inode = e["instances"].IsDefined() ? e["instances"] : e;
-      for (int inst : sel.instances) {
-        auto [it, fresh] = used.insert({{g->name, inst}, {split, inode.Mark()}});
-        if (!fresh)
-          P.Fail(inode, ep + ".instances",
-                 "instance " + std::to_string(inst) + " of '" + g->name + "' is already in split '" + it->second.split +
-                     "' (line " + std::to_string(it->second.mark.line + 1) +
-                     "); all anchors of one instance stay in one split");
-      }
-      sp.selectors.push_back(std::move(sel));
-    }
+    for (size_t i = 0; i < gl.size(); ++i)
+      sp.selectors.push_back(
+          ParseSelector(P, gl[i], path + ".garments[" + std::to_string(i) + "]", r, split, used));
     r.splits.push_back(std::move(sp));
   }
   if (r.splits.empty()) P.Fail(n, "splits", "no split given (train, calibration, test)");
@@ -692,6 +614,34 @@ void ParseSplits(const Parser& P, const YAML::Node& n, Recipe& r) {
 }
 
 }  // namespace
+
+// The recipe structs' own ranges (the stages' are in their Validate()).
+void GarmentSpec::Validate() const {
+  if (instances < 1 || instances > 100000) BadField(instances, "instances", "must be in 1..100000");
+}
+
+void Perturbation::Validate() const {
+  if (!(grasp_offset >= 0 && grasp_offset <= 0.5)) BadField(grasp_offset, "grasp_offset", "must be in [0, 0.5] m");
+  if (!(material_jitter >= 0 && material_jitter <= 0.9))
+    BadField(material_jitter, "material_jitter", "must be in [0, 0.9]");
+  if (!(size_scale_min > 0 && size_scale_min <= 10)) BadField(size_scale_min, "size_scale", "must be in (0, 10]");
+  if (!(size_scale_max > 0 && size_scale_max <= 10)) BadField(size_scale_max, "size_scale", "must be in (0, 10]");
+  if (size_scale_min > size_scale_max) BadField(size_scale_max, "size_scale", "expected [min, max] with min <= max");
+}
+
+void SplitSelector::Validate() const {
+  if (max_anchors < 0 || max_anchors > 100000) BadField(max_anchors, "max_anchors", "must be in 0..100000 (0 = all)");
+}
+
+void SplitSpec::Validate() const {
+  if (repeats < 1 || repeats > 1000) BadField(repeats, "repeats", "must be in 1..1000");
+}
+
+SensingSpec DatabaseSensingDefaults() {
+  SensingSpec s;
+  s.sweep.kinect.noise = false;
+  return s;
+}
 
 Recipe ParseRecipe(const std::string& text, const std::string& file_label, const fs::path& base_dir,
                    const std::map<std::string, fs::path>* files) {
@@ -709,8 +659,7 @@ Recipe ParseRecipe(const std::string& text, const std::string& file_label, const
   r.text = text;
   Parser P0(file_label, base_dir, false);
   if (!root.IsMap()) P0.Fail(root, "(top level)", "a recipe is a mapping of keys (name, version, seed, garments, ...)");
-  P0.CheckKeys(root, "", kTopKeys);
-  P0.Bool(root, "allow_outside_paths", "", r.allow_outside_paths);
+  P0.Keys(root, "", recipe_keys::TopKeys(), r);  // description, license, allow_outside_paths
   const Parser P(file_label, base_dir, r.allow_outside_paths, files);
 
   r.name = P.Name(root, "name", "");
@@ -729,8 +678,6 @@ Recipe ParseRecipe(const std::string& text, const std::string& file_label, const
       P.Fail(s, "seed", "expected a non-negative integer, got " + P.Describe(s));
     }
   }
-  r.description = P.String(root, "description", "").value_or("");
-  r.license = P.String(root, "license", "").value_or(r.license);
 
   // Materials: every preset by name, plus the recipe's own.
   for (const auto& m : MaterialPresets()) r.materials[m.name] = m;
@@ -754,8 +701,7 @@ Recipe ParseRecipe(const std::string& text, const std::string& file_label, const
   {
     const YAML::Node s = root["sensing"];
     if (s.IsDefined()) P.CheckKeys(s, "sensing", {"database", "sensed"});
-    SensingSpec db;
-    db.sweep.kinect.noise = false;
+    SensingSpec db = DatabaseSensingDefaults();
     if (s.IsDefined() && s["database"].IsDefined()) ParseSensing(P, s["database"], "sensing.database", db);
     SensingSpec sensed = db;
     sensed.sweep.kinect.noise = true;

@@ -35,6 +35,7 @@ struct GarmentSpec {
   std::vector<std::string> materials;      // names in Recipe::materials
   std::vector<std::string> anchor_labels;  // the labels to hang from (resolved; never empty)
   std::vector<std::string> all_anchor_labels;  // every label the garment has, in its order
+  void Validate() const;  // throws drape::FieldError
 };
 
 // Perturbations applied to the sensed splits (calibration, test).
@@ -45,6 +46,7 @@ struct Perturbation {
   bool Any() const {
     return grasp_offset > 0 || size_scale_min != 1.0 || size_scale_max != 1.0 || material_jitter > 0;
   }
+  void Validate() const;  // throws drape::FieldError
 };
 
 // Which instances of one garment go into a split.
@@ -54,6 +56,7 @@ struct SplitSelector {
   std::vector<std::string> materials;  // subset of the garment's materials (empty = all)
   std::vector<std::string> anchors;    // subset of the garment's anchors (empty = the garment's)
   int max_anchors = 0;                 // > 0: a seeded sample of this many anchors per instance
+  void Validate() const;               // throws drape::FieldError
 };
 
 struct SplitSpec {
@@ -62,6 +65,7 @@ struct SplitSpec {
   std::vector<SplitSelector> selectors;
   Perturbation perturbation;
   int repeats = 1;  // perturbed repetitions per anchor (keys get "/p<r>" when > 1)
+  void Validate() const;  // throws drape::FieldError
 };
 
 // Sensing options of one kind of split, plus what the build keeps of it.
@@ -69,6 +73,9 @@ struct SensingSpec {
   SweepOptions sweep;
   bool keep_frames = false;  // store sweep/ (16-bit PNGs + cameras.json) in the entries
 };
+// What `sensing.database` starts from: SweepOptions' defaults with noise off
+// (`sensing.sensed` starts from the parsed database spec with noise on).
+SensingSpec DatabaseSensingDefaults();
 
 struct Recipe {
   std::filesystem::path path;  // as given
@@ -102,6 +109,19 @@ Recipe LoadRecipe(const std::filesystem::path& path);
 Recipe ParseRecipe(const std::string& text, const std::string& file_label,
                    const std::filesystem::path& base_dir,
                    const std::map<std::string, std::filesystem::path>* files = nullptr);
+
+// The recipe's keys for the documentation, from the parser's own tables
+// (generator/recipe/keys.cpp): recipes/README.md's key tables are exactly
+// RecipeKeysMarkdown of each section (keys_test.cpp checks).
+struct RecipeKeyDoc {
+  std::string key, default_value, unit, meaning;
+};
+struct RecipeSectionDoc {
+  std::string name;  // "simulation", "sensing", ...
+  std::vector<RecipeKeyDoc> keys;
+};
+std::vector<RecipeSectionDoc> RecipeKeyDocs();
+std::string RecipeKeysMarkdown(const RecipeSectionDoc& section);
 
 // Levenshtein edit distance, for "did you mean" suggestions.
 int EditDistance(const std::string& a, const std::string& b);

@@ -28,6 +28,7 @@
 #include <limits>
 
 #include "common/error.h"
+#include "common/field_error.h"
 #include "generator/sweep/sweep.h"
 
 namespace drape {
@@ -169,26 +170,25 @@ __attribute__((noinline)) void LateralOffsets(const float* __restrict sl, const 
 }  // namespace detail
 
 void KinectOptions::Validate() const {
-  if (intrinsics.width <= 0 || intrinsics.height <= 0 || intrinsics.width > 16384 ||
-      intrinsics.height > 16384)
-    throw Error("kinect.intrinsics: width and height must be in 1..16384");
-  if (!(intrinsics.fx > 0) || !(intrinsics.fy > 0))
-    throw Error("kinect.intrinsics: fx and fy must be > 0");
-  if (!std::isfinite(intrinsics.cx) || !std::isfinite(intrinsics.cy))
-    throw Error("kinect.intrinsics: cx and cy must be finite");
-  if (!(min_range > 0)) throw Error("kinect.min_range: must be > 0");
-  if (!(max_range > min_range) || !std::isfinite(max_range))
-    throw Error("kinect.max_range: must be finite and > min_range");
-  if (!(baseline > 0)) throw Error("kinect.baseline: must be > 0");
-  if (!(disparity_focal > 0)) throw Error("kinect.disparity_focal: must be > 0");
+  const Intrinsics& in = intrinsics;
+  if (in.width <= 0 || in.width > 16384) BadField(in.width, "kinect.intrinsics.width", "must be in 1..16384");
+  if (in.height <= 0 || in.height > 16384) BadField(in.height, "kinect.intrinsics.height", "must be in 1..16384");
+  if (!(in.fx > 0 && in.fx <= 1e5)) BadField(in.fx, "kinect.intrinsics.fx", "must be in (0, 1e5] px");
+  if (!(in.fy > 0 && in.fy <= 1e5)) BadField(in.fy, "kinect.intrinsics.fy", "must be in (0, 1e5] px");
+  if (!(std::abs(in.cx) <= 1e5)) BadField(in.cx, "kinect.intrinsics.cx", "must be in [-1e5, 1e5] px");
+  if (!(std::abs(in.cy) <= 1e5)) BadField(in.cy, "kinect.intrinsics.cy", "must be in [-1e5, 1e5] px");
+  if (!(min_range > 0)) BadField(min_range, "kinect.min_range", "must be > 0");
+  if (!(max_range > min_range && max_range <= 100))
+    BadField(max_range, "kinect.max_range", "must be > min_range and <= 100 m");
+  if (!(baseline > 0)) BadField(baseline, "kinect.baseline", "must be > 0");
+  if (!(disparity_focal > 0)) BadField(disparity_focal, "kinect.disparity_focal", "must be > 0");
   if (!(disparity_subpixel > 0 && disparity_subpixel <= 1))
-    throw Error("kinect.disparity_subpixel: must be in (0, 1]");
-  if (!(grazing_start_deg > 0 && grazing_start_deg <= grazing_full_deg &&
-        grazing_full_deg <= 90))
-    throw Error("kinect.grazing_start_deg/grazing_full_deg: need 0 < start <= full <= 90");
-  if (!(edge_jump > 0)) throw Error("kinect.edge_jump: must be > 0");
+    BadField(disparity_subpixel, "kinect.disparity_subpixel", "must be in (0, 1]");
+  if (!(grazing_start_deg > 0 && grazing_start_deg <= grazing_full_deg && grazing_full_deg <= 90))
+    BadField(grazing_start_deg, "kinect.grazing_start_deg/grazing_full_deg", "need 0 < start <= full <= 90");
+  if (!(edge_jump > 0)) BadField(edge_jump, "kinect.edge_jump", "must be > 0");
   if (!(edge_dropout_probability >= 0 && edge_dropout_probability <= 1))
-    throw Error("kinect.edge_dropout_probability: must be in [0, 1]");
+    BadField(edge_dropout_probability, "kinect.edge_dropout_probability", "must be in [0, 1]");
 }
 
 namespace {

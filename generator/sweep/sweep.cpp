@@ -8,23 +8,26 @@
 #include <string>
 
 #include "common/error.h"
+#include "common/field_error.h"
 #include "common/parallel.h"
 
 namespace drape {
 
 void SweepOptions::Validate() const {
-  if (frames < 1 || frames > 100000) throw Error("sweep.frames: must be in 1..100000");
-  if (!(degrees > 0 && degrees <= 3600)) throw Error("sweep.degrees: must be in (0, 3600]");
-  if (!(frame_rate > 0)) throw Error("sweep.frame_rate: must be > 0");
-  if (!(camera_height > 0 && camera_height < 10)) throw Error("sweep.camera_height: must be in (0, 10) m");
+  if (frames < 1 || frames > 100000) BadField(frames, "sweep.frames", "must be in 1..100000");
+  if (!(degrees > 0 && degrees <= 3600)) BadField(degrees, "sweep.degrees", "must be in (0, 3600]");
+  if (!(frame_rate > 0)) BadField(frame_rate, "sweep.frame_rate", "must be > 0");
+  if (!(camera_height > 0 && camera_height < 10)) BadField(camera_height, "sweep.camera_height", "must be in (0, 10) m");
   if (!(camera_distance > 0.1 && camera_distance < 10))
-    throw Error("sweep.camera_distance: must be in (0.1, 10) m");
-  if (!(gripper_height > 0 && gripper_height < 10)) throw Error("sweep.gripper_height: must be in (0, 10) m");
-  if (!std::isfinite(look_at_height)) throw Error("sweep.look_at_height: must be finite");
+    BadField(camera_distance, "sweep.camera_distance", "must be in (0.1, 10) m");
+  if (!(gripper_height > 0 && gripper_height < 10)) BadField(gripper_height, "sweep.gripper_height", "must be in (0, 10) m");
+  if (!std::isfinite(look_at_height)) BadField(look_at_height, "sweep.look_at_height", "must be finite");
   static const char* isas[] = {"", "sse2", "sse4.2", "avx", "avx2", "avx512"};
   bool known = false;
   for (const char* s : isas) known |= embree_isa == s;
-  if (!known) throw Error("sweep.embree_isa: '" + embree_isa + "' is not one of sse2, sse4.2, avx, avx2, avx512 or empty");
+  if (!known)
+    BadField(embree_isa, "sweep.embree_isa",
+             "'" + embree_isa + "' is not one of sse2, sse4.2, avx, avx2, avx512 or empty");
   kinect.Validate();
 }
 

@@ -1,5 +1,5 @@
 // The non-rigid energy: analytic Jacobians vs central finite differences, every term
-// zero at the rest shape, and the secant LM on small problems.
+// zero at the rest shape (the secant LM itself is tested in runtime/optim).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -9,7 +9,6 @@
 #include "common/rng.h"
 #include "runtime/registration/closest_point.h"
 #include "runtime/registration/energy.h"
-#include "runtime/registration/secant_lm.h"
 #include "runtime/registration/test_meshes.h"
 
 namespace drape::registration {
@@ -116,51 +115,6 @@ TEST(EnergyPrimitives, HingeAngleSignAndGradient) {
       const double fd = (HingeAngle(q[0], q[1], q[2], q[3], nullptr) - HingeAngle(r[0], r[1], r[2], r[3], nullptr)) / 2e-7;
       EXPECT_NEAR(g[3 * v + d], fd, 1e-6) << "vertex " << v << " coord " << d;
     }
-}
-
-// A tiny least-squares problem (Rosenbrock as residuals) for the solver itself.
-class Rosenbrock : public LeastSquaresProblem {
- public:
-  int NumResiduals() const override { return 2; }
-  int NumParameters() const override { return 2; }
-  void Residuals(const Eigen::VectorXd& x, Eigen::VectorXd& r) const override {
-    r.resize(2);
-    r << 10 * (x[1] - x[0] * x[0]), 1 - x[0];
-  }
-  void Jacobian(const Eigen::VectorXd& x, Eigen::SparseMatrix<double, Eigen::RowMajor>& J) const override {
-    J.resize(2, 2);
-    std::vector<Eigen::Triplet<double>> t = {{0, 0, -20 * x[0]}, {0, 1, 10}, {1, 0, -1}, {1, 1, 0}};
-    J.setFromTriplets(t.begin(), t.end());
-  }
-};
-
-TEST(SecantLm, SolvesRosenbrockWithAndWithoutSecantUpdates) {
-  for (bool secant : {true, false}) {
-    Eigen::VectorXd x(2);
-    x << -1.2, 1;
-    SecantLmOptions o;
-    o.secant = secant;
-    o.max_iterations = 200;
-    o.relative_decrease = 0;
-    o.tau = 1e-3;
-    const SecantLmReport rep = SolveSecantLm(Rosenbrock(), x, o);
-    EXPECT_NEAR(x[0], 1, 1e-6) << (secant ? "secant" : "plain") << " " << rep.termination;
-    EXPECT_NEAR(x[1], 1, 1e-6);
-    EXPECT_LT(rep.final_cost, 1e-12);
-    if (secant) EXPECT_GT(rep.secant_updates, 0);
-    std::printf("Rosenbrock %s: %d iterations, %d fresh Jacobians, %d secant updates, %s\n",
-                secant ? "secant" : "plain", rep.iterations, rep.fresh_jacobians, rep.secant_updates,
-                rep.termination.c_str());
-  }
-}
-
-TEST(SecantLm, ValidatesOptions) {
-  SecantLmOptions o;
-  o.refresh_every = 0;
-  EXPECT_THROW(o.Validate(), Error);
-  o = {};
-  o.tau = 0;
-  EXPECT_THROW(o.Validate(), Error);
 }
 
 }  // namespace

@@ -12,7 +12,7 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double Since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
-class EnergyProblem : public LeastSquaresProblem {
+class EnergyProblem : public optim::LeastSquaresProblem {
  public:
   explicit EnergyProblem(const RegistrationEnergy& e) : e_(e) {}
   int NumResiduals() const override { return e_.NumResiduals(); }
@@ -81,7 +81,7 @@ RegistrationResult Register(const TriMesh& source, const TriMesh& target, const 
   Eigen::VectorXd x = RegistrationEnergy::Flatten(res.rigid.V);
   rep.energy_before = energy.Terms(x);
   if (options.nonrigid) {
-    rep.lm = SolveSecantLm(EnergyProblem(energy), x, options.lm);
+    rep.lm = optim::SolveSecantLm(EnergyProblem(energy), x, options.lm);
     res.nonrigid.V = RegistrationEnergy::Unflatten(x);
     rep.energy_after = energy.Terms(x);
   } else {

@@ -16,7 +16,7 @@
 #include "runtime/registration/energy.h"
 #include "runtime/registration/grid.h"
 #include "runtime/registration/rigid.h"
-#include "runtime/registration/secant_lm.h"
+#include "runtime/optim/secant_lm.h"
 
 namespace drape::registration {
 
@@ -34,7 +34,7 @@ struct RegistrationOptions {
   // Fitting term's distance: the grid's refined query (exact distance to the ≤8 stored
   // triangles, continuous inside a cell) when true, the paper's 8-point query when false.
   bool refined_fit = true;
-  SecantLmOptions lm;
+  optim::SecantLmOptions lm;
   void Validate() const;  // throws drape::Error naming the bad field
 };
 
@@ -44,7 +44,7 @@ struct RegistrationReport {
   Similarity rigid;    // steps 1+2: source → rigidly registered S̄
   GridStats grid;
   IcpReport icp;
-  SecantLmReport lm;
+  optim::SecantLmReport lm;
   EnergyTerms energy_before, energy_after;  // weighted terms at S̄ and at the result
   int hinges = 0;
   std::vector<std::string> warnings;

@@ -12,13 +12,23 @@
 // iteration by a finite difference; with analytic Jacobians at hand we instead take a
 // fresh analytic Jacobian every `refresh_every` iterations and whenever a step fails
 // on a Jacobian that has been secant-updated.
+//
+// Without an analytic Jacobian (options.finite_difference_step = δ > 0) this is Madsen's
+// Alg. 3.34 as written: B0 by forward differences (x + δe_j, one residual evaluation per
+// parameter), then per iteration the Broyden update along the step plus, for the next
+// coordinate j in turn, a fresh difference column when |h_j| < 0.8‖h‖ (so B stays good
+// in every direction); no full refresh afterwards. Meant for small dense problems whose
+// residuals are expensive (a cloth simulation per evaluation: trajectory optimisation
+// for folding, δ = 0.1 as in the paper).
+//
+// Shared by registration (analytic, sparse) and folding (finite differences).
 #pragma once
 
 #include <Eigen/Sparse>
 #include <string>
 #include <vector>
 
-namespace drape::registration {
+namespace drape::optim {
 
 class LeastSquaresProblem {
  public:
@@ -26,8 +36,10 @@ class LeastSquaresProblem {
   virtual int NumResiduals() const = 0;
   virtual int NumParameters() const = 0;
   virtual void Residuals(const Eigen::VectorXd& x, Eigen::VectorXd& r) const = 0;
-  // Must return the same sparsity pattern for every x.
-  virtual void Jacobian(const Eigen::VectorXd& x, Eigen::SparseMatrix<double, Eigen::RowMajor>& J) const = 0;
+  // Must return the same sparsity pattern for every x. Problems without one solve with
+  // SecantLmOptions::finite_difference_step > 0 and need not override this (the default
+  // throws).
+  virtual void Jacobian(const Eigen::VectorXd& x, Eigen::SparseMatrix<double, Eigen::RowMajor>& J) const;
 };
 
 struct SecantLmOptions {
@@ -39,6 +51,12 @@ struct SecantLmOptions {
   double step_tolerance = 1e-9;       // stop when ‖h‖ ≤ this·(‖x‖ + this)
   double relative_decrease = 1e-4;    // ... or when `stall_iterations` accepted steps in a
   int stall_iterations = 3;           //     row each decrease F by less than this fraction
+  // > 0: no analytic Jacobian; forward differences with this step (in x's units) and
+  // Madsen's coordinate refresh, as described above (refresh_every is then unused).
+  double finite_difference_step = 0;
+  // > 0: stop before an iteration that could exceed this many residual evaluations
+  // (the initial one and the difference columns included); 0 = no cap.
+  int max_residual_evaluations = 0;
   void Validate() const;
 };
 
@@ -49,6 +67,7 @@ struct SecantLmReport {
   double initial_cost = 0, final_cost = 0;  // ½‖r‖²
   double final_mu = 0;
   std::string termination;
+  int residual_evaluations = 0;  // calls of Residuals (initial, steps, difference columns)
   std::vector<double> cost;  // after every iteration
   double jacobian_seconds = 0, solve_seconds = 0, residual_seconds = 0;  // timing only
   double product_seconds = 0, factor_seconds = 0;  // parts of solve_seconds
@@ -58,4 +77,4 @@ struct SecantLmReport {
 // become non-finite or the linear solve fails.
 SecantLmReport SolveSecantLm(const LeastSquaresProblem& problem, Eigen::VectorXd& x, const SecantLmOptions& options);
 
-}  // namespace drape::registration
+}  // namespace drape::optim

@@ -1,4 +1,4 @@
-#include "runtime/registration/secant_lm.h"
+#include "runtime/optim/secant_lm.h"
 
 #include <Eigen/SparseCholesky>
 #include <algorithm>
@@ -7,7 +7,7 @@
 
 #include "common/error.h"
 
-namespace drape::registration {
+namespace drape::optim {
 
 namespace {
 using Clock = std::chrono::steady_clock;
@@ -31,7 +31,31 @@ void SchubertUpdate(Eigen::SparseMatrix<double, Eigen::RowMajor>& B, const Eigen
     for (int p = outer[i]; p < outer[i + 1]; ++p) val[p] += c * h[inner[p]];
   }
 }
+// Forward-difference Jacobian with a dense pattern: column j = (r(x + δe_j) − r0)/δ.
+template <class Eval>
+void DifferenceJacobian(const Eval& eval, const Eigen::VectorXd& x, const Eigen::VectorXd& r0, double delta,
+                        Eigen::SparseMatrix<double, Eigen::RowMajor>& B) {
+  const int m = static_cast<int>(r0.size()), n = static_cast<int>(x.size());
+  Eigen::MatrixXd D(m, n);
+  Eigen::VectorXd xj = x, rj;
+  for (int j = 0; j < n; ++j) {
+    xj[j] = x[j] + delta;
+    eval(xj, rj);
+    xj[j] = x[j];
+    D.col(j) = rj.allFinite() ? Eigen::VectorXd((rj - r0) / delta) : Eigen::VectorXd::Zero(m);
+  }
+  std::vector<Eigen::Triplet<double>> t;
+  t.reserve(static_cast<size_t>(m) * n);
+  for (int i = 0; i < m; ++i)
+    for (int j = 0; j < n; ++j) t.emplace_back(i, j, D(i, j));
+  B.resize(m, n);
+  B.setFromTriplets(t.begin(), t.end());
+}
 }  // namespace
+
+void LeastSquaresProblem::Jacobian(const Eigen::VectorXd&, Eigen::SparseMatrix<double, Eigen::RowMajor>&) const {
+  throw Error("secant LM: the problem has no analytic Jacobian; set SecantLmOptions.finite_difference_step > 0");
+}
 
 void SecantLmOptions::Validate() const {
   if (max_iterations < 0) throw Error("SecantLmOptions.max_iterations must be >= 0");
@@ -41,6 +65,9 @@ void SecantLmOptions::Validate() const {
   if (!(step_tolerance >= 0)) throw Error("SecantLmOptions.step_tolerance must be >= 0");
   if (!(relative_decrease >= 0 && relative_decrease < 1)) throw Error("SecantLmOptions.relative_decrease must be in [0, 1)");
   if (stall_iterations < 1) throw Error("SecantLmOptions.stall_iterations must be >= 1");
+  if (!(finite_difference_step >= 0 && std::isfinite(finite_difference_step)))
+    throw Error("SecantLmOptions.finite_difference_step must be >= 0 and finite");
+  if (max_residual_evaluations < 0) throw Error("SecantLmOptions.max_residual_evaluations must be >= 0");
 }
 
 SecantLmReport SolveSecantLm(const LeastSquaresProblem& problem, Eigen::VectorXd& x, const SecantLmOptions& options) {
@@ -51,13 +78,22 @@ SecantLmReport SolveSecantLm(const LeastSquaresProblem& problem, Eigen::VectorXd
   Eigen::SparseMatrix<double, Eigen::RowMajor> B;
   Eigen::VectorXd r, r_new, x_new, h, g;
 
+  const bool numeric = options.finite_difference_step > 0;
+  const double delta = options.finite_difference_step;
+  auto eval = [&](const Eigen::VectorXd& at, Eigen::VectorXd& out) {
+    problem.Residuals(at, out);
+    ++rep.residual_evaluations;
+  };
   auto t0 = Clock::now();
-  problem.Residuals(x, r);
+  eval(x, r);
   rep.residual_seconds += Since(t0);
   if (!r.allFinite()) throw NumericalError("secant LM: non-finite initial residuals");
   auto fresh = [&]() {
     const auto t = Clock::now();
-    problem.Jacobian(x, B);
+    if (numeric)
+      DifferenceJacobian(eval, x, r, delta, B);
+    else
+      problem.Jacobian(x, B);
     rep.jacobian_seconds += Since(t);
     ++rep.fresh_jacobians;
   };
@@ -77,10 +113,18 @@ SecantLmReport SolveSecantLm(const LeastSquaresProblem& problem, Eigen::VectorXd
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt;
   bool analysed = false;
   rep.termination = "max_iterations";
+  int coordinate = -1;  // Madsen's j (numeric mode)
+  Eigen::VectorXd x_j, r_j;
 
   for (int k = 0; k < options.max_iterations; ++k) {
     if (g.lpNorm<Eigen::Infinity>() <= options.gradient_tolerance) {
       rep.termination = "gradient";
+      break;
+    }
+    // An iteration costs one evaluation, two with a coordinate refresh.
+    if (options.max_residual_evaluations > 0 &&
+        rep.residual_evaluations + (numeric ? 2 : 1) > options.max_residual_evaluations) {
+      rep.termination = "max_residual_evaluations";
       break;
     }
     t0 = Clock::now();
@@ -103,9 +147,25 @@ SecantLmReport SolveSecantLm(const LeastSquaresProblem& problem, Eigen::VectorXd
       rep.cost.push_back(F);
       break;
     }
+    if (numeric && options.secant) {
+      // Keep B good along every coordinate: refresh column j unless h already probes it.
+      coordinate = (coordinate + 1) % n;
+      if (std::abs(h[coordinate]) < 0.8 * h.norm()) {
+        x_j = x;
+        x_j[coordinate] += delta;
+        t0 = Clock::now();
+        eval(x_j, r_j);
+        rep.residual_seconds += Since(t0);
+        if (r_j.allFinite()) {
+          SchubertUpdate(B, x_j - x, r_j - r);
+          ++rep.secant_updates;
+          btb_valid = false;
+        }
+      }
+    }
     x_new = x + h;
     t0 = Clock::now();
-    problem.Residuals(x_new, r_new);
+    eval(x_new, r_new);
     rep.residual_seconds += Since(t0);
     const double F_new = r_new.allFinite() ? 0.5 * r_new.squaredNorm() : HUGE_VAL;
     // Predicted decrease L(0) − L(h) = ½ hᵀ(μh − g).
@@ -139,7 +199,9 @@ SecantLmReport SolveSecantLm(const LeastSquaresProblem& problem, Eigen::VectorXd
       break;
     }
     const bool stale = updates_since_fresh > 0;
-    const bool refresh = options.secant ? (updates_since_fresh >= options.refresh_every || (rho <= 0 && stale))
+    // Numeric secant mode never refreshes in full (n evaluations): the coordinate
+    // refresh keeps B current instead.
+    const bool refresh = options.secant ? (!numeric && (updates_since_fresh >= options.refresh_every || (rho <= 0 && stale)))
                                          : rho > 0;
     if (refresh) {
       fresh();
@@ -153,4 +215,4 @@ SecantLmReport SolveSecantLm(const LeastSquaresProblem& problem, Eigen::VectorXd
   return rep;
 }
 
-}  // namespace drape::registration
+}  // namespace drape::optim

@@ -1,0 +1,47 @@
+#include "runtime/folding/target.h"
+
+#include <cmath>
+
+#include "common/error.h"
+
+namespace drape::folding {
+
+IdealFold::IdealFold(const FoldLine& line, const Vec2& grasp, const Points3& current, double thickness) {
+  if (!(line.direction.norm() > 1e-9) || !line.direction.allFinite() || !line.point.allFinite())
+    throw Error("fold line: the two points coincide (or are not finite)");
+  if (!(thickness >= 0)) throw Error("fold: thickness must be >= 0");
+  line_ = line;
+  line_.direction.normalize();
+  normal_ = Vec2(-line_.direction.y(), line_.direction.x());
+  const double s = normal_.dot(grasp - line_.point);
+  if (std::abs(s) < 1e-6) throw Error("fold: a grasp point lies on the fold line");
+  if (s < 0) normal_ = -normal_;
+  axis_height_ = (current.rows() ? current.col(1).maxCoeff() : 0.0) + thickness / 2;
+}
+
+double IdealFold::Side(const Vec3& p) const { return normal_.dot(Vec2(p.x(), p.z()) - line_.point); }
+
+bool IdealFold::Folds(const Vec3& p) const { return Side(p) > 0; }
+
+Vec3 IdealFold::Apply(const Vec3& p) const {
+  const double s = Side(p);
+  if (!(s > 0)) return p;
+  const Vec2 q = Vec2(p.x(), p.z()) - 2 * s * normal_;
+  return Vec3(q.x(), 2 * axis_height_ - p.y(), q.y());
+}
+
+Eigen::Matrix3d IdealFold::Rotation(double fraction) const {
+  const Vec3 axis = Axis();
+  // A quarter turn must carry the folded side's normal upwards.
+  const Vec3 n(normal_.x(), 0, normal_.y());
+  const double sign = axis.cross(n).y() > 0 ? 1 : -1;
+  return Eigen::AngleAxisd(sign * M_PI * fraction, axis).toRotationMatrix();
+}
+
+TriMesh TargetShape(const TriMesh& current, const IdealFold& fold) {
+  TriMesh t = current;
+  for (int i = 0; i < t.NumVertices(); ++i) t.V.row(i) = fold.Apply(current.V.row(i).transpose()).transpose();
+  return t;
+}
+
+}  // namespace drape::folding

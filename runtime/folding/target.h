@@ -1,0 +1,46 @@
+// Target shape S_t of a folding step (paper §"Trajectory Optimization"): the ideal
+// geometric fold of the current mesh about the fold line — the part on the grasped
+// side turned over about the line, on top of the rest, one cloth thickness above the
+// stack. The same map sends each grasp point to its target P3.
+#pragma once
+
+#include "common/mesh.h"
+
+namespace drape::folding {
+
+// A line on the table through `point` along `direction` (world x, z; metres).
+struct FoldLine {
+  Vec2 point = Vec2::Zero();
+  Vec2 direction = Vec2::UnitX();
+};
+
+// A half-turn (π) about a horizontal axis over the fold line at `axis_height`: a point
+// p on the folded side goes to its mirror image across the line in x–z and to height
+// 2·axis_height − p.y (the stack's top layer comes to rest `thickness` above it, the
+// bottom layer on top). Points on the other side stay.
+class IdealFold {
+ public:
+  // `grasp` (world x, z) picks the folded side; axis_height = highest current vertex
+  // + thickness/2. Throws drape::Error if the line is degenerate or `grasp` lies on it.
+  IdealFold(const FoldLine& line, const Vec2& grasp, const Points3& current, double thickness);
+
+  bool Folds(const Vec3& p) const;  // on the folded side (strictly)
+  Vec3 Apply(const Vec3& p) const;  // the fold's image of p (identity off the folded side)
+  // The rotation that turns the folded side over, by angle·π (angle in [0, 1]); the
+  // sign makes the folded side pass above the axis.
+  Eigen::Matrix3d Rotation(double fraction) const;
+  const FoldLine& line() const { return line_; }
+  double axis_height() const { return axis_height_; }
+  Vec3 Axis() const { return Vec3(line_.direction.x(), 0, line_.direction.y()); }
+
+ private:
+  double Side(const Vec3& p) const;  // signed distance, > 0 on the folded side
+  FoldLine line_;
+  Vec2 normal_;  // unit, towards the folded side
+  double axis_height_ = 0;
+};
+
+// S_t: every vertex of `current` mapped by the fold (faces unchanged).
+TriMesh TargetShape(const TriMesh& current, const IdealFold& fold);
+
+}  // namespace drape::folding
