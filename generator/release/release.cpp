@@ -189,8 +189,9 @@ Json Counts(const std::vector<Release::EntryInfo>& entries) {
 void CheckFormatVersion(const Json& dataset, const std::string& where) {
   if (!dataset.is_object()) throw Error(where + ": expected a JSON object");
   const Json v = dataset.value("format_version", Json(1));
-  if (!v.is_number_unsigned()) throw Error(where + ": format_version must be a positive integer, got " + v.dump());
-  if (v.get<uint64_t>() > static_cast<uint64_t>(kFormatVersion))
+  if (!v.is_number_integer() || v.get<int64_t>() < 1)
+    throw Error(where + ": format_version must be a positive integer, got " + v.dump());
+  if (v.get<int64_t>() > kFormatVersion)
     throw Error(where + ": release format " + v.dump() + " was written by a newer drape; this drape reads format " +
                 std::to_string(kFormatVersion) + " and older (upgrade drape)");
 }
@@ -958,8 +959,8 @@ Release Release::Open(const fs::path& dir) {
                   "run drape verify " + dir.string() + ")");
   }
   SourceSums(r.dataset_, where);  // checks the shape
-  for (const auto& [written, v] : r.dataset_.value("sources", Json::object()).items())
-    r.sources_[written] = dir / v["path"].get<std::string>();
+  const Json sources = r.dataset_.value("sources", Json::object());  // items() must not outlive it
+  for (const auto& [written, v] : sources.items()) r.sources_[written] = dir / v["path"].get<std::string>();
   return r;
 }
 

@@ -274,7 +274,8 @@ ReleaseWriter::Summary Merge(const std::vector<fs::path>& shard_dirs, const fs::
   if (first.contains("catalog") && first["catalog"].contains("blobs"))
     for (const auto& b : first["catalog"]["blobs"]) meta.catalog_blobs.push_back(b.get<std::string>());
 
-  for (const auto& [written, v] : first.value("sources", Json::object()).items())
+  const Json sources = first.value("sources", Json::object());  // items() must not outlive it
+  for (const auto& [written, v] : sources.items())
     meta.sources.push_back({written, shards[0].SourceFiles().at(written), v.value("path", ""), v.value("sha256", "")});
   auto writer = ReleaseWriter::Open(out, meta);
   const std::set<std::string> done = writer->DoneKeys();
