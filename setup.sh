@@ -24,15 +24,25 @@ PACKAGES=(
   libgtest-dev libgmock-dev libbenchmark-dev
   python3-numpy
   chromium            # headless check of a release's index.html gallery
+  pybind11-dev        # the drape Python package (python/)
+  python3-pytest      # its tests, run from CTest
+  python3-torch       # drape.torch.GarmentDataset
+  nodejs              # npm, for three.js (the gallery's 3D view)
+  npm                 # (nodesource's nodejs provides it: counted as present)
+  zlib1g-dev          # gzip of the gallery's 3D mesh scripts
 )
 
 # Only the benchmarks need these (registration_bench compares with Open3D's ICP).
 BENCH_PACKAGES=(python3-open3d)
 
 install_packages() {
-  local missing=()
+  local missing=() provided
+  # Virtual packages provided by an installed one (nodesource's nodejs provides npm).
+  provided=$(dpkg-query -W -f='${Status} ${Provides}\n' 2>/dev/null | sed -n 's/^install ok installed //p' | tr ',' '\n')
   for p in "${PACKAGES[@]}" "$@"; do
-    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" && continue
+    echo "$provided" | grep -qE "^ *$p( |\$)" && continue
+    missing+=("$p")
   done
   if [ ${#missing[@]} -eq 0 ]; then
     echo "setup: all packages present"
@@ -45,9 +55,37 @@ install_packages() {
   DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
 }
 
+# three.js for the gallery's 3D view, at the version pinned in package-lock.json; the
+# build links it into the drape binary, which copies it into every release.
+install_viewer() {
+  local dir="$BUILD_DIR/viewer"
+  mkdir -p "$dir"
+  if [ -f "$dir/node_modules/three/package.json" ] &&
+     cmp -s generator/release/viewer/package-lock.json "$dir/package-lock.json"; then
+    return
+  fi
+  cp generator/release/viewer/package.json generator/release/viewer/package-lock.json "$dir/"
+  (cd "$dir" && npm ci --no-audit --no-fund --loglevel=error)
+}
+
+# Debian's python3 finds the package built in $BUILD_DIR/python (import drape).
+install_python_path() {
+  local site
+  site=$(/usr/bin/python3 -c 'import sys; print(f"/usr/local/lib/python{sys.version_info.major}.{sys.version_info.minor}/dist-packages")')
+  local sudo=""
+  [ "$(id -u)" -eq 0 ] || sudo="sudo"
+  $sudo mkdir -p "$site"
+  local pkg
+  pkg="$(cd "$BUILD_DIR" && pwd)/python"
+  echo "$pkg" | $sudo tee "$site/drape.pth" > /dev/null
+  echo "setup: /usr/bin/python3 imports drape from $pkg ($site/drape.pth)"
+}
+
 build() {
+  install_viewer
   cmake -S . -B "$BUILD_DIR" -G Ninja -DCMAKE_BUILD_TYPE=Release
   cmake --build "$BUILD_DIR" -j "$JOBS"
+  install_python_path
 }
 
 case "${1:-main}" in

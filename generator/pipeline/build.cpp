@@ -79,14 +79,6 @@ Json MaterialJson(const Material& m) {
           {"bending_stiffness", m.bending_stiffness}};
 }
 
-// Hang options as used for a garment: the material fit is done at the garment's
-// mesh resolution (its edge length), as hang.h recommends.
-HangOptions HangOptionsFor(const Recipe& recipe, const GarmentSpec& g) {
-  HangOptions h = recipe.hang;
-  if (!g.template_name.empty()) h.fit_edge_length = g.options.edge_length;
-  return h;
-}
-
 Json HangStatsJson(const HangStats& s) {
   return {{"sim_time", s.sim_time},
           {"steps", s.steps},
@@ -138,30 +130,7 @@ Entry BuildEntry(const Recipe& recipe, const Job& job, JobCache& cache) {
   std::shared_ptr<const Garment> garment;
   stage("garment", [&] {
     const std::string gkey = job.instance_name + "@" + std::to_string(job.size_scale);
-    garment = cache.impl->garments.Get(gkey, [&] {
-      Garment out;
-      if (!g.template_name.empty()) {
-        TemplateOptions o = g.options;
-        o.seed = job.instance_seed;
-        out = MakeGarment(g.template_name, o);
-      } else {
-        ImportOptions io;
-        io.unit_scale = g.unit_scale;
-        io.category = g.category;
-        io.instance = g.name;
-        out = ImportGarment(g.file, g.anchors, io);
-      }
-      if (job.size_scale != 1.0) {
-        // Size perturbation: the whole pattern scaled about its origin.
-        out.mesh.V *= job.size_scale;
-        if (out.uv.rows()) out.uv *= job.size_scale;
-        for (auto& a : out.anchors) {
-          a.uv *= job.size_scale;
-          a.position *= job.size_scale;
-        }
-      }
-      return out;
-    });
+    garment = cache.impl->garments.Get(gkey, [&] { return MakeJobGarment(recipe, job); });
   });
 
   // The material's stiffness (cached per material values and fit resolution).

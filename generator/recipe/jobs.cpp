@@ -8,12 +8,46 @@
 
 #include "common/error.h"
 #include "common/rng.h"
+#include "garments/io.h"
+#include "garments/templates.h"
 
 namespace drape {
 
 uint64_t InstanceSeed(const Recipe& recipe, const std::string& garment, int instance) {
   const uint64_t s = DeriveSeed(recipe.seed, garment + "/i" + std::to_string(instance));
   return s == 0 ? 1 : s;
+}
+
+Garment MakeJobGarment(const Recipe& recipe, const Job& job) {
+  const GarmentSpec& g = recipe.garments.at(job.garment);
+  Garment out;
+  if (!g.template_name.empty()) {
+    TemplateOptions o = g.options;
+    o.seed = job.instance_seed;
+    out = MakeGarment(g.template_name, o);
+  } else {
+    ImportOptions io;
+    io.unit_scale = g.unit_scale;
+    io.category = g.category;
+    io.instance = g.name;
+    out = ImportGarment(g.file, g.anchors, io);
+  }
+  if (job.size_scale != 1.0) {
+    // Size perturbation: the whole pattern scaled about its origin.
+    out.mesh.V *= job.size_scale;
+    if (out.uv.rows()) out.uv *= job.size_scale;
+    for (auto& a : out.anchors) {
+      a.uv *= job.size_scale;
+      a.position *= job.size_scale;
+    }
+  }
+  return out;
+}
+
+HangOptions HangOptionsFor(const Recipe& recipe, const GarmentSpec& g) {
+  HangOptions h = recipe.hang;
+  if (!g.template_name.empty()) h.fit_edge_length = g.options.edge_length;
+  return h;
 }
 
 std::string Slug(const std::string& key) {

@@ -46,6 +46,15 @@ std::vector<Job> ExpandJobs(const Recipe& recipe);
 // Indices of the jobs of shard K of N (1 <= K <= N): index % N == K − 1.
 std::vector<int> ShardJobs(int num_jobs, int k, int n);
 
+// The garment of a job's instance: the template with the instance's seed (or the
+// imported file), scaled by the job's size perturbation. Deterministic; the build caches
+// it per instance and size, the runtime makes its test garments with it.
+Garment MakeJobGarment(const Recipe& recipe, const Job& job);
+
+// Hang options as used for a garment: the material fit is done at the garment's
+// mesh resolution (its edge length), as hang.h recommends.
+HangOptions HangOptionsFor(const Recipe& recipe, const GarmentSpec& garment);
+
 // "pants/i2/jeans/waist_left" → "pants-i2-jeans-waist_left" (filesystem-safe).
 std::string Slug(const std::string& key);
 

@@ -884,6 +884,13 @@ ReleaseWriter::Summary ReleaseWriter::Finalize() {
 
   WriteFileAtomic(m.dir / "README.md", DatasetCard(dataset, entries));
   WriteFileAtomic(m.dir / "index.html", Gallery(dataset, entries));
+  // The 3D viewer's files: outside entries/, so in SHA256SUMS but not in the digest.
+  std::vector<std::string> top_files;
+  for (const auto& [path, bytes] : GalleryViewerFiles(m.dir, entries)) {
+    fs::create_directories((m.dir / path).parent_path());
+    WriteFileAtomic(m.dir / path, bytes);
+    top_files.push_back(path);
+  }
 
   // build.json: timings only; not in SHA256SUMS.
   const double now = NowSeconds();
@@ -907,7 +914,8 @@ ReleaseWriter::Summary ReleaseWriter::Finalize() {
     sums[base + kEntryJson] = Sha256File(m.dir / "entries" / e.id / kEntryJson);
     s.bytes += fs::file_size(m.dir / "entries" / e.id / kEntryJson);
   }
-  for (const char* f : {"catalog.sqlite", "README.md", "index.html", "dataset.json"}) {
+  for (const char* f : {"catalog.sqlite", "README.md", "index.html", "dataset.json"}) top_files.push_back(f);
+  for (const auto& f : top_files) {
     sums[f] = Sha256File(m.dir / f);
     s.bytes += fs::file_size(m.dir / f);
   }

@@ -66,6 +66,14 @@ std::map<std::string, std::string> SourceSums(const std::vector<SourceFile>& sou
 std::map<std::string, std::string> SourceSums(const Json& dataset, const std::string& where);
 std::string SourcesSha(const std::map<std::string, std::string>& sums);
 
+// The gallery's 3D view (viewer.cpp): whether this build carries the three.js files
+// (./setup.sh installs them), whether an entry can be shown in 3D, and the files to
+// write under viewer/ (paths relative to the release; meshes read from `dir`).
+bool GalleryHas3d();
+bool EntryHas3d(const Release::EntryInfo& e);
+std::vector<std::pair<std::string, std::string>> GalleryViewerFiles(const fs::path& dir,
+                                                                    const std::vector<Release::EntryInfo>& entries);
+
 void FsyncPath(const fs::path& p);  // file or directory; best effort
 std::string HostName();
 

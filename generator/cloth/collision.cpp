@@ -1,0 +1,886 @@
+#include "generator/cloth/collision.h"
+
+#include <Eigen/SVD>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <string>
+
+#include "common/error.h"
+
+namespace drape {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double Since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+constexpr double kTiny = 1e-30;          // m²: below this a segment has zero length
+constexpr double kAccdShrink = 0.1;      // ACCD's s: report when the gap falls below s × initial
+constexpr int kAccdMaxSteps = 2000;      // ACCD step cap; hitting it reports a collision
+constexpr double kMaxZoneAngle = 1.5;    // rad per step: keeps (1−t)I + tR invertible
+constexpr double kRigidTolerance = 1e-7; // m: kinematic nodes further off a rigid fit are non-rigid
+
+// ---------------------------------------------------------------------------------
+// Pairs: a VF pair (vertex, face) or an EE pair (edge, edge) as four node indices and
+// the coefficients c of their closest points: Σ c_k x_k is the vector from the second
+// element's closest point to the first's.
+struct Stencil {
+  std::array<int, 4> n;
+  bool vf;
+};
+using Quad = std::array<Vec3, 4>;
+using Coeffs = std::array<double, 4>;
+
+Quad Gather(const Stencil& s, const Points3& x) {
+  return {x.row(s.n[0]).transpose(), x.row(s.n[1]).transpose(), x.row(s.n[2]).transpose(),
+          x.row(s.n[3]).transpose()};
+}
+Quad Lerp(const Quad& a, const Quad& b, double t) {
+  Quad q;
+  for (int k = 0; k < 4; ++k) q[k] = a[k] + t * (b[k] - a[k]);
+  return q;
+}
+
+// Squared distance and closest-point coefficients of a pair in configuration q.
+double Closest(bool vf, const Quad& q, Coeffs* c) {
+  if (vf) {
+    Vec3 w;
+    const double d2 = PointTriangleDistanceSquared(q[0], q[1], q[2], q[3], c ? &w : nullptr);
+    if (c) *c = {1.0, -w[0], -w[1], -w[2]};
+    return d2;
+  }
+  double s = 0, t = 0;
+  const double d2 = SegmentSegmentDistanceSquared(q[0], q[1], q[2], q[3], &s, &t);
+  if (c) *c = {1 - s, s, -(1 - t), -t};
+  return d2;
+}
+Vec3 Combine(const Coeffs& c, const Quad& q) { return c[0] * q[0] + c[1] * q[1] + c[2] * q[2] + c[3] * q[3]; }
+
+// Changes the relative vector Σ c_k x_k by `delta`, split by inverse mass (Bridson
+// §7.1's weighted impulse). False when every node of the pair is kinematic.
+bool ShiftRelative(const Stencil& s, const Coeffs& c, const Vec3& delta, const Eigen::VectorXd& inv_mass,
+                   Points3& x1) {
+  double denom = 0;
+  for (int k = 0; k < 4; ++k) denom += c[k] * c[k] * inv_mass[s.n[k]];
+  if (!(denom > 0)) return false;
+  for (int k = 0; k < 4; ++k) {
+    const double f = c[k] * inv_mass[s.n[k]] / denom;
+    if (f != 0) x1.row(s.n[k]) += f * delta.transpose();
+  }
+  return true;
+}
+
+// Cloth–cloth Coulomb friction after a normal correction of `dn` (m) along n.
+void PairFriction(const Stencil& s, const Coeffs& c, const Vec3& n, double dn, double mu, const Points3& x0,
+                  const Eigen::VectorXd& inv_mass, Points3& x1) {
+  if (!(mu > 0 && dn > 0)) return;
+  const Vec3 rel = Combine(c, Gather(s, x1)) - Combine(c, Gather(s, x0));
+  const Vec3 rt = rel - rel.dot(n) * n;
+  const double lt = rt.norm();
+  if (lt <= 0) return;
+  ShiftRelative(s, c, -rt * (std::min(lt, mu * dn) / lt), inv_mass, x1);
+}
+
+// ---------------------------------------------------------------------------------
+// Additive CCD (Li, Kaufman & Jiang 2021, Algorithm 1) on the straight path q0 → q1.
+bool AdditiveCCD(bool vf, const Quad& q0, const Quad& q1, double min_separation, double* toi) {
+  Quad p;
+  Vec3 mean = Vec3::Zero();
+  for (int k = 0; k < 4; ++k) {
+    p[k] = q1[k] - q0[k];
+    mean += 0.25 * p[k];
+  }
+  for (auto& v : p) v -= mean;
+  // l_p bounds |relative displacement of the closest points| over the whole path.
+  const double lp = vf ? p[0].norm() + std::max({p[1].norm(), p[2].norm(), p[3].norm()})
+                       : std::max(p[0].norm(), p[1].norm()) + std::max(p[2].norm(), p[3].norm());
+  const double d0 = std::sqrt(Closest(vf, q0, nullptr));
+  if (!(d0 > 0)) {  // touching at the start (or NaN): conservative
+    *toi = 0;
+    return true;
+  }
+  if (lp <= 0) return false;
+  const double xi = std::min(min_separation, 0.5 * d0);
+  const double gap0 = d0 - xi;
+  const double g = kAccdShrink * gap0;
+  double tl = (1 - kAccdShrink) * gap0 / lp;
+  if (tl >= 1) return false;  // the distance cannot drop by gap0 over the path
+  double t = 0;
+  for (int step = 0; step < kAccdMaxSteps; ++step) {
+    const double d = std::sqrt(Closest(vf, Lerp(q0, q1, t + tl), nullptr));
+    if (t > 0 && d - xi < g) break;
+    t += tl;
+    if (t >= 1) return false;
+    tl = 0.9 * (d - xi) / lp;
+  }
+  *toi = t;
+  return true;
+}
+
+// ---------------------------------------------------------------------------------
+// Broad phase: swept, padded AABBs of vertices, edges and faces in a uniform grid.
+struct Aabb {
+  Vec3 lo, hi;
+  bool Overlaps(const Aabb& o) const { return (lo.array() <= o.hi.array()).all() && (o.lo.array() <= hi.array()).all(); }
+};
+
+class Grid {
+ public:
+  explicit Grid(double cell) : inv_(1.0 / cell) {}
+  Eigen::Array3i Cell(const Vec3& p) const {
+    Eigen::Array3i c;
+    for (int a = 0; a < 3; ++a) {
+      const double v = std::floor(p[a] * inv_);
+      c[a] = static_cast<int>(std::clamp(v, -double(kHalf), double(kHalf - 1)));
+    }
+    return c;
+  }
+  static uint64_t Key(const Eigen::Array3i& c) {
+    return (uint64_t(c[0] + kHalf) << 42) | (uint64_t(c[1] + kHalf) << 21) | uint64_t(c[2] + kHalf);
+  }
+  static constexpr int kHalf = 1 << 20;
+
+ private:
+  double inv_;
+};
+
+struct Candidates {
+  std::vector<std::array<int, 2>> vf;  // (vertex, face)
+  std::vector<std::array<int, 2>> ee;  // (edge, edge), first < second
+};
+
+bool FaceHas(const Faces& F, int f, int v) { return F(f, 0) == v || F(f, 1) == v || F(f, 2) == v; }
+bool EdgesShare(const std::array<int, 2>& a, const std::array<int, 2>& b) {
+  return a[0] == b[0] || a[0] == b[1] || a[1] == b[0] || a[1] == b[1];
+}
+
+class BroadPhase {
+ public:
+  BroadPhase(const Faces& F, const std::vector<std::array<int, 2>>& E) : F_(F), E_(E) {}
+
+  // Candidate pairs whose boxes over x0 ∪ x1, each padded by `pad`, overlap; pairs
+  // that share a vertex are left out. Sorted.
+  Candidates Find(const Points3& x0, const Points3& x1, double pad, double cell) {
+    const int nv = static_cast<int>(x0.rows()), ne = static_cast<int>(E_.size()), nf = static_cast<int>(F_.rows());
+    vbox_.resize(nv);
+    for (int i = 0; i < nv; ++i) {
+      const Vec3 a = x0.row(i).transpose(), b = x1.row(i).transpose();
+      vbox_[i] = {a.cwiseMin(b).array() - pad, a.cwiseMax(b).array() + pad};
+    }
+    ebox_.resize(ne);
+    for (int e = 0; e < ne; ++e) ebox_[e] = Union(vbox_[E_[e][0]], vbox_[E_[e][1]]);
+    fbox_.resize(nf);
+    for (int f = 0; f < nf; ++f) fbox_[f] = Union(Union(vbox_[F_(f, 0)], vbox_[F_(f, 1)]), vbox_[F_(f, 2)]);
+    const Grid grid(cell);
+    entries_.clear();
+    std::vector<int> big[3];
+    Insert(grid, vbox_, 0, &big[0]);
+    Insert(grid, ebox_, 1, &big[1]);
+    Insert(grid, fbox_, 2, &big[2]);
+    std::sort(entries_.begin(), entries_.end());
+    Candidates out;
+    ScanCells(grid, &out);
+    AddBig(big, &out);
+    for (auto* list : {&out.vf, &out.ee}) {
+      std::sort(list->begin(), list->end());
+      list->erase(std::unique(list->begin(), list->end()), list->end());
+    }
+    return out;
+  }
+
+ private:
+  static Aabb Union(const Aabb& a, const Aabb& b) { return {a.lo.cwiseMin(b.lo), a.hi.cwiseMax(b.hi)}; }
+
+  void Insert(const Grid& grid, const std::vector<Aabb>& boxes, int kind, std::vector<int>* big) {
+    for (int i = 0; i < static_cast<int>(boxes.size()); ++i) {
+      const Eigen::Array3i lo = grid.Cell(boxes[i].lo), hi = grid.Cell(boxes[i].hi);
+      const Eigen::Array3i span = hi - lo + 1;
+      if (int64_t(span[0]) * span[1] * span[2] > 64) {
+        big->push_back(i);
+        continue;
+      }
+      for (int x = lo[0]; x <= hi[0]; ++x)
+        for (int y = lo[1]; y <= hi[1]; ++y)
+          for (int z = lo[2]; z <= hi[2]; ++z)
+            entries_.push_back({Grid::Key(Eigen::Array3i(x, y, z)), (uint64_t(kind) << 32) | uint64_t(i)});
+    }
+  }
+
+  // A pair overlapping in several cells is emitted once: in the cell holding the
+  // lower corner of the boxes' intersection.
+  bool Owns(const Grid& grid, uint64_t key, const Aabb& a, const Aabb& b) const {
+    return Grid::Key(grid.Cell(a.lo.cwiseMax(b.lo))) == key;
+  }
+
+  void ScanCells(const Grid& grid, Candidates* out) {
+    std::vector<int> cell[3];
+    for (size_t b = 0; b < entries_.size();) {
+      size_t e = b;
+      const uint64_t key = entries_[b].first;
+      for (auto& c : cell) c.clear();
+      for (; e < entries_.size() && entries_[e].first == key; ++e)
+        cell[entries_[e].second >> 32].push_back(int(entries_[e].second & 0xffffffffu));
+      for (int v : cell[0])
+        for (int f : cell[2])
+          if (!FaceHas(F_, f, v) && vbox_[v].Overlaps(fbox_[f]) && Owns(grid, key, vbox_[v], fbox_[f]))
+            out->vf.push_back({v, f});
+      for (size_t i = 0; i < cell[1].size(); ++i)
+        for (size_t j = i + 1; j < cell[1].size(); ++j) {
+          const int a = cell[1][i], c = cell[1][j];
+          if (!EdgesShare(E_[a], E_[c]) && ebox_[a].Overlaps(ebox_[c]) && Owns(grid, key, ebox_[a], ebox_[c]))
+            out->ee.push_back({std::min(a, c), std::max(a, c)});
+        }
+      b = e;
+    }
+  }
+
+  // Elements spanning many cells are tested against everything (rare: huge motions).
+  void AddBig(const std::vector<int> big[3], Candidates* out) {
+    for (int v : big[0])
+      for (int f = 0; f < int(fbox_.size()); ++f)
+        if (!FaceHas(F_, f, v) && vbox_[v].Overlaps(fbox_[f])) out->vf.push_back({v, f});
+    for (int f : big[2])
+      for (int v = 0; v < int(vbox_.size()); ++v)
+        if (!FaceHas(F_, f, v) && vbox_[v].Overlaps(fbox_[f])) out->vf.push_back({v, f});
+    for (int a : big[1])
+      for (int c = 0; c < int(ebox_.size()); ++c)
+        if (c != a && !EdgesShare(E_[a], E_[c]) && ebox_[a].Overlaps(ebox_[c]))
+          out->ee.push_back({std::min(a, c), std::max(a, c)});
+  }
+
+  const Faces& F_;
+  const std::vector<std::array<int, 2>>& E_;
+  std::vector<Aabb> vbox_, ebox_, fbox_;
+  std::vector<std::pair<uint64_t, uint64_t>> entries_;  // (cell key, kind << 32 | index)
+};
+
+std::vector<std::array<int, 2>> MeshEdges(const Faces& F, const Points3& x) {
+  TriMesh m;
+  m.F = F;
+  m.V = x;
+  return UniqueEdges(m);
+}
+
+double MeanEdgeLength(const std::vector<std::array<int, 2>>& E, const Points3& x) {
+  double sum = 0;
+  for (const auto& e : E) sum += (x.row(e[0]) - x.row(e[1])).norm();
+  return E.empty() ? 0 : sum / double(E.size());
+}
+
+// ---------------------------------------------------------------------------------
+// Rigid motions for impact zones.
+struct Rigid {
+  Vec3 c0 = Vec3::Zero(), c1 = Vec3::Zero();  // x ↦ c1 + R (x − c0)
+  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+};
+
+Eigen::Matrix3d RotationFromVector(Vec3 theta) {
+  const double angle = theta.norm();
+  if (!(angle > 0)) return Eigen::Matrix3d::Identity();
+  if (angle > kMaxZoneAngle) theta *= kMaxZoneAngle / angle;
+  return Eigen::AngleAxisd(theta.norm(), theta.normalized()).toRotationMatrix();
+}
+
+// The rigid motion that conserves the zone's linear and angular momentum; positions
+// x0, proposed xin (velocities (xin − x0)/dt, dt cancels).
+Rigid MomentumRigid(const std::vector<int>& zone, const Points3& x0, const Points3& xin,
+                    const Eigen::VectorXd& inv_mass) {
+  double mass = 0;
+  Vec3 c = Vec3::Zero(), d = Vec3::Zero();
+  for (int i : zone) {
+    const double m = 1.0 / inv_mass[i];
+    mass += m;
+    c += m * x0.row(i).transpose();
+    d += m * (xin.row(i) - x0.row(i)).transpose();
+  }
+  c /= mass;
+  d /= mass;
+  Vec3 L = Vec3::Zero();
+  Eigen::Matrix3d I = Eigen::Matrix3d::Zero();
+  for (int i : zone) {
+    const double m = 1.0 / inv_mass[i];
+    const Vec3 r = x0.row(i).transpose() - c;
+    L += m * r.cross((xin.row(i) - x0.row(i)).transpose() - d);
+    I += m * (r.squaredNorm() * Eigen::Matrix3d::Identity() - r * r.transpose());
+  }
+  Rigid out;
+  out.c0 = c;
+  out.c1 = c + d;
+  // Pseudo-inverse: a collinear zone has no inertia (and no momentum) about its line.
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(I, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  svd.setThreshold(1e-12);
+  out.R = RotationFromVector(svd.solve(L));
+  return out;
+}
+
+// Best rigid fit (Kabsch) of the kinematic nodes' prescribed motion x0 → x1.
+Rigid KinematicRigid(const std::vector<int>& nodes, const Points3& x0, const Points3& x1) {
+  Rigid out;
+  for (int i : nodes) {
+    out.c0 += x0.row(i).transpose();
+    out.c1 += x1.row(i).transpose();
+  }
+  out.c0 /= double(nodes.size());
+  out.c1 /= double(nodes.size());
+  if (nodes.size() < 2) return out;
+  Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
+  for (int i : nodes) H += (x0.row(i).transpose() - out.c0) * (x1.row(i).transpose() - out.c1).transpose();
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(H, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  const Vec3 s = svd.singularValues();
+  if (!(s[0] > 0)) return out;
+  if (s[1] <= 1e-9 * s[0]) {  // collinear: the smallest rotation taking the line to the line
+    const Vec3 a = svd.matrixU().col(0), b = svd.matrixV().col(0);
+    out.R = Eigen::Quaterniond::FromTwoVectors(a, b).toRotationMatrix();
+    return out;
+  }
+  Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
+  D(2, 2) = (svd.matrixV() * svd.matrixU().transpose()).determinant() < 0 ? -1 : 1;
+  out.R = svd.matrixV() * D * svd.matrixU().transpose();
+  return out;
+}
+
+// Disjoint sets over nodes, for merging impact zones.
+class UnionFind {
+ public:
+  explicit UnionFind(int n) : parent_(n) { std::iota(parent_.begin(), parent_.end(), 0); }
+  int Find(int a) {
+    while (parent_[a] != a) a = parent_[a] = parent_[parent_[a]];
+    return a;
+  }
+  void Unite(int a, int b) {
+    a = Find(a);
+    b = Find(b);
+    if (a != b) parent_[std::max(a, b)] = std::min(a, b);
+  }
+
+ private:
+  std::vector<int> parent_;
+};
+
+}  // namespace
+
+// ===================================================================================
+// Primitives.
+
+double PointTriangleDistanceSquared(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c, Vec3* w) {
+  // Ericson, Real-Time Collision Detection §5.1.5, returning barycentric weights.
+  const Vec3 ab = b - a, ac = c - a, ap = p - a;
+  Vec3 bary;
+  // Zero-area (or nearly) triangles: the nearest of the three edges.
+  if (!(ab.cross(ac).squaredNorm() > 1e-12 * ab.squaredNorm() * ac.squaredNorm())) {
+    double best = std::numeric_limits<double>::infinity();
+    const Vec3* pts[3] = {&a, &b, &c};
+    for (int k = 0; k < 3; ++k) {
+      double s = 0, t = 0;
+      const double d = SegmentSegmentDistanceSquared(p, p, *pts[k], *pts[(k + 1) % 3], &s, &t);
+      if (d < best) {
+        best = d;
+        bary.setZero();
+        bary[k] = 1 - t;
+        bary[(k + 1) % 3] += t;
+      }
+    }
+    if (w) *w = bary;
+    return best;
+  }
+  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
+  const Vec3 bp = p - b, cp = p - c;
+  const double d3 = ab.dot(bp), d4 = ac.dot(bp), d5 = ab.dot(cp), d6 = ac.dot(cp);
+  const double vc = d1 * d4 - d3 * d2, vb = d5 * d2 - d1 * d6, va = d3 * d6 - d5 * d4;
+  if (d1 <= 0 && d2 <= 0) {
+    bary = {1, 0, 0};
+  } else if (d3 >= 0 && d4 <= d3) {
+    bary = {0, 1, 0};
+  } else if (vc <= 0 && d1 >= 0 && d3 <= 0 && d1 - d3 > 0) {
+    const double v = d1 / (d1 - d3);
+    bary = {1 - v, v, 0};
+  } else if (d6 >= 0 && d5 <= d6) {
+    bary = {0, 0, 1};
+  } else if (vb <= 0 && d2 >= 0 && d6 <= 0 && d2 - d6 > 0) {
+    const double v = d2 / (d2 - d6);
+    bary = {1 - v, 0, v};
+  } else if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0 && (d4 - d3) + (d5 - d6) > 0) {
+    const double v = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+    bary = {0, 1 - v, v};
+  } else {
+    const double v = vb / (va + vb + vc), u = vc / (va + vb + vc);
+    bary = {1 - v - u, v, u};
+  }
+  if (w) *w = bary;
+  return (p - (bary[0] * a + bary[1] * b + bary[2] * c)).squaredNorm();
+}
+
+double SegmentSegmentDistanceSquared(const Vec3& p0, const Vec3& p1, const Vec3& q0, const Vec3& q1, double* s_out,
+                                     double* t_out) {
+  // Ericson §5.1.9, with a relative parallelism test.
+  const Vec3 d1 = p1 - p0, d2 = q1 - q0, r = p0 - q0;
+  const double a = d1.squaredNorm(), e = d2.squaredNorm(), f = d2.dot(r);
+  double s = 0, t = 0;
+  if (a <= kTiny && e <= kTiny) {
+    s = t = 0;
+  } else if (a <= kTiny) {
+    t = std::clamp(f / e, 0.0, 1.0);
+  } else {
+    const double c = d1.dot(r);
+    if (e <= kTiny) {
+      s = std::clamp(-c / a, 0.0, 1.0);
+    } else {
+      const double b = d1.dot(d2), denom = a * e - b * b;
+      s = denom > 1e-14 * a * e ? std::clamp((b * f - c * e) / denom, 0.0, 1.0) : 0.0;
+      t = (b * s + f) / e;
+      if (t < 0) {
+        t = 0;
+        s = std::clamp(-c / a, 0.0, 1.0);
+      } else if (t > 1) {
+        t = 1;
+        s = std::clamp((b - c) / a, 0.0, 1.0);
+      }
+    }
+  }
+  if (s_out) *s_out = s;
+  if (t_out) *t_out = t;
+  return ((p0 + s * d1) - (q0 + t * d2)).squaredNorm();
+}
+
+bool VertexTriangleCCD(const Vec3& p0, const Vec3& a0, const Vec3& b0, const Vec3& c0, const Vec3& p1,
+                       const Vec3& a1, const Vec3& b1, const Vec3& c1, double min_separation, double* toi) {
+  double t = 0;
+  const bool hit = AdditiveCCD(true, {p0, a0, b0, c0}, {p1, a1, b1, c1}, min_separation, &t);
+  if (hit && toi) *toi = t;
+  return hit;
+}
+
+bool EdgeEdgeCCD(const Vec3& pa0, const Vec3& pb0, const Vec3& qa0, const Vec3& qb0, const Vec3& pa1,
+                 const Vec3& pb1, const Vec3& qa1, const Vec3& qb1, double min_separation, double* toi) {
+  double t = 0;
+  const bool hit = AdditiveCCD(false, {pa0, pb0, qa0, qb0}, {pa1, pb1, qa1, qb1}, min_separation, &t);
+  if (hit && toi) *toi = t;
+  return hit;
+}
+
+double MinimumNonAdjacentDistance(const Faces& F, const Points3& x) {
+  const auto E = MeshEdges(F, x);
+  if (F.rows() == 0 || x.rows() == 0) return std::numeric_limits<double>::infinity();
+  const double cell = std::max(MeanEdgeLength(E, x), 1e-6);
+  const Vec3 extent = x.colwise().maxCoeff() - x.colwise().minCoeff();
+  BroadPhase broad(F, E);
+  // Grow the search radius r until some pair lies within it: every pair closer than
+  // r has overlapping boxes when each is padded by r/2.
+  for (double r = 0.25 * cell;; r *= 4) {
+    const Candidates cand = broad.Find(x, x, 0.5 * r, std::max(cell, r));
+    double best = std::numeric_limits<double>::infinity();
+    for (const auto& [v, f] : cand.vf)
+      best = std::min(best, PointTriangleDistanceSquared(x.row(v), x.row(F(f, 0)), x.row(F(f, 1)), x.row(F(f, 2))));
+    for (const auto& [a, b] : cand.ee)
+      best = std::min(best,
+                      SegmentSegmentDistanceSquared(x.row(E[a][0]), x.row(E[a][1]), x.row(E[b][0]), x.row(E[b][1])));
+    best = std::sqrt(best);
+    if (best <= r) return best;
+    if (r > 2 * extent.norm()) return best;  // every pair was a candidate
+  }
+}
+
+// ===================================================================================
+// Options.
+
+void BoxCollider::Validate() const {
+  auto bad = [](const char* field, const std::string& what) {
+    throw Error(std::string("collision: BoxCollider.") + field + " " + what);
+  };
+  if (!pose.matrix().allFinite()) bad("pose", "must be finite");
+  if (!((pose.linear().transpose() * pose.linear() - Eigen::Matrix3d::Identity()).norm() < 1e-6))
+    bad("pose", "must be a rigid transform (orthonormal rotation)");
+  if (!(half_extents.array() > 0).all() || !half_extents.allFinite()) bad("half_extents", "must be > 0 m");
+  if (!(friction >= 0 && friction <= 10)) bad("friction", "must be in [0, 10]");
+}
+
+void CollisionOptions::Validate() const {
+  auto bad = [](const char* field, const std::string& what) {
+    throw Error(std::string("collision: ") + field + " " + what);
+  };
+  if (!(thickness > 0 && thickness < 0.1)) bad("thickness", "must be in (0, 0.1) m");
+  if (!(min_separation > 0 && min_separation < thickness)) bad("min_separation", "must be in (0, thickness) m");
+  if (!(repulsion_fraction > 0 && repulsion_fraction <= 1)) bad("repulsion_fraction", "must be in (0, 1]");
+  if (!(max_strain < 10)) bad("max_strain", "must be < 10 (≤ 0: off)");
+  if (!(max_compression >= 0 && max_compression < 1)) bad("max_compression", "must be in [0, 1)");
+  if (strain_iterations < 0 || strain_iterations > 10000) bad("strain_iterations", "must be in [0, 10000]");
+  if (!(strain_lead_weight >= 0 && strain_lead_weight <= 1)) bad("strain_lead_weight", "must be in [0, 1]");
+  if (proximity_iterations < 0 || proximity_iterations > 100) bad("proximity_iterations", "must be in [0, 100]");
+  if (ccd_iterations < 0 || ccd_iterations > 1000) bad("ccd_iterations", "must be in [0, 1000]");
+  if (max_zone_iterations < 0 || max_zone_iterations > 100000) bad("max_zone_iterations", "must be in [0, 100000]");
+  if (!(cloth_friction >= 0 && cloth_friction <= 10)) bad("cloth_friction", "must be in [0, 10]");
+}
+
+
+// ===================================================================================
+// One Apply call.
+namespace {
+
+struct Hit {
+  Stencil s;
+  double toi;
+};
+
+struct ApplyContext {
+  const Faces& F;
+  const std::vector<std::array<int, 2>>& E;
+  const Points3& rest;
+  const CollisionOptions& opt;
+  const Points3& x0;
+  Points3& x1;
+  const Eigen::VectorXd& inv_mass;
+  double dt;
+  double cell;
+  CollisionReport& rep;
+  BroadPhase broad;
+  Candidates cand;
+  Points3 box_ref;  // the x1 the candidates were found for
+  bool have_cand = false;
+
+  Stencil VF(int v, int f) const { return {{v, F(f, 0), F(f, 1), F(f, 2)}, true}; }
+  Stencil EE(int a, int b) const { return {{E[a][0], E[a][1], E[b][0], E[b][1]}, false}; }
+
+  // Candidates padded by thickness/2 on x0 ∪ box_ref; still valid for CCD (pad ξ/2)
+  // while every node's x1 stays within its box grown by (thickness − ξ)/2.
+  const Candidates& Fresh() {
+    const auto t0 = Clock::now();
+    bool valid = have_cand;
+    const double m = 0.5 * (opt.thickness - opt.min_separation);
+    for (int i = 0; valid && i < x1.rows(); ++i) {
+      const Vec3 a = x0.row(i).transpose(), b = box_ref.row(i).transpose(), p = x1.row(i).transpose();
+      valid = ((p.array() >= a.cwiseMin(b).array() - m) && (p.array() <= a.cwiseMax(b).array() + m)).all();
+    }
+    if (!valid) {
+      cand = broad.Find(x0, x1, 0.5 * opt.thickness, cell);
+      box_ref = x1;
+      have_cand = true;
+    }
+    rep.broad_seconds += Since(t0);
+    return cand;
+  }
+};
+
+// ---- strain limiting ------------------------------------------------------------
+// Hop distance of every node from the kinematic nodes (INT_MAX: none reachable).
+std::vector<int> HopLevels(const std::vector<int>& start, const std::vector<int>& adj, const Eigen::VectorXd& inv_mass) {
+  const int n = static_cast<int>(inv_mass.size());
+  std::vector<int> level(n, std::numeric_limits<int>::max()), queue;
+  for (int i = 0; i < n; ++i)
+    if (inv_mass[i] == 0) {
+      level[i] = 0;
+      queue.push_back(i);
+    }
+  for (size_t q = 0; q < queue.size(); ++q) {
+    const int v = queue[q];
+    for (int k = start[v]; k < start[v + 1]; ++k)
+      if (level[adj[k]] == std::numeric_limits<int>::max()) {
+        level[adj[k]] = level[v] + 1;
+        queue.push_back(adj[k]);
+      }
+  }
+  return level;
+}
+
+void LimitStrain(ApplyContext& cx, const Eigen::VectorXd& rest_lengths, const std::vector<int>& level) {
+  const auto t0 = Clock::now();
+  const double hi = cx.opt.max_strain > 0 ? 1 + cx.opt.max_strain : std::numeric_limits<double>::infinity();
+  const double lo = cx.opt.max_compression > 0 ? 1 - cx.opt.max_compression : 0;
+  if (!std::isfinite(hi) && !(lo > 0)) return;
+  // Edges ordered by their hop level (stable: by index within a level).
+  const int ne = static_cast<int>(cx.E.size());
+  std::vector<int> order(ne);
+  std::iota(order.begin(), order.end(), 0);
+  auto edge_level = [&](int e) { return std::min(level[cx.E[e][0]], level[cx.E[e][1]]); };
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return edge_level(a) < edge_level(b); });
+  for (int it = 0; it < cx.opt.strain_iterations; ++it) {
+    double worst = 0;  // largest relative violation corrected in this sweep
+    for (const int e : order) {
+      const int i = cx.E[e][0], j = cx.E[e][1];
+      double wi = cx.inv_mass[i], wj = cx.inv_mass[j];
+      if (level[i] < level[j]) wi *= cx.opt.strain_lead_weight;
+      if (level[j] < level[i]) wj *= cx.opt.strain_lead_weight;
+      const double L0 = rest_lengths[e];
+      if (!(L0 > 0) || !(wi + wj > 0)) continue;
+      const Vec3 d = (cx.x1.row(j) - cx.x1.row(i)).transpose();
+      const double l = d.norm();
+      double target = l;
+      if (l > hi * L0) target = hi * L0;
+      else if (l < lo * L0 && l > 0) target = lo * L0;
+      else continue;
+      worst = std::max(worst, std::abs(l - target) / L0);
+      const Vec3 corr = d * ((l - target) / l);
+      cx.x1.row(i) += (wi / (wi + wj)) * corr.transpose();
+      cx.x1.row(j) -= (wj / (wi + wj)) * corr.transpose();
+      ++cx.rep.strain_corrections;
+    }
+    if (worst < 1e-6) break;
+  }
+  cx.rep.strain_seconds += Since(t0);
+}
+
+// ---- proximity repulsion (Bridson §7.2) -------------------------------------------
+bool RepelPair(ApplyContext& cx, const Stencil& s) {
+  const Quad q0 = Gather(s, cx.x0), q1 = Gather(s, cx.x1);
+  Coeffs c0, c1;
+  const double d0 = std::sqrt(Closest(s.vf, q0, &c0)), d1 = std::sqrt(Closest(s.vf, q1, &c1));
+  double h = cx.opt.thickness;
+  if (std::min(d0, d1) >= h || !(d0 > 0)) return false;  // far, or touching at x0 (the CCD's job)
+  // Pairs closer than thickness in the flat garment (seams, small triangles) keep their rest distance.
+  h = std::min(h, std::sqrt(Closest(s.vf, Gather(s, cx.rest), nullptr)));
+  if (std::min(d0, d1) >= h) return false;
+  const Vec3 u0 = Combine(c0, q0) / d0;  // x0 is intersection-free: its side is the right one
+  Coeffs c;
+  Vec3 n;
+  double target;
+  if (d0 < h) {
+    c = c0;
+    n = u0;
+    target = d0 + cx.opt.repulsion_fraction * (h - d0);
+  } else {  // far at x0, close at x1: stop at the thickness, on x0's side
+    c = c1;
+    n = d1 > 0 ? Vec3(Combine(c1, q1) / d1) : u0;
+    if (n.dot(u0) < 0) n = -n;
+    target = h;
+  }
+  const double sep = Combine(c, q1).dot(n);
+  if (sep >= target) return false;
+  if (!ShiftRelative(s, c, (target - sep) * n, cx.inv_mass, cx.x1)) return false;
+  PairFriction(s, c, n, target - sep, cx.opt.cloth_friction, cx.x0, cx.inv_mass, cx.x1);
+  return true;
+}
+
+void Repel(ApplyContext& cx) {
+  const Candidates& cand = cx.Fresh();
+  const auto t0 = Clock::now();
+  for (int it = 0; it < cx.opt.proximity_iterations; ++it) {
+    int moved = 0;
+    for (const auto& [v, f] : cand.vf) moved += RepelPair(cx, cx.VF(v, f));
+    for (const auto& [a, b] : cand.ee) moved += RepelPair(cx, cx.EE(a, b));
+    cx.rep.proximity_pairs += moved;
+    if (moved == 0) break;
+  }
+  cx.rep.proximity_seconds += Since(t0);
+}
+
+// ---- static boxes --------------------------------------------------------------------
+// Puts a node whose path enters the box (grown by pad) back on the face it entered
+// through, with Coulomb friction on its tangential displacement. True if it moved.
+bool CollideNode(const BoxCollider& box, double pad, const Vec3& x0, Vec3& x1) {
+  const Eigen::Isometry3d inv = box.pose.inverse(Eigen::Isometry);
+  const Vec3 p0 = inv * x0, h = box.half_extents.array() + pad;
+  Vec3 p1 = inv * x1;
+  const Vec3 d = p1 - p0;
+  double enter = 0, exit = 1;
+  int axis = -1;
+  for (int a = 0; a < 3; ++a) {  // slab test of the open box against the segment
+    if (d[a] == 0) {
+      if (std::abs(p0[a]) >= h[a]) return false;
+      continue;
+    }
+    double t1 = (-h[a] - p0[a]) / d[a], t2 = (h[a] - p0[a]) / d[a];
+    if (t1 > t2) std::swap(t1, t2);
+    if (t1 > enter) enter = t1, axis = a;
+    exit = std::min(exit, t2);
+  }
+  if (!(enter < exit)) return false;
+  double side;
+  if (axis >= 0) {
+    side = p0[axis] > 0 ? 1 : -1;
+  } else {  // x0 on or inside the surface (resting contact): its nearest face
+    (h - p0.cwiseAbs()).minCoeff(&axis);
+    side = p0[axis] >= 0 ? 1 : -1;
+  }
+  const double depth = std::abs(side * h[axis] - p1[axis]);
+  p1[axis] = side * h[axis];
+  const int u = (axis + 1) % 3, v = (axis + 2) % 3;
+  const Eigen::Vector2d slide(p1[u] - p0[u], p1[v] - p0[v]);
+  const double len = slide.norm(), stop = box.friction * depth;
+  const Eigen::Vector2d kept = len <= stop ? Eigen::Vector2d::Zero() : Eigen::Vector2d(slide * (1 - stop / len));
+  p1[u] = p0[u] + kept[0];
+  p1[v] = p0[v] + kept[1];
+  x1 = box.pose * p1;
+  return true;
+}
+
+void HandleColliders(ApplyContext& cx, const std::vector<BoxCollider>& colliders) {
+  const auto t0 = Clock::now();
+  for (int i = 0; i < cx.x1.rows() && !colliders.empty(); ++i) {
+    if (cx.inv_mass[i] == 0) continue;
+    const Vec3 a = cx.x0.row(i).transpose();
+    Vec3 b = cx.x1.row(i).transpose();
+    bool hit = false;
+    for (const BoxCollider& box : colliders) hit |= CollideNode(box, 0.5 * cx.opt.thickness, a, b);
+    if (hit) {
+      cx.x1.row(i) = b.transpose();
+      ++cx.rep.collider_contacts;
+    }
+  }
+  cx.rep.collider_seconds += Since(t0);
+}
+
+// ---- continuous collision detection and impulses (Bridson §7.3) -------------------------
+// Colliding pairs on x0 → x1; pairs whose nodes all lie in one rigid zone are skipped.
+std::vector<Hit> Detect(ApplyContext& cx, const std::vector<int>* zone_of) {
+  const Candidates& cand = cx.Fresh();
+  const auto t0 = Clock::now();
+  std::vector<Hit> hits;
+  auto test = [&](const Stencil& s) {
+    if (zone_of) {
+      const int z = (*zone_of)[s.n[0]];
+      if (z >= 0 && (*zone_of)[s.n[1]] == z && (*zone_of)[s.n[2]] == z && (*zone_of)[s.n[3]] == z) return;
+    }
+    double toi = 0;
+    if (AdditiveCCD(s.vf, Gather(s, cx.x0), Gather(s, cx.x1), cx.opt.min_separation, &toi)) hits.push_back({s, toi});
+  };
+  for (const auto& [v, f] : cand.vf) test(cx.VF(v, f));
+  for (const auto& [a, b] : cand.ee) test(cx.EE(a, b));
+  cx.rep.ccd_seconds += Since(t0);
+  return hits;
+}
+
+// Removes the approaching relative normal motion of a pair at its time of impact.
+void Impulse(ApplyContext& cx, const Hit& hit) {
+  const Quad q0 = Gather(hit.s, cx.x0), q1 = Gather(hit.s, cx.x1);
+  const Quad qt = Lerp(q0, q1, hit.toi);
+  Coeffs c;
+  const double d = std::sqrt(Closest(hit.s.vf, qt, &c));
+  Vec3 n = Combine(c, qt);
+  if (!(d > 0)) n = Combine(c, q0);  // touching at the impact: the direction at x0
+  if (!(n.norm() > 0)) return;
+  n.normalize();
+  const double vn = (Combine(c, q1) - Combine(c, q0)).dot(n);
+  if (vn >= 0) return;
+  if (ShiftRelative(hit.s, c, -vn * n, cx.inv_mass, cx.x1))
+    PairFriction(hit.s, c, n, -vn, cx.opt.cloth_friction, cx.x0, cx.inv_mass, cx.x1);
+}
+
+// ---- rigid impact zones (Provot 1997, Bridson §7.4) ----------------------------------
+// Moves the zone's free nodes rigidly; returns false when its kinematic nodes moved non-rigidly.
+bool MoveZone(ApplyContext& cx, const std::vector<int>& zone, const Points3& xin) {
+  std::vector<int> held;
+  for (int i : zone)
+    if (cx.inv_mass[i] == 0) held.push_back(i);
+  const Rigid r = held.empty() ? MomentumRigid(zone, cx.x0, xin, cx.inv_mass) : KinematicRigid(held, cx.x0, cx.x1);
+  bool rigid = true;
+  for (int i : held)
+    rigid &= (r.c1 + r.R * (cx.x0.row(i).transpose() - r.c0) - cx.x1.row(i).transpose()).norm() <= kRigidTolerance;
+  for (int i : zone)
+    if (cx.inv_mass[i] != 0) cx.x1.row(i) = (r.c1 + r.R * (cx.x0.row(i).transpose() - r.c0)).transpose();
+  return rigid;
+}
+
+// Zones as node lists (ordered by smallest node) and the node → zone map.
+std::vector<std::vector<int>> BuildZones(UnionFind& uf, const std::vector<char>& in_zone, std::vector<int>* zone_of) {
+  std::vector<std::vector<int>> zones;
+  std::vector<int> of_root(in_zone.size(), -1);
+  zone_of->assign(in_zone.size(), -1);
+  for (int i = 0; i < static_cast<int>(in_zone.size()); ++i) {
+    if (!in_zone[i]) continue;
+    const int root = uf.Find(i);
+    if (of_root[root] < 0) {
+      of_root[root] = static_cast<int>(zones.size());
+      zones.emplace_back();
+    }
+    zones[of_root[root]].push_back(i);
+    (*zone_of)[i] = of_root[root];
+  }
+  return zones;
+}
+
+void ImpactZones(ApplyContext& cx, std::vector<Hit> hits) {
+  const auto t0 = Clock::now();
+  const double ccd_before = cx.rep.ccd_seconds, broad_before = cx.rep.broad_seconds;
+  cx.rep.fail_safe_used = true;
+  const int n = static_cast<int>(cx.x1.rows());
+  const Points3 xin = cx.x1;  // zone momenta come from the motion proposed here
+  UnionFind uf(n);
+  std::vector<char> in_zone(n, 0), nonrigid_node(n, 0);
+  std::vector<int> zone_of;
+  std::vector<std::vector<int>> zones;
+  while (!hits.empty()) {
+    if (cx.rep.zone_iterations == cx.opt.max_zone_iterations) {  // last resort: one zone
+      std::fill(in_zone.begin(), in_zone.end(), 1);
+      for (int i = 1; i < n; ++i) uf.Unite(0, i);
+      cx.rep.reverted = true;
+    }
+    ++cx.rep.zone_iterations;
+    for (const Hit& h : hits)
+      for (int k = 0; k < 4; ++k) {
+        in_zone[h.s.n[k]] = 1;
+        uf.Unite(h.s.n[0], h.s.n[k]);
+      }
+    zones = BuildZones(uf, in_zone, &zone_of);
+    for (const auto& zone : zones)
+      if (!MoveZone(cx, zone, xin)) {
+        cx.rep.nonrigid_kinematic = true;
+        for (int i : zone) nonrigid_node[i] = 1;
+      }
+    hits = Detect(cx, &zone_of);
+    if (cx.rep.reverted) break;
+  }
+  cx.rep.impact_zones = static_cast<int>(zones.size());
+  if (cx.rep.nonrigid_kinematic) {  // pairs inside a non-rigid zone are not covered: count them
+    for (int i = 0; i < n; ++i)
+      if (nonrigid_node[i]) zone_of[i] = -1;
+    hits = Detect(cx, &zone_of);
+  }
+  cx.rep.remaining_collisions = static_cast<int>(hits.size());
+  cx.rep.zone_seconds += Since(t0) - (cx.rep.ccd_seconds - ccd_before) - (cx.rep.broad_seconds - broad_before);
+}
+
+}  // namespace
+
+CollisionHandler::CollisionHandler(const Faces& F, const Points3& rest, const CollisionOptions& options)
+    : F_(F), rest_(rest), num_vertices_(static_cast<int>(rest.rows())), options_(options) {
+  options_.Validate();
+  if (F.rows() > 0 && (F.minCoeff() < 0 || F.maxCoeff() >= num_vertices_))
+    throw Error("collision: face index out of range for " + std::to_string(num_vertices_) + " vertices");
+  if (!rest.allFinite()) throw Error("collision: rest positions must be finite");
+  edges_ = MeshEdges(F, rest);
+  rest_lengths_.resize(static_cast<Eigen::Index>(edges_.size()));
+  for (size_t e = 0; e < edges_.size(); ++e)
+    rest_lengths_[Eigen::Index(e)] = (rest.row(edges_[e][0]) - rest.row(edges_[e][1])).norm();
+  mean_edge_length_ = MeanEdgeLength(edges_, rest);
+  adjacency_start_.assign(num_vertices_ + 1, 0);
+  for (const auto& e : edges_) ++adjacency_start_[e[0] + 1], ++adjacency_start_[e[1] + 1];
+  std::partial_sum(adjacency_start_.begin(), adjacency_start_.end(), adjacency_start_.begin());
+  adjacency_.resize(adjacency_start_.back());
+  std::vector<int> fill(adjacency_start_.begin(), adjacency_start_.end() - 1);
+  for (const auto& e : edges_) adjacency_[fill[e[0]]++] = e[1], adjacency_[fill[e[1]]++] = e[0];
+}
+
+CollisionReport CollisionHandler::Apply(const Points3& x0, Points3& x1, const Eigen::VectorXd& inv_mass, double dt,
+                                        const std::vector<BoxCollider>& colliders) {
+  const int n = num_vertices_;
+  if (x0.rows() != n || x1.rows() != n || inv_mass.size() != n)
+    throw Error("collision: Apply expects x0, x1 and inv_mass with " + std::to_string(n) + " rows (got " +
+                std::to_string(x0.rows()) + ", " + std::to_string(x1.rows()) + ", " +
+                std::to_string(inv_mass.size()) + ")");
+  if (!(dt > 0 && std::isfinite(dt))) throw Error("collision: dt must be > 0 s");
+  if (!inv_mass.allFinite() || (n > 0 && inv_mass.minCoeff() < 0)) throw Error("collision: inv_mass must be finite and >= 0");
+  if (!x0.allFinite()) throw Error("collision: x0 must be finite");
+  if (!x1.allFinite()) throw NumericalError("collision: the proposed positions x1 are not finite");
+  for (const BoxCollider& box : colliders) box.Validate();
+
+  CollisionReport rep;
+  const double cell = std::max(mean_edge_length_, 2 * options_.thickness);
+  ApplyContext cx{F_, edges_, rest_, options_, x0, x1, inv_mass, dt, cell, rep, BroadPhase(F_, edges_), {}, {}};
+  LimitStrain(cx, rest_lengths_, HopLevels(adjacency_start_, adjacency_, inv_mass));
+  Repel(cx);
+  HandleColliders(cx, colliders);
+  std::vector<Hit> hits;
+  for (;;) {
+    hits = Detect(cx, nullptr);
+    if (hits.empty() || rep.ccd_passes == options_.ccd_iterations) break;
+    ++rep.ccd_passes;
+    rep.ccd_collisions += static_cast<int>(hits.size());
+    std::stable_sort(hits.begin(), hits.end(), [](const Hit& a, const Hit& b) { return a.toi < b.toi; });
+    for (const Hit& h : hits) Impulse(cx, h);
+  }
+  if (!hits.empty()) ImpactZones(cx, std::move(hits));
+  return rep;
+}
+
+}  // namespace drape

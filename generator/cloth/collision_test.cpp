@@ -1,0 +1,573 @@
+#include "generator/cloth/collision.h"
+
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/intersections.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+
+#include "common/error.h"
+#include "common/rng.h"
+
+namespace drape {
+namespace {
+
+using K = CGAL::Exact_predicates_inexact_constructions_kernel;
+
+// ---- helpers ----------------------------------------------------------------------
+
+Vec3 RandomVec(Rng& rng, double scale) { return Vec3(rng.Uniform(-1, 1), rng.Uniform(-1, 1), rng.Uniform(-1, 1)) * scale; }
+
+// nx × ny nodes, spacing h, in the plane z = z0 (offset by `first` node indices).
+void AddSheet(int nx, int ny, double h, double z0, std::vector<Vec3>* V, std::vector<Eigen::Vector3i>* F) {
+  const int first = static_cast<int>(V->size());
+  for (int j = 0; j < ny; ++j)
+    for (int i = 0; i < nx; ++i) V->push_back(Vec3(i * h, j * h, z0));
+  for (int j = 0; j + 1 < ny; ++j)
+    for (int i = 0; i + 1 < nx; ++i) {
+      const int a = first + j * nx + i, b = a + 1, c = a + nx, d = c + 1;
+      if ((i + j) % 2 == 0) {
+        F->push_back({a, b, d});
+        F->push_back({a, d, c});
+      } else {
+        F->push_back({a, b, c});
+        F->push_back({b, d, c});
+      }
+    }
+}
+
+TriMesh ToMesh(const std::vector<Vec3>& V, const std::vector<Eigen::Vector3i>& F) {
+  TriMesh m;
+  m.V.resize(static_cast<int>(V.size()), 3);
+  m.F.resize(static_cast<int>(F.size()), 3);
+  for (size_t i = 0; i < V.size(); ++i) m.V.row(i) = V[i].transpose();
+  for (size_t i = 0; i < F.size(); ++i) m.F.row(i) = F[i].transpose();
+  return m;
+}
+
+// Stacked sheets (nx × ny nodes each, spacing h, gap between layers).
+TriMesh Layers(int layers, int nx, int ny, double h, double gap) {
+  std::vector<Vec3> V;
+  std::vector<Eigen::Vector3i> F;
+  for (int l = 0; l < layers; ++l) AddSheet(nx, ny, h, l * gap, &V, &F);
+  return ToMesh(V, F);
+}
+
+K::Triangle_3 Tri(const Points3& x, const Faces& F, int f) {
+  auto P = [&](int k) { return K::Point_3(x(F(f, k), 0), x(F(f, k), 1), x(F(f, k), 2)); };
+  return K::Triangle_3(P(0), P(1), P(2));
+}
+
+// Pairs of faces that share no vertex and intersect (exact predicates).
+int IntersectingPairs(const Faces& F, const Points3& x) {
+  const int nf = static_cast<int>(F.rows());
+  std::vector<Eigen::AlignedBox3d> box(nf);
+  for (int f = 0; f < nf; ++f)
+    for (int k = 0; k < 3; ++k) box[f].extend(Vec3(x.row(F(f, k))));
+  int count = 0;
+  for (int f = 0; f < nf; ++f)
+    for (int g = f + 1; g < nf; ++g) {
+      bool share = false;
+      for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b) share |= F(f, a) == F(g, b);
+      if (share || !box[f].intersects(box[g])) continue;
+      const auto tf = Tri(x, F, f), tg = Tri(x, F, g);
+      if (!tf.is_degenerate() && !tg.is_degenerate() && CGAL::do_intersect(tf, tg)) ++count;
+    }
+  return count;
+}
+
+// Intersecting pairs at `samples` + 1 evenly spaced states on the path x0 → x1.
+int PathIntersections(const Faces& F, const Points3& x0, const Points3& x1, int samples) {
+  int worst = 0;
+  for (int k = 0; k <= samples; ++k) {
+    const double t = double(k) / samples;
+    worst = std::max(worst, IntersectingPairs(F, Points3(x0 + t * (x1 - x0))));
+  }
+  return worst;
+}
+
+double BruteMinimumDistance(const Faces& F, const Points3& x) {
+  TriMesh m;
+  m.F = F;
+  m.V = x;
+  const auto E = UniqueEdges(m);
+  double best = std::numeric_limits<double>::infinity();
+  for (int v = 0; v < x.rows(); ++v)
+    for (int f = 0; f < F.rows(); ++f)
+      if (F(f, 0) != v && F(f, 1) != v && F(f, 2) != v)
+        best = std::min(best, PointTriangleDistanceSquared(x.row(v), x.row(F(f, 0)), x.row(F(f, 1)), x.row(F(f, 2))));
+  for (size_t a = 0; a < E.size(); ++a)
+    for (size_t b = a + 1; b < E.size(); ++b) {
+      if (E[a][0] == E[b][0] || E[a][0] == E[b][1] || E[a][1] == E[b][0] || E[a][1] == E[b][1]) continue;
+      best = std::min(best, SegmentSegmentDistanceSquared(x.row(E[a][0]), x.row(E[a][1]), x.row(E[b][0]),
+                                                          x.row(E[b][1])));
+    }
+  return std::sqrt(best);
+}
+
+// ---- distance primitives -------------------------------------------------------------
+
+TEST(CollisionPrimitives, PointTriangleMatchesEricsonAndWeights) {
+  Rng rng(DeriveSeed(1, "pt"));
+  for (int trial = 0; trial < 2000; ++trial) {
+    const Vec3 p = RandomVec(rng, 1), a = RandomVec(rng, 1), b = RandomVec(rng, 1), c = RandomVec(rng, 1);
+    Vec3 w;
+    const double d2 = PointTriangleDistanceSquared(p, a, b, c, &w);
+    const Vec3 q = ClosestPointOnTriangle(p, a, b, c);
+    EXPECT_NEAR(d2, (p - q).squaredNorm(), 1e-12);
+    EXPECT_NEAR(w.sum(), 1, 1e-12);
+    EXPECT_GE(w.minCoeff(), -1e-12);
+    EXPECT_NEAR((w[0] * a + w[1] * b + w[2] * c - q).norm(), 0, 1e-9);
+  }
+}
+
+TEST(CollisionPrimitives, PointTriangleDegenerate) {
+  Rng rng(DeriveSeed(1, "pt-degenerate"));
+  for (int trial = 0; trial < 1000; ++trial) {
+    const Vec3 p = RandomVec(rng, 1), a = RandomVec(rng, 1), dir = RandomVec(rng, 1);
+    // collinear, two coincident, all coincident
+    const std::array<std::array<Vec3, 3>, 3> tris = {{{a, a + 0.3 * dir, a + dir},
+                                                      {a, a, a + dir},
+                                                      {a, a, a}}};
+    for (const auto& t : tris) {
+      Vec3 w;
+      const double d2 = PointTriangleDistanceSquared(p, t[0], t[1], t[2], &w);
+      ASSERT_TRUE(std::isfinite(d2) && w.allFinite());
+      double ref = std::numeric_limits<double>::infinity();
+      for (int k = 0; k < 3; ++k) ref = std::min(ref, SegmentSegmentDistanceSquared(p, p, t[k], t[(k + 1) % 3]));
+      EXPECT_NEAR(d2, ref, 1e-12);
+      EXPECT_NEAR((p - (w[0] * t[0] + w[1] * t[1] + w[2] * t[2])).squaredNorm(), d2, 1e-12);
+    }
+  }
+}
+
+TEST(CollisionPrimitives, SegmentSegmentAgainstSampling) {
+  Rng rng(DeriveSeed(1, "ss"));
+  for (int trial = 0; trial < 400; ++trial) {
+    Vec3 p0 = RandomVec(rng, 1), p1 = RandomVec(rng, 1), q0 = RandomVec(rng, 1), q1 = RandomVec(rng, 1);
+    if (trial % 4 == 1) q1 = q0 + 0.7 * (p1 - p0);  // parallel
+    if (trial % 4 == 2) p1 = p0;                   // zero length
+    if (trial % 4 == 3) q1 = q0 = p0 + 0.5 * (p1 - p0) + Vec3(0, 0, 0.1);
+    double s = -1, t = -1;
+    const double d2 = SegmentSegmentDistanceSquared(p0, p1, q0, q1, &s, &t);
+    ASSERT_TRUE(std::isfinite(d2));
+    ASSERT_TRUE(s >= 0 && s <= 1 && t >= 0 && t <= 1);
+    EXPECT_NEAR(d2, ((p0 + s * (p1 - p0)) - (q0 + t * (q1 - q0))).squaredNorm(), 1e-12);
+    double ref = std::numeric_limits<double>::infinity();
+    const int N = 200;
+    for (int i = 0; i <= N; ++i)
+      for (int j = 0; j <= N; ++j)
+        ref = std::min(ref, ((p0 + (p1 - p0) * (double(i) / N)) - (q0 + (q1 - q0) * (double(j) / N))).squaredNorm());
+    EXPECT_LE(d2, ref + 1e-12);
+    EXPECT_GE(std::sqrt(d2), std::sqrt(ref) - 0.02);  // sampling resolution
+  }
+}
+
+// ---- CCD: analytic cases ------------------------------------------------------------------
+
+constexpr double kXi = 1e-4;
+
+TEST(CollisionCCD, NodePassingThroughFace) {
+  const Vec3 a(0, 0, 0), b(0.05, 0, 0), c(0, 0.05, 0);
+  double toi = -1;
+  ASSERT_TRUE(VertexTriangleCCD(Vec3(0.01, 0.01, 0.01), a, b, c, Vec3(0.01, 0.01, -0.01), a, b, c, kXi, &toi));
+  EXPECT_LT(toi, 0.5);
+  EXPECT_GE(0.01 - 0.02 * toi, kXi);  // the distance at toi keeps the margin
+  EXPECT_GT(toi, 0.4);
+}
+
+TEST(CollisionCCD, NodeMovingParallelToFaceIsNoCrossing) {
+  const Vec3 a(0, 0, 0), b(0.05, 0, 0), c(0, 0.05, 0);
+  double toi = -1;
+  EXPECT_FALSE(VertexTriangleCCD(Vec3(0.005, 0.01, 0.002), a, b, c, Vec3(0.025, 0.01, 0.002), a, b, c, kXi, &toi));
+}
+
+TEST(CollisionCCD, CrossingEdges) {  // an X: one edge passes through the other
+  double toi = -1;
+  ASSERT_TRUE(EdgeEdgeCCD(Vec3(-0.02, 0, 0.005), Vec3(0.02, 0, 0.005), Vec3(0, -0.02, -0.005), Vec3(0, 0.02, -0.005),
+                          Vec3(-0.02, 0, -0.015), Vec3(0.02, 0, -0.015), Vec3(0, -0.02, -0.005), Vec3(0, 0.02, -0.005),
+                          kXi, &toi));
+  EXPECT_LT(toi, 0.5);
+  // Passing beside each other (offset beyond the edge's end) is no collision.
+  EXPECT_FALSE(EdgeEdgeCCD(Vec3(-0.02, 0, 0.005), Vec3(0.02, 0, 0.005), Vec3(0, 0.03, -0.005), Vec3(0, 0.07, -0.005),
+                           Vec3(-0.02, 0, -0.015), Vec3(0.02, 0, -0.015), Vec3(0, 0.03, -0.005), Vec3(0, 0.07, -0.005),
+                           kXi, &toi));
+}
+
+TEST(CollisionCCD, ParallelEdgesApproaching) {
+  const Vec3 q0(0, 0, 0), q1(0.03, 0, 0);
+  double toi = -1;
+  // Through each other: reported before touching.
+  ASSERT_TRUE(EdgeEdgeCCD(Vec3(0.01, 0, 0.01), Vec3(0.04, 0, 0.01), q0, q1, Vec3(0.01, 0, -0.01),
+                          Vec3(0.04, 0, -0.01), q0, q1, kXi, &toi));
+  EXPECT_LT(toi, 0.5);
+  EXPECT_GE(0.01 - 0.02 * toi, kXi);
+  // Stopping 3 mm short: not reported.
+  EXPECT_FALSE(EdgeEdgeCCD(Vec3(0.01, 0, 0.01), Vec3(0.04, 0, 0.01), q0, q1, Vec3(0.01, 0, 0.003),
+                           Vec3(0.04, 0, 0.003), q0, q1, kXi, &toi));
+}
+
+TEST(CollisionCCD, NodeSlidingAlongEdge) {
+  // The node slides 20 mm past the triangle's edge a–b, 0.5 mm outside it, in its plane.
+  const Vec3 a(0, 0, 0), b(0.05, 0, 0), c(0.02, 0.04, 0);
+  double toi = -1;
+  EXPECT_FALSE(VertexTriangleCCD(Vec3(0.01, -0.0005, 0), a, b, c, Vec3(0.03, -0.0005, 0), a, b, c, kXi, &toi));
+  // As an edge–edge pair (the node's own edge points away from a–b).
+  EXPECT_FALSE(EdgeEdgeCCD(Vec3(0.01, -0.0005, 0), Vec3(0.01, -0.03, 0), a, b, Vec3(0.03, -0.0005, 0),
+                           Vec3(0.03, -0.03, 0), a, b, kXi, &toi));
+  // Drifting onto the edge instead: reported.
+  EXPECT_TRUE(VertexTriangleCCD(Vec3(0.01, -0.0005, 0.0), a, b, c, Vec3(0.03, 0.0005, 0.0), a, b, c, kXi, &toi));
+}
+
+TEST(CollisionCCD, DegenerateFacesAndEdges) {
+  // Zero-area face (collinear) that the node passes through.
+  const Vec3 a(0, 0, 0), b(0.02, 0, 0), c(0.04, 0, 0);
+  double toi = -1;
+  ASSERT_TRUE(VertexTriangleCCD(Vec3(0.01, 0, 0.01), a, b, c, Vec3(0.01, 0, -0.01), a, b, c, kXi, &toi));
+  EXPECT_TRUE(std::isfinite(toi) && toi >= 0 && toi < 0.5);
+  // All three corners at one point.
+  ASSERT_TRUE(VertexTriangleCCD(Vec3(0, 0, 0.01), a, a, a, Vec3(0, 0, -0.01), a, a, a, kXi, &toi));
+  EXPECT_TRUE(std::isfinite(toi));
+  // Zero-length edge (a point) passing through an edge.
+  ASSERT_TRUE(EdgeEdgeCCD(Vec3(0.01, 0, 0.01), Vec3(0.01, 0, 0.01), a, c, Vec3(0.01, 0, -0.01),
+                          Vec3(0.01, 0, -0.01), a, c, kXi, &toi));
+  EXPECT_TRUE(std::isfinite(toi));
+  // Two zero-length edges that never meet.
+  EXPECT_FALSE(EdgeEdgeCCD(a, a, b, b, a + Vec3(0, 0.01, 0), a + Vec3(0, 0.01, 0), b, b, kXi, &toi));
+  // Touching at the start: conservatively a collision at t = 0.
+  ASSERT_TRUE(VertexTriangleCCD(Vec3(0.01, 0.0, 0), a, b, Vec3(0, 0.03, 0), Vec3(0.01, 0, 0.01), a, b,
+                                Vec3(0, 0.03, 0), kXi, &toi));
+  EXPECT_EQ(toi, 0);
+}
+
+// ---- CCD: never misses (seeded random trajectories against a sampled reference) --------
+
+// Distance of the pair at time t along the straight path.
+double PathDistance(bool vf, const std::array<Vec3, 4>& q0, const std::array<Vec3, 4>& q1, double t) {
+  std::array<Vec3, 4> q;
+  for (int k = 0; k < 4; ++k) q[k] = q0[k] + t * (q1[k] - q0[k]);
+  return std::sqrt(vf ? PointTriangleDistanceSquared(q[0], q[1], q[2], q[3])
+                      : SegmentSegmentDistanceSquared(q[0], q[1], q[2], q[3]));
+}
+
+void CheckNeverMisses(bool vf) {
+  Rng rng(DeriveSeed(2, vf ? "ccd-vf" : "ccd-ee"));
+  int reported = 0, touching = 0;
+  for (int trial = 0; trial < 1500; ++trial) {
+    std::array<Vec3, 4> q0, q1;
+    for (int k = 0; k < 4; ++k) {
+      q0[k] = RandomVec(rng, 0.02);
+      q1[k] = q0[k] + RandomVec(rng, 0.02);
+    }
+    if (trial % 2 == 0) {
+      // Make the pair touch exactly at a random time t*: shift the first element so that
+      // its closest point meets the other element's point there.
+      const double ts = rng.Uniform(0.05, 0.95);
+      std::array<Vec3, 4> qs;
+      for (int k = 0; k < 4; ++k) qs[k] = q0[k] + ts * (q1[k] - q0[k]);
+      const double u = rng.Uniform(0, 1), v = rng.Uniform(0, 1 - u);
+      const Vec3 target = vf ? Vec3(qs[1] + u * (qs[2] - qs[1]) + v * (qs[3] - qs[1])) : Vec3(qs[2] + u * (qs[3] - qs[2]));
+      const Vec3 mine = vf ? qs[0] : Vec3(qs[0] + v * (qs[1] - qs[0]));
+      const Vec3 shift = target - mine;
+      for (int k = 0; k < (vf ? 1 : 2); ++k) {
+        q0[k] += shift;
+        q1[k] += shift;
+      }
+    }
+    const double d0 = PathDistance(vf, q0, q1, 0);
+    const double xi = std::min(kXi, 0.5 * d0);
+    double min_sampled = std::numeric_limits<double>::infinity();
+    const int N = 4000;
+    for (int i = 0; i <= N; ++i) min_sampled = std::min(min_sampled, PathDistance(vf, q0, q1, double(i) / N));
+    double toi = -1;
+    const bool hit = vf ? VertexTriangleCCD(q0[0], q0[1], q0[2], q0[3], q1[0], q1[1], q1[2], q1[3], kXi, &toi)
+                        : EdgeEdgeCCD(q0[0], q0[1], q0[2], q0[3], q1[0], q1[1], q1[2], q1[3], kXi, &toi);
+    if (min_sampled < xi || trial % 2 == 0) {
+      ++touching;
+      ASSERT_TRUE(hit) << "missed collision in trial " << trial << " (sampled distance " << min_sampled << ")";
+    }
+    reported += hit;
+    if (hit) {  // the distance stays above ξ up to the reported time of impact
+      for (int i = 0; i <= 200; ++i) ASSERT_GE(PathDistance(vf, q0, q1, toi * i / 200), xi * 0.999) << trial;
+    }
+  }
+  EXPECT_GE(touching, 750);
+  EXPECT_LT(reported, 1500);  // not everything is reported
+}
+
+TEST(CollisionCCD, VertexTriangleNeverMisses) { CheckNeverMisses(true); }
+TEST(CollisionCCD, EdgeEdgeNeverMisses) { CheckNeverMisses(false); }
+
+// ---- minimum non-adjacent distance ----------------------------------------------------------
+
+TEST(CollisionDistance, MinimumNonAdjacentDistanceMatchesBruteForce) {
+  Rng rng(DeriveSeed(3, "mind"));
+  for (int trial = 0; trial < 6; ++trial) {
+    TriMesh m = Layers(2, 6, 5, 0.01, 0.004 + 0.01 * trial);
+    for (int i = 0; i < m.V.rows(); ++i) m.V.row(i) += RandomVec(rng, 0.002).transpose();
+    const double ref = BruteMinimumDistance(m.F, m.V);
+    EXPECT_NEAR(MinimumNonAdjacentDistance(m.F, m.V), ref, 1e-12) << trial;
+  }
+  // One triangle: no non-adjacent pair.
+  const TriMesh one = ToMesh({Vec3(0, 0, 0), Vec3(0.01, 0, 0), Vec3(0, 0.01, 0)}, {{0, 1, 2}});
+  EXPECT_TRUE(std::isinf(MinimumNonAdjacentDistance(one.F, one.V)));
+}
+
+// ---- Apply ------------------------------------------------------------------------------------
+
+CollisionOptions TestOptions() {
+  CollisionOptions o;
+  o.thickness = 0.004;
+  o.max_strain = 0;  // off unless a test needs it
+  return o;
+}
+
+TEST(CollisionApply, TriangleDroppedThroughAFaceStaysAbove) {
+  // A big triangle at z = 0 and a small one 10 mm above, proposed 20 mm below it.
+  std::vector<Vec3> V = {Vec3(-0.1, -0.1, 0), Vec3(0.1, -0.1, 0), Vec3(0, 0.1, 0),
+                         Vec3(0, 0, 0.01), Vec3(0.01, 0, 0.01), Vec3(0, 0.01, 0.01)};
+  std::vector<Eigen::Vector3i> F = {{0, 1, 2}, {3, 4, 5}};
+  const TriMesh m = ToMesh(V, F);
+  CollisionHandler handler(m.F, m.V, TestOptions());
+  Points3 x1 = m.V;
+  x1.bottomRows(3).col(2).array() -= 0.02;
+  const Eigen::VectorXd inv_mass = Eigen::VectorXd::Ones(6);
+  const CollisionReport rep = handler.Apply(m.V, x1, inv_mass, 1.0 / 240, {});
+  EXPECT_GT(rep.ccd_collisions + rep.proximity_pairs, 0);
+  EXPECT_EQ(rep.remaining_collisions, 0);
+  EXPECT_EQ(PathIntersections(m.F, m.V, x1, 64), 0);
+  for (int i = 3; i < 6; ++i) EXPECT_GT(x1(i, 2), x1(0, 2));
+}
+
+TEST(CollisionApply, ImpactZoneMovesRigidlyAndConservesMomentum) {
+  std::vector<Vec3> V = {Vec3(-0.1, -0.1, 0), Vec3(0.1, -0.1, 0), Vec3(0, 0.1, 0),
+                         Vec3(0, 0, 0.01), Vec3(0.03, 0, 0.012), Vec3(0, 0.02, 0.01)};
+  std::vector<Eigen::Vector3i> F = {{0, 1, 2}, {3, 4, 5}};
+  const TriMesh m = ToMesh(V, F);
+  CollisionOptions o = TestOptions();
+  o.ccd_iterations = 0;  // straight to the fail-safe
+  o.proximity_iterations = 0;
+  CollisionHandler handler(m.F, m.V, o);
+  Points3 x1 = m.V;
+  x1.bottomRows(3).col(2).array() -= 0.03;
+  x1(4, 0) += 0.01;  // some spin
+  Eigen::VectorXd inv_mass = Eigen::VectorXd::Ones(6);
+  inv_mass[3] = 0.5;
+  const Points3 proposed = x1;
+  const CollisionReport rep = handler.Apply(m.V, x1, inv_mass, 1.0 / 240, {});
+  ASSERT_TRUE(rep.fail_safe_used);
+  EXPECT_EQ(rep.impact_zones, 1);
+  EXPECT_EQ(rep.remaining_collisions, 0);
+  EXPECT_EQ(PathIntersections(m.F, m.V, x1, 64), 0);
+  for (int i = 0; i < 6; ++i)
+    for (int j = i + 1; j < 6; ++j)
+      EXPECT_NEAR((x1.row(i) - x1.row(j)).norm(), (m.V.row(i) - m.V.row(j)).norm(), 1e-12);
+  Vec3 p_before = Vec3::Zero(), p_after = Vec3::Zero();
+  for (int i = 0; i < 6; ++i) {
+    p_before += (proposed.row(i) - m.V.row(i)).transpose() / inv_mass[i];
+    p_after += (x1.row(i) - m.V.row(i)).transpose() / inv_mass[i];
+  }
+  EXPECT_NEAR((p_before - p_after).norm(), 0, 1e-12);
+}
+
+TEST(CollisionApply, ZoneWithAStaticHeldNodeDoesNotMove) {
+  std::vector<Vec3> V = {Vec3(-0.1, -0.1, 0), Vec3(0.1, -0.1, 0), Vec3(0, 0.1, 0),
+                         Vec3(0, 0, 0.01), Vec3(0.03, 0, 0.012), Vec3(0, 0.02, 0.01)};
+  std::vector<Eigen::Vector3i> F = {{0, 1, 2}, {3, 4, 5}};
+  const TriMesh m = ToMesh(V, F);
+  CollisionOptions o = TestOptions();
+  o.ccd_iterations = 0;
+  o.proximity_iterations = 0;
+  CollisionHandler handler(m.F, m.V, o);
+  Points3 x1 = m.V;
+  x1.bottomRows(3).col(2).array() -= 0.03;
+  Eigen::VectorXd inv_mass = Eigen::VectorXd::Ones(6);
+  inv_mass[0] = 0;  // held still
+  x1.row(0) = m.V.row(0);
+  const CollisionReport rep = handler.Apply(m.V, x1, inv_mass, 1.0 / 240, {});
+  ASSERT_TRUE(rep.fail_safe_used);
+  EXPECT_FALSE(rep.nonrigid_kinematic);
+  EXPECT_EQ(rep.remaining_collisions, 0);
+  EXPECT_NEAR((x1 - m.V).norm(), 0, 1e-12);
+}
+
+TEST(CollisionApply, WholeMeshFallbackIsRigid) {
+  TriMesh m = Layers(2, 5, 5, 0.01, 0.006);
+  CollisionOptions o = TestOptions();
+  o.ccd_iterations = 0;
+  o.max_zone_iterations = 0;  // immediately the last resort
+  o.proximity_iterations = 0;
+  CollisionHandler handler(m.F, m.V, o);
+  Rng rng(DeriveSeed(4, "fallback"));
+  Points3 x1 = m.V;
+  for (int i = 0; i < x1.rows(); ++i) x1.row(i) += RandomVec(rng, 0.02).transpose();
+  const CollisionReport rep = handler.Apply(m.V, x1, Eigen::VectorXd::Ones(m.V.rows()), 1.0 / 240, {});
+  ASSERT_TRUE(rep.reverted);
+  EXPECT_EQ(rep.remaining_collisions, 0);
+  for (int i = 0; i < x1.rows(); ++i)
+    for (int j = i + 1; j < x1.rows(); ++j)
+      ASSERT_NEAR((x1.row(i) - x1.row(j)).norm(), (m.V.row(i) - m.V.row(j)).norm(), 1e-12);
+}
+
+// Smooth random displacement field: a few random sinusoids (m).
+Points3 RandomMotion(const Points3& x, Rng& rng, double amplitude) {
+  Points3 d = Points3::Zero(x.rows(), 3);
+  for (int w = 0; w < 4; ++w) {
+    const Vec3 k = RandomVec(rng, 60), a = RandomVec(rng, amplitude);
+    const double phase = rng.Uniform(0, 6.3);
+    for (int i = 0; i < x.rows(); ++i) d.row(i) += (a * std::sin(k.dot(x.row(i).transpose()) + phase)).transpose();
+  }
+  return d;
+}
+
+TEST(CollisionApply, RandomCrumplingStaysIntersectionFree) {
+  for (int seed = 0; seed < 2; ++seed) {
+    Rng rng(DeriveSeed(5, "crumple-" + std::to_string(seed)));
+    const TriMesh m = Layers(2, 8, 8, 0.01, 0.006);
+    CollisionOptions o = TestOptions();
+    o.max_strain = 0.1;
+    CollisionHandler handler(m.F, m.V, o);
+    Eigen::VectorXd inv_mass = Eigen::VectorXd::Ones(m.V.rows());
+    inv_mass[0] = 0;  // a held corner that stays
+    Points3 x = m.V;
+    int zones = 0, ccd = 0;
+    for (int step = 0; step < 20; ++step) {
+      // Squash towards the middle and shake: layers are driven through each other.
+      Points3 x1 = x + RandomMotion(x, rng, 0.012);
+      const Vec3 centre = x.colwise().mean().transpose();
+      for (int i = 0; i < x.rows(); ++i) x1.row(i) += 0.15 * (centre - x.row(i).transpose()).transpose();
+      x1.row(0) = x.row(0);
+      const Points3 x0 = x;
+      const CollisionReport rep = handler.Apply(x0, x1, inv_mass, 1.0 / 240, {});
+      ASSERT_EQ(rep.remaining_collisions, 0);
+      ASSERT_EQ(x1.row(0), x0.row(0));
+      ASSERT_EQ(PathIntersections(m.F, x0, x1, 8), 0) << "seed " << seed << " step " << step;
+      ASSERT_GT(MinimumNonAdjacentDistance(m.F, x1), 0);
+      zones += rep.fail_safe_used;
+      ccd += rep.ccd_collisions;
+      x = x1;
+    }
+    EXPECT_GT(ccd, 0);  // the motion really drove collisions
+    RecordProperty("zones_seed_" + std::to_string(seed), zones);
+  }
+}
+
+TEST(CollisionApply, KinematicNodesFollowTheirPrescribedPath) {
+  // Three held nodes carried by one gripper (a common translation) while the layers are
+  // pushed through each other.
+  Rng rng(DeriveSeed(6, "held"));
+  const TriMesh m = Layers(2, 6, 6, 0.01, 0.005);
+  CollisionHandler handler(m.F, m.V, TestOptions());
+  Eigen::VectorXd inv_mass = Eigen::VectorXd::Ones(m.V.rows());
+  Points3 x1 = m.V + RandomMotion(m.V, rng, 0.015);
+  for (int i = 0; i < x1.rows(); ++i) x1(i, 2) += i < 36 ? -0.01 : 0.01;
+  for (int i : {0, 1, 6}) {
+    inv_mass[i] = 0;
+    x1.row(i) = m.V.row(i) + Eigen::RowVector3d(0.004, -0.002, 0.003);
+  }
+  const Points3 proposed = x1;
+  const CollisionReport rep = handler.Apply(m.V, x1, inv_mass, 1.0 / 240, {});
+  for (int i : {0, 1, 6}) EXPECT_EQ(x1.row(i), proposed.row(i));
+  EXPECT_FALSE(rep.nonrigid_kinematic);
+  EXPECT_EQ(rep.remaining_collisions, 0);
+  EXPECT_EQ(PathIntersections(m.F, m.V, x1, 16), 0);
+}
+
+TEST(CollisionApply, StrainLimitingClampsEdges) {
+  const TriMesh m = Layers(1, 10, 10, 0.01, 0);
+  CollisionOptions o = TestOptions();
+  o.max_strain = 0.06;
+  o.strain_iterations = 200;
+  CollisionHandler handler(m.F, m.V, o);
+  Eigen::VectorXd inv_mass = Eigen::VectorXd::Ones(m.V.rows());
+  inv_mass[0] = 0;
+  Points3 x1 = m.V * 1.3;  // 30 % stretch, node 0 (at the origin) held
+  const CollisionReport rep = handler.Apply(m.V, x1, inv_mass, 1.0 / 240, {});
+  EXPECT_GT(rep.strain_corrections, 0);
+  for (size_t e = 0; e < handler.edges().size(); ++e) {
+    const auto [i, j] = handler.edges()[e];
+    EXPECT_LE((x1.row(i) - x1.row(j)).norm(), 1.06 * handler.rest_lengths()[Eigen::Index(e)] * (1 + 1e-4));
+  }
+  EXPECT_EQ(x1.row(0), m.V.row(0));
+}
+
+TEST(CollisionApply, NodesFallingOntoATableStayAbove) {
+  const TriMesh m = Layers(1, 4, 4, 0.01, 0);
+  BoxCollider table;
+  table.pose.translation() = Vec3(0, 0, -0.02);  // top face at z = −0.01
+  table.half_extents = Vec3(1, 1, 0.01);
+  CollisionOptions o = TestOptions();
+  CollisionHandler handler(m.F, m.V, o);
+  Points3 x1 = m.V;
+  x1.col(2).array() -= 0.05;  // would pass through the whole 2 cm table top
+  const CollisionReport rep = handler.Apply(m.V, x1, Eigen::VectorXd::Ones(m.V.rows()), 1.0 / 240, {table});
+  EXPECT_EQ(rep.collider_contacts, m.V.rows());
+  for (int i = 0; i < x1.rows(); ++i) {
+    EXPECT_NEAR(x1(i, 2), -0.01 + 0.5 * o.thickness, 1e-12);
+    EXPECT_NEAR(x1(i, 0), m.V(i, 0), 1e-12);
+  }
+}
+
+TEST(CollisionApply, CoulombFrictionOnATable) {
+  const TriMesh m = Layers(1, 2, 2, 0.01, 0);
+  BoxCollider table;
+  table.pose.translation() = Vec3(0, 0, -0.1);
+  table.half_extents = Vec3(1, 1, 0.1);  // top at z = 0
+  table.friction = 0.5;
+  CollisionOptions o = TestOptions();
+  CollisionHandler handler(m.F, m.V, o);
+  Points3 x0 = m.V;
+  x0.col(2).setConstant(0.5 * o.thickness);  // resting on the top
+  const double depth = 0.001;                // Δv_n·dt pushed back by the table
+  for (double slide : {0.0004, 0.002}) {     // μ·depth = 0.5 mm: sticks, then slides
+    Points3 x1 = x0;
+    x1.col(0).array() += slide;
+    x1.col(2).array() -= depth;
+    handler.Apply(x0, x1, Eigen::VectorXd::Ones(4), 1.0 / 240, {table});
+    for (int i = 0; i < 4; ++i) {
+      EXPECT_NEAR(x1(i, 2), 0.5 * o.thickness, 1e-12);
+      EXPECT_NEAR(x1(i, 0) - x0(i, 0), slide <= 0.5 * depth ? 0.0 : slide - 0.5 * depth, 1e-12);
+    }
+  }
+}
+
+TEST(CollisionApply, Deterministic) {
+  const TriMesh m = Layers(2, 6, 6, 0.01, 0.005);
+  Rng rng(DeriveSeed(7, "det"));
+  const Points3 proposed = m.V + RandomMotion(m.V, rng, 0.02);
+  CollisionHandler handler(m.F, m.V, TestOptions());
+  Points3 a = proposed, b = proposed;
+  handler.Apply(m.V, a, Eigen::VectorXd::Ones(m.V.rows()), 1.0 / 240, {});
+  CollisionHandler other(m.F, m.V, TestOptions());
+  other.Apply(m.V, b, Eigen::VectorXd::Ones(m.V.rows()), 1.0 / 240, {});
+  EXPECT_EQ(0, std::memcmp(a.data(), b.data(), sizeof(double) * a.size()));
+}
+
+TEST(CollisionOptionsTest, ValidateNamesTheField) {
+  CollisionOptions o;
+  o.thickness = -1;
+  try {
+    o.Validate();
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("thickness"), std::string::npos);
+  }
+  o = CollisionOptions();
+  o.min_separation = 0.01;
+  EXPECT_THROW(o.Validate(), Error);
+  BoxCollider box;
+  box.half_extents = Vec3(1, 0, 1);
+  EXPECT_THROW(box.Validate(), Error);
+  const TriMesh m = Layers(1, 2, 2, 0.01, 0);
+  CollisionHandler handler(m.F, m.V, CollisionOptions());
+  Points3 x1 = m.V;
+  x1(0, 0) = std::nan("");
+  EXPECT_THROW(handler.Apply(m.V, x1, Eigen::VectorXd::Ones(4), 0.01, {}), NumericalError);
+  EXPECT_THROW(handler.Apply(m.V, x1, Eigen::VectorXd::Ones(3), 0.01, {}), Error);
+}
+
+}  // namespace
+}  // namespace drape

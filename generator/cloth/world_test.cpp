@@ -1,0 +1,308 @@
+// The cloth world: grippers that close where they are, follow paths and release; a
+// garment held by two grippers, laid on a table, on a tilted table; determinism.
+#include "generator/cloth/world.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <iostream>
+#include <numbers>
+#include <thread>
+
+#include "common/error.h"
+#include "generator/cloth/measure.h"
+#include "generator/cloth/rectangle.h"
+
+namespace drape {
+namespace {
+
+constexpr double kDeg = std::numbers::pi / 180;
+
+std::shared_ptr<const ClothModel> Model(const Garment& g, double max_strain = 0.06) {
+  ClothMaterial mat;
+  mat.area_density = 0.3;
+  mat.link_stiffness = 0.6;
+  mat.bending = 0.05;
+  mat.max_strain = max_strain;
+  return MakeClothModel(g.mesh, g.layer, mat, ClothOptions{});
+}
+
+// A gripper whose closing axis (x) is the world z axis (pads along world x and y): it
+// pinches a garment lying in the x–y plane across its layers.
+Eigen::Isometry3d PinchPose(const Vec3& at) {
+  Eigen::Isometry3d p = Eigen::Isometry3d::Identity();
+  p.linear() << 0, 1, 0,  //
+                0, 0, 1,  //
+                1, 0, 0;  // columns: gripper x → world z, y → world x, z → world y
+  p.translation() = at;
+  return p;
+}
+
+Vec3 Centroid(const Points3& x) { return x.colwise().mean().transpose(); }
+
+bool SameBytes(const Points3& a, const Points3& b) {
+  return a.rows() == b.rows() && std::memcmp(a.data(), b.data(), sizeof(double) * a.size()) == 0;
+}
+
+TEST(GripperPath, InterpolatesPositionLinearlyAndOrientationBySlerp) {
+  GripperPath path;
+  Eigen::Isometry3d a = Eigen::Isometry3d::Identity(), b = Eigen::Isometry3d::Identity();
+  b.translation() = Vec3(1, 2, 3);
+  b.linear() = Eigen::AngleAxisd(1.0, Vec3::UnitY()).toRotationMatrix();
+  path.times = {1.0, 3.0};
+  path.poses = {a, b};
+  EXPECT_TRUE(path.Pose(0.0).isApprox(a));
+  EXPECT_TRUE(path.Pose(5.0).isApprox(b));
+  const Eigen::Isometry3d mid = path.Pose(2.0);
+  EXPECT_TRUE(mid.translation().isApprox(Vec3(0.5, 1, 1.5)));
+  const Eigen::AngleAxisd aa(mid.linear());
+  EXPECT_NEAR(aa.angle(), 0.5, 1e-12);
+  EXPECT_TRUE(aa.axis().isApprox(Vec3::UnitY()));
+  path.times = {1.0, 1.0};
+  EXPECT_THROW(path.Validate(), Error);
+}
+
+TEST(ClothWorld, GripperClosingOnEmptySpaceReportsAMiss) {
+  const Garment g = MakeRectangleGarment(0.3, 0.4, 0.05, true);
+  ClothWorld w(Model(g), g.mesh.V);
+  const int k = w.AddGripper(Jaw{}, PinchPose(Vec3(0, 0.6, 0)));  // 20 cm above the top edge
+  const GraspReport r = w.Close(k);
+  EXPECT_TRUE(r.miss);
+  EXPECT_EQ(r.nodes, 0);
+  EXPECT_FALSE(w.IsClosed(k));
+}
+
+TEST(ClothWorld, CloseHoldsExactlyTheNodesInsideTheJawOnBothLayers) {
+  const Garment g = MakeRectangleGarment(0.3, 0.4, 0.025, true);
+  ClothWorld w(Model(g), g.mesh.V);
+  Jaw jaw;  // 8 cm opening across the layers (z), 3 × 3 cm pads
+  const Vec3 at(0.02, 0.39, 0);
+  const int k = w.AddGripper(jaw, PinchPose(at));
+  const GraspReport r = w.Close(k);
+  // Brute force: |z| ≤ opening/2, |x − at.x| ≤ pad_length/2, |y − at.y| ≤ pad_width/2.
+  std::vector<int> want;
+  for (int i = 0; i < g.mesh.NumVertices(); ++i) {
+    const Vec3 p = g.mesh.V.row(i).transpose() - at;
+    if (std::abs(p.z()) <= jaw.opening / 2 && std::abs(p.x()) <= jaw.pad_length / 2 &&
+        std::abs(p.y()) <= jaw.pad_width / 2)
+      want.push_back(i);
+  }
+  ASSERT_FALSE(want.empty());
+  EXPECT_FALSE(r.miss);
+  EXPECT_EQ(r.node_ids, want);
+  EXPECT_EQ(r.layers, (std::vector<int>{0, 1}));
+  EXPECT_EQ(w.HeldNodes(k), want);
+}
+
+TEST(ClothWorld, HeldNodesFollowTheGripperPathAndOpenReleasesThem) {
+  const Garment g = MakeRectangleGarment(0.2, 0.3, 0.05, false);
+  ClothWorld w(Model(g), g.mesh.V);
+  const Vec3 top(0, 0.3, 0);
+  const int k = w.AddGripper(Jaw{}, PinchPose(top));
+  const GraspReport r = w.Close(k);
+  ASSERT_FALSE(r.miss);
+  const Points3 held0 = w.positions()(r.node_ids, Eigen::all);
+  GripperPath path;
+  path.times = {0.0, 0.5};
+  path.poses = {PinchPose(top), PinchPose(top + Vec3(0.1, 0.05, 0))};
+  w.SetPath(k, path);
+  while (w.time() < 0.75) w.Step();
+  for (size_t j = 0; j < r.node_ids.size(); ++j)
+    EXPECT_TRUE(w.positions().row(r.node_ids[j]).isApprox(held0.row(j) + Eigen::RowVector3d(0.1, 0.05, 0), 1e-12));
+  EXPECT_TRUE(w.GripperPose(k).translation().isApprox(top + Vec3(0.1, 0.05, 0)));
+  EXPECT_EQ(MeasureCloth(TriMesh{w.positions(), g.mesh.F}, g.mesh.V).intersecting_pairs, 0);
+  w.Open(k);
+  EXPECT_FALSE(w.IsClosed(k));
+  while (w.time() < 1.0) w.Step();
+  // Released: the nodes it held fall with the rest.
+  for (size_t j = 0; j < r.node_ids.size(); ++j)
+    EXPECT_LT(w.positions()(r.node_ids[j], 1), held0(j, 1) + 0.05 - 0.1);
+}
+
+TEST(ClothWorld, HeldByTwoGrippersSpreadApartItSettlesIntersectionFree) {
+  const Garment g = MakeRectangleGarment(0.3, 0.4, 0.04, true);
+  const auto model = Model(g);
+  ClothWorld w(model, g.mesh.V);
+  const Vec3 left(-0.13, 0.38, 0), right(0.13, 0.38, 0);
+  Jaw jaw;
+  jaw.pad_length = jaw.pad_width = 0.06;  // a 2 × 2 patch of this 4 cm mesh, both layers
+  const int a = w.AddGripper(jaw, PinchPose(left)), b = w.AddGripper(jaw, PinchPose(right));
+  const GraspReport ga = w.Close(a), gb = w.Close(b);
+  ASSERT_GE(ga.nodes, 4);
+  ASSERT_GE(gb.nodes, 4);
+  EXPECT_EQ(ga.layers, (std::vector<int>{0, 1}));
+  // Spread them: each moves 5 mm outwards over 0.5 s, stretching the 22.5 cm of top
+  // edge between the held patches by 4.4 % (below the 6 % strain limit: a pull beyond
+  // it would have to stretch edges past the limit).
+  GripperPath pa, pb;
+  pa.times = pb.times = {0.0, 0.5};
+  pa.poses = {PinchPose(left), PinchPose(left - Vec3(0.005, 0, 0))};
+  pb.poses = {PinchPose(right), PinchPose(right + Vec3(0.005, 0, 0))};
+  w.SetPath(a, pa);
+  w.SetPath(b, pb);
+  SettleOptions so;
+  so.time_cap = 6;
+  const SettleReport s = w.Settle(so);
+  EXPECT_TRUE(s.settled) << s.failure;
+  const ClothMeasurement m = MeasureCloth(TriMesh{w.positions(), g.mesh.F}, g.mesh.V);
+  EXPECT_EQ(m.intersecting_pairs, 0);
+  EXPECT_GT(m.min_distance, 0);
+  EXPECT_EQ(w.timings().remaining_collisions, 0);
+  // Strain-limited: no edge beyond the limit (Gauss–Seidel leaves at most a sliver).
+  EXPECT_LE(m.strain.max, model->material.max_strain + 0.01);
+  // Hanging between the grippers: everything below them.
+  EXPECT_LE(w.positions().col(1).maxCoeff(), 0.38 + jaw.pad_width / 2 + 1e-9);
+  std::cout << "two grippers: settled after " << s.sim_time << " s, min distance " << m.min_distance
+            << " m, strain max " << m.strain.max << ", CCD collisions " << w.timings().ccd_collisions
+            << ", fail-safe steps " << w.timings().fail_safe_steps << "\n";
+}
+
+// The garment laid flat, 2 cm above a table top, front layer up.
+struct TableScene {
+  Garment g;
+  std::shared_ptr<const ClothModel> model;
+  Points3 start;
+  BoxCollider table;
+  double top = 0.75;
+};
+
+TableScene LaidOnTable(double tilt_rad, double friction, bool two_layers) {
+  TableScene s;
+  s.g = MakeRectangleGarment(0.24, 0.24, 0.04, two_layers);
+  s.model = Model(s.g);
+  // Flat frame → world: x stays, pattern y → −z, pattern z (front) → +y; then tilt about z.
+  Eigen::Matrix3d flat;
+  flat << 1, 0, 0,  //
+          0, 0, 1,  //
+          0, -1, 0;
+  const Eigen::Matrix3d tilt = Eigen::AngleAxisd(tilt_rad, Vec3::UnitZ()).toRotationMatrix();
+  const Vec3 centre(0, 0.12, 0);  // pattern centre
+  const Vec3 above(0, s.top + 0.02, 0);
+  s.start.resize(s.g.mesh.NumVertices(), 3);
+  for (int i = 0; i < s.g.mesh.NumVertices(); ++i)
+    s.start.row(i) = (tilt * (flat * (s.g.mesh.V.row(i).transpose() - centre) + above - Vec3(0, s.top, 0)) +
+                      Vec3(0, s.top, 0))
+                         .transpose();
+  s.table.half_extents = Vec3(0.5, 0.05, 0.5);
+  s.table.pose.linear() = tilt;
+  s.table.pose.translation() = Vec3(0, s.top, 0) + tilt * Vec3(0, -0.05, 0);
+  s.table.friction = friction;
+  return s;
+}
+
+TEST(ClothWorld, LaidOnATableItRestsOnTheTopAndKeepsItsLayersApart) {
+  TableScene s = LaidOnTable(0, 0.4, true);
+  ClothWorld w(s.model, s.start);
+  w.AddCollider(s.table);
+  SettleOptions so;
+  so.min_time = 0.5;
+  so.time_cap = 4;
+  const SettleReport r = w.Settle(so);
+  EXPECT_TRUE(r.settled) << r.failure;
+  const Points3& x = w.positions();
+  EXPECT_GE(x.col(1).minCoeff(), s.top) << "a node went below the table top";
+  EXPECT_LT(x.col(1).maxCoeff(), s.top + 0.02);  // it fell onto the table
+  const ClothMeasurement m = MeasureCloth(TriMesh{x, s.g.mesh.F}, s.g.mesh.V);
+  EXPECT_EQ(m.intersecting_pairs, 0);
+  EXPECT_GT(m.min_distance, 0);
+  // Front over back: every inner front node is above the back node made at the same
+  // pattern point (the flat garment's layers at z = ±gap/2).
+  int pairs = 0;
+  for (int i = 0; i < s.g.mesh.NumVertices(); ++i) {
+    if (s.g.mesh.V(i, 2) <= 0) continue;
+    for (int j = 0; j < s.g.mesh.NumVertices(); ++j)
+      if (s.g.mesh.V(j, 2) < 0 && (s.g.mesh.V.row(j).head<2>() - s.g.mesh.V.row(i).head<2>()).norm() < 1e-9) {
+        EXPECT_GT(x(i, 1), x(j, 1));
+        ++pairs;
+      }
+  }
+  EXPECT_GT(pairs, 10);
+}
+
+// How far the garment's centroid moved down the slope in 1.5 s on a table tilted by
+// `deg` with Coulomb friction mu.
+double SlideOnTilt(double deg, double mu) {
+  TableScene s = LaidOnTable(deg * kDeg, mu, false);
+  ClothWorld w(s.model, s.start);
+  w.AddCollider(s.table);
+  while (w.time() < 0.25) w.Step();  // land
+  const Vec3 c0 = Centroid(w.positions());
+  while (w.time() < 1.75) w.Step();
+  return (Centroid(w.positions()) - c0).norm();
+}
+
+TEST(ClothWorld, OnATiltedTableItStaysBelowTheFrictionAngleAndSlidesAbove) {
+  const double mu = std::tan(22 * kDeg);
+  EXPECT_LT(SlideOnTilt(17, mu), 0.005);
+  EXPECT_GT(SlideOnTilt(27, mu), 0.05);
+}
+
+TEST(ClothWorld, SameCallsGiveTheSameBytesAlsoInAnotherThread) {
+  const Garment g = MakeRectangleGarment(0.2, 0.3, 0.05, true);
+  auto run = [&] {
+    ClothWorld w(Model(g), g.mesh.V);
+    Points3 dx = Points3::Zero(g.mesh.NumVertices(), 3);
+    for (int i = 0; i < dx.rows(); ++i) dx.row(i) << 0.001 * std::sin(i), 0.001 * std::cos(3 * i), 0.0005 * std::sin(7 * i);
+    w.Perturb(dx);
+    const int k = w.AddGripper(Jaw{}, PinchPose(Vec3(-0.1, 0.3, 0)));
+    w.Close(k);
+    while (w.time() < 0.5) w.Step();
+    return w.State();
+  };
+  const ClothState a = run(), b = run();
+  ClothState c;
+  std::thread t([&] { c = run(); });
+  t.join();
+  EXPECT_TRUE(SameBytes(a.x, b.x));
+  EXPECT_TRUE(SameBytes(a.x, c.x));
+  EXPECT_TRUE(SameBytes(a.v, c.v));
+}
+
+TEST(ClothWorld, StateRoundTripsAndRewinds) {
+  const Garment g = MakeRectangleGarment(0.2, 0.3, 0.05, false);
+  ClothWorld w(Model(g), g.mesh.V);
+  const int k = w.AddGripper(Jaw{}, PinchPose(Vec3(0, 0.3, 0)));
+  w.Close(k);
+  for (int i = 0; i < 20; ++i) w.Step();
+  const ClothState s = w.State();
+  for (int i = 0; i < 20; ++i) w.Step();
+  const ClothState later = w.State();
+  w.SetState(s);
+  for (int i = 0; i < 20; ++i) w.Step();
+  EXPECT_TRUE(SameBytes(w.State().x, later.x));
+  EXPECT_DOUBLE_EQ(w.time(), later.time);
+}
+
+TEST(ClothWorld, BlowUpIsReportedWithItsReason) {
+  const Garment g = MakeRectangleGarment(0.2, 0.3, 0.05, false);
+  ClothOptions o;
+  o.max_speed = 1e-3;  // any motion counts as a blow-up
+  ClothMaterial mat;
+  ClothWorld w(MakeClothModel(g.mesh, g.layer, mat, o), g.mesh.V);
+  w.Close(w.AddGripper(Jaw{}, PinchPose(Vec3(0, 0.3, 0))));
+  const SettleReport r = w.Settle(SettleOptions{});
+  EXPECT_FALSE(r.settled);
+  EXPECT_FALSE(r.timed_out);
+  EXPECT_NE(r.failure.find("blew up"), std::string::npos) << r.failure;
+}
+
+TEST(ClothWorld, BadInputNamesTheField) {
+  const Garment g = MakeRectangleGarment(0.2, 0.3, 0.05, false);
+  ClothMaterial mat;
+  mat.link_stiffness = 2;
+  try {
+    MakeClothModel(g.mesh, g.layer, mat, ClothOptions{});
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("link_stiffness"), std::string::npos);
+  }
+  ClothWorld w(Model(g), g.mesh.V);
+  Jaw jaw;
+  jaw.opening = -1;
+  EXPECT_THROW(w.AddGripper(jaw, Eigen::Isometry3d::Identity()), Error);
+  EXPECT_THROW(w.Close(3), Error);
+}
+
+}  // namespace
+}  // namespace drape
