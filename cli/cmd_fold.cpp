@@ -101,7 +101,7 @@ void WritePng(const fs::path& p, const cv::Mat& img) {
 int Run(const std::vector<std::string>& argv) {
   Args args(argv, {"--no-optimise"},
             {"--plan", "--trials", "--seed", "-o", "--output", "--size", "--edge", "--material", "--category",
-             "--gripper", "--max-sims", "--fan"});
+             "--gripper", "--max-sims", "--fan", "--stiffness"});
   if (args.help()) {
     std::cout << kUsage;
     return 0;
