@@ -166,6 +166,8 @@ Entry BuildEntry(const Recipe& recipe, const Job& job, JobCache& cache) {
   rec["anchor"] = {{"label", anchor->label}, {"vertex", anchor->vertex}, {"uv", {anchor->uv.x(), anchor->uv.y()}}};
   rec["grasp_offset"] = {offset.x(), offset.y(), offset.z()};
   rec["seed"] = job.seed;
+  if (job.turn != 0) rec["turn_radians"] = job.turn;
+  if (job.pose_noise_degrees > 0) rec["gripper_pose_noise_degrees"] = job.pose_noise_degrees;
   if (job.repeat) rec["repeat"] = job.repeat;
   rec["garment_mesh"] = {{"vertices", garment->mesh.NumVertices()}, {"faces", garment->mesh.NumFaces()}};
 
@@ -180,7 +182,7 @@ Entry BuildEntry(const Recipe& recipe, const Job& job, JobCache& cache) {
   try {
     HangResult hung;
     stage("hang", [&] {
-      hung = Hang(*garment, anchor->vertex, offset, job.material, *fit, hang_options, DeriveSeed(job.seed, "hang"));
+      hung = Hang(*garment, anchor->vertex, offset, job.material, *fit, hang_options, job.hang_seed);
     });
     rec["hang"] = HangStatsJson(hung.stats);
     timing["bullet"] = hung.stats.bullet_seconds;
@@ -188,6 +190,10 @@ Entry BuildEntry(const Recipe& recipe, const Job& job, JobCache& cache) {
 
     Sweep sweep;
     stage("sweep", [&] {
+      if (job.turn != 0) {
+        // Turned about the gripper: row vectors, so V·Rᵀ.
+        hung.mesh.V = hung.mesh.V * Eigen::AngleAxisd(job.turn, Vec3::UnitY()).toRotationMatrix().transpose();
+      }
       SweepOptions so = sensing.sweep;
       so.threads = 1;  // jobs run in parallel; one thread each
       sweep = SimulateSweep(hung.mesh, so, DeriveSeed(job.seed, "sweep"));
@@ -204,6 +210,7 @@ Entry BuildEntry(const Recipe& recipe, const Job& job, JobCache& cache) {
     stage("fusion", [&] {
       FusionOptions fo = recipe.fusion;
       fo.threads = 1;
+      if (job.pose_noise_degrees > 0) fo.pose_noise_degrees = job.pose_noise_degrees;
       fused = FuseFrames(sweep.frames, sweep.intrinsics, fo, DeriveSeed(job.seed, "fusion"));
     });
     if (fused.mesh.NumFaces() == 0) return fail("fusion: the fused surface is empty (garment not in view?)");

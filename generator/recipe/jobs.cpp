@@ -111,7 +111,9 @@ std::vector<Job> ExpandJobs(const Recipe& recipe) {
             for (int rep = 0; rep < split.repeats; ++rep) {
               Job j;
               j.index = static_cast<int>(jobs.size());
-              j.key = iname + "/" + mname + "/" + anchor + (split.repeats > 1 ? "/p" + std::to_string(rep) : "");
+              const std::string base = iname + "/" + mname + "/" + anchor + (split.repeats > 1 ? "/p" + std::to_string(rep) : "");
+              const bool ladder = split.name.rfind("test_", 0) == 0;
+              j.key = ladder ? split.name + "/" + base : base;
               j.split = split.name;
               j.sensing = split.sensing;
               j.garment = gi;
@@ -123,6 +125,7 @@ std::vector<Job> ExpandJobs(const Recipe& recipe) {
               j.anchor = anchor;
               j.repeat = rep;
               j.seed = DeriveSeed(recipe.seed, j.key);
+              j.hang_seed = DeriveSeed(DeriveSeed(recipe.seed, base), "hang");
               j.size_scale = size_scale;
               std::copy(jitter, jitter + 4, j.material_jitter);
               if (pt.grasp_offset > 0) {
@@ -130,6 +133,8 @@ std::vector<Job> ExpandJobs(const Recipe& recipe) {
                 const double a = 2 * M_PI * rng.Uniform();
                 j.grasp_offset = pt.grasp_offset * Vec2(std::cos(a), std::sin(a));
               }
+              if (pt.turn) j.turn = 2 * M_PI * Rng(DeriveSeed(j.seed, "turn")).Uniform();
+              j.pose_noise_degrees = pt.gripper_pose_noise;
               jobs.push_back(std::move(j));
             }
           }

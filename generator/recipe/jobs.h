@@ -28,10 +28,15 @@ struct Job {
   std::string anchor;         // anchor label
   int repeat = 0;
   uint64_t seed = 0;          // DeriveSeed(recipe seed, key)
+  // Seed of the hang: DeriveSeed(DeriveSeed(recipe seed, key without a ladder split's
+  // "<split>/" prefix), "hang"), so a ladder rung hangs like the database entry.
+  uint64_t hang_seed = 0;
   // Perturbations (zero / one when the split has none).
   double size_scale = 1.0;    // uniform scale of the instance's mesh and pattern
   double material_jitter[4] = {0, 0, 0, 0};  // applied factors − 1: stretch, friction, density, bending
   Vec2 grasp_offset = Vec2::Zero();          // metres on the flat pattern
+  double turn = 0;                // radians about the gripper (y) axis, applied before the sweep
+  double pose_noise_degrees = 0;  // the fusion's gripper encoder noise (σ per frame)
 };
 
 // Seed of garment instance k (its TemplateOptions::seed): DeriveSeed(recipe seed,

@@ -568,8 +568,19 @@ SplitSelector ParseSelector(const Parser& P, const YAML::Node& e, const std::str
   return sel;
 }
 
+bool IsLadderSplit(const std::string& name) {
+  if (name.rfind("test_", 0) != 0 || name.size() == 5) return false;
+  for (char c : name)
+    if (!((c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_')) return false;
+  return true;
+}
+
 void ParseSplits(const Parser& P, const YAML::Node& n, Recipe& r) {
-  const std::vector<std::string> names = {"train", "calibration", "test"};
+  std::vector<std::string> names = {"train", "calibration", "test"};
+  P.RequireMap(n, "splits");
+  // Ladder rungs (test_<rung>) after test, in the recipe's order.
+  for (auto it = n.begin(); it != n.end(); ++it)
+    if (it->first.IsScalar() && IsLadderSplit(it->first.Scalar())) names.push_back(it->first.Scalar());
   P.CheckKeys(n, "splits", names);
   std::map<std::pair<std::string, int>, InstanceUse> used;
   for (const auto& split : names) {
@@ -589,9 +600,12 @@ void ParseSplits(const Parser& P, const YAML::Node& n, Recipe& r) {
     if (!gl.IsDefined()) P.Fail(s, path, "missing key 'garments' (a list of {garment, instances, ...})");
     if (!gl.IsSequence()) P.Fail(gl, path + ".garments", "expected a list, got " + P.Describe(gl));
     if (gl.size() == 0) P.Fail(gl, path + ".garments", "the list is empty");
-    for (size_t i = 0; i < gl.size(); ++i)
-      sp.selectors.push_back(
-          ParseSelector(P, gl[i], path + ".garments[" + std::to_string(i) + "]", r, split, used));
+    for (size_t i = 0; i < gl.size(); ++i) {
+      // A ladder rung may re-use any instance (the database entries themselves).
+      std::map<std::pair<std::string, int>, InstanceUse> own;
+      sp.selectors.push_back(ParseSelector(P, gl[i], path + ".garments[" + std::to_string(i) + "]", r, split,
+                                           IsLadderSplit(split) ? own : used));
+    }
     r.splits.push_back(std::move(sp));
   }
   if (r.splits.empty()) P.Fail(n, "splits", "no split given (train, calibration, test)");
@@ -615,6 +629,8 @@ void Perturbation::Validate() const {
   if (!(size_scale_min > 0 && size_scale_min <= 10)) BadField(size_scale_min, "size_scale", "must be in (0, 10]");
   if (!(size_scale_max > 0 && size_scale_max <= 10)) BadField(size_scale_max, "size_scale", "must be in (0, 10]");
   if (size_scale_min > size_scale_max) BadField(size_scale_max, "size_scale", "expected [min, max] with min <= max");
+  if (!(gripper_pose_noise >= 0 && gripper_pose_noise <= 45))
+    BadField(gripper_pose_noise, "gripper_pose_noise", "must be in [0, 45] degrees");
 }
 
 void SplitSelector::Validate() const {

@@ -42,8 +42,16 @@ struct Perturbation {
   double grasp_offset = 0.0;  // metres on the flat pattern, random direction per job
   double size_scale_min = 1.0, size_scale_max = 1.0;  // uniform per instance
   double material_jitter = 0.0;  // fraction: each measured material value × (1 + U(−j, j)), per instance
+  // The hung garment turned about the gripper (y) axis by a seeded angle U(0, 2π) before
+  // the sweep: a grasp at another orientation (the feature is rotation-invariant only
+  // in steps of 2π/Φ).
+  bool turn = false;
+  // σ of the turning gripper's encoder error, degrees per frame (FusionOptions::
+  // pose_noise_degrees of this split's fusion).
+  double gripper_pose_noise = 0.0;
   bool Any() const {
-    return grasp_offset > 0 || size_scale_min != 1.0 || size_scale_max != 1.0 || material_jitter > 0;
+    return grasp_offset > 0 || size_scale_min != 1.0 || size_scale_max != 1.0 || material_jitter > 0 || turn ||
+           gripper_pose_noise > 0;
   }
   void Validate() const;  // throws drape::FieldError
 };
@@ -59,7 +67,12 @@ struct SplitSelector {
 };
 
 struct SplitSpec {
-  std::string name;     // "train" | "calibration" | "test"
+  // "train" | "calibration" | "test" | "test_<rung>": test-split variants for the
+  // ablation ladder of `drape eval --ladder`; they may use train instances (the
+  // database entries themselves), their job keys start with "<name>/", and their
+  // hangs use the seed of the key without that prefix (an unperturbed rung hangs
+  // exactly like the database entry).
+  std::string name;
   std::string sensing;  // key into Recipe::sensing ("database" | "sensed")
   std::vector<SplitSelector> selectors;
   Perturbation perturbation;
