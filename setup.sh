@@ -4,6 +4,10 @@
 #   ./setup.sh test     install packages, build, and run the test suite
 #   ./setup.sh build    install packages and build only
 #   ./setup.sh bench    also install what the benchmarks compare against (Open3D), build
+#   ./setup.sh sanitize the unit tests under ASan + UBSan (clang-14, folder build-san,
+#                       not yet part of .ci/run: its build time on CI is unmeasured;
+#                       end-to-end and "slow" suites excluded), then every fuzz target
+#                       for DRAPE_FUZZ_SECONDS (default 10) each
 # Safe to run again: packages already present are skipped, the build is incremental.
 set -euo pipefail
 cd "$(dirname "$0")"
@@ -30,6 +34,10 @@ PACKAGES=(
   nodejs              # npm, for three.js (the gallery's 3D view)
   npm                 # (nodesource's nodejs provides it: counted as present)
   zlib1g-dev          # gzip of the gallery's 3D mesh scripts
+  clang-14            # sanitizer build and fuzz targets (./setup.sh sanitize, fuzz/run.sh)
+  libfuzzer-14-dev    # libFuzzer for clang-14 (fuzz/)
+  slurm-wlm           # tests/slurm.sh: a one-node Slurm (opt-in: DRAPE_SLURM_TEST=1)
+  munge               # Slurm's authentication, for tests/slurm.sh
 )
 
 # Only the benchmarks need these (registration_bench compares with Open3D's ICP).
@@ -112,8 +120,16 @@ case "${1:-main}" in
     install_packages "${BENCH_PACKAGES[@]}"
     build
     ;;
+  sanitize)
+    install_packages
+    . fuzz/sanitize_env.sh
+    san_configure
+    cmake --build "$SAN_BUILD_DIR" -j "$SAN_JOBS"
+    ctest --test-dir "$SAN_BUILD_DIR" --output-on-failure -j "$SAN_JOBS" -L unit -LE slow
+    fuzz/run.sh "${DRAPE_FUZZ_SECONDS:-10}"
+    ;;
   *)
-    echo "usage: ./setup.sh [main|test|build|bench]" >&2
+    echo "usage: ./setup.sh [main|test|build|bench|sanitize]" >&2
     exit 2
     ;;
 esac

@@ -109,7 +109,7 @@ int RunRecognize(const std::vector<std::string>& argv) {
   Code q;
   Json query{{"kind", ""}};
   Json timing{{"load_database_seconds", load_s}};
-  const uint64_t seed = static_cast<uint64_t>(a.GetInt("--seed").value_or(0));
+  const uint64_t seed = a.GetSeed("--seed").value_or(0);
   if (auto id = a.Get("--entry")) {
     const Release::EntryInfo* e = rel.Find(*id);
     if (!e) throw Error("--entry: release has no entry '" + *id + "'");

@@ -12,6 +12,7 @@
 #include <numeric>
 
 #include "common/error.h"
+#include "common/format.h"
 #include "common/field_error.h"
 #include "common/rng.h"
 #include "generator/hang/equilibrium.h"
@@ -486,8 +487,8 @@ RunOutcome RunBullet(const TriMesh& mesh, const Points3& start, const Points3& r
         ke += 0.5 * model.mass[i] * v2;
       }
       if (!finite) { failure = "NaN in the simulation state"; break; }
-      if (vmax > opt.max_speed) { failure = "blew up: node speed " + std::to_string(vmax) + " m/s"; break; }
-      if (ke > energy_cap) { failure = "blew up: kinetic energy " + std::to_string(ke) + " J"; break; }
+      if (vmax > opt.max_speed) { failure = "blew up: node speed " + FormatNumber(vmax) + " m/s"; break; }
+      if (ke > energy_cap) { failure = "blew up: kinetic energy " + FormatNumber(ke) + " J"; break; }
       std::vector<Vec3> snap(n);
       for (int i = 0; i < n; ++i) snap[i] = pos(i);
       ring.push_back(std::move(snap));
@@ -519,8 +520,8 @@ RunOutcome RunBullet(const TriMesh& mesh, const Points3& start, const Points3& r
   world.removeSoftBody(sb.get());
   if (failure.empty() && !out.x.allFinite()) failure = "NaN in the simulation state";
   if (failure.empty() && !settled) {
-    failure = "not settled within time_cap " + std::to_string(opt.time_cap) + " s (still moving " +
-              std::to_string(out.stats.settle_motion) + " m per settle_window)";
+    failure = "not settled within time_cap " + FormatNumber(opt.time_cap) + " s (still moving " +
+              FormatNumber(out.stats.settle_motion) + " m per settle_window)";
     out.timed_out = true;
   }
   out.failure = failure;
@@ -711,7 +712,7 @@ HangResult Hang(const Garment& garment, int anchor_vertex, const Vec3& grasp_off
   result.stats.retries = retries;
   if (!run.ok && !rescued) {
     result.ok = false;
-    result.failure = run.failure + " (after retry at time_step " + std::to_string(dt) + " s)";
+    result.failure = run.failure + " (after retry at time_step " + FormatNumber(dt) + " s)";
     result.mesh.F = mesh.F;
     result.mesh.V = run.x.allFinite() ? run.x : start;
     result.stats.wall_seconds = Seconds(wall0, Clock::now());

@@ -317,6 +317,12 @@ ReleaseMeta MakeReleaseMeta(const Recipe& recipe, const std::vector<Job>& jobs, 
   meta.description = recipe.description;
   meta.license = recipe.license;
   meta.recipe_summary = RecipeSummary(recipe, jobs);
+  std::vector<std::pair<std::string, fs::path>> imported;  // copied into the release
+  for (const auto& g : recipe.garments) {
+    if (!g.file_as_written.empty()) imported.emplace_back(g.file_as_written, g.file);
+    if (!g.anchors_as_written.empty()) imported.emplace_back(g.anchors_as_written, g.anchors);
+  }
+  meta.sources = PlanSources(imported);
   for (const auto& j : jobs) meta.job_keys.push_back(j.key);
   if (options.shard_count > 1)
     for (int i : shard) meta.shard_keys.push_back(jobs[i].key);

@@ -27,6 +27,7 @@ struct GarmentSpec {
   std::string template_name;  // empty for imports
   std::filesystem::path file;     // absolute, imports only
   std::filesystem::path anchors;  // absolute, imports only (may be empty)
+  std::string file_as_written, anchors_as_written;  // the recipe's text for them (a release keys its copies by it)
   double unit_scale = 1.0;        // imports: file units → metres
   std::string category;           // template's category, or `category:` for imports
   TemplateOptions options;        // size, params, edge_length, ... (seed set per instance)
@@ -116,9 +117,11 @@ struct Recipe {
 // Parses and validates a recipe file. Throws drape::Error "FILE:LINE:COL: key: what".
 Recipe LoadRecipe(const std::filesystem::path& path);
 // Parses recipe text; relative paths resolve against `base_dir`. `file_label`
-// names the file in error messages.
+// names the file in error messages. `files` (a release's copies, Release::SourceFiles)
+// maps each file path as written in the recipe to the file to read instead.
 Recipe ParseRecipe(const std::string& text, const std::string& file_label,
-                   const std::filesystem::path& base_dir);
+                   const std::filesystem::path& base_dir,
+                   const std::map<std::string, std::filesystem::path>* files = nullptr);
 
 // The recipe's keys for the documentation, from the parser's own tables
 // (generator/recipe/keys.cpp): recipes/README.md's key tables are exactly

@@ -233,6 +233,12 @@ StepOptimum OptimiseStep(const FoldScene& scene, const StepSetup& setup, const F
   out.before = SimulateStep(scene, setup, out.initial, sim, o.alpha, true);
   if (!out.before.ok) throw NumericalError("fold: the initial trajectory failed: " + out.before.failure);
   Eigen::VectorXd x = StackKnots(out.initial);
+  if (o.lm.max_iterations == 0) {  // keep h = 1/3 (no B0 by differences either)
+    out.optimised = out.initial;
+    out.after = out.before;
+    out.wall_seconds = Since(t0);
+    return out;
+  }
   out.lm = optim::SolveSecantLm(FoldCostProblem(scene, setup, sim, o), x, o.lm);
   out.simulations = out.lm.residual_evaluations;
   out.optimised = UnstackKnots(x, setup.p0, setup.p3);
