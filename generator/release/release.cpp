@@ -48,34 +48,9 @@ void CheckSafeRelPath(const std::string& p, const std::string& what) {
   }
 }
 
-namespace {
-nlohmann::json Sorted(const Json& j) {
-  // nlohmann::json keeps object keys in a std::map: sorted by byte order.
-  switch (j.type()) {
-    case Json::value_t::object: {
-      nlohmann::json out = nlohmann::json::object();
-      for (auto it = j.begin(); it != j.end(); ++it) out[it.key()] = Sorted(it.value());
-      return out;
-    }
-    case Json::value_t::array: {
-      nlohmann::json out = nlohmann::json::array();
-      for (const auto& v : j) out.push_back(Sorted(v));
-      return out;
-    }
-    case Json::value_t::string: return j.get<std::string>();
-    case Json::value_t::boolean: return j.get<bool>();
-    case Json::value_t::number_integer: return j.get<int64_t>();
-    case Json::value_t::number_unsigned: return j.get<uint64_t>();
-    case Json::value_t::number_float: return j.get<double>();
-    case Json::value_t::null:
-    case Json::value_t::discarded: return nullptr;
-    case Json::value_t::binary: return nlohmann::json::binary(j.get_binary());
-  }
-  return nullptr;
-}
-}  // namespace
-
-std::string CanonicalJson(const Json& j) { return Sorted(j).dump(); }
+// nlohmann::json (unlike our insertion-ordered Json) keeps object keys in a std::map,
+// sorted by byte order, so converting and dumping gives the canonical form.
+std::string CanonicalJson(const Json& j) { return nlohmann::json(j).dump(); }
 
 Json EntryJson(const Release::EntryInfo& e) {
   Json files = Json::array();
