@@ -20,6 +20,7 @@
 #include "common/error.h"
 #include "common/files.h"
 #include "common/hash.h"
+#include "common/unique_fd.h"
 #include "generator/release/release_internal.h"
 
 namespace drape {
@@ -197,10 +198,8 @@ std::string FormatSums(const std::map<std::string, std::string>& sums) {
 }
 
 void FsyncPath(const fs::path& p) {
-  const int fd = ::open(p.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) return;
-  ::fsync(fd);
-  ::close(fd);
+  const UniqueFd fd(::open(p.c_str(), O_RDONLY | O_CLOEXEC));
+  if (fd.valid()) ::fsync(fd.get());
 }
 
 std::string HostName() {
@@ -383,15 +382,9 @@ void WriteAll(int fd, std::string_view bytes, const std::string& what) {
 }
 
 void WriteFileNew(const fs::path& p, std::string_view bytes) {
-  const int fd = ::open(p.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
-  if (fd < 0) throw Error(p.string() + ": cannot create: " + std::strerror(errno));
-  try {
-    WriteAll(fd, bytes, p.string());
-  } catch (...) {
-    ::close(fd);
-    throw;
-  }
-  ::close(fd);
+  const UniqueFd fd(::open(p.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644));
+  if (!fd.valid()) throw Error(p.string() + ": cannot create: " + std::strerror(errno));
+  WriteAll(fd.get(), bytes, p.string());
 }
 
 bool DirHasOnly(const fs::path& dir, const std::set<std::string>& allowed) {
