@@ -8,6 +8,8 @@
 #                       not yet part of .ci/run: its build time on CI is unmeasured;
 #                       end-to-end and "slow" suites excluded), then every fuzz target
 #                       for DRAPE_FUZZ_SECONDS (default 10) each
+#   ./setup.sh format   check that the lines this branch changed since main (on main:
+#                       the last commit) follow .clang-format; run it before landing
 # Safe to run again: packages already present are skipped, the build is incremental.
 set -euo pipefail
 cd "$(dirname "$0")"
@@ -38,6 +40,7 @@ PACKAGES=(
   libfuzzer-14-dev    # libFuzzer for clang-14 (fuzz/)
   slurm-wlm           # tests/slurm.sh: a one-node Slurm (opt-in: DRAPE_SLURM_TEST=1)
   munge               # Slurm's authentication, for tests/slurm.sh
+  clang-format        # ./setup.sh format: changed lines follow .clang-format
 )
 
 # Only the benchmarks need these (registration_bench compares with Open3D's ICP).
@@ -128,8 +131,24 @@ case "${1:-main}" in
     ctest --test-dir "$SAN_BUILD_DIR" --output-on-failure -j "$SAN_JOBS" -L unit -LE slow
     fuzz/run.sh "${DRAPE_FUZZ_SECONDS:-10}"
     ;;
+  format)
+    command -v git-clang-format >/dev/null ||
+      { echo "setup: format needs clang-format (apt-get install clang-format)" >&2; exit 2; }
+    # Only the lines changed since BASE: where this branch left main, or on main itself
+    # the last commit (DRAPE_FORMAT_BASE overrides). Fix with: git clang-format BASE
+    base=${DRAPE_FORMAT_BASE:-$(git merge-base HEAD main 2>/dev/null || true)}
+    if [ -z "$base" ] || [ "$base" = "$(git rev-parse HEAD)" ]; then base=HEAD~1; fi
+    out=$(git clang-format --diff --extensions c,cc,cpp,h,hpp "$base" -- .)
+    if [ -n "$out" ] && [ "$out" != "no modified files to format" ] &&
+       [ "$out" != "clang-format did not modify any files" ]; then
+      echo "$out"
+      echo "setup: format: lines changed since $base differ from .clang-format; fix with: git clang-format $base" >&2
+      exit 1
+    fi
+    echo "setup: format: lines changed since $base follow .clang-format"
+    ;;
   *)
-    echo "usage: ./setup.sh [main|test|build|bench|sanitize]" >&2
+    echo "usage: ./setup.sh [main|test|build|bench|sanitize|format]" >&2
     exit 2
     ;;
 esac

@@ -50,9 +50,13 @@ class Db {
   sqlite3* db_ = nullptr;
 };
 
+// Owns a prepared statement; not copyable, so it is finalized exactly once.
 struct Stmt {
-  sqlite3_stmt* st;
+  explicit Stmt(sqlite3_stmt* s) : st(s) {}
+  Stmt(const Stmt&) = delete;
+  Stmt& operator=(const Stmt&) = delete;
   ~Stmt() { sqlite3_finalize(st); }
+  sqlite3_stmt* st;
 };
 
 std::string Quote(const std::string& ident) {
