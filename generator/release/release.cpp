@@ -20,6 +20,7 @@
 #include "common/error.h"
 #include "common/files.h"
 #include "common/hash.h"
+#include "common/unique_fd.h"
 #include "generator/release/release_internal.h"
 
 namespace drape {
@@ -48,34 +49,9 @@ void CheckSafeRelPath(const std::string& p, const std::string& what) {
   }
 }
 
-namespace {
-nlohmann::json Sorted(const Json& j) {
-  // nlohmann::json keeps object keys in a std::map: sorted by byte order.
-  switch (j.type()) {
-    case Json::value_t::object: {
-      nlohmann::json out = nlohmann::json::object();
-      for (auto it = j.begin(); it != j.end(); ++it) out[it.key()] = Sorted(it.value());
-      return out;
-    }
-    case Json::value_t::array: {
-      nlohmann::json out = nlohmann::json::array();
-      for (const auto& v : j) out.push_back(Sorted(v));
-      return out;
-    }
-    case Json::value_t::string: return j.get<std::string>();
-    case Json::value_t::boolean: return j.get<bool>();
-    case Json::value_t::number_integer: return j.get<int64_t>();
-    case Json::value_t::number_unsigned: return j.get<uint64_t>();
-    case Json::value_t::number_float: return j.get<double>();
-    case Json::value_t::null:
-    case Json::value_t::discarded: return nullptr;
-    case Json::value_t::binary: return nlohmann::json::binary(j.get_binary());
-  }
-  return nullptr;
-}
-}  // namespace
-
-std::string CanonicalJson(const Json& j) { return Sorted(j).dump(); }
+// nlohmann::json (unlike our insertion-ordered Json) keeps object keys in a std::map,
+// sorted by byte order, so converting and dumping gives the canonical form.
+std::string CanonicalJson(const Json& j) { return nlohmann::json(j).dump(); }
 
 Json EntryJson(const Release::EntryInfo& e) {
   Json files = Json::array();
@@ -222,10 +198,8 @@ std::string FormatSums(const std::map<std::string, std::string>& sums) {
 }
 
 void FsyncPath(const fs::path& p) {
-  const int fd = ::open(p.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) return;
-  ::fsync(fd);
-  ::close(fd);
+  const UniqueFd fd(::open(p.c_str(), O_RDONLY | O_CLOEXEC));
+  if (fd.valid()) ::fsync(fd.get());
 }
 
 std::string HostName() {
@@ -408,15 +382,9 @@ void WriteAll(int fd, std::string_view bytes, const std::string& what) {
 }
 
 void WriteFileNew(const fs::path& p, std::string_view bytes) {
-  const int fd = ::open(p.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
-  if (fd < 0) throw Error(p.string() + ": cannot create: " + std::strerror(errno));
-  try {
-    WriteAll(fd, bytes, p.string());
-  } catch (...) {
-    ::close(fd);
-    throw;
-  }
-  ::close(fd);
+  const UniqueFd fd(::open(p.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644));
+  if (!fd.valid()) throw Error(p.string() + ": cannot create: " + std::strerror(errno));
+  WriteAll(fd.get(), bytes, p.string());
 }
 
 bool DirHasOnly(const fs::path& dir, const std::set<std::string>& allowed) {

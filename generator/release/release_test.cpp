@@ -28,6 +28,18 @@ namespace {
 
 constexpr int kJobs = 12;
 
+// Canonical JSON (the entry digest's input) is nlohmann::json's dump: object keys sorted
+// at every depth, arrays kept in order, numbers as nlohmann prints them. Against the
+// explicit form for a record with unsorted keys and every value type.
+TEST(CanonicalJson, SortsKeysAtEveryDepthAndKeepsArrays) {
+  Json j = Json::object();
+  j["zeta"] = Json{{"b", 1}, {"a", -2}};
+  j["alpha"] = Json::array({3.25, "x", true, nullptr, Json{{"y", 1u}, {"x", 0.1}}});
+  j["Mid"] = 18446744073709551615ull;
+  EXPECT_EQ(release_detail::CanonicalJson(j),
+            R"({"Mid":18446744073709551615,"alpha":[3.25,"x",true,null,{"x":0.1,"y":1}],"zeta":{"a":-2,"b":1}})");
+}
+
 std::string Key(int i) { return "garment" + std::to_string(i % 3) + "/tshirt/anchor" + std::to_string(i); }
 std::string Id(int i) {
   char buf[16];

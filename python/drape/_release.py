@@ -56,7 +56,7 @@ class Entry:
 
     def path(self, name: str = "") -> str:
         """Absolute path of a file of this entry (or of its folder)."""
-        return str(self.release._core.entry_path(self.id, name))
+        return os.path.join(self.release.path, "entries", self.id, name)  # as Release::EntryPath
 
     def hang_mesh(self, open3d: bool = False):
         """The stationary hung mesh (object frame: gripper at the origin, y up, metres):
