@@ -10,7 +10,6 @@ find_package(assimp REQUIRED)                           # assimp::assimp
 find_package(CGAL REQUIRED)                             # CGAL::CGAL
 # CMake's FindBullet: the CONFIG package gives relative paths.
 find_package(Bullet REQUIRED MODULE)                    # ${BULLET_INCLUDE_DIRS} ${BULLET_LIBRARIES}
-find_package(SUNDIALS 6.4 REQUIRED)                     # SUNDIALS::kinsol ...
 find_package(embree 3 REQUIRED)                         # embree
 find_package(TBB REQUIRED)                              # TBB::tbb
 list(APPEND CMAKE_MODULE_PATH /usr/lib/x86_64-linux-gnu/cmake/OpenVDB)

@@ -10,6 +10,7 @@
 #include <cmath>
 
 #include "common/error.h"
+#include "common/format.h"
 
 namespace drape {
 
@@ -373,10 +374,10 @@ std::string ClothWorld::Health() const {
   double vmax = 0;
   for (int i = 0; i < v_.rows(); ++i)
     if (holder_[i] < 0) vmax = std::max(vmax, v_.row(i).norm());
-  if (vmax > model_->options.max_speed) return "blew up: node speed " + std::to_string(vmax) + " m/s";
+  if (vmax > model_->options.max_speed) return "blew up: node speed " + FormatNumber(vmax) + " m/s";
   const double cap = 50 * model_->total_mass * model_->options.gravity.norm() * std::max(model_->extent, 0.1);
   const double ke = KineticEnergy();
-  if (ke > cap) return "blew up: kinetic energy " + std::to_string(ke) + " J";
+  if (ke > cap) return "blew up: kinetic energy " + FormatNumber(ke) + " J";
   return "";
 }
 
@@ -428,8 +429,8 @@ SettleReport ClothWorld::Settle(const SettleOptions& o) {
     if (holder_[i] < 0) r.max_speed = std::max(r.max_speed, v_.row(i).norm());
   if (r.failure.empty() && !r.settled) {
     r.timed_out = true;
-    r.failure = "not settled within time_cap " + std::to_string(o.time_cap) + " s (still moving " +
-                std::to_string(r.motion) + " m per settle window)";
+    r.failure = "not settled within time_cap " + FormatNumber(o.time_cap) + " s (still moving " +
+                FormatNumber(r.motion) + " m per settle window)";
   }
   return r;
 }

@@ -8,6 +8,7 @@
 #include <numbers>
 
 #include "common/error.h"
+#include "common/format.h"
 #include "common/rng.h"
 #include "generator/hang/hang.h"
 
@@ -35,7 +36,7 @@ void FitStiffness(const Material& material, const HangOptions& options, Material
     const HangResult r = Hang(strip, end.vertex, Vec3::Zero(), material, trial, o, seed);
     ++fit.iterations;
     if (!r.ok)
-      throw NumericalError("FitMaterial(" + material.name + "): reference hang failed at kLST " + std::to_string(k) +
+      throw NumericalError("FitMaterial(" + material.name + "): reference hang failed at kLST " + FormatNumber(k) +
                            ": " + r.failure);
     return ShearFraction(r.mesh, strip.mesh.V, end.position);
   };
@@ -49,7 +50,7 @@ void FitStiffness(const Material& material, const HangOptions& options, Material
     }
   };
   if (s_hi > target) {
-    fit.note = "target stretch below Bullet's minimum at this resolution/iterations (" + std::to_string(100 * s_hi) +
+    fit.note = "target stretch below Bullet's minimum at this resolution/iterations (" + FormatNumber(100 * s_hi) +
                " %); using kLST 1";
   } else if (std::abs(s_hi - target) > tol) {
     // Guess from shear ∝ 1/k, then bracket downwards.
@@ -93,17 +94,6 @@ void FitStiffness(const Material& material, const HangOptions& options, Material
 bool SlidesOnTilt(double tilt_deg, double mu, const Material& material, const MaterialFit& fit,
                   const HangOptions& o) {
   const Garment sq = MakeRectangleGarment(o.friction_size, o.friction_size, o.fit_edge_length, false);
-  ClothMaterial cm;
-  cm.area_density = material.area_density;
-  cm.link_stiffness = fit.stiffness;
-  cm.bending = material.bending_stiffness;
-  cm.max_strain = o.strain_limit * material.stretch_percent / 100;
-  ClothOptions co;
-  co.time_step = o.time_step;
-  co.solver_iterations = o.solver_iterations;
-  co.damping = o.damping;
-  co.collision.thickness = o.layer_thickness;
-  co.max_speed = o.max_speed;
   // The square lies flat 5 mm above a table top through the origin, both tilted about z.
   const Eigen::Matrix3d tilt = Eigen::AngleAxisd(tilt_deg * kDeg, Vec3::UnitZ()).toRotationMatrix();
   Eigen::Matrix3d flat;  // pattern x → x, pattern y → −z, pattern normal → +y
@@ -114,7 +104,8 @@ bool SlidesOnTilt(double tilt_deg, double mu, const Material& material, const Ma
   Points3 start(sq.mesh.NumVertices(), 3);
   for (int i = 0; i < start.rows(); ++i)
     start.row(i) = (tilt * (flat * (sq.mesh.V.row(i).transpose() - centre) + Vec3(0, 0.005, 0))).transpose();
-  ClothWorld world(MakeClothModel(TriMesh{start, sq.mesh.F}, sq.layer, cm, co), start);
+  ClothWorld world(MakeClothModel(TriMesh{start, sq.mesh.F}, sq.layer, ClothMaterialFor(material, fit, o),
+                                    ClothOptionsFor(o, o.time_step)), start);
   BoxCollider table;
   table.half_extents = Vec3(1, 0.05, 1);
   table.pose.linear() = tilt;
@@ -125,7 +116,7 @@ bool SlidesOnTilt(double tilt_deg, double mu, const Material& material, const Ma
   const Vec3 c0 = world.positions().colwise().mean().transpose();
   while (world.time() < 0.25 + o.friction_time) world.Step();
   if (!world.Health().empty())
-    throw NumericalError("friction reference on a " + std::to_string(tilt_deg) + "° table: " + world.Health());
+    throw NumericalError("friction reference on a " + FormatNumber(tilt_deg) + "° table: " + world.Health());
   return (world.positions().colwise().mean().transpose() - c0).norm() > o.friction_slide_distance;
 }
 

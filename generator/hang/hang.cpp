@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "common/error.h"
+#include "common/format.h"
 #include "common/field_error.h"
 #include "common/rng.h"
 #include "generator/cloth/measure.h"
@@ -30,7 +31,8 @@ void HangOptions::Validate() const {
   if (!(jaw_opening > 0 && jaw_opening < 0.5)) bad(jaw_opening, "jaw_opening", "must be in (0, 0.5) m");
   if (!(jitter >= 0 && jitter < 0.01)) bad(jitter, "jitter", "must be in [0, 0.01) m");
   if (!(max_speed > 0)) bad(max_speed, "max_speed", "must be > 0");
-  if (!(fit_width > 0.05 && fit_height > 0.05)) bad(fit_width, "fit_width/fit_height", "must be > 0.05 m");
+  if (!(fit_width > 0.05)) bad(fit_width, "fit_width", "must be > 0.05 m");
+  if (!(fit_height > 0.05)) bad(fit_height, "fit_height", "must be > 0.05 m");
   if (!(fit_edge_length > 0.002 && fit_edge_length < 0.2)) bad(fit_edge_length, "fit_edge_length", "must be in (0.002, 0.2) m");
   if (!(fit_tolerance_percent > 0)) bad(fit_tolerance_percent, "fit_tolerance_percent", "must be > 0");
   if (fit_max_iterations < 2) bad(fit_max_iterations, "fit_max_iterations", "must be >= 2");
@@ -94,6 +96,34 @@ Jaw HangJaw(const TriMesh& start, const HangOptions& o) {
   return jaw;
 }
 
+// Object frame of the flat garment for hanging: the pattern (vertical, in the x–y plane)
+// turned about z so that its centre of area is straight below the grasp point, grasp
+// point at the origin.
+Points3 StartPose(const TriMesh& mesh, const Vec3& grasp) {
+  const Eigen::VectorXd area = FaceAreas(mesh);
+  Vec3 com = Vec3::Zero();
+  for (int f = 0; f < mesh.NumFaces(); ++f)
+    com += area[f] * (mesh.V.row(mesh.F(f, 0)) + mesh.V.row(mesh.F(f, 1)) + mesh.V.row(mesh.F(f, 2))).transpose() / 3;
+  com /= area.sum();
+  const Vec2 d(com.x() - grasp.x(), com.y() - grasp.y());
+  const double angle = d.norm() > 1e-9 ? std::atan2(d.x(), -d.y()) : 0.0;  // rotate d onto −y
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(angle, Vec3::UnitZ()).toRotationMatrix();
+  Points3 start(mesh.NumVertices(), 3);
+  for (int i = 0; i < start.rows(); ++i) start.row(i) = (R * (mesh.V.row(i).transpose() - grasp)).transpose();
+  return start;
+}
+
+void CheckInput(const Garment& garment, int anchor_vertex, const MaterialFit& fit) {
+  const TriMesh& mesh = garment.mesh;
+  const int n = mesh.NumVertices();
+  if (n < 3 || mesh.NumFaces() < 1) throw Error("hang: garment '" + garment.instance + "' has no mesh");
+  if (anchor_vertex < 0 || anchor_vertex >= n)
+    throw Error("hang: anchor vertex " + std::to_string(anchor_vertex) + " out of range for garment '" +
+                garment.instance + "' (" + std::to_string(n) + " vertices)");
+  if (!(fit.stiffness > 0 && fit.stiffness <= 1)) throw Error("hang: MaterialFit.stiffness must be in (0, 1]");
+  if (!mesh.V.allFinite()) throw Error("hang: garment '" + garment.instance + "' has non-finite vertices");
+}
+
 struct Run {
   SettleReport settle;
   GraspReport grasp;
@@ -101,32 +131,15 @@ struct Run {
   ClothTimings timings;
 };
 
+// One simulation: the gripper closes on the flat garment at the origin, the start is
+// perturbed by a seeded jitter (breaks symmetry), and the world settles.
 Run RunHang(const Garment& garment, const Points3& start, const Material& material, const MaterialFit& fit,
             const HangOptions& o, double dt, uint64_t seed) {
-  ClothMaterial cm;
-  cm.area_density = material.area_density;
-  cm.link_stiffness = fit.stiffness;
-  cm.bending = material.bending_stiffness;
-  cm.max_strain = o.strain_limit * material.stretch_percent / 100;
-  ClothOptions co;
-  co.time_step = dt;
-  co.solver_iterations = o.solver_iterations;
-  // kDP removes that fraction of the velocity every step: keep the damping per second
-  // the same at a retry's smaller step.
-  co.damping = 1 - std::pow(1 - o.damping, dt / o.time_step);
-  co.collisions = o.self_collision;
-  co.collision.thickness = o.layer_thickness;
-  // No proximity repulsion while hanging: in the handler it runs after the strain clamp
-  // and its inelastic projection re-stretches edges next to contacts to 4–6× the limit
-  // (measured on the quickstart: max edge strain 19 % for a 3.1 % material). The CCD and
-  // the impact zones alone keep every step intersection-free (the mesh then keeps at
-  // least the CCD margin, min_separation, instead of layer_thickness, between layers).
-  co.collision.proximity_iterations = o.repulsion ? co.collision.proximity_iterations : 0;
-  co.max_speed = o.max_speed;
   // Links take their rest lengths from the model's rest mesh: the start pose is the
   // flat garment moved rigidly, so it serves as the rest mesh too.
   const TriMesh rest{start, garment.mesh.F};
-  ClothWorld world(MakeClothModel(rest, garment.layer, cm, co), start);
+  ClothWorld world(MakeClothModel(rest, garment.layer, ClothMaterialFor(material, fit, o), ClothOptionsFor(o, dt)),
+                   start);
   Run run;
   const int g = world.AddGripper(HangJaw(rest, o), HangGripperPose());
   run.grasp = world.Close(g);
@@ -147,60 +160,15 @@ Run RunHang(const Garment& garment, const Points3& start, const Material& materi
   return run;
 }
 
-}  // namespace
-
-HangResult Hang(const Garment& garment, int anchor_vertex, const Vec3& grasp_offset, const Material& material,
-                const MaterialFit& fit, const HangOptions& options, uint64_t seed) {
-  const auto wall0 = Clock::now();
-  options.Validate();
-  material.Validate();
-  const TriMesh& mesh = garment.mesh;
-  const int n = mesh.NumVertices();
-  if (n < 3 || mesh.NumFaces() < 1) throw Error("hang: garment '" + garment.instance + "' has no mesh");
-  if (anchor_vertex < 0 || anchor_vertex >= n)
-    throw Error("hang: anchor vertex " + std::to_string(anchor_vertex) + " out of range for garment '" +
-                garment.instance + "' (" + std::to_string(n) + " vertices)");
-  if (!(fit.stiffness > 0 && fit.stiffness <= 1)) throw Error("hang: MaterialFit.stiffness must be in (0, 1]");
-  if (!mesh.V.allFinite()) throw Error("hang: garment '" + garment.instance + "' has non-finite vertices");
-
-  const Points3& rest = mesh.V;
-  const Vec3 grasp = rest.row(anchor_vertex).transpose() + Vec3(grasp_offset.x(), grasp_offset.y(), 0);
-  // Start pose: the flat garment (vertical, in the x–y plane) turned about z so that its
-  // centre of area is straight below the grasp point, grasp point at the origin.
-  const Eigen::VectorXd area = FaceAreas(mesh);
-  Vec3 com = Vec3::Zero();
-  for (int f = 0; f < mesh.NumFaces(); ++f)
-    com += area[f] * (rest.row(mesh.F(f, 0)) + rest.row(mesh.F(f, 1)) + rest.row(mesh.F(f, 2))).transpose() / 3;
-  com /= area.sum();
-  const Vec2 d(com.x() - grasp.x(), com.y() - grasp.y());
-  const double angle = d.norm() > 1e-9 ? std::atan2(d.x(), -d.y()) : 0.0;  // rotate d onto −y
-  const Eigen::Matrix3d R = Eigen::AngleAxisd(angle, Vec3::UnitZ()).toRotationMatrix();
-  Points3 start(n, 3);
-  for (int i = 0; i < n; ++i) start.row(i) = (R * (rest.row(i).transpose() - grasp)).transpose();
-
-  HangResult result;
-  Run run;
-  double dt = options.time_step;
-  int retries = 0;
-  for (int attempt = 0; attempt < 2; ++attempt) {
-    run = RunHang(garment, start, material, fit, options, dt, seed);
-    if (run.settle.settled) break;
-    if (attempt == 0) {
-      ++retries;
-      dt /= 2;  // smaller step: stiffer, more stable
-    }
-  }
-  HangStats& st = result.stats;
+void RecordRun(const Run& run, HangStats& st) {
   st.sim_time = run.settle.sim_time;
   st.steps = run.settle.steps;
-  st.time_step = dt;
   st.kinetic_energy = run.settle.kinetic_energy;
   st.max_speed = run.settle.max_speed;
   st.settled = run.settle.settled;
   st.settle_motion = run.settle.motion;
   st.held_nodes = run.grasp.nodes;
   st.held_layers = static_cast<int>(run.grasp.layers.size());
-  st.retries = retries;
   const ClothTimings& t = run.timings;
   st.ccd_collisions = t.ccd_collisions;
   st.fail_safe_steps = t.fail_safe_steps;
@@ -211,36 +179,96 @@ HangResult Hang(const Garment& garment, int anchor_vertex, const Vec3& grasp_off
   st.ccd_seconds = t.ccd_seconds;
   st.zone_seconds = t.zone_seconds;
   st.other_collision_seconds = t.strain_seconds + t.proximity_seconds + t.collider_seconds;
-  st.strain_limit = options.strain_limit * material.stretch_percent / 100;
-  result.held_vertices = run.grasp.node_ids;
-  result.mesh.F = mesh.F;
-  result.mesh.V = run.x.allFinite() ? run.x : start;
+}
 
-  const auto tm = Clock::now();
-  const ClothMeasurement m = MeasureCloth(result.mesh, rest);
-  st.measure_seconds = Seconds(tm, Clock::now());
+void RecordMeasurement(const ClothMeasurement& m, HangStats& st) {
   st.intersecting_pairs = m.intersecting_pairs;
   st.min_distance = m.min_distance;
   st.strain_mean = m.strain.mean;
   st.strain_median = m.strain.median;
   st.strain_p99 = m.strain.p99;
   st.strain_max = m.strain.max;
+}
 
+// Why the hung mesh may not be published ("" = it may): never settled (or blew up),
+// intersects itself, or breaks a strain bound.
+std::string Verdict(const SettleReport& settle, double dt, const ClothMeasurement& m, const Material& material,
+                    const HangOptions& o) {
+  if (!settle.settled) return settle.failure + " (after retry at time_step " + FormatNumber(dt) + " s)";
+  if (m.intersecting_pairs > 0)
+    return "hung mesh intersects itself: " + std::to_string(m.intersecting_pairs) + " triangle pairs (CGAL exact test)";
+  auto over = [&](const char* what, double strain, double bound) {
+    return "edge strain " + std::string(what) + " " + Fixed(100 * strain, 2) + " % exceeds " + Fixed(bound, 2) +
+           " × the material's stretch (" + Fixed(material.stretch_percent, 2) + " %)";
+  };
   const double stretch = material.stretch_percent / 100;
-  if (!run.settle.settled) {
-    result.failure = run.settle.failure + " (after retry at time_step " + std::to_string(dt) + " s)";
-  } else if (m.intersecting_pairs > 0) {
-    result.failure = "hung mesh intersects itself: " + std::to_string(m.intersecting_pairs) +
-                     " triangle pairs (CGAL exact test)";
-  } else if (m.strain.max > options.accept_strain_max * stretch) {
-    result.failure = "edge strain max " + Fixed(100 * m.strain.max, 2) + " % exceeds " +
-                     Fixed(options.accept_strain_max, 2) + " × the material's stretch (" +
-                     Fixed(material.stretch_percent, 2) + " %)";
-  } else if (m.strain.p99 > options.accept_strain_p99 * stretch) {
-    result.failure = "edge strain p99 " + Fixed(100 * m.strain.p99, 2) + " % exceeds " +
-                     Fixed(options.accept_strain_p99, 2) + " × the material's stretch (" +
-                     Fixed(material.stretch_percent, 2) + " %)";
+  if (m.strain.max > o.accept_strain_max * stretch) return over("max", m.strain.max, o.accept_strain_max);
+  if (m.strain.p99 > o.accept_strain_p99 * stretch) return over("p99", m.strain.p99, o.accept_strain_p99);
+  return "";
+}
+
+}  // namespace
+
+ClothMaterial ClothMaterialFor(const Material& material, const MaterialFit& fit, const HangOptions& o) {
+  ClothMaterial cm;
+  cm.area_density = material.area_density;
+  cm.link_stiffness = fit.stiffness;
+  cm.bending = material.bending_stiffness;
+  cm.max_strain = o.strain_limit * material.stretch_percent / 100;
+  return cm;
+}
+
+ClothOptions ClothOptionsFor(const HangOptions& o, double dt) {
+  ClothOptions co;
+  co.time_step = dt;
+  co.solver_iterations = o.solver_iterations;
+  // kDP removes that fraction of the velocity every step: keep the damping per second
+  // the same at a retry's smaller step.
+  co.damping = 1 - std::pow(1 - o.damping, dt / o.time_step);
+  co.collisions = o.self_collision;
+  co.collision.thickness = o.layer_thickness;
+  // Without repulsion the CCD and the impact zones alone keep every step
+  // intersection-free (layers then keep at least the CCD margin, min_separation,
+  // instead of layer_thickness, apart).
+  if (!o.repulsion) co.collision.proximity_iterations = 0;
+  co.max_speed = o.max_speed;
+  return co;
+}
+
+HangResult Hang(const Garment& garment, int anchor_vertex, const Vec3& grasp_offset, const Material& material,
+                const MaterialFit& fit, const HangOptions& options, uint64_t seed) {
+  const auto wall0 = Clock::now();
+  options.Validate();
+  material.Validate();
+  CheckInput(garment, anchor_vertex, fit);
+  const Vec3 grasp = garment.mesh.V.row(anchor_vertex).transpose() + Vec3(grasp_offset.x(), grasp_offset.y(), 0);
+  const Points3 start = StartPose(garment.mesh, grasp);
+
+  // Not settled (or blown up): once more at half the step (stiffer, more stable).
+  Run run;
+  double dt = options.time_step;
+  HangResult result;
+  for (int attempt = 0; attempt < 2; ++attempt) {
+    if (attempt > 0) {
+      ++result.stats.retries;
+      dt /= 2;
+    }
+    run = RunHang(garment, start, material, fit, options, dt, seed);
+    if (run.settle.settled) break;
   }
+  HangStats& st = result.stats;
+  RecordRun(run, st);
+  st.time_step = dt;
+  st.strain_limit = options.strain_limit * material.stretch_percent / 100;
+  result.held_vertices = run.grasp.node_ids;
+  result.mesh.F = garment.mesh.F;
+  result.mesh.V = run.x.allFinite() ? run.x : start;
+
+  const auto tm = Clock::now();
+  const ClothMeasurement m = MeasureCloth(result.mesh, garment.mesh.V);
+  st.measure_seconds = Seconds(tm, Clock::now());
+  RecordMeasurement(m, st);
+  result.failure = Verdict(run.settle, dt, m, material, options);
   result.ok = result.failure.empty();
   st.wall_seconds = Seconds(wall0, Clock::now());
   return result;

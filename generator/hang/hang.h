@@ -162,6 +162,11 @@ HangResult Hang(const Garment& garment, int anchor_vertex, const Vec3& grasp_off
                 const Material& material, const MaterialFit& fit, const HangOptions& options,
                 uint64_t seed);
 
+// The cloth core's material and options for a fit and these options at step dt (s; a
+// retry halves it): one model for hanging and the material fits' reference runs.
+ClothMaterial ClothMaterialFor(const Material& material, const MaterialFit& fit, const HangOptions& options);
+ClothOptions ClothOptionsFor(const HangOptions& options, double dt);
+
 // shear_frac = (L1 − L2)/L2 of a hung mesh (object frame: grasp at origin):
 // L1 = |lowest vertex|, L2 = flat distance from the grasp point to that vertex.
 double ShearFraction(const TriMesh& hung, const Points3& flat, const Vec3& flat_grasp);

@@ -282,6 +282,9 @@ TEST(Hang, NeverSettlingIsRetriedThenReported) {
   EXPECT_FALSE(r.stats.settled);
   EXPECT_EQ(r.stats.retries, 1);
   EXPECT_NE(r.failure.find("still moving"), std::string::npos) << r.failure;
+  // Numbers as a person writes them (not "1.500000").
+  EXPECT_NE(r.failure.find("time_cap 1.5 s"), std::string::npos) << r.failure;
+  EXPECT_EQ(r.failure.find("000000"), std::string::npos) << r.failure;
 }
 
 TEST(Hang, OverStretchedResultIsFailedWithItsReason) {
