@@ -2,7 +2,7 @@
 
 #include <Eigen/SVD>
 #include <algorithm>
-#include <ctime>
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <numeric>
@@ -13,20 +13,14 @@
 namespace drape {
 namespace {
 
-// CPU time of the calling thread (s): robust to other processes sharing the cores.
-double Now() {
-  timespec ts;
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
-}
-double Since(double t0) { return Now() - t0; }
+using Clock = std::chrono::steady_clock;
+double Since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 constexpr double kTiny = 1e-30;          // m²: below this a segment has zero length
 constexpr double kAccdShrink = 0.1;      // ACCD's s: report when the gap falls below s × initial
 constexpr int kAccdMaxSteps = 2000;      // ACCD step cap; hitting it reports a collision
 constexpr double kMaxZoneAngle = 1.5;    // rad per step: keeps (1−t)I + tR invertible
 constexpr double kRigidTolerance = 1e-7; // m: kinematic nodes further off a rigid fit are non-rigid
-constexpr double kStrainTolerance = 1e-4; // relative: strain sweeps stop when no edge is further off
 
 // ---------------------------------------------------------------------------------
 // Pairs: a VF pair (vertex, face) or an EE pair (edge, edge) as four node indices and
@@ -91,7 +85,7 @@ void PairFriction(const Stencil& s, const Coeffs& c, const Vec3& n, double dn, d
 
 // ---------------------------------------------------------------------------------
 // Additive CCD (Li, Kaufman & Jiang 2021, Algorithm 1) on the straight path q0 → q1.
-bool AdditiveCCD(bool vf, const Quad& q0, const Quad& q1, double min_separation, double* toi, double known_d0 = -1) {
+bool AdditiveCCD(bool vf, const Quad& q0, const Quad& q1, double min_separation, double* toi) {
   Quad p;
   Vec3 mean = Vec3::Zero();
   for (int k = 0; k < 4; ++k) {
@@ -102,7 +96,7 @@ bool AdditiveCCD(bool vf, const Quad& q0, const Quad& q1, double min_separation,
   // l_p bounds |relative displacement of the closest points| over the whole path.
   const double lp = vf ? p[0].norm() + std::max({p[1].norm(), p[2].norm(), p[3].norm()})
                        : std::max(p[0].norm(), p[1].norm()) + std::max(p[2].norm(), p[3].norm());
-  const double d0 = known_d0 >= 0 ? known_d0 : std::sqrt(Closest(vf, q0, nullptr));
+  const double d0 = std::sqrt(Closest(vf, q0, nullptr));
   if (!(d0 > 0)) {  // touching at the start (or NaN): conservative
     *toi = 0;
     return true;
@@ -132,66 +126,35 @@ struct Aabb {
   bool Overlaps(const Aabb& o) const { return (lo.array() <= o.hi.array()).all() && (o.lo.array() <= hi.array()).all(); }
 };
 
-// A dense uniform grid over the boxes' bounds; cells grow until there are at most
-// kMaxCells of them.
 class Grid {
  public:
-  Grid(const Vec3& lo, const Vec3& hi, double cell) : lo_(lo) {
-    for (;;) {
-      inv_ = 1.0 / cell;
-      for (int a = 0; a < 3; ++a) dims_[a] = 1 + static_cast<int64_t>(std::floor((hi[a] - lo[a]) * inv_));
-      if (dims_[0] * dims_[1] * dims_[2] <= kMaxCells) break;
-      cell *= 2;
+  explicit Grid(double cell) : inv_(1.0 / cell) {}
+  Eigen::Array3i Cell(const Vec3& p) const {
+    Eigen::Array3i c;
+    for (int a = 0; a < 3; ++a) {
+      const double v = std::floor(p[a] * inv_);
+      c[a] = static_cast<int>(std::clamp(v, -double(kHalf), double(kHalf - 1)));
     }
-  }
-  Eigen::Array<int64_t, 3, 1> Cell(const Vec3& p) const {
-    Eigen::Array<int64_t, 3, 1> c;
-    for (int a = 0; a < 3; ++a)
-      c[a] = std::clamp<int64_t>(static_cast<int64_t>(std::floor((p[a] - lo_[a]) * inv_)), 0, dims_[a] - 1);
     return c;
   }
-  uint32_t Key(const Eigen::Array<int64_t, 3, 1>& c) const {
-    return static_cast<uint32_t>((c[0] * dims_[1] + c[1]) * dims_[2] + c[2]);
+  static uint64_t Key(const Eigen::Array3i& c) {
+    return (uint64_t(c[0] + kHalf) << 42) | (uint64_t(c[1] + kHalf) << 21) | uint64_t(c[2] + kHalf);
   }
-  uint32_t NumCells() const { return static_cast<uint32_t>(dims_[0] * dims_[1] * dims_[2]); }
-  static constexpr int64_t kMaxCells = 1 << 20;
+  static constexpr int kHalf = 1 << 20;
 
  private:
-  Vec3 lo_;
-  double inv_ = 1;
-  Eigen::Array<int64_t, 3, 1> dims_;
+  double inv_;
 };
 
 struct Candidates {
-  std::vector<uint64_t> vf;  // vertex << 32 | face
-  std::vector<uint64_t> ee;  // edge << 32 | edge, first < second
+  std::vector<std::array<int, 2>> vf;  // (vertex, face)
+  std::vector<std::array<int, 2>> ee;  // (edge, edge), first < second
 };
-uint64_t PairKey(int a, int b) { return (uint64_t(uint32_t(a)) << 32) | uint32_t(b); }
-int First(uint64_t key) { return static_cast<int>(key >> 32); }
-int Second(uint64_t key) { return static_cast<int>(key & 0xffffffffu); }
 
 bool FaceHas(const Faces& F, int f, int v) { return F(f, 0) == v || F(f, 1) == v || F(f, 2) == v; }
 bool EdgesShare(const std::array<int, 2>& a, const std::array<int, 2>& b) {
   return a[0] == b[0] || a[0] == b[1] || a[1] == b[0] || a[1] == b[1];
 }
-Aabb Union(const Aabb& a, const Aabb& b) { return {a.lo.cwiseMin(b.lo), a.hi.cwiseMax(b.hi)}; }
-
-// Boxes of vertices, edges and faces over x0 ∪ x1, each padded by `pad`.
-struct ElementBoxes {
-  std::vector<Aabb> v, e, f;
-  void Compute(const Faces& F, const std::vector<std::array<int, 2>>& E, const Points3& x0, const Points3& x1,
-               double pad) {
-    v.resize(x0.rows());
-    for (int i = 0; i < x0.rows(); ++i) {
-      const Vec3 a = x0.row(i).transpose(), b = x1.row(i).transpose();
-      v[i] = {a.cwiseMin(b).array() - pad, a.cwiseMax(b).array() + pad};
-    }
-    e.resize(E.size());
-    for (size_t k = 0; k < E.size(); ++k) e[k] = Union(v[E[k][0]], v[E[k][1]]);
-    f.resize(F.rows());
-    for (int k = 0; k < F.rows(); ++k) f[k] = Union(Union(v[F(k, 0)], v[F(k, 1)]), v[F(k, 2)]);
-  }
-};
 
 class BroadPhase {
  public:
@@ -200,25 +163,25 @@ class BroadPhase {
   // Candidate pairs whose boxes over x0 ∪ x1, each padded by `pad`, overlap; pairs
   // that share a vertex are left out. Sorted.
   Candidates Find(const Points3& x0, const Points3& x1, double pad, double cell) {
-    boxes_.Compute(F_, E_, x0, x1, pad);
-    Candidates out;
-    if (boxes_.v.empty()) return out;
-    Aabb all = boxes_.v[0];
-    for (const Aabb& b : boxes_.v) all = Union(all, b);
-    const Grid grid(all.lo, all.hi, cell);
-    // Counting sort of (cell, element) entries; elements spanning many cells go to `big`.
-    std::vector<std::pair<uint32_t, uint32_t>> entries;
+    const int nv = static_cast<int>(x0.rows()), ne = static_cast<int>(E_.size()), nf = static_cast<int>(F_.rows());
+    vbox_.resize(nv);
+    for (int i = 0; i < nv; ++i) {
+      const Vec3 a = x0.row(i).transpose(), b = x1.row(i).transpose();
+      vbox_[i] = {a.cwiseMin(b).array() - pad, a.cwiseMax(b).array() + pad};
+    }
+    ebox_.resize(ne);
+    for (int e = 0; e < ne; ++e) ebox_[e] = Union(vbox_[E_[e][0]], vbox_[E_[e][1]]);
+    fbox_.resize(nf);
+    for (int f = 0; f < nf; ++f) fbox_[f] = Union(Union(vbox_[F_(f, 0)], vbox_[F_(f, 1)]), vbox_[F_(f, 2)]);
+    const Grid grid(cell);
+    entries_.clear();
     std::vector<int> big[3];
-    Insert(grid, boxes_.v, 0, &entries, &big[0]);
-    Insert(grid, boxes_.e, 1, &entries, &big[1]);
-    Insert(grid, boxes_.f, 2, &entries, &big[2]);
-    std::vector<uint32_t> start(grid.NumCells() + 1, 0), sorted(entries.size());
-    for (const auto& en : entries) ++start[en.first + 1];
-    std::partial_sum(start.begin(), start.end(), start.begin());
-    std::vector<uint32_t> fill(start.begin(), start.end() - 1);
-    for (const auto& en : entries) sorted[fill[en.first]++] = en.second;
-    for (uint32_t c = 0; c < grid.NumCells(); ++c)
-      if (start[c + 1] - start[c] > 1) ScanCell(grid, c, sorted.data() + start[c], sorted.data() + start[c + 1], &out);
+    Insert(grid, vbox_, 0, &big[0]);
+    Insert(grid, ebox_, 1, &big[1]);
+    Insert(grid, fbox_, 2, &big[2]);
+    std::sort(entries_.begin(), entries_.end());
+    Candidates out;
+    ScanCells(grid, &out);
     AddBig(big, &out);
     for (auto* list : {&out.vf, &out.ee}) {
       std::sort(list->begin(), list->end());
@@ -228,68 +191,69 @@ class BroadPhase {
   }
 
  private:
-  static constexpr uint32_t kKindShift = 30;
+  static Aabb Union(const Aabb& a, const Aabb& b) { return {a.lo.cwiseMin(b.lo), a.hi.cwiseMax(b.hi)}; }
 
-  void Insert(const Grid& grid, const std::vector<Aabb>& boxes, uint32_t kind,
-              std::vector<std::pair<uint32_t, uint32_t>>* entries, std::vector<int>* big) {
+  void Insert(const Grid& grid, const std::vector<Aabb>& boxes, int kind, std::vector<int>* big) {
     for (int i = 0; i < static_cast<int>(boxes.size()); ++i) {
-      const auto lo = grid.Cell(boxes[i].lo), hi = grid.Cell(boxes[i].hi);
-      const auto span = hi - lo + 1;
-      if (span[0] * span[1] * span[2] > 64) {
+      const Eigen::Array3i lo = grid.Cell(boxes[i].lo), hi = grid.Cell(boxes[i].hi);
+      const Eigen::Array3i span = hi - lo + 1;
+      if (int64_t(span[0]) * span[1] * span[2] > 64) {
         big->push_back(i);
         continue;
       }
-      for (int64_t x = lo[0]; x <= hi[0]; ++x)
-        for (int64_t y = lo[1]; y <= hi[1]; ++y)
-          for (int64_t z = lo[2]; z <= hi[2]; ++z)
-            entries->push_back({grid.Key(Eigen::Array<int64_t, 3, 1>(x, y, z)), (kind << kKindShift) | uint32_t(i)});
+      for (int x = lo[0]; x <= hi[0]; ++x)
+        for (int y = lo[1]; y <= hi[1]; ++y)
+          for (int z = lo[2]; z <= hi[2]; ++z)
+            entries_.push_back({Grid::Key(Eigen::Array3i(x, y, z)), (uint64_t(kind) << 32) | uint64_t(i)});
     }
   }
 
   // A pair overlapping in several cells is emitted once: in the cell holding the
   // lower corner of the boxes' intersection.
-  bool Owns(const Grid& grid, uint32_t key, const Aabb& a, const Aabb& b) const {
-    return grid.Key(grid.Cell(a.lo.cwiseMax(b.lo))) == key;
+  bool Owns(const Grid& grid, uint64_t key, const Aabb& a, const Aabb& b) const {
+    return Grid::Key(grid.Cell(a.lo.cwiseMax(b.lo))) == key;
   }
 
-  void ScanCell(const Grid& grid, uint32_t key, const uint32_t* begin, const uint32_t* end, Candidates* out) {
-    for (auto& c : cell_) c.clear();
-    for (const uint32_t* p = begin; p != end; ++p) cell_[*p >> kKindShift].push_back(int(*p & ((1u << kKindShift) - 1)));
-    const auto& bv = boxes_.v;
-    const auto& be = boxes_.e;
-    const auto& bf = boxes_.f;
-    for (int v : cell_[0])
-      for (int f : cell_[2])
-        if (bv[v].Overlaps(bf[f]) && !FaceHas(F_, f, v) && Owns(grid, key, bv[v], bf[f])) out->vf.push_back(PairKey(v, f));
-    for (size_t i = 0; i < cell_[1].size(); ++i)
-      for (size_t j = i + 1; j < cell_[1].size(); ++j) {
-        const int a = cell_[1][i], c = cell_[1][j];
-        if (be[a].Overlaps(be[c]) && !EdgesShare(E_[a], E_[c]) && Owns(grid, key, be[a], be[c]))
-          out->ee.push_back(PairKey(std::min(a, c), std::max(a, c)));
-      }
+  void ScanCells(const Grid& grid, Candidates* out) {
+    std::vector<int> cell[3];
+    for (size_t b = 0; b < entries_.size();) {
+      size_t e = b;
+      const uint64_t key = entries_[b].first;
+      for (auto& c : cell) c.clear();
+      for (; e < entries_.size() && entries_[e].first == key; ++e)
+        cell[entries_[e].second >> 32].push_back(int(entries_[e].second & 0xffffffffu));
+      for (int v : cell[0])
+        for (int f : cell[2])
+          if (!FaceHas(F_, f, v) && vbox_[v].Overlaps(fbox_[f]) && Owns(grid, key, vbox_[v], fbox_[f]))
+            out->vf.push_back({v, f});
+      for (size_t i = 0; i < cell[1].size(); ++i)
+        for (size_t j = i + 1; j < cell[1].size(); ++j) {
+          const int a = cell[1][i], c = cell[1][j];
+          if (!EdgesShare(E_[a], E_[c]) && ebox_[a].Overlaps(ebox_[c]) && Owns(grid, key, ebox_[a], ebox_[c]))
+            out->ee.push_back({std::min(a, c), std::max(a, c)});
+        }
+      b = e;
+    }
   }
 
   // Elements spanning many cells are tested against everything (rare: huge motions).
   void AddBig(const std::vector<int> big[3], Candidates* out) {
-    const auto& bv = boxes_.v;
-    const auto& be = boxes_.e;
-    const auto& bf = boxes_.f;
     for (int v : big[0])
-      for (int f = 0; f < int(bf.size()); ++f)
-        if (!FaceHas(F_, f, v) && bv[v].Overlaps(bf[f])) out->vf.push_back(PairKey(v, f));
+      for (int f = 0; f < int(fbox_.size()); ++f)
+        if (!FaceHas(F_, f, v) && vbox_[v].Overlaps(fbox_[f])) out->vf.push_back({v, f});
     for (int f : big[2])
-      for (int v = 0; v < int(bv.size()); ++v)
-        if (!FaceHas(F_, f, v) && bv[v].Overlaps(bf[f])) out->vf.push_back(PairKey(v, f));
+      for (int v = 0; v < int(vbox_.size()); ++v)
+        if (!FaceHas(F_, f, v) && vbox_[v].Overlaps(fbox_[f])) out->vf.push_back({v, f});
     for (int a : big[1])
-      for (int c = 0; c < int(be.size()); ++c)
-        if (c != a && !EdgesShare(E_[a], E_[c]) && be[a].Overlaps(be[c]))
-          out->ee.push_back(PairKey(std::min(a, c), std::max(a, c)));
+      for (int c = 0; c < int(ebox_.size()); ++c)
+        if (c != a && !EdgesShare(E_[a], E_[c]) && ebox_[a].Overlaps(ebox_[c]))
+          out->ee.push_back({std::min(a, c), std::max(a, c)});
   }
 
   const Faces& F_;
   const std::vector<std::array<int, 2>>& E_;
-  ElementBoxes boxes_;
-  std::vector<int> cell_[3];
+  std::vector<Aabb> vbox_, ebox_, fbox_;
+  std::vector<std::pair<uint64_t, uint64_t>> entries_;  // (cell key, kind << 32 | index)
 };
 
 std::vector<std::array<int, 2>> MeshEdges(const Faces& F, const Points3& x) {
@@ -507,15 +471,11 @@ double MinimumNonAdjacentDistance(const Faces& F, const Points3& x) {
   for (double r = 0.25 * cell;; r *= 4) {
     const Candidates cand = broad.Find(x, x, 0.5 * r, std::max(cell, r));
     double best = std::numeric_limits<double>::infinity();
-    for (const uint64_t key : cand.vf) {
-      const int v = First(key), f = Second(key);
+    for (const auto& [v, f] : cand.vf)
       best = std::min(best, PointTriangleDistanceSquared(x.row(v), x.row(F(f, 0)), x.row(F(f, 1)), x.row(F(f, 2))));
-    }
-    for (const uint64_t key : cand.ee) {
-      const int a = First(key), b = Second(key);
+    for (const auto& [a, b] : cand.ee)
       best = std::min(best,
                       SegmentSegmentDistanceSquared(x.row(E[a][0]), x.row(E[a][1]), x.row(E[b][0]), x.row(E[b][1])));
-    }
     best = std::sqrt(best);
     if (best <= r) return best;
     if (r > 2 * extent.norm()) return best;  // every pair was a candidate
@@ -574,73 +534,31 @@ struct ApplyContext {
   double dt;
   double cell;
   CollisionReport& rep;
-  // The handler's cross-call pair cache (see collision.h).
-  std::vector<uint64_t>& vf;
-  std::vector<uint64_t>& ee;
-  std::vector<double>& vf_distance;
-  std::vector<double>& ee_distance;
-  Points3& snapshot;
-  Points3& region_lo;
-  Points3& region_hi;
   BroadPhase broad;
-  std::vector<double> delta0, delta1, motion;  // per node: |x0 − snapshot|, |x1 − snapshot|, |x1 − x0|
-  ElementBoxes boxes;
+  Candidates cand;
+  Points3 box_ref;  // the x1 the candidates were found for
+  bool have_cand = false;
 
-  double Slack() const { return 0.25 * opt.thickness; }  // m: how far nodes may roam before a rebuild
-  Stencil VF(uint64_t key) const {
-    const int v = First(key), f = Second(key);
-    return {{v, F(f, 0), F(f, 1), F(f, 2)}, true};
-  }
-  Stencil EE(uint64_t key) const {
-    const int a = First(key), b = Second(key);
-    return {{E[a][0], E[a][1], E[b][0], E[b][1]}, false};
-  }
-  bool Inside(int i, const Points3& x) const {
-    return (x.row(i).array() >= region_lo.row(i).array()).all() && (x.row(i).array() <= region_hi.row(i).array()).all();
-  }
-  // Bound on how far the pair's closest-point vector can have moved, from per-node moves d.
-  static double Reach(const Stencil& s, const std::vector<double>& d) {
-    return s.vf ? d[s.n[0]] + std::max({d[s.n[1]], d[s.n[2]], d[s.n[3]]})
-                : std::max(d[s.n[0]], d[s.n[1]]) + std::max(d[s.n[2]], d[s.n[3]]);
-  }
-  void NodeMoves(int i) {
-    delta1[i] = (x1.row(i) - snapshot.row(i)).norm();
-    motion[i] = (x1.row(i) - x0.row(i)).norm();
-  }
+  Stencil VF(int v, int f) const { return {{v, F(f, 0), F(f, 1), F(f, 2)}, true}; }
+  Stencil EE(int a, int b) const { return {{E[a][0], E[a][1], E[b][0], E[b][1]}, false}; }
 
-  // Rebuilds the cached pairs unless every node's x0 and x1 are still in its region.
-  // Returns true if it rebuilt.
-  bool EnsurePairs() {
-    const int n = static_cast<int>(x0.rows());
-    bool valid = region_lo.rows() == n;
-    for (int i = 0; valid && i < n; ++i) valid = Inside(i, x0) && Inside(i, x1);
-    if (valid) return false;
-    const double t0 = Now();
-    ++rep.broad_rebuilds;
-    region_lo = x0.cwiseMin(x1).array() - Slack();
-    region_hi = x0.cwiseMax(x1).array() + Slack();
-    const Candidates c = broad.Find(x0, x1, Slack() + 0.5 * opt.thickness, cell);
-    vf = c.vf;
-    ee = c.ee;
-    snapshot = x0;
-    vf_distance.resize(vf.size());
-    ee_distance.resize(ee.size());
-    for (size_t k = 0; k < vf.size(); ++k) vf_distance[k] = std::sqrt(Closest(true, Gather(VF(vf[k]), x0), nullptr));
-    for (size_t k = 0; k < ee.size(); ++k) ee_distance[k] = std::sqrt(Closest(false, Gather(EE(ee[k]), x0), nullptr));
-    delta0.assign(n, 0.0);
-    rep.broad_seconds += Since(t0);
-    return true;
-  }
-  // Per-node moves for the distance bounds, at the current x1.
-  void Moves() {
-    const int n = static_cast<int>(x0.rows());
-    delta0.resize(n);
-    delta1.resize(n);
-    motion.resize(n);
-    for (int i = 0; i < n; ++i) {
-      delta0[i] = (x0.row(i) - snapshot.row(i)).norm();
-      NodeMoves(i);
+  // Candidates padded by thickness/2 on x0 ∪ box_ref; still valid for CCD (pad ξ/2)
+  // while every node's x1 stays within its box grown by (thickness − ξ)/2.
+  const Candidates& Fresh() {
+    const auto t0 = Clock::now();
+    bool valid = have_cand;
+    const double m = 0.5 * (opt.thickness - opt.min_separation);
+    for (int i = 0; valid && i < x1.rows(); ++i) {
+      const Vec3 a = x0.row(i).transpose(), b = box_ref.row(i).transpose(), p = x1.row(i).transpose();
+      valid = ((p.array() >= a.cwiseMin(b).array() - m) && (p.array() <= a.cwiseMax(b).array() + m)).all();
     }
+    if (!valid) {
+      cand = broad.Find(x0, x1, 0.5 * opt.thickness, cell);
+      box_ref = x1;
+      have_cand = true;
+    }
+    rep.broad_seconds += Since(t0);
+    return cand;
   }
 };
 
@@ -665,21 +583,17 @@ std::vector<int> HopLevels(const std::vector<int>& start, const std::vector<int>
   return level;
 }
 
-// Edges ordered by their hop level (stable: by index within a level).
-std::vector<int> StrainOrder(const std::vector<std::array<int, 2>>& E, const std::vector<int>& level) {
-  std::vector<int> order(E.size());
-  std::iota(order.begin(), order.end(), 0);
-  auto edge_level = [&](int e) { return std::min(level[E[e][0]], level[E[e][1]]); };
-  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return edge_level(a) < edge_level(b); });
-  return order;
-}
-
-void LimitStrain(ApplyContext& cx, const Eigen::VectorXd& rest_lengths, const std::vector<int>& order,
-                 const std::vector<int>& level) {
-  const double t0 = Now();
+void LimitStrain(ApplyContext& cx, const Eigen::VectorXd& rest_lengths, const std::vector<int>& level) {
+  const auto t0 = Clock::now();
   const double hi = cx.opt.max_strain > 0 ? 1 + cx.opt.max_strain : std::numeric_limits<double>::infinity();
   const double lo = cx.opt.max_compression > 0 ? 1 - cx.opt.max_compression : 0;
   if (!std::isfinite(hi) && !(lo > 0)) return;
+  // Edges ordered by their hop level (stable: by index within a level).
+  const int ne = static_cast<int>(cx.E.size());
+  std::vector<int> order(ne);
+  std::iota(order.begin(), order.end(), 0);
+  auto edge_level = [&](int e) { return std::min(level[cx.E[e][0]], level[cx.E[e][1]]); };
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return edge_level(a) < edge_level(b); });
   for (int it = 0; it < cx.opt.strain_iterations; ++it) {
     double worst = 0;  // largest relative violation corrected in this sweep
     for (const int e : order) {
@@ -701,7 +615,7 @@ void LimitStrain(ApplyContext& cx, const Eigen::VectorXd& rest_lengths, const st
       cx.x1.row(j) -= (wj / (wi + wj)) * corr.transpose();
       ++cx.rep.strain_corrections;
     }
-    if (worst < kStrainTolerance) break;
+    if (worst < 1e-6) break;
   }
   cx.rep.strain_seconds += Since(t0);
 }
@@ -737,34 +651,13 @@ bool RepelPair(ApplyContext& cx, const Stencil& s) {
   return true;
 }
 
-// One sweep over the VF (vf = true) or EE pair list. Pairs the cached distance bound
-// proves to stay apart by `thickness` at x0 and x1 are skipped (RepelPair would leave
-// them). A node pushed out of its cache region is caught by the next EnsurePairs (the
-// next sweep or CCD pass), not mid-sweep: rebuilding there costs more than it gains.
-int RepelSweep(ApplyContext& cx, bool vf) {
-  int moved = 0;
-  const double h = cx.opt.thickness * (1 + 1e-9);
-  const auto& list = vf ? cx.vf : cx.ee;
-  const auto& distance = vf ? cx.vf_distance : cx.ee_distance;
-  for (size_t k = 0; k < list.size(); ++k) {
-    const Stencil s = vf ? cx.VF(list[k]) : cx.EE(list[k]);
-    if (distance[k] - ApplyContext::Reach(s, cx.delta0) >= h && distance[k] - ApplyContext::Reach(s, cx.delta1) >= h)
-      continue;
-    if (!RepelPair(cx, s)) continue;
-    ++moved;
-    for (int n : s.n) cx.NodeMoves(n);
-  }
-  return moved;
-}
-
 void Repel(ApplyContext& cx) {
-  cx.EnsurePairs();
-  const double t0 = Now();
+  const Candidates& cand = cx.Fresh();
+  const auto t0 = Clock::now();
   for (int it = 0; it < cx.opt.proximity_iterations; ++it) {
-    if (it > 0) cx.EnsurePairs();
-    cx.Moves();
-    int moved = RepelSweep(cx, true);
-    moved += RepelSweep(cx, false);
+    int moved = 0;
+    for (const auto& [v, f] : cand.vf) moved += RepelPair(cx, cx.VF(v, f));
+    for (const auto& [a, b] : cand.ee) moved += RepelPair(cx, cx.EE(a, b));
     cx.rep.proximity_pairs += moved;
     if (moved == 0) break;
   }
@@ -812,7 +705,7 @@ bool CollideNode(const BoxCollider& box, double pad, const Vec3& x0, Vec3& x1) {
 }
 
 void HandleColliders(ApplyContext& cx, const std::vector<BoxCollider>& colliders) {
-  const auto t0 = Now();
+  const auto t0 = Clock::now();
   for (int i = 0; i < cx.x1.rows() && !colliders.empty(); ++i) {
     if (cx.inv_mass[i] == 0) continue;
     const Vec3 a = cx.x0.row(i).transpose();
@@ -830,31 +723,19 @@ void HandleColliders(ApplyContext& cx, const std::vector<BoxCollider>& colliders
 // ---- continuous collision detection and impulses (Bridson §7.3) -------------------------
 // Colliding pairs on x0 → x1; pairs whose nodes all lie in one rigid zone are skipped.
 std::vector<Hit> Detect(ApplyContext& cx, const std::vector<int>* zone_of) {
-  cx.EnsurePairs();
-  const double t0 = Now();
-  cx.Moves();
-  cx.boxes.Compute(cx.F, cx.E, cx.x0, cx.x1, 0.5 * cx.opt.min_separation);
-  const double xi = cx.opt.min_separation;
+  const Candidates& cand = cx.Fresh();
+  const auto t0 = Clock::now();
   std::vector<Hit> hits;
-  auto test = [&](const Stencil& s, double dc, const Aabb& a, const Aabb& b) {
+  auto test = [&](const Stencil& s) {
     if (zone_of) {
       const int z = (*zone_of)[s.n[0]];
       if (z >= 0 && (*zone_of)[s.n[1]] == z && (*zone_of)[s.n[2]] == z && (*zone_of)[s.n[3]] == z) return;
     }
-    // ACCD's first step covers the whole path when (1−s)(d0 − ξ) ≥ l_p: skip those
-    // pairs with a lower bound on d0 and an upper bound on l_p (its mean-subtracted
-    // bound is at most the per-node one plus twice the largest move).
-    const double m = std::max({cx.motion[s.n[0]], cx.motion[s.n[1]], cx.motion[s.n[2]], cx.motion[s.n[3]]});
-    const double lp = ApplyContext::Reach(s, cx.motion) + 2 * m;
-    if ((1 - kAccdShrink) * (dc - ApplyContext::Reach(s, cx.delta0) - xi) > lp * (1 + 1e-9)) return;
-    if (!a.Overlaps(b)) return;  // apart by more than ξ all along
     double toi = 0;
-    if (AdditiveCCD(s.vf, Gather(s, cx.x0), Gather(s, cx.x1), xi, &toi)) hits.push_back({s, toi});
+    if (AdditiveCCD(s.vf, Gather(s, cx.x0), Gather(s, cx.x1), cx.opt.min_separation, &toi)) hits.push_back({s, toi});
   };
-  for (size_t k = 0; k < cx.vf.size(); ++k)
-    test(cx.VF(cx.vf[k]), cx.vf_distance[k], cx.boxes.v[First(cx.vf[k])], cx.boxes.f[Second(cx.vf[k])]);
-  for (size_t k = 0; k < cx.ee.size(); ++k)
-    test(cx.EE(cx.ee[k]), cx.ee_distance[k], cx.boxes.e[First(cx.ee[k])], cx.boxes.e[Second(cx.ee[k])]);
+  for (const auto& [v, f] : cand.vf) test(cx.VF(v, f));
+  for (const auto& [a, b] : cand.ee) test(cx.EE(a, b));
   cx.rep.ccd_seconds += Since(t0);
   return hits;
 }
@@ -909,7 +790,7 @@ std::vector<std::vector<int>> BuildZones(UnionFind& uf, const std::vector<char>&
 }
 
 void ImpactZones(ApplyContext& cx, std::vector<Hit> hits) {
-  const auto t0 = Now();
+  const auto t0 = Clock::now();
   const double ccd_before = cx.rep.ccd_seconds, broad_before = cx.rep.broad_seconds;
   cx.rep.fail_safe_used = true;
   const int n = static_cast<int>(cx.x1.rows());
@@ -985,17 +866,8 @@ CollisionReport CollisionHandler::Apply(const Points3& x0, Points3& x1, const Ei
 
   CollisionReport rep;
   const double cell = std::max(mean_edge_length_, 2 * options_.thickness);
-  ApplyContext cx{F_,        edges_,       rest_,     options_,   x0,         x1,          inv_mass,
-                  dt,        cell,         rep,       cached_vf_, cached_ee_, cached_vf_distance_,
-                  cached_ee_distance_, snapshot_, region_lo_, region_hi_, BroadPhase(F_, edges_), {}, {}, {}, {}};
-  std::vector<char> kinematic(n);
-  for (int i = 0; i < n; ++i) kinematic[i] = inv_mass[i] == 0;
-  if (kinematic != order_kinematic_ || strain_order_.empty()) {
-    order_kinematic_ = kinematic;
-    hop_level_ = HopLevels(adjacency_start_, adjacency_, inv_mass);
-    strain_order_ = StrainOrder(edges_, hop_level_);
-  }
-  LimitStrain(cx, rest_lengths_, strain_order_, hop_level_);
+  ApplyContext cx{F_, edges_, rest_, options_, x0, x1, inv_mass, dt, cell, rep, BroadPhase(F_, edges_), {}, {}};
+  LimitStrain(cx, rest_lengths_, HopLevels(adjacency_start_, adjacency_, inv_mass));
   Repel(cx);
   HandleColliders(cx, colliders);
   std::vector<Hit> hits;

@@ -40,7 +40,6 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <array>
-#include <cstdint>
 #include <vector>
 
 #include "common/mesh.h"
@@ -98,9 +97,8 @@ struct CollisionReport {
   bool fail_safe_used = false;  // rigid impact zones were needed
   bool reverted = false;        // gave up on zones: the whole mesh moved as one rigid zone
   bool nonrigid_kinematic = false;  // a zone's kinematic nodes moved non-rigidly
-  int broad_rebuilds = 0;       // candidate-pair rebuilds (0: the cached pairs still held)
   double broad_seconds = 0, strain_seconds = 0, proximity_seconds = 0, collider_seconds = 0,
-         ccd_seconds = 0, zone_seconds = 0;  // s, CPU time of the calling thread, timing only
+         ccd_seconds = 0, zone_seconds = 0;  // s, wall clock, timing only
 };
 
 class CollisionHandler {
@@ -112,11 +110,8 @@ class CollisionHandler {
   // dynamics, corrected in place so that the straight path x0→x1 is collision-free
   // (see the guarantee above). inv_mass[i] == 0: node i is kinematic (held by a
   // gripper): x1[i] is prescribed and never changed (infinitely heavy). dt (s) turns
-  // position changes into velocities (friction, zone momenta). Deterministic: the
-  // same sequence of calls gives the same bytes. A pair cache kept across calls only
-  // skips tests whose outcome a distance bound proves (CCD decisions never depend on
-  // it); a repulsion sweep can miss a pair brought together by a node pushed out of its
-  // cache region in that same sweep, until the next sweep or CCD pass.
+  // position changes into velocities (friction, zone momenta). Deterministic:
+  // same input → same output bytes.
   CollisionReport Apply(const Points3& x0, Points3& x1, const Eigen::VectorXd& inv_mass, double dt,
                         const std::vector<BoxCollider>& colliders);
 
@@ -134,16 +129,6 @@ class CollisionHandler {
   std::vector<int> adjacency_start_, adjacency_;  // vertex → neighbouring vertices (CSR)
   Eigen::VectorXd rest_lengths_;           // m, per edge
   double mean_edge_length_ = 0;            // m: broad-phase cell size
-  // Strain sweep order for the last kinematic set (edges by hop level from held nodes).
-  std::vector<char> order_kinematic_;
-  std::vector<int> strain_order_, hop_level_;
-  // Candidate pairs kept across calls: every VF/EE pair that can come within
-  // `thickness` while each node stays inside [region_lo_, region_hi_], with its distance
-  // at `snapshot_`; distance bounds from it skip most exact tests. Results never depend
-  // on this cache (a pair is skipped only when the bound proves the skip).
-  std::vector<uint64_t> cached_vf_, cached_ee_;  // (vertex << 32 | face), (edge << 32 | edge)
-  std::vector<double> cached_vf_distance_, cached_ee_distance_;  // m, at snapshot_
-  Points3 snapshot_, region_lo_, region_hi_;
 };
 
 // Smallest distance (m) between mesh elements that share no vertex, over VF and EE
