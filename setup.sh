@@ -4,6 +4,12 @@
 #   ./setup.sh test     install packages, build, and run the test suite
 #   ./setup.sh build    install packages and build only
 #   ./setup.sh bench    also install what the benchmarks compare against (Open3D), build
+#   ./setup.sh sanitize the unit tests under ASan + UBSan (clang-14, folder build-san,
+#                       not yet part of .ci/run: its build time on CI is unmeasured;
+#                       end-to-end and "slow" suites excluded), then every fuzz target
+#                       for DRAPE_FUZZ_SECONDS (default 10) each
+#   ./setup.sh format   check that the lines this branch changed since main (on main:
+#                       the last commit) follow .clang-format; run it before landing
 # Safe to run again: packages already present are skipped, the build is incremental.
 set -euo pipefail
 cd "$(dirname "$0")"
@@ -24,15 +30,30 @@ PACKAGES=(
   libgtest-dev libgmock-dev libbenchmark-dev
   python3-numpy
   chromium            # headless check of a release's index.html gallery
+  pybind11-dev        # the drape Python package (python/)
+  python3-pytest      # its tests, run from CTest
+  python3-torch       # drape.torch.GarmentDataset
+  nodejs              # npm, for three.js (the gallery's 3D view)
+  npm                 # (nodesource's nodejs provides it: counted as present)
+  zlib1g-dev          # gzip of the gallery's 3D mesh scripts
+  clang-14            # sanitizer build and fuzz targets (./setup.sh sanitize, fuzz/run.sh)
+  libfuzzer-14-dev    # libFuzzer for clang-14 (fuzz/)
+  slurm-wlm           # tests/slurm.sh: a one-node Slurm (opt-in: DRAPE_SLURM_TEST=1)
+  munge               # Slurm's authentication, for tests/slurm.sh
+  clang-format        # ./setup.sh format: changed lines follow .clang-format
 )
 
 # Only the benchmarks need these (registration_bench compares with Open3D's ICP).
 BENCH_PACKAGES=(python3-open3d)
 
 install_packages() {
-  local missing=()
+  local missing=() provided
+  # Virtual packages provided by an installed one (nodesource's nodejs provides npm).
+  provided=$(dpkg-query -W -f='${Status} ${Provides}\n' 2>/dev/null | sed -n 's/^install ok installed //p' | tr ',' '\n')
   for p in "${PACKAGES[@]}" "$@"; do
-    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" && continue
+    echo "$provided" | grep -qE "^ *$p( |\$)" && continue
+    missing+=("$p")
   done
   if [ ${#missing[@]} -eq 0 ]; then
     echo "setup: all packages present"
@@ -45,9 +66,37 @@ install_packages() {
   DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
 }
 
+# three.js for the gallery's 3D view, at the version pinned in package-lock.json; the
+# build links it into the drape binary, which copies it into every release.
+install_viewer() {
+  local dir="$BUILD_DIR/viewer"
+  mkdir -p "$dir"
+  if [ -f "$dir/node_modules/three/package.json" ] &&
+     cmp -s generator/release/viewer/package-lock.json "$dir/package-lock.json"; then
+    return
+  fi
+  cp generator/release/viewer/package.json generator/release/viewer/package-lock.json "$dir/"
+  (cd "$dir" && npm ci --no-audit --no-fund --loglevel=error)
+}
+
+# Debian's python3 finds the package built in $BUILD_DIR/python (import drape).
+install_python_path() {
+  local site
+  site=$(/usr/bin/python3 -c 'import sys; print(f"/usr/local/lib/python{sys.version_info.major}.{sys.version_info.minor}/dist-packages")')
+  local sudo=""
+  [ "$(id -u)" -eq 0 ] || sudo="sudo"
+  $sudo mkdir -p "$site"
+  local pkg
+  pkg="$(cd "$BUILD_DIR" && pwd)/python"
+  echo "$pkg" | $sudo tee "$site/drape.pth" > /dev/null
+  echo "setup: /usr/bin/python3 imports drape from $pkg ($site/drape.pth)"
+}
+
 build() {
+  install_viewer
   cmake -S . -B "$BUILD_DIR" -G Ninja -DCMAKE_BUILD_TYPE=Release
   cmake --build "$BUILD_DIR" -j "$JOBS"
+  install_python_path
 }
 
 case "${1:-main}" in
@@ -74,8 +123,32 @@ case "${1:-main}" in
     install_packages "${BENCH_PACKAGES[@]}"
     build
     ;;
+  sanitize)
+    install_packages
+    . fuzz/sanitize_env.sh
+    san_configure
+    cmake --build "$SAN_BUILD_DIR" -j "$SAN_JOBS"
+    ctest --test-dir "$SAN_BUILD_DIR" --output-on-failure -j "$SAN_JOBS" -L unit -LE slow
+    fuzz/run.sh "${DRAPE_FUZZ_SECONDS:-10}"
+    ;;
+  format)
+    command -v git-clang-format >/dev/null ||
+      { echo "setup: format needs clang-format (apt-get install clang-format)" >&2; exit 2; }
+    # Only the lines changed since BASE: where this branch left main, or on main itself
+    # the last commit (DRAPE_FORMAT_BASE overrides). Fix with: git clang-format BASE
+    base=${DRAPE_FORMAT_BASE:-$(git merge-base HEAD main 2>/dev/null || true)}
+    if [ -z "$base" ] || [ "$base" = "$(git rev-parse HEAD)" ]; then base=HEAD~1; fi
+    out=$(git clang-format --diff --extensions c,cc,cpp,h,hpp "$base" -- .)
+    if [ -n "$out" ] && [ "$out" != "no modified files to format" ] &&
+       [ "$out" != "clang-format did not modify any files" ]; then
+      echo "$out"
+      echo "setup: format: lines changed since $base differ from .clang-format; fix with: git clang-format $base" >&2
+      exit 1
+    fi
+    echo "setup: format: lines changed since $base follow .clang-format"
+    ;;
   *)
-    echo "usage: ./setup.sh [main|test|build|bench]" >&2
+    echo "usage: ./setup.sh [main|test|build|bench|sanitize|format]" >&2
     exit 2
     ;;
 esac

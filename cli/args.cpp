@@ -1,5 +1,7 @@
 #include "cli/args.h"
 
+#include <charconv>
+
 #include <algorithm>
 #include <cstdlib>
 
@@ -80,9 +82,21 @@ std::optional<double> Args::GetDouble(const std::string& name) const {
 std::optional<long long> Args::GetInt(const std::string& name) const {
   auto v = Get(name);
   if (!v) return std::nullopt;
-  char* end = nullptr;
-  const long long d = std::strtoll(v->c_str(), &end, 10);
-  if (v->empty() || *end != '\0') throw Error("option " + name + ": '" + *v + "' is not an integer");
+  long long d = 0;
+  const auto r = std::from_chars(v->data(), v->data() + v->size(), d);
+  if (r.ec == std::errc::result_out_of_range) throw Error("option " + name + ": '" + *v + "' is out of range");
+  if (v->empty() || r.ec != std::errc() || r.ptr != v->data() + v->size())
+    throw Error("option " + name + ": '" + *v + "' is not an integer");
+  return d;
+}
+
+std::optional<uint64_t> Args::GetSeed(const std::string& name) const {
+  auto v = Get(name);
+  if (!v) return std::nullopt;
+  uint64_t d = 0;
+  const auto r = std::from_chars(v->data(), v->data() + v->size(), d);
+  if (v->empty() || r.ec != std::errc() || r.ptr != v->data() + v->size())
+    throw Error("option " + name + ": '" + *v + "' is not a seed (an integer from 0 to 18446744073709551615)");
   return d;
 }
 

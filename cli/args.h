@@ -2,6 +2,7 @@
 #pragma once
 
 #include <map>
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <vector>
@@ -23,6 +24,8 @@ class Args {
   // Numeric accessors throw drape::Error naming the option on a malformed number.
   std::optional<double> GetDouble(const std::string& name) const;
   std::optional<long long> GetInt(const std::string& name) const;
+  // A 64-bit unsigned seed (0 … 2^64−1, as releases record them); anything else throws.
+  std::optional<uint64_t> GetSeed(const std::string& name) const;
   // All values of an option given several times, in order.
   std::vector<std::string> GetAll(const std::string& name) const;
   const std::vector<std::string>& positional() const { return positional_; }

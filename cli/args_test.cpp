@@ -30,6 +30,20 @@ TEST(Args, RejectsUnknownOptionsAndBadNumbers) {
   }
 }
 
+// Release instances carry full 64-bit seeds; every one must be accepted back.
+TEST(Args, SeedsTakeTheWhole64BitRange) {
+  for (const char* s : {"0", "9223372036854775808", "18446744073709551615"}) {
+    Args a({"--seed", s}, {}, {"--seed"});
+    EXPECT_EQ(*a.GetSeed("--seed"), std::stoull(s)) << s;
+  }
+  for (const char* s : {"-1", "18446744073709551616", "1e3", "", "0x10"}) {
+    Args a({"--seed=" + std::string(s)}, {}, {"--seed"});
+    EXPECT_THROW(a.GetSeed("--seed"), Error) << s;
+  }
+  Args big({"-j", "99999999999999999999"}, {}, {"-j"});
+  EXPECT_THROW(big.GetInt("-j"), Error);  // no silent clamp to LLONG_MAX
+}
+
 TEST(Args, ShortOptionGluedToItsValue) {
   Args a({"-j2", "-oout.ply"}, {}, {"-j", "-o"});
   EXPECT_EQ(*a.GetInt("-j"), 2);

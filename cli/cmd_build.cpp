@@ -136,7 +136,8 @@ struct InstallRebuilder {
       } else {
         const Release rel = Release::Open(req.release);
         const std::string text = rel.dataset().at("recipe").value("text", "");
-        recipe = ParseRecipe(text, (req.release / "dataset.json").string() + ":recipe", fs::current_path());
+        recipe = ParseRecipe(text, (req.release / "dataset.json").string() + ":recipe", req.release,
+                             rel.SourceFiles().empty() ? nullptr : &rel.SourceFiles());
       }
       BuildOptions o;
       o.output = req.out;

@@ -122,10 +122,7 @@ int Make(const std::vector<std::string>& argv) {
   args.RequirePositional(1, 1, "one TEMPLATE (see drape garments list)");
   TemplateOptions opt;
   opt.size = args.Get("--size", opt.size);
-  if (auto s = args.GetInt("--seed")) {
-    if (*s < 0) throw Error("option --seed must be >= 0");
-    opt.seed = static_cast<uint64_t>(*s);
-  }
+  if (auto s = args.GetSeed("--seed")) opt.seed = *s;
   if (auto v = args.GetDouble("--edge-length")) opt.edge_length = *v;
   if (auto v = args.GetDouble("--layer-gap")) opt.layer_gap = *v;
   if (auto v = args.GetDouble("--perturbation")) opt.perturbation = *v;

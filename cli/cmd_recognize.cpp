@@ -13,6 +13,7 @@
 #include "generator/release/release.h"
 #include "runtime/recognition/calibrate.h"
 #include "runtime/recognition/evaluate.h"
+#include "runtime/recognition/ladder.h"
 #include "runtime/recognition/query_pipeline.h"
 #include "runtime/recognition/registration_eval.h"
 #include "runtime/recognition/release_source.h"
@@ -108,7 +109,7 @@ int RunRecognize(const std::vector<std::string>& argv) {
   Code q;
   Json query{{"kind", ""}};
   Json timing{{"load_database_seconds", load_s}};
-  const uint64_t seed = static_cast<uint64_t>(a.GetInt("--seed").value_or(0));
+  const uint64_t seed = a.GetSeed("--seed").value_or(0);
   if (auto id = a.Get("--entry")) {
     const Release::EntryInfo* e = rel.Find(*id);
     if (!e) throw Error("--entry: release has no entry '" + *id + "'");
@@ -305,6 +306,9 @@ const char* kEvalUsage =
     "  --top-k K         k of the top-k accuracy (default 3)\n"
     "  --kernel K        auto | generic | popcnt | avx512\n"
     "  --json            print report.json to stdout\n"
+    "  --ladder          also the ablation ladder: the same tables on every test_<rung> split of the\n"
+    "                    recipe (test-split variants, e.g. recipes/quickstart_ladder.yaml), one table\n"
+    "                    per category, and figures of the worst confusions (ladder_*.png)\n"
     "\n"
     "Registration table (paper's Table \"Registration results\"; on by default):\n"
     "  --registration / --no-registration\n"
@@ -314,8 +318,32 @@ const char* kEvalUsage =
     "  --registration-pairs N   at most N pairs per category (default 0 = all)\n"
     "  --threads N       pairs registered in parallel (default: all cores; same numbers for any N)\n";
 
+// The ablation ladder: every rung's split evaluated like `split` (whose result is
+// reused), the table into res.report["ladder"], figures into the report folder.
+void RunLadder(const Release& rel, const Database& db, const Weights* w, const EvalOptions& eo,
+               const std::string& split, EvalResult& res, const std::optional<std::string>& dir) {
+  const std::vector<LadderRung> rungs = LadderRungs(rel);
+  if (rungs.empty()) throw Error("eval --ladder: the release's recipe has no test_<rung> split with entries");
+  std::vector<LadderResult> results;
+  for (const LadderRung& rung : rungs) {
+    if (rung.split == split) {
+      results.push_back({rung, res});
+      continue;
+    }
+    LoadReport lr;
+    const std::vector<EvalQuery> q = LoadEvalQueries(rel, rung.split, &lr);
+    if (q.empty()) continue;
+    results.push_back({rung, Evaluate(db, w, q, AnchorUvs(rel), eo)});
+  }
+  res.report["ladder"] = LadderTable(results);
+  if (dir) {
+    fs::create_directories(*dir);
+    res.report["ladder_figures"] = WriteWorstConfusions(rel, db, results, *dir);
+  }
+}
+
 int RunEval(const std::vector<std::string>& argv) {
-  Args a(argv, {"--json", "--unweighted", "--registration", "--no-registration"},
+  Args a(argv, {"--json", "--unweighted", "--registration", "--no-registration", "--ladder"},
          {"--split", "--report", "--weights", "--top-k", "--kernel", "--registration-pairs", "--threads"});
   if (a.Flag("--registration") && a.Flag("--no-registration")) {
     throw Error("eval: --registration and --no-registration contradict each other");
@@ -363,6 +391,7 @@ int RunEval(const std::vector<std::string>& argv) {
     }
     res.report["registration"] = rr.table;
   }
+  if (a.Flag("--ladder")) RunLadder(rel, db, have_w ? &w : nullptr, eo, split, res, a.Get("--report"));
   if (auto dir = a.Get("--report")) {
     WriteReport(res, header, *dir);
   }

@@ -12,13 +12,14 @@ function(drape_library name)
   target_link_libraries(${name} PUBLIC ${ARG_DEPS} PRIVATE ${ARG_PRIVATE_DEPS})
 endfunction()
 
-# drape_test(NAME SOURCES ... DEPS ...): a GoogleTest executable registered with CTest.
+# drape_test(NAME SOURCES ... DEPS ... [LABELS ...] [TIMEOUT s]): a GoogleTest executable
+# registered with CTest.
 # Tests run from the build tree; DRAPE_SOURCE_DIR points at the repository for fixtures.
 function(drape_test name)
   if(NOT DRAPE_BUILD_TESTS)
     return()
   endif()
-  cmake_parse_arguments(ARG "" "TIMEOUT" "SOURCES;DEPS" ${ARGN})
+  cmake_parse_arguments(ARG "" "TIMEOUT" "SOURCES;DEPS;LABELS" ${ARGN})
   add_executable(${name} ${ARG_SOURCES})
   target_link_libraries(${name} PRIVATE ${ARG_DEPS} GTest::gtest GTest::gtest_main)
   target_compile_options(${name} PRIVATE -Wall -Wextra -Wno-unused-parameter)
@@ -26,7 +27,8 @@ function(drape_test name)
   if(NOT ARG_TIMEOUT)
     set(ARG_TIMEOUT 600)
   endif()
-  gtest_discover_tests(${name} DISCOVERY_TIMEOUT 60 PROPERTIES TIMEOUT ${ARG_TIMEOUT})
+  # LABELS: "slow" for suites of whole builds/simulations (the sanitizer run skips them).
+  gtest_discover_tests(${name} DISCOVERY_TIMEOUT 60 PROPERTIES TIMEOUT ${ARG_TIMEOUT} LABELS "unit;${ARG_LABELS}")
 endfunction()
 
 # drape_bench(NAME SOURCES ... DEPS ...): a Google Benchmark program (not a test).

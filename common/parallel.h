@@ -1,5 +1,6 @@
 // A deterministic parallel loop: each index is independent, so results do not
-// depend on the thread count (Bullet worlds are one per thread; see DESIGN.md).
+// depend on the thread count. Callers keep per-index state (one Bullet world, one
+// Rng seeded by DeriveSeed(seed, key) per job) so nothing is shared between indices.
 #pragma once
 
 #include <functional>

@@ -62,7 +62,9 @@ double Rng::Normal() {
 }
 
 uint64_t Rng::Below(uint64_t n) {
-  // Lemire's rejection keeps it unbiased.
+  // Modulo with rejection (as OpenBSD's arc4random_uniform): drop the lowest
+  // 2^64 mod n values, so the rest split into whole copies of [0, n) and x % n is
+  // unbiased. (Not Lemire's multiply-shift; changing it would change every release.)
   const uint64_t limit = (0 - n) % n;
   uint64_t x;
   do x = NextU64();

@@ -16,6 +16,7 @@
 #include <sstream>
 
 #include "common/error.h"
+#include "common/format.h"
 #include "garments/validate.h"
 
 namespace drape {
@@ -311,13 +312,13 @@ CDT Smooth(const CDT& start, const Boundary& b, int iterations, double h) {
 
 void ContourOptions::Validate() const {
   if (!(edge_length >= 0.002 && edge_length <= 1.0))
-    throw Error("edge_length must be in [0.002, 1] m, got " + std::to_string(edge_length));
+    throw Error("edge_length must be in [0.002, 1] m, got " + FormatNumber(edge_length));
   if (!(layer_gap >= 0 && layer_gap <= 0.1))
-    throw Error("layer_gap must be in [0, 0.1] m, got " + std::to_string(layer_gap));
+    throw Error("layer_gap must be in [0, 0.1] m, got " + FormatNumber(layer_gap));
   if (!(angle_bound > 0 && angle_bound <= 0.125))
-    throw Error("angle_bound must be in (0, 0.125], got " + std::to_string(angle_bound));
+    throw Error("angle_bound must be in (0, 0.125], got " + FormatNumber(angle_bound));
   if (!(size_factor >= 0.5 && size_factor <= 4))
-    throw Error("size_factor must be in [0.5, 4], got " + std::to_string(size_factor));
+    throw Error("size_factor must be in [0.5, 4], got " + FormatNumber(size_factor));
   if (lloyd_iterations < 0 || lloyd_iterations > 1000)
     throw Error("lloyd_iterations must be in [0, 1000], got " + std::to_string(lloyd_iterations));
 }

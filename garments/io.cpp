@@ -2,12 +2,11 @@
 
 #include <assimp/Exporter.hpp>
 #include <assimp/config.h>
-#include <assimp/Importer.hpp>
-#include <assimp/postprocess.h>
 #include <assimp/scene.h>
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
 #include <limits>
 #include <memory>
 #include <set>
@@ -15,7 +14,9 @@
 
 #include "common/error.h"
 #include "common/files.h"
+#include "common/format.h"
 #include "common/json.h"
+#include "garments/mesh_read.h"
 #include "garments/validate.h"
 
 namespace drape {
@@ -168,7 +169,7 @@ RawAnchor ParseAnchor(const std::string& label, const Json& v, const std::string
 
 void ImportOptions::Validate() const {
   if (!(unit_scale > 0 && std::isfinite(unit_scale)))
-    throw Error("unit_scale must be a positive number, got " + std::to_string(unit_scale));
+    throw Error("unit_scale must be a positive number, got " + FormatNumber(unit_scale));
   if (!(max_anchor_distance >= 0)) throw Error("max_anchor_distance must be >= 0");
 }
 
@@ -203,73 +204,40 @@ void WriteMesh(const TriMesh& mesh, const fs::path& path, const Points2* uv) {
   WriteFileAtomic(path, EncodeMesh(mesh, ext.substr(1), uv));
 }
 
+namespace {
+
+// True when the file starts with the PLY magic, whatever its extension.
+bool LooksLikePly(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  char head[4] = {};
+  in.read(head, 4);
+  return in.gcount() == 4 && std::string_view(head, 3) == "ply" && (head[3] == '\n' || head[3] == '\r');
+}
+
+}  // namespace
+
 TriMesh ReadMesh(const fs::path& path, double unit_scale, Points2* uv) {
   const std::string where = Where(path);
   std::error_code ec;
   if (!fs::exists(path, ec)) throw Error(where + ": no such file");
   if (fs::is_directory(path, ec)) throw Error(where + ": is a directory, not a mesh file");
-  // Normals, tangents and colours are dropped before JoinIdenticalVertices so that
-  // per-face attributes (STL, flat-shaded OBJ) do not split the surface into pieces.
-  // Texture coordinates are kept (drape's pattern uv) unless they split it too.
-  Assimp::Importer importer;
-  auto read = [&](bool keep_uv) {
-    importer.SetPropertyInteger(AI_CONFIG_PP_RVC_FLAGS,
-                                aiComponent_NORMALS | aiComponent_TANGENTS_AND_BITANGENTS | aiComponent_COLORS |
-                                    (keep_uv ? 0 : static_cast<int>(aiComponent_TEXCOORDS)));
-    const aiScene* sc = importer.ReadFile(path.string(), aiProcess_RemoveComponent | aiProcess_Triangulate |
-                                                             aiProcess_JoinIdenticalVertices |
-                                                             aiProcess_PreTransformVertices);
-    if (!sc || !sc->mRootNode)
-      throw Error(where + ": cannot read mesh: " + std::string(importer.GetErrorString()));
-    return sc;
-  };
-  const aiScene* scene = read(true);
-  // Texture seams: several vertices at one position. Read again without uv.
-  {
-    std::vector<std::array<float, 3>> pos;
-    bool has_uv = false;
-    for (unsigned mi = 0; mi < scene->mNumMeshes; ++mi) {
-      const aiMesh* m = scene->mMeshes[mi];
-      has_uv |= m->mTextureCoords[0] != nullptr;
-      for (unsigned i = 0; i < m->mNumVertices; ++i)
-        pos.push_back({m->mVertices[i].x, m->mVertices[i].y, m->mVertices[i].z});
-    }
-    std::sort(pos.begin(), pos.end());
-    if (has_uv && std::adjacent_find(pos.begin(), pos.end()) != pos.end()) scene = read(false);
-  }
+  const std::string ext = Lower(path.extension().string());
+  MeshData m;
+  if (ext == ".ply" || LooksLikePly(path)) m = ParsePly(ReadFile(path), where);
+  else if (ext == ".obj") m = ParseObj(ReadFile(path), where);
+  else m = ReadWithAssimp(path);
+  CheckMeshData(m, where);
+  JoinIdenticalPositions(m);  // STL and texture seams repeat positions
+  if (m.F.empty())
+    throw Error(where + ": no triangles (" + std::to_string(m.V.size()) + " vertices)");
   TriMesh out;
-  std::vector<Vec3> V;
-  std::vector<Vec2> T;
-  std::vector<std::array<int, 3>> F;
-  bool all_uv = true;
-  for (unsigned mi = 0; mi < scene->mNumMeshes; ++mi) {
-    const aiMesh* m = scene->mMeshes[mi];
-    const int base = static_cast<int>(V.size());
-    for (unsigned i = 0; i < m->mNumVertices; ++i) {
-      const aiVector3D& p = m->mVertices[i];
-      V.emplace_back(p.x * unit_scale, p.y * unit_scale, p.z * unit_scale);
-      if (m->mTextureCoords[0]) T.emplace_back(m->mTextureCoords[0][i].x, m->mTextureCoords[0][i].y);
-    }
-    all_uv &= m->mTextureCoords[0] != nullptr;
-    for (unsigned f = 0; f < m->mNumFaces; ++f) {
-      const aiFace& face = m->mFaces[f];
-      if (face.mNumIndices != 3) continue;  // points and lines
-      F.push_back({base + static_cast<int>(face.mIndices[0]), base + static_cast<int>(face.mIndices[1]),
-                   base + static_cast<int>(face.mIndices[2])});
-    }
-  }
-  if (F.empty()) throw Error(where + ": no triangles (" + std::to_string(V.size()) + " vertices, " +
-                             std::to_string(scene->mNumMeshes) + " meshes)");
-  out.V.resize(static_cast<int>(V.size()), 3);
-  for (size_t i = 0; i < V.size(); ++i) out.V.row(static_cast<int>(i)) = V[i];
-  out.F.resize(static_cast<int>(F.size()), 3);
-  for (size_t i = 0; i < F.size(); ++i) out.F.row(static_cast<int>(i)) << F[i][0], F[i][1], F[i][2];
+  out.V.resize(static_cast<int>(m.V.size()), 3);
+  for (size_t i = 0; i < m.V.size(); ++i) out.V.row(static_cast<int>(i)) = m.V[i] * unit_scale;
+  out.F.resize(static_cast<int>(m.F.size()), 3);
+  for (size_t i = 0; i < m.F.size(); ++i) out.F.row(static_cast<int>(i)) << m.F[i][0], m.F[i][1], m.F[i][2];
   if (uv) {
-    uv->resize(0, 2);
-    if (all_uv && T.size() == V.size()) {
-      uv->resize(static_cast<int>(T.size()), 2);
-      for (size_t i = 0; i < T.size(); ++i) uv->row(static_cast<int>(i)) = T[i];
-    }
+    uv->resize(static_cast<int>(m.uv.size()), 2);
+    for (size_t i = 0; i < m.uv.size(); ++i) uv->row(static_cast<int>(i)) = m.uv[i];
   }
   return out;
 }

@@ -9,16 +9,16 @@
 //   (`"collar": [x, y, z]`, snapped to the nearest vertex, in the mesh file's units).
 //   The anchors object may be the whole file (`{"collar": 12, ...}`), or an array
 //   `[{"label": "collar", "vertex": 12}, ...]`.
-//   Vertex indices refer to the mesh as assimp reads it: the file's vertex order for
-//   PLY and glTF; for OBJ the order in which vertices first appear in the faces
-//   (drape's own meshes are numbered that way, so they round-trip). When an anchor
+//   Vertex indices are the file's vertex order (PLY vertex element, OBJ `v` lines,
+//   glTF accessors); only vertices at exactly the same position (STL, texture
+//   seams) are merged, the first keeping its place. When an anchor
 //   has both a vertex and a position that disagree, the position wins (and a warning
 //   is reported), so sidecars survive a renumbering tool.
 //
 // Precision: assimp stores coordinates as float32, so a round trip reproduces every
 // coordinate as (double)(float)x exactly (bit for bit); faces, anchor labels, vertex
-// indices and uv are reproduced exactly. Needs layer_gap > 0: assimp's
-// JoinIdenticalVertices merges vertices at the same position.
+// indices and uv are reproduced exactly. Needs layer_gap > 0: vertices at the same
+// position are merged on import.
 #pragma once
 
 #include <filesystem>
@@ -62,8 +62,10 @@ fs::path AnchorsPath(const fs::path& mesh_path);
 std::string EncodeMesh(const TriMesh& mesh, std::string_view format = "ply", const Points2* uv = nullptr);
 
 void WriteMesh(const TriMesh& mesh, const fs::path& path, const Points2* uv = nullptr);
-// Any format assimp reads; triangulated, identical vertices joined, node transforms
-// applied, all meshes of the scene merged. Throws drape::Error naming the file.
+// PLY and OBJ by drape's own readers, any other format assimp reads; polygons split
+// as fans, vertices at one position joined, node transforms applied, all meshes of
+// the scene merged, the file's vertex order kept (garments/mesh_read.h). Throws
+// drape::Error naming the file; never aborts on a malformed file.
 // `uv` (optional) receives the first texture coordinate set, or is left empty.
 TriMesh ReadMesh(const fs::path& path, double unit_scale = 1, Points2* uv = nullptr);
 

@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "common/error.h"
+#include "common/format.h"
 #include "common/field_error.h"
 #include "common/hash.h"
 #include "common/rng.h"
@@ -340,14 +341,14 @@ const TemplateInfo* FindTemplate(const std::string& name) {
 void TemplateOptions::Validate() const {
   if (size != "S" && size != "M" && size != "L") BadField(size, "size", "must be S, M or L, got '" + size + "'");
   if (!(edge_length >= 0.005 && edge_length <= 0.2))
-    BadField(edge_length, "edge_length", "must be in [0.005, 0.2] m, got " + std::to_string(edge_length));
+    BadField(edge_length, "edge_length", "must be in [0.005, 0.2] m, got " + FormatNumber(edge_length));
   if (!(layer_gap >= 0 && layer_gap <= 0.05))
-    BadField(layer_gap, "layer_gap", "must be in [0, 0.05] m, got " + std::to_string(layer_gap));
+    BadField(layer_gap, "layer_gap", "must be in [0, 0.05] m, got " + FormatNumber(layer_gap));
   if (!(perturbation >= 0 && perturbation <= 0.3))
-    BadField(perturbation, "perturbation", "must be in [0, 0.3], got " + std::to_string(perturbation));
+    BadField(perturbation, "perturbation", "must be in [0, 0.3], got " + FormatNumber(perturbation));
   for (const auto& [k, v] : params)
     if (!std::isfinite(v) || v < 0 || v > 1e6)
-      BadField(v, "parameter " + k, "must be a finite number in [0, 1e6], got " + std::to_string(v));
+      BadField(v, "parameter " + k, "must be a finite number in [0, 1e6], got " + FormatNumber(v));
 }
 
 TemplateShape MakeTemplateShape(const std::string& name, const TemplateOptions& options) {

@@ -105,6 +105,10 @@ struct FusionStats {
   int inside_blocks = 0;          // unallocated blocks classified inside (unobserved interior)
   int mesh_vertices = 0, mesh_faces = 0;
   double wall_seconds = 0;        // timing only, never hashed
+  // Wall seconds of Integrate's steps summed over frames (timing only, never hashed).
+  struct Steps {
+    double segment = 0, dropouts = 0, allocate = 0, update = 0, carve = 0;
+  } steps;
 };
 
 // A sparse TSDF volume: 8³-voxel blocks in a hash (only the band near the observed
@@ -126,6 +130,9 @@ class Tsdf {
   // observations (weighted running average).
   // Throws drape::Error if the frame's size does not match the intrinsics.
   void Integrate(const DepthFrame& frame, const Intrinsics& intrinsics);
+  // The same update by the straightforward path (whole image, scalar; slower): the
+  // reference the fast path is tested against — identical values, mesh and .vdb bytes.
+  void IntegrateReference(const DepthFrame& frame, const Intrinsics& intrinsics);
 
   // Signed distance at p (object frame, metres), as defined at the top of this file.
   double Sdf(const Vec3& p) const;
@@ -148,6 +155,8 @@ class Tsdf {
   struct Impl;
 
  private:
+  friend struct FusionResult FuseFrames(const std::vector<DepthFrame>&, const Intrinsics&, const FusionOptions&,
+                                        uint64_t);
   std::unique_ptr<Impl> impl_;
 };
 

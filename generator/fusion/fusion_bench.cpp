@@ -42,17 +42,34 @@ const std::vector<DepthFrame>& Frames() {
   return frames;
 }
 
+// Args: threads, frames stride, reference path (1) or fast path (0). 384 voxels/m.
 void BM_FuseSweep(benchmark::State& state) {
   const auto& frames = Frames();
   FusionOptions o;
   o.threads = static_cast<int>(state.range(0));
   o.frames_stride = static_cast<int>(state.range(1));
+  const bool reference = state.range(2) != 0;
   FusionStats stats;
   for (auto _ : state) {
     Tsdf tsdf(o);
-    for (size_t i = 0; i < frames.size(); i += o.frames_stride) tsdf.Integrate(frames[i], Intrinsics());
+    for (size_t i = 0; i < frames.size(); i += o.frames_stride) {
+      if (reference) {
+        tsdf.IntegrateReference(frames[i], Intrinsics());
+      } else {
+        tsdf.Integrate(frames[i], Intrinsics());
+      }
+    }
     stats = tsdf.Stats();
     benchmark::DoNotOptimize(tsdf.Sdf(Vec3(0, -0.4, 0)));
+  }
+  state.SetLabel(reference ? "reference path" : "fast path");
+  if (!reference) {
+    const double f = 1e3 / std::max(1, stats.frames_integrated);  // ms per frame
+    state.counters["ms_segment"] = stats.steps.segment * f;
+    state.counters["ms_dropouts"] = stats.steps.dropouts * f;
+    state.counters["ms_allocate"] = stats.steps.allocate * f;
+    state.counters["ms_update"] = stats.steps.update * f;
+    state.counters["ms_carve"] = stats.steps.carve * f;
   }
   // Rates over CPU time of the calling thread (single-threaded runs are the budget).
   const double n = double(stats.frames_integrated) * state.iterations();
@@ -61,7 +78,14 @@ void BM_FuseSweep(benchmark::State& state) {
   state.counters["blocks"] = stats.surface_blocks;
   state.counters["voxel_updates_per_frame"] = double(stats.voxel_updates) / frames.size();
 }
-BENCHMARK(BM_FuseSweep)->Args({1, 1})->Args({1, 3})->Args({2, 1})->Unit(benchmark::kMillisecond)->Iterations(1);
+BENCHMARK(BM_FuseSweep)
+    ->Args({1, 3, 1})
+    ->Args({1, 3, 0})
+    ->Args({1, 1, 0})
+    ->Args({2, 3, 0})
+    ->Args({2, 1, 0})
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(1);
 
 void BM_ExtractMeshAndVdb(benchmark::State& state) {
   const auto& frames = Frames();

@@ -3,9 +3,12 @@
 #include <array>
 #include <chrono>
 #include <cmath>
-#include <deque>
 #include <limits>
 #include <sstream>
+
+#if defined(__x86_64__)
+#include <immintrin.h>
+#endif
 
 #include "common/error.h"
 #include "common/field_error.h"
@@ -21,6 +24,25 @@ namespace {
 template <typename T>
 [[noreturn]] void Bad(const T& field, const std::string& name, const std::string& what) {
   BadField(field, "FusionOptions." + name, what);
+}
+
+void CheckFrame(const std::vector<float>& depth, const Intrinsics& K) {
+  if (K.width <= 0 || K.height <= 0 || !(K.fx > 0) || !(K.fy > 0))
+    throw Error("Intrinsics: width, height, fx, fy must be positive");
+  if (depth.size() != size_t(K.width) * K.height) {
+    std::ostringstream os;
+    os << "DepthFrame.depth: " << depth.size() << " values, expected " << K.width << "x" << K.height;
+    throw Error(os.str());
+  }
+}
+
+using Clock = std::chrono::steady_clock;
+// Seconds since t0; restarts t0.
+double Lap(Clock::time_point& t0) {
+  const auto now = Clock::now();
+  const double s = std::chrono::duration<double>(now - t0).count();
+  t0 = now;
+  return s;
 }
 
 }  // namespace
@@ -72,261 +94,457 @@ Tsdf::~Tsdf() = default;
 const FusionOptions& Tsdf::options() const { return impl_->opt; }
 
 void Tsdf::Integrate(const DepthFrame& frame, const Intrinsics& K) {
-  Impl& m = *impl_;
-  const int W = K.width, H = K.height;
-  if (W <= 0 || H <= 0 || !(K.fx > 0) || !(K.fy > 0))
-    throw Error("Intrinsics: width, height, fx, fy must be positive");
-  if (frame.depth.size() != size_t(W) * H) {
-    std::ostringstream os;
-    os << "DepthFrame.depth: " << frame.depth.size() << " values, expected " << W << "x" << H;
-    throw Error(os.str());
-  }
-  if (!m.rays_valid || m.rays_for.width != W || m.rays_for.height != H || m.rays_for.fx != K.fx ||
-      m.rays_for.fy != K.fy || m.rays_for.cx != K.cx || m.rays_for.cy != K.cy) {
-    m.xhat.resize(W);
-    m.yhat.resize(H);
-    for (int u = 0; u < W; ++u) m.xhat[u] = (u - K.cx) / K.fx;
-    for (int v = 0; v < H; ++v) m.yhat[v] = (v - K.cy) / K.fy;
-    m.rays_for = K;
-    m.rays_valid = true;
-  }
-  const int stamp = m.frames;
-  const double h = m.h, mu = m.mu;
-  const Eigen::Matrix3d R = frame.camera_to_object.linear();
-  const Eigen::Vector3d t = frame.camera_to_object.translation();
-  const Eigen::AlignedBox3d& box = m.opt.box;
-  const double radius2 = m.opt.radius > 0 ? m.opt.radius * m.opt.radius : 0;
-
-  // 1. Segmentation. code > 0: foreground depth (in the box); code < 0: -depth of a
-  // point outside the box (carves free space only); 0: background without data;
-  // NaN: no data next to the garment (a dropout, ignored).
-  std::vector<float> code(size_t(W) * H);
-  std::vector<uint8_t> fg(size_t(W) * H, 0);
-  int64_t fg_count = 0;
-  for (int v = 0; v < H; ++v) {
-    for (int u = 0; u < W; ++u) {
-      const size_t i = size_t(v) * W + u;
-      const float d = frame.depth[i];
-      if (!(d > 0) || !std::isfinite(d)) {
-        code[i] = 0;
-        continue;
-      }
-      const Vec3 p = R * Vec3(d * m.xhat[u], d * m.yhat[v], d) + t;
-      if (box.contains(p) && (radius2 <= 0 || p.x() * p.x() + p.z() * p.z() <= radius2)) {
-        code[i] = d;
-        fg[i] = 1;
-        ++fg_count;
-      } else {
-        code[i] = -d;
-      }
-    }
-  }
-  // Pixels without data that the foreground encloses (not connected to the image
-  // border through non-foreground pixels) are dropouts on the garment (grazing
-  // angles, folds), not background → ignored. Without this, dropouts carve the
-  // unobserved interior over a long sweep.
-  if (fg_count > 0) {
-    std::vector<uint8_t> outside(size_t(W) * H, 0);
-    std::vector<int> queue;
-    queue.reserve(size_t(W) * H / 4);
-    auto push = [&](int u, int v) {
-      const size_t i = size_t(v) * W + u;
-      if (fg[i] || outside[i]) return;
-      outside[i] = 1;
-      queue.push_back(static_cast<int>(i));
-    };
-    for (int u = 0; u < W; ++u) push(u, 0), push(u, H - 1);
-    for (int v = 0; v < H; ++v) push(0, v), push(W - 1, v);
-    for (size_t head = 0; head < queue.size(); ++head) {
-      const int i = queue[head], u = i % W, v = i / W;
-      if (u > 0) push(u - 1, v);
-      if (u + 1 < W) push(u + 1, v);
-      if (v > 0) push(u, v - 1);
-      if (v + 1 < H) push(u, v + 1);
-    }
-    for (size_t i = 0; i < code.size(); ++i)
-      if (code[i] == 0 && !outside[i]) code[i] = std::numeric_limits<float>::quiet_NaN();
-  }
-  // Pixels without data within hole_radius_px of a foreground pixel → ignored.
-  if (fg_count > 0) {
-    const int r = m.opt.hole_radius_px;
-    std::vector<uint8_t> near_row(size_t(W) * H, 0);
-    std::vector<int> dist(std::max(W, H));
-    for (int v = 0; v < H; ++v) {
-      int last = -1000000;  // last foreground column
-      for (int u = 0; u < W; ++u) {
-        if (fg[size_t(v) * W + u]) last = u;
-        dist[u] = u - last;
-      }
-      last = 1000000;
-      for (int u = W - 1; u >= 0; --u) {
-        if (fg[size_t(v) * W + u]) last = u;
-        dist[u] = std::min(dist[u], last - u);
-        near_row[size_t(v) * W + u] = dist[u] <= r;
-      }
-    }
-    for (int u = 0; u < W; ++u) {
-      int last = -1000000;
-      for (int v = 0; v < H; ++v) {
-        if (near_row[size_t(v) * W + u]) last = v;
-        dist[v] = v - last;
-      }
-      last = 1000000;
-      for (int v = H - 1; v >= 0; --v) {
-        if (near_row[size_t(v) * W + u]) last = v;
-        dist[v] = std::min(dist[v], last - v);
-        const size_t i = size_t(v) * W + u;
-        if (dist[v] <= r && code[i] == 0) code[i] = std::numeric_limits<float>::quiet_NaN();
-      }
-    }
-  }
-
-  // Free-space evidence: the pixel's own code (NaN = ignored). A 3×3-min version
-  // (conservative at silhouettes) was tried and was worse: it leaves a one-pixel
-  // rim outside every silhouette uncarved, which then reads inside.
-  const std::vector<float>& carve = code;
-
-  // 2. Allocate the blocks that the band [d - μ, d + μ] of each foreground pixel
-  // crosses. Samples every half block along the ray, and every `stride` pixels with
-  // stride ≤ a third of a block's footprint at the farthest foreground depth, so
-  // no block the band crosses is skipped between samples.
-  std::vector<int> touched;
-  {
-    float far = 0;
-    for (size_t i = 0; i < code.size(); ++i) far = std::max(far, code[i] > 0 ? code[i] : 0.f);
-    const double block_px = far > 0 ? kBlockDim * h * std::min(K.fx, K.fy) / far : 1;
-    const int stride = std::clamp(static_cast<int>(block_px / 3), 1, 8);
-    const int steps = static_cast<int>(std::ceil(2 * mu / (0.5 * kBlockDim * h)));
-    // Direct-mapped cache of blocks already stamped this frame: most samples fall in
-    // a block a neighbouring sample has just found.
-    constexpr int kCache = 1024;
-    std::array<uint64_t, kCache> cache;
-    cache.fill(~uint64_t(0));
-    for (int v = 0; v < H; v += stride) {
-      for (int u = 0; u < W; u += stride) {
-        const float d = code[size_t(v) * W + u];
-        if (!(d > 0)) continue;
-        const double lambda = std::sqrt(1 + m.xhat[u] * m.xhat[u] + m.yhat[v] * m.yhat[v]);
-        const Vec3 ray = R * Vec3(m.xhat[u], m.yhat[v], 1.0);
-        for (int s = 0; s <= steps; ++s) {
-          const double along = -mu + 2 * mu * s / steps;  // metres along the ray
-          const double z = d + along / lambda;
-          if (z <= 0) continue;
-          const Vec3 p = z * ray + t;
-          const Eigen::Vector3i b(FloorDiv8(static_cast<int>(std::floor(p.x() / h + 0.5))),
-                                  FloorDiv8(static_cast<int>(std::floor(p.y() / h + 0.5))),
-                                  FloorDiv8(static_cast<int>(std::floor(p.z() / h + 0.5))));
-          const uint64_t key = Impl::Key(b);
-          uint64_t& slot = cache[(key * 0x9E3779B97F4A7C15ull) >> 54];
-          if (slot == key) continue;
-          slot = key;
-          auto [it, inserted] = m.index.try_emplace(key, static_cast<int>(m.blocks.size()));
-          if (inserted) {
-            auto blk = std::make_unique<FusionBlock>();
-            blk->coord = b;
-            blk->tsdf.fill(0.f);
-            blk->weight.fill(0.f);
-            m.blocks.push_back(std::move(blk));
-          }
-          FusionBlock& blk = *m.blocks[it->second];
-          if (blk.stamp != stamp) {
-            blk.stamp = stamp;
-            touched.push_back(it->second);
-          }
-        }
-      }
-    }
-  }
-
-  // 3. Projective TSDF update of every voxel of the touched blocks. Blocks are
-  // independent, so any thread count gives the same values.
-  const Eigen::Matrix3d Rt = R.transpose();
-  const float fx = float(K.fx), fy = float(K.fy), cx = float(K.cx), cy = float(K.cy);
-  const float fmu = float(mu);
-  std::vector<int64_t> updates(touched.size(), 0);
-  ParallelFor(static_cast<int>(touched.size()), m.opt.threads, [&](int ti) {
-    FusionBlock& blk = *m.blocks[touched[ti]];
-    const Vec3 origin = blk.coord.cast<double>() * (kBlockDim * h);
-    const Eigen::Vector3f c0 = (Rt * (origin - t)).cast<float>();
-    const Eigen::Vector3f ex = (Rt.col(0) * h).cast<float>(), ey = (Rt.col(1) * h).cast<float>(),
-                          ez = (Rt.col(2) * h).cast<float>();
-    int64_t n = 0;
-    for (int x = 0; x < kBlockDim; ++x) {
-      for (int y = 0; y < kBlockDim; ++y) {
-        const Eigen::Vector3f cxy = c0 + float(x) * ex + float(y) * ey;
-        for (int z = 0; z < kBlockDim; ++z) {
-          const float cxv = cxy.x() + float(z) * ez.x(), cyv = cxy.y() + float(z) * ez.y(),
-                      zc = cxy.z() + float(z) * ez.z();
-          if (zc <= 1e-6f) continue;
-          const float inv = 1.0f / zc;
-          // Rounded to the nearest pixel; truncation is floor for the non-negative
-          // values kept (std::floor is a libm call without SSE4.1).
-          const float uf = fx * cxv * inv + cx + 0.5f, vf = fy * cyv * inv + cy + 0.5f;
-          if (!(uf >= 0 && vf >= 0 && uf < float(W) && vf < float(H))) continue;
-          const int iu = static_cast<int>(uf), iv = static_cast<int>(vf);
-          const size_t pix = size_t(iv) * W + iu;
-          const float d = code[pix];
-          // Distance along the ray per unit of depth (computed, not looked up: one
-          // image fetch per voxel is the cache-bound part).
-          const float lambda = std::sqrt(cxv * cxv + cyv * cyv + zc * zc) * inv;
-          float value;
-          if (d > 0 && (d - zc) * lambda <= fmu) {
-            const float sdf = (d - zc) * lambda;
-            if (sdf < -fmu) continue;
-            value = sdf;  // the band around an observed garment surface
-          } else {
-            // Free space in front of an observed depth (garment or scene). Pixels
-            // without data carve only at block level (step 4), where a share of the
-            // views is required: dropouts are too frequent over a long sweep.
-            const float cd = carve[pix];
-            if (!(std::abs(cd) > 0) || (std::abs(cd) - zc) * lambda <= fmu) continue;  // NaN, 0 too
-            value = fmu;
-          }
-          const int o = LocalOffset(x, y, z);
-          const float w = blk.weight[o];
-          blk.tsdf[o] = (blk.tsdf[o] * w + value) / (w + 1);
-          blk.weight[o] = w + 1;
-          ++n;
-        }
-      }
-    }
-    updates[ti] = n;
-  });
-  for (int64_t n : updates) m.voxel_updates += n;
-
-  // 4. Space carving at block resolution over the box (block centres).
-  {
-    const int cap = std::numeric_limits<uint16_t>::max();
-    const Eigen::Vector3i& dims = m.carve_dims;
-    for (int bx = 0; bx < dims.x(); ++bx) {
-      for (int by = 0; by < dims.y(); ++by) {
-        for (int bz = 0; bz < dims.z(); ++bz) {
-          const size_t ci = (size_t(bx) * dims.y() + by) * dims.z() + bz;
-          // Free in half of 16+ views: outside for good, whatever follows.
-          if (m.view_count[ci] >= 16 && 2 * m.free_count[ci] >= m.view_count[ci]) continue;
-          const Eigen::Vector3i b = m.carve_lo + Eigen::Vector3i(bx, by, bz);
-          const Vec3 p = (b.cast<double>() * kBlockDim + Vec3::Constant(3.5)) * h;
-          const Vec3 c = Rt * (p - t);
-          if (c.z() <= 1e-6) continue;
-          const int iu = static_cast<int>(std::floor(K.fx * c.x() / c.z() + K.cx + 0.5));
-          const int iv = static_cast<int>(std::floor(K.fy * c.y() / c.z() + K.cy + 0.5));
-          if (iu < 0 || iv < 0 || iu >= W || iv >= H) continue;
-          if (m.view_count[ci] < cap) ++m.view_count[ci];
-          const float d = carve[size_t(iv) * W + iu];
-          if (std::isnan(d)) continue;
-          const double lambda = c.norm() / c.z();
-          const bool free = d == 0 || (std::abs(d) - c.z()) * lambda > mu;
-          if (free && m.free_count[ci] < cap) ++m.free_count[ci];
-        }
-      }
-    }
-  }
-
-  m.foreground_pixels += fg_count;
-  ++m.frames;
-  m.dirty.store(true);
+  CheckFrame(frame.depth, K);
+  impl_->Integrate(frame.depth, frame.camera_to_object, K);
 }
 
+void Tsdf::IntegrateReference(const DepthFrame& frame, const Intrinsics& K) {
+  CheckFrame(frame.depth, K);
+  impl_->IntegrateReference(frame.depth, frame.camera_to_object, K);
+}
+
+void Tsdf::Impl::UpdateRays(const Intrinsics& K) {
+  if (rays_valid && rays_for.width == K.width && rays_for.height == K.height && rays_for.fx == K.fx &&
+      rays_for.fy == K.fy && rays_for.cx == K.cx && rays_for.cy == K.cy)
+    return;
+  xhat.resize(K.width);
+  yhat.resize(K.height);
+  for (int u = 0; u < K.width; ++u) xhat[u] = (u - K.cx) / K.fx;
+  for (int v = 0; v < K.height; ++v) yhat[v] = (v - K.cy) / K.fy;
+  rays_for = K;
+  rays_valid = true;
+}
+
+// The region that can matter in the object frame: foreground points lie in the box
+// (and within the radius of the axis); the band allocates blocks containing points
+// within μ of them, whose voxels lie within μ + 7.5 voxels (L∞) of them; a carving
+// cell can only end up inside if it lies within the bounds of those blocks. So the
+// voxels read and the cells counted lie within the box ∩ cylinder grown by μ + 9 h,
+// their block centres within a further block: project that box to get the pixels.
+FrameView Tsdf::Impl::MakeView(const Eigen::Isometry3d& pose, const Intrinsics& K) const {
+  FrameView view;
+  view.W = K.width, view.H = K.height, view.K = K;
+  view.R = pose.linear();
+  view.Rt = view.R.transpose();
+  view.t = pose.translation();
+  Vec3 lo = opt.box.min(), hi = opt.box.max();
+  if (opt.radius > 0) {
+    for (int a : {0, 2}) lo[a] = std::max(lo[a], -opt.radius), hi[a] = std::min(hi[a], opt.radius);
+  }
+  lo.array() -= mu + 9 * h;
+  hi.array() += mu + 9 * h;
+  for (int a = 0; a < 3; ++a) {
+    const int b_lo = FloorDiv8(static_cast<int>(std::floor(lo[a] / h))) - carve_lo[a];
+    const int b_hi = FloorDiv8(static_cast<int>(std::ceil(hi[a] / h))) - carve_lo[a];
+    view.cell_lo[a] = std::max(0, b_lo);
+    view.cell_hi[a] = std::min(carve_dims[a] - 1, b_hi);
+  }
+  lo.array() -= kBlockDim * h;
+  hi.array() += kBlockDim * h;
+  double umin = 1e30, umax = -1e30, vmin = 1e30, vmax = -1e30;
+  bool behind = false;
+  for (int c = 0; c < 8; ++c) {
+    const Vec3 p((c & 1) ? hi.x() : lo.x(), (c & 2) ? hi.y() : lo.y(), (c & 4) ? hi.z() : lo.z());
+    const Vec3 q = view.Rt * (p - view.t);
+    if (q.z() <= 1e-3) {
+      behind = true;
+      break;
+    }
+    const double u = K.fx * q.x() / q.z() + K.cx, v = K.fy * q.y() / q.z() + K.cy;
+    umin = std::min(umin, u), umax = std::max(umax, u), vmin = std::min(vmin, v), vmax = std::max(vmax, v);
+  }
+  if (behind) {
+    view.u0 = view.v0 = 0, view.u1 = view.W, view.v1 = view.H;
+    return view;
+  }
+  // Two pixels of slack for rounding (voxels round to the nearest pixel in floats).
+  auto clampi = [](double x, int hi_) { return static_cast<int>(std::clamp(x, 0.0, double(hi_))); };
+  view.u0 = clampi(std::floor(umin) - 2, view.W), view.u1 = clampi(std::ceil(umax) + 3, view.W);
+  view.v0 = clampi(std::floor(vmin) - 2, view.H), view.v1 = clampi(std::ceil(vmax) + 3, view.H);
+  return view;
+}
+
+void Tsdf::Impl::Integrate(const std::vector<float>& depth, const Eigen::Isometry3d& pose, const Intrinsics& K) {
+  UpdateRays(K);
+  const FrameView view = MakeView(pose, K);
+  auto t0 = Clock::now();
+  const int64_t fg_count = Segment(depth, view);
+  times.segment += Lap(t0);
+  if (fg_count > 0) IgnoreDropouts(view);
+  times.dropouts += Lap(t0);
+  const std::vector<int> touched = AllocateBand(view, scratch.code, frames);
+  times.allocate += Lap(t0);
+  voxel_updates += UpdateVoxels(view, touched);
+  times.update += Lap(t0);
+  CarveBlocks(view);
+  times.carve += Lap(t0);
+  foreground_pixels += fg_count;
+  ++frames;
+  dirty.store(true);
+}
+
+// 1. Segmentation of the frame's rectangle into scratch.code / scratch.fg.
+int64_t Tsdf::Impl::Segment(const std::vector<float>& depth, const FrameView& view) {
+  const int W = view.W;
+  FrameScratch& s = scratch;
+  s.code.resize(size_t(W) * view.H);
+  s.fg.resize(size_t(W) * view.H);
+  const Eigen::AlignedBox3d& box = opt.box;
+  const double radius2 = opt.radius > 0 ? opt.radius * opt.radius : 0;
+  int64_t fg_count = 0;
+  for (int v = view.v0; v < view.v1; ++v) {
+    for (int u = view.u0; u < view.u1; ++u) {
+      const size_t i = size_t(v) * W + u;
+      const float d = depth[i];
+      s.fg[i] = 0;
+      if (!(d > 0) || !std::isfinite(d)) {
+        s.code[i] = 0;
+        continue;
+      }
+      const Vec3 p = view.R * Vec3(d * xhat[u], d * yhat[v], d) + view.t;
+      if (box.contains(p) && (radius2 <= 0 || p.x() * p.x() + p.z() * p.z() <= radius2)) {
+        s.code[i] = d;
+        s.fg[i] = 1;
+        ++fg_count;
+      } else {
+        s.code[i] = -d;
+      }
+    }
+  }
+  return fg_count;
+}
+
+namespace {
+
+// std::floor as an int without the libm call (no SSE4.1 in the baseline ISA); exact
+// for |x| < 2^31.
+int FloorInt(double x) {
+  const int i = static_cast<int>(x);
+  return x < i ? i - 1 : i;
+}
+
+int FindRoot(std::vector<int>& parent, int a) {
+  while (parent[a] != a) a = parent[a] = parent[parent[a]];
+  return a;
+}
+
+}  // namespace
+
+// 2. Pixels without data that the foreground encloses (not connected to the image
+// border through non-foreground pixels) are dropouts on the garment (grazing angles,
+// folds), not background → ignored (NaN); without this, dropouts carve the unobserved
+// interior over a long sweep. So are pixels without data within hole_radius_px of a
+// foreground pixel. Within the rectangle only: no pixel outside it is foreground, so
+// every non-foreground pixel on its edge reaches the image border. Connectivity by
+// union–find over the rows' runs of non-foreground pixels (4-neighbours).
+void Tsdf::Impl::IgnoreDropouts(const FrameView& view) {
+  FrameScratch& s = scratch;
+  const int W = view.W;
+  std::vector<int>& runs = s.runs;  // (row, u_begin, u_end) triples
+  runs.clear();
+  std::vector<int>& parent = s.parent;
+  parent.clear();
+  std::vector<uint8_t> edge;  // run touches the rectangle's edge
+  int prev_begin = 0;         // first run of the previous row
+  for (int v = view.v0; v < view.v1; ++v) {
+    const int row_begin = static_cast<int>(parent.size());
+    const uint8_t* fg = &s.fg[size_t(v) * W];
+    int q = prev_begin;  // runs of the previous row, scanned left to right
+    for (int u = view.u0; u < view.u1;) {
+      if (fg[u]) {
+        ++u;
+        continue;
+      }
+      int e = u;
+      while (e < view.u1 && !fg[e]) ++e;
+      const int id = static_cast<int>(parent.size());
+      parent.push_back(id);
+      runs.insert(runs.end(), {v, u, e});
+      edge.push_back(v == view.v0 || v == view.v1 - 1 || u == view.u0 || e == view.u1);
+      // Overlapping runs of the previous row: [b, c) ∩ [u, e) ≠ ∅.
+      while (q < row_begin && runs[3 * q + 2] <= u) ++q;
+      for (int k = q; k < row_begin && runs[3 * k + 1] < e; ++k) {
+        const int a = FindRoot(parent, id), b = FindRoot(parent, k);
+        if (a != b) parent[std::max(a, b)] = std::min(a, b);
+      }
+      u = e;
+    }
+    prev_begin = row_begin;
+  }
+  const int n = static_cast<int>(parent.size());
+  std::vector<uint8_t> reaches(n, 0);
+  for (int k = 0; k < n; ++k) reaches[FindRoot(parent, k)] |= edge[k];
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  for (int k = 0; k < n; ++k) {
+    if (reaches[FindRoot(parent, k)]) continue;
+    float* row = &s.code[size_t(runs[3 * k]) * W];
+    for (int u = runs[3 * k + 1]; u < runs[3 * k + 2]; ++u)
+      if (row[u] == 0) row[u] = nan;
+  }
+  MarkNearForeground(view);
+}
+
+// Pixels without data within hole_radius_px (Chebyshev) of a foreground pixel → NaN:
+// separable distance to the nearest foreground pixel, rows then columns.
+void Tsdf::Impl::MarkNearForeground(const FrameView& view) {
+  FrameScratch& s = scratch;
+  const int W = view.W, r = opt.hole_radius_px;
+  const int w = view.u1 - view.u0, hgt = view.v1 - view.v0;
+  s.near_row.resize(size_t(w) * hgt);
+  s.dist.resize(std::max(w, hgt));
+  std::vector<int>& dist = s.dist;
+  for (int v = 0; v < hgt; ++v) {
+    const uint8_t* fg = &s.fg[size_t(v + view.v0) * W + view.u0];
+    int last = -1000000;  // last foreground column
+    for (int u = 0; u < w; ++u) {
+      if (fg[u]) last = u;
+      dist[u] = u - last;
+    }
+    last = 1000000;
+    for (int u = w - 1; u >= 0; --u) {
+      if (fg[u]) last = u;
+      s.near_row[size_t(v) * w + u] = std::min(dist[u], last - u) <= r;
+    }
+  }
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  for (int u = 0; u < w; ++u) {
+    int last = -1000000;
+    for (int v = 0; v < hgt; ++v) {
+      if (s.near_row[size_t(v) * w + u]) last = v;
+      dist[v] = v - last;
+    }
+    last = 1000000;
+    for (int v = hgt - 1; v >= 0; --v) {
+      if (s.near_row[size_t(v) * w + u]) last = v;
+      float& c = s.code[size_t(v + view.v0) * W + u + view.u0];
+      if (std::min(dist[v], last - v) <= r && c == 0) c = nan;
+    }
+  }
+}
+
+// 3. Allocate the blocks that the band [d - μ, d + μ] of each foreground pixel
+// crosses. Samples every half block along the ray, and every `stride` pixels with
+// stride ≤ a third of a block's footprint at the farthest foreground depth, so no
+// block the band crosses is skipped between samples. Returns the blocks touched.
+std::vector<int> Tsdf::Impl::AllocateBand(const FrameView& view, const std::vector<float>& code, int stamp) {
+  std::vector<int> touched;
+  float far = 0;
+  for (int v = view.v0; v < view.v1; ++v)
+    for (int u = view.u0; u < view.u1; ++u) far = std::max(far, std::max(code[size_t(v) * view.W + u], 0.f));
+  const double block_px = far > 0 ? kBlockDim * h * std::min(view.K.fx, view.K.fy) / far : 1;
+  const int stride = std::clamp(static_cast<int>(block_px / 3), 1, 8);
+  const int steps = static_cast<int>(std::ceil(2 * mu / (0.5 * kBlockDim * h)));
+  // Direct-mapped cache of blocks already stamped this frame: most samples fall in a
+  // block a neighbouring sample has just found.
+  constexpr int kCache = 1024;
+  std::array<uint64_t, kCache> cache;
+  cache.fill(~uint64_t(0));
+  // The sample grid is anchored at pixel (0, 0) whatever the rectangle.
+  const int ustart = (view.u0 + stride - 1) / stride * stride, vstart = (view.v0 + stride - 1) / stride * stride;
+  for (int v = vstart; v < view.v1; v += stride) {
+    for (int u = ustart; u < view.u1; u += stride) {
+      const float d = code[size_t(v) * view.W + u];
+      if (!(d > 0)) continue;
+      const double lambda = std::sqrt(1 + xhat[u] * xhat[u] + yhat[v] * yhat[v]);
+      const Vec3 ray = view.R * Vec3(xhat[u], yhat[v], 1.0);
+      for (int s = 0; s <= steps; ++s) {
+        const double along = -mu + 2 * mu * s / steps;  // metres along the ray
+        const double z = d + along / lambda;
+        if (z <= 0) continue;
+        const Vec3 p = z * ray + view.t;
+        const Eigen::Vector3i b(FloorDiv8(FloorInt(p.x() / h + 0.5)), FloorDiv8(FloorInt(p.y() / h + 0.5)),
+                                FloorDiv8(FloorInt(p.z() / h + 0.5)));
+        const uint64_t key = Key(b);
+        uint64_t& slot = cache[(key * 0x9E3779B97F4A7C15ull) >> 54];
+        if (slot == key) continue;
+        slot = key;
+        auto [it, inserted] = index.try_emplace(key, static_cast<int>(blocks.size()));
+        if (inserted) {
+          auto blk = std::make_unique<FusionBlock>();
+          blk->coord = b;
+          blk->tsdf.fill(0.f);
+          blk->weight.fill(0.f);
+          blocks.push_back(std::move(blk));
+        }
+        FusionBlock& blk = *blocks[it->second];
+        if (blk.stamp != stamp) {
+          blk.stamp = stamp;
+          touched.push_back(it->second);
+        }
+      }
+    }
+  }
+  return touched;
+}
+
+VoxelProjector ProjectorFor(const FrameView& view, const Eigen::Vector3i& block, double h, double mu) {
+  VoxelProjector p;
+  const Vec3 origin = block.cast<double>() * (kBlockDim * h);
+  p.c0 = (view.Rt * (origin - view.t)).cast<float>();
+  p.ex = (view.Rt.col(0) * h).cast<float>();
+  p.ey = (view.Rt.col(1) * h).cast<float>();
+  p.ez = (view.Rt.col(2) * h).cast<float>();
+  p.fx = float(view.K.fx), p.fy = float(view.K.fy), p.cx = float(view.K.cx), p.cy = float(view.K.cy);
+  p.mu = float(mu);
+  p.W = view.W, p.H = view.H;
+  return p;
+}
+
+// The projective update of one voxel (KinectFusion): sdf = (d - z)·|ray|/z_ray along
+// the pixel's ray, clamped to +μ, skipped below -μ; weights count observations.
+int64_t UpdateBlockScalar(FusionBlock& blk, const VoxelProjector& p, const float* code) {
+  int64_t n = 0;
+  for (int x = 0; x < kBlockDim; ++x) {
+    for (int y = 0; y < kBlockDim; ++y) {
+      const Eigen::Vector3f cxy = p.c0 + float(x) * p.ex + float(y) * p.ey;
+      for (int z = 0; z < kBlockDim; ++z) {
+        const float cxv = cxy.x() + float(z) * p.ez.x(), cyv = cxy.y() + float(z) * p.ez.y(),
+                    zc = cxy.z() + float(z) * p.ez.z();
+        if (zc <= 1e-6f) continue;
+        const float inv = 1.0f / zc;
+        // Rounded to the nearest pixel; truncation is floor for the non-negative
+        // values kept (std::floor is a libm call without SSE4.1).
+        const float uf = p.fx * cxv * inv + p.cx + 0.5f, vf = p.fy * cyv * inv + p.cy + 0.5f;
+        if (!(uf >= 0 && vf >= 0 && uf < float(p.W) && vf < float(p.H))) continue;
+        const int iu = static_cast<int>(uf), iv = static_cast<int>(vf);
+        const float d = code[size_t(iv) * p.W + iu];
+        // Distance along the ray per unit of depth (computed, not looked up: one
+        // image fetch per voxel is the cache-bound part).
+        const float lambda = std::sqrt(cxv * cxv + cyv * cyv + zc * zc) * inv;
+        float value;
+        if (d > 0 && (d - zc) * lambda <= p.mu) {
+          const float sdf = (d - zc) * lambda;
+          if (sdf < -p.mu) continue;
+          value = sdf;  // the band around an observed garment surface
+        } else {
+          // Free space in front of an observed depth (garment or scene). Pixels
+          // without data carve only at block level (CarveBlocks), where a share of the
+          // views is required: dropouts are too frequent over a long sweep.
+          if (!(std::abs(d) > 0) || (std::abs(d) - zc) * lambda <= p.mu) continue;  // NaN, 0 too
+          value = p.mu;
+        }
+        const int o = LocalOffset(x, y, z);
+        const float w = blk.weight[o];
+        blk.tsdf[o] = (blk.tsdf[o] * w + value) / (w + 1);
+        blk.weight[o] = w + 1;
+        ++n;
+      }
+    }
+  }
+  return n;
+}
+
+#if defined(__x86_64__)
+bool HaveAvx2() { return __builtin_cpu_supports("avx2"); }
+
+// UpdateBlockScalar on the 8 voxels of a z row at once. Same operations in the same
+// order (no FMA: target avx2 only), so the same bits.
+__attribute__((target("avx2"))) int64_t UpdateBlockAvx2(FusionBlock& blk, const VoxelProjector& p,
+                                                         const float* code) {
+  const __m256 zi = _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7);
+  const __m256 ezx = _mm256_mul_ps(zi, _mm256_set1_ps(p.ez.x()));
+  const __m256 ezy = _mm256_mul_ps(zi, _mm256_set1_ps(p.ez.y()));
+  const __m256 ezz = _mm256_mul_ps(zi, _mm256_set1_ps(p.ez.z()));
+  const __m256 fx = _mm256_set1_ps(p.fx), fy = _mm256_set1_ps(p.fy), cx = _mm256_set1_ps(p.cx),
+               cy = _mm256_set1_ps(p.cy), half = _mm256_set1_ps(0.5f), one = _mm256_set1_ps(1.0f),
+               zero = _mm256_setzero_ps(), Wf = _mm256_set1_ps(float(p.W)), Hf = _mm256_set1_ps(float(p.H)),
+               mu = _mm256_set1_ps(p.mu), neg_mu = _mm256_set1_ps(-p.mu), eps = _mm256_set1_ps(1e-6f);
+  const __m256 abs_mask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
+  const __m256i Wi = _mm256_set1_epi32(p.W);
+  int64_t n = 0;
+  for (int x = 0; x < kBlockDim; ++x) {
+    for (int y = 0; y < kBlockDim; ++y) {
+      const Eigen::Vector3f cxy = p.c0 + float(x) * p.ex + float(y) * p.ey;
+      const __m256 cxv = _mm256_add_ps(_mm256_set1_ps(cxy.x()), ezx);
+      const __m256 cyv = _mm256_add_ps(_mm256_set1_ps(cxy.y()), ezy);
+      const __m256 zc = _mm256_add_ps(_mm256_set1_ps(cxy.z()), ezz);
+      __m256 keep = _mm256_cmp_ps(zc, eps, _CMP_GT_OQ);
+      const __m256 inv = _mm256_div_ps(one, zc);
+      const __m256 uf = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(fx, cxv), inv), cx), half);
+      const __m256 vf = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(fy, cyv), inv), cy), half);
+      keep = _mm256_and_ps(keep, _mm256_and_ps(_mm256_cmp_ps(uf, zero, _CMP_GE_OQ), _mm256_cmp_ps(vf, zero, _CMP_GE_OQ)));
+      keep = _mm256_and_ps(keep, _mm256_and_ps(_mm256_cmp_ps(uf, Wf, _CMP_LT_OQ), _mm256_cmp_ps(vf, Hf, _CMP_LT_OQ)));
+      if (_mm256_movemask_ps(keep) == 0) continue;
+      const __m256i pix = _mm256_add_epi32(_mm256_mullo_epi32(_mm256_cvttps_epi32(vf), Wi), _mm256_cvttps_epi32(uf));
+      const __m256 d = _mm256_mask_i32gather_ps(zero, code, pix, keep, 4);
+      const __m256 len2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(cxv, cxv), _mm256_mul_ps(cyv, cyv)),
+                                        _mm256_mul_ps(zc, zc));
+      const __m256 lambda = _mm256_mul_ps(_mm256_sqrt_ps(len2), inv);
+      const __m256 sdf = _mm256_mul_ps(_mm256_sub_ps(d, zc), lambda);
+      const __m256 band = _mm256_and_ps(_mm256_cmp_ps(d, zero, _CMP_GT_OQ), _mm256_cmp_ps(sdf, mu, _CMP_LE_OQ));
+      const __m256 band_keep = _mm256_andnot_ps(_mm256_cmp_ps(sdf, neg_mu, _CMP_LT_OQ), band);
+      const __m256 ad = _mm256_and_ps(d, abs_mask);
+      const __m256 free_ = _mm256_andnot_ps(
+          band, _mm256_and_ps(_mm256_cmp_ps(ad, zero, _CMP_GT_OQ),
+                              _mm256_cmp_ps(_mm256_mul_ps(_mm256_sub_ps(ad, zc), lambda), mu, _CMP_NLE_UQ)));
+      keep = _mm256_and_ps(keep, _mm256_or_ps(band_keep, free_));
+      const int bits = _mm256_movemask_ps(keep);
+      if (bits == 0) continue;
+      const __m256 value = _mm256_blendv_ps(mu, sdf, band);
+      float* tp = &blk.tsdf[LocalOffset(x, y, 0)];
+      float* wp = &blk.weight[LocalOffset(x, y, 0)];
+      const __m256 w = _mm256_loadu_ps(wp), t = _mm256_loadu_ps(tp);
+      const __m256 w1 = _mm256_add_ps(w, one);
+      const __m256 tn = _mm256_div_ps(_mm256_add_ps(_mm256_mul_ps(t, w), value), w1);
+      _mm256_storeu_ps(tp, _mm256_blendv_ps(t, tn, keep));
+      _mm256_storeu_ps(wp, _mm256_blendv_ps(w, w1, keep));
+      n += __builtin_popcount(bits);
+    }
+  }
+  return n;
+}
+#else
+bool HaveAvx2() { return false; }
+int64_t UpdateBlockAvx2(FusionBlock& blk, const VoxelProjector& p, const float* code) {
+  return UpdateBlockScalar(blk, p, code);
+}
+#endif
+
+// 4. Projective TSDF update of every voxel of the touched blocks. Blocks are
+// independent, so any thread count gives the same values.
+int64_t Tsdf::Impl::UpdateVoxels(const FrameView& view, const std::vector<int>& touched) {
+  static const bool avx2 = HaveAvx2();
+  std::vector<int64_t> updates(touched.size(), 0);
+  const float* code = scratch.code.data();
+  ParallelFor(static_cast<int>(touched.size()), opt.threads, [&](int ti) {
+    FusionBlock& blk = *blocks[touched[ti]];
+    const VoxelProjector p = ProjectorFor(view, blk.coord, h, mu);
+    updates[ti] = avx2 ? UpdateBlockAvx2(blk, p, code) : UpdateBlockScalar(blk, p, code);
+  });
+  int64_t n = 0;
+  for (int64_t u : updates) n += u;
+  return n;
+}
+
+// 5. Space carving at block resolution (block centres), over the cells that can end
+// up inside (see MakeView).
+void Tsdf::Impl::CarveBlocks(const FrameView& view) {
+  const int cap = std::numeric_limits<uint16_t>::max();
+  const Eigen::Vector3i& dims = carve_dims;
+  const std::vector<float>& code = scratch.code;
+  for (int bx = view.cell_lo.x(); bx <= view.cell_hi.x(); ++bx) {
+    for (int by = view.cell_lo.y(); by <= view.cell_hi.y(); ++by) {
+      for (int bz = view.cell_lo.z(); bz <= view.cell_hi.z(); ++bz) {
+        const size_t ci = (size_t(bx) * dims.y() + by) * dims.z() + bz;
+        // Free in half of 16+ views: outside for good, whatever follows.
+        if (view_count[ci] >= 16 && 2 * free_count[ci] >= view_count[ci]) continue;
+        const Eigen::Vector3i b = carve_lo + Eigen::Vector3i(bx, by, bz);
+        const Vec3 p = (b.cast<double>() * kBlockDim + Vec3::Constant(3.5)) * h;
+        const Vec3 c = view.Rt * (p - view.t);
+        if (c.z() <= 1e-6) continue;
+        const int iu = static_cast<int>(std::floor(view.K.fx * c.x() / c.z() + view.K.cx + 0.5));
+        const int iv = static_cast<int>(std::floor(view.K.fy * c.y() / c.z() + view.K.cy + 0.5));
+        if (iu < 0 || iv < 0 || iu >= view.W || iv >= view.H) continue;
+        if (view_count[ci] < cap) ++view_count[ci];
+        const float d = code[size_t(iv) * view.W + iu];
+        if (std::isnan(d)) continue;
+        const double lambda = c.norm() / c.z();
+        const bool free = d == 0 || (std::abs(d) - c.z()) * lambda > mu;
+        if (free && free_count[ci] < cap) ++free_count[ci];
+      }
+    }
+  }
+}
 void Tsdf::Impl::EnsureComplete() const {
   if (!dirty.load(std::memory_order_acquire)) return;
   std::lock_guard<std::mutex> lock(complete_mutex);
@@ -457,6 +675,7 @@ FusionStats Tsdf::Stats() const {
   s.surface_blocks = static_cast<int>(m.blocks.size());
   s.observed_voxels = m.observed_voxels;
   s.inside_blocks = m.inside_blocks;
+  s.steps = {m.times.segment, m.times.dropouts, m.times.allocate, m.times.update, m.times.carve};
   return s;
 }
 
@@ -468,22 +687,19 @@ FusionResult FuseFrames(const std::vector<DepthFrame>& frames, const Intrinsics&
   result.tsdf = std::make_shared<Tsdf>(options);
   const uint64_t pose_seed = DeriveSeed(seed, "fusion/pose");
   for (size_t i = 0; i < frames.size(); i += options.frames_stride) {
+    Eigen::Isometry3d pose = frames[i].camera_to_object;
     if (options.pose_noise_degrees > 0) {
       // One stream per frame index, so the stride does not change a frame's error.
       Rng rng(DeriveSeed(pose_seed, std::to_string(i)));
       const double delta = rng.Normal(0, options.pose_noise_degrees * M_PI / 180);
-      DepthFrame f;
-      f.camera_to_object =
-          Eigen::Isometry3d(Eigen::AngleAxisd(delta, Vec3::UnitY())) * frames[i].camera_to_object;
-      f.depth = frames[i].depth;
-      result.tsdf->Integrate(f, intrinsics);
-    } else {
-      try {
-        result.tsdf->Integrate(frames[i], intrinsics);
-      } catch (const Error& e) {
-        throw Error("frame " + std::to_string(i) + ": " + e.what());
-      }
+      pose = Eigen::Isometry3d(Eigen::AngleAxisd(delta, Vec3::UnitY())) * pose;
     }
+    try {
+      CheckFrame(frames[i].depth, intrinsics);
+    } catch (const Error& e) {
+      throw Error("frame " + std::to_string(i) + ": " + e.what());
+    }
+    result.tsdf->impl_->Integrate(frames[i].depth, pose, intrinsics);
   }
   result.mesh = result.tsdf->ExtractMesh();
   result.stats = result.tsdf->Stats();

@@ -25,6 +25,47 @@ struct FusionBlock {
 
 inline int LocalOffset(int x, int y, int z) { return (x << 6) | (y << 3) | z; }
 
+// One frame's pose and the pixel rectangle [u0, u1) × [v0, v1) that can matter: every
+// voxel of a block the band can allocate, and every carving cell that can end up
+// inside, projects into it (see RegionOfInterest in tsdf.cpp).
+struct FrameView {
+  int W = 0, H = 0;
+  Intrinsics K;
+  Eigen::Matrix3d R, Rt;  // camera → object rotation and its transpose
+  Eigen::Vector3d t;      // camera centre in the object frame
+  int u0 = 0, v0 = 0, u1 = 0, v1 = 0;
+  // Carving cells considered this frame (carve-grid coordinates, inclusive).
+  Eigen::Vector3i cell_lo{0, 0, 0}, cell_hi{-1, -1, -1};
+};
+
+// Per-frame image buffers, kept between frames (a 640×480 frame would otherwise cost
+// a few MB of page faults each time). Values outside the frame's rectangle are stale.
+struct FrameScratch {
+  // code > 0: foreground depth; < 0: -depth of a point outside the box (carves free
+  // space only); 0: background without data; NaN: no data next to the garment.
+  std::vector<float> code;
+  std::vector<uint8_t> fg;
+  std::vector<int> runs, parent;  // non-foreground runs of the dropout labelling
+  std::vector<uint8_t> near_row;
+  std::vector<int> dist;
+};
+
+// A block's voxel centres in the camera frame of one view: voxel (x, y, z) is at
+// c0 + x·ex + y·ey + z·ez (floats, the order UpdateBlock* evaluates them in).
+struct VoxelProjector {
+  Eigen::Vector3f c0, ex, ey, ez;
+  float fx = 0, fy = 0, cx = 0, cy = 0, mu = 0;
+  int W = 0, H = 0;
+};
+VoxelProjector ProjectorFor(const FrameView& view, const Eigen::Vector3i& block, double h, double mu);
+// Projective TSDF update of one block's voxels against `code` (FrameScratch::code
+// semantics); returns the number of voxels updated. The scalar loop is the definition;
+// the AVX2 one gives the same bits (no FMA contraction, IEEE div/sqrt).
+int64_t UpdateBlockScalar(FusionBlock& blk, const VoxelProjector& p, const float* code);
+int64_t UpdateBlockAvx2(FusionBlock& blk, const VoxelProjector& p, const float* code);
+bool HaveAvx2();
+
+
 struct Tsdf::Impl {
   FusionOptions opt;
   double h = 0, mu = 0;
@@ -38,6 +79,8 @@ struct Tsdf::Impl {
 
   int frames = 0;
   int64_t foreground_pixels = 0, voxel_updates = 0;
+  FrameScratch scratch;
+  FusionStats::Steps times;  // accumulated wall time of each step
 
   // Cached ray directions for the last intrinsics.
   Intrinsics rays_for{};
@@ -65,6 +108,22 @@ struct Tsdf::Impl {
     auto it = index.find(Key(b));
     return it == index.end() ? -1 : it->second;
   }
+
+  // The steps of one Integrate (tsdf.cpp), in order.
+  FrameView MakeView(const Eigen::Isometry3d& camera_to_object, const Intrinsics& K) const;
+  int64_t Segment(const std::vector<float>& depth, const FrameView& view);
+  void IgnoreDropouts(const FrameView& view);
+  void MarkNearForeground(const FrameView& view);
+  std::vector<int> AllocateBand(const FrameView& view, const std::vector<float>& code, int stamp);
+  int64_t UpdateVoxels(const FrameView& view, const std::vector<int>& touched);
+  void CarveBlocks(const FrameView& view);
+  void Integrate(const std::vector<float>& depth, const Eigen::Isometry3d& camera_to_object,
+                 const Intrinsics& K);
+  // The straightforward path (tsdf_reference.cpp): whole-image segmentation, flood
+  // fill and carving, scalar voxel update; the same values bit for bit (a test checks).
+  void IntegrateReference(const std::vector<float>& depth, const Eigen::Isometry3d& camera_to_object,
+                          const Intrinsics& K);
+  void UpdateRays(const Intrinsics& K);
 
   void EnsureComplete() const;
   // Completed value (metres) of voxel ijk.

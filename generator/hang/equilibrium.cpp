@@ -13,6 +13,7 @@
 #include <memory>
 
 #include "common/error.h"
+#include "common/format.h"
 
 namespace drape {
 
@@ -367,18 +368,18 @@ EquilibriumReport SolveEquilibrium(const SpringNetwork& net, Points3& x,
   // than Bullet's, and the residual reported says how close.
   const bool improved = finite && rel_after < 0.1 * report.relative_before;
   if (!report.converged && !improved) {
-    report.message = "not converged: best max |F|/(m g) " + std::to_string(best_rel) + ", last KINSol flag " +
+    report.message = "not converged: best max |F|/(m g) " + FormatNumber(best_rel) + ", last KINSol flag " +
                      std::to_string(flag);
   } else if (report.max_displacement > options.max_displacement) {
-    report.message = "solution moved a node " + std::to_string(report.max_displacement) +
-                     " m (limit " + std::to_string(options.max_displacement) + ")";
+    report.message = "solution moved a node " + FormatNumber(report.max_displacement) +
+                     " m (limit " + FormatNumber(options.max_displacement) + ")";
   } else {
     x = sol;
     report.applied = true;
     report.residual_after = abs_after;
     report.relative_after = rel_after;
     report.message = report.converged ? "converged"
-                                      : "partial: residual cut " + std::to_string(report.relative_before / rel_after) +
+                                      : "partial: residual cut " + FormatNumber(report.relative_before / rel_after) +
                                             "x, last KINSol flag " + std::to_string(flag);
   }
   return report;

@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "common/error.h"
+#include "common/format.h"
 #include "common/rng.h"
 #include "generator/hang/equilibrium.h"
 #include "generator/hang/hang.h"
@@ -111,7 +112,7 @@ MaterialFit FitMaterial(const Material& material, const HangOptions& options_in)
   const double tol = options.fit_tolerance_percent / 100;
   if (s_hi > target) {
     fit.note = "target stretch below Bullet's minimum at this resolution/iterations (" +
-               std::to_string(100 * s_hi) + " %); using kLST 1";
+               FormatNumber(100 * s_hi) + " %); using kLST 1";
   } else if (std::abs(s_hi - target) > tol) {
     // Guess from shear ∝ 1/k, then bracket downwards.
     double k_lo = std::clamp(k_hi * s_hi / target, 1e-3, 0.9), s_lo = shear(k_lo);
@@ -170,7 +171,7 @@ MaterialFit FitMaterial(const Material& material, const HangOptions& options_in)
     if (!(s_eq > 0)) {
       // Keep the last Y; Hang then reports its own equilibrium outcome per job.
       fit.note += (fit.note.empty() ? "" : "; ") + std::string("spring equilibrium did not converge at Y ") +
-                  std::to_string(y) + " N/m; spring fit incomplete";
+                  FormatNumber(y) + " N/m; spring fit incomplete";
       break;
     }
     const double ratio = s_eq / target;

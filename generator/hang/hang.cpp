@@ -12,6 +12,7 @@
 #include <numeric>
 
 #include "common/error.h"
+#include "common/format.h"
 #include "common/field_error.h"
 #include "common/rng.h"
 #include "generator/hang/equilibrium.h"
@@ -44,78 +45,6 @@ void HangOptions::Validate() const {
 
 // ---------------------------------------------------------------------------------
 // Test/reference garments.
-
-Garment MakeRectangleGarment(double width, double height, double edge_length, bool two_layers,
-                             double gap) {
-  if (!(width > 0 && height > 0 && edge_length > 0 && gap >= 0))
-    throw Error("MakeRectangleGarment: sizes must be positive");
-  const int nx = std::max(1, static_cast<int>(std::lround(width / edge_length)));
-  const int ny = std::max(1, static_cast<int>(std::lround(height / edge_length)));
-  Garment g;
-  g.category = "towel";
-  g.instance = two_layers ? "rectangle-2" : "rectangle-1";
-  std::vector<Vec3> V;
-  std::vector<Vec2> UV;
-  std::vector<int> layer;
-  // id[l][j][i]: vertex of grid point (i, j) on layer l; stitched points share one id.
-  std::vector<std::vector<std::vector<int>>> id(2, std::vector<std::vector<int>>(ny + 1, std::vector<int>(nx + 1, -1)));
-  auto stitched = [&](int i, int j) { return i == 0 || i == nx || j == 0; };
-  const int layers = two_layers ? 2 : 1;
-  for (int l = 0; l < layers; ++l)
-    for (int j = 0; j <= ny; ++j)
-      for (int i = 0; i <= nx; ++i) {
-        const double x = width * i / nx - width / 2, y = height * j / ny;
-        if (l == 1 && stitched(i, j)) {
-          id[1][j][i] = id[0][j][i];
-          continue;
-        }
-        double z = 0;
-        if (two_layers && !stitched(i, j)) z = l == 0 ? gap / 2 : -gap / 2;
-        id[l][j][i] = static_cast<int>(V.size());
-        V.emplace_back(x, y, z);
-        UV.emplace_back(x, y);
-        layer.push_back(l);
-      }
-  std::vector<std::array<int, 3>> F;
-  for (int l = 0; l < layers; ++l)
-    for (int j = 0; j < ny; ++j)
-      for (int i = 0; i < nx; ++i) {
-        const int a = id[l][j][i], b = id[l][j][i + 1], c = id[l][j + 1][i + 1], d = id[l][j + 1][i];
-        // Alternate diagonals so the sheet has no preferred shear direction.
-        const bool flip = (i + j) % 2;
-        std::array<int, 3> t1 = flip ? std::array<int, 3>{a, b, d} : std::array<int, 3>{a, b, c};
-        std::array<int, 3> t2 = flip ? std::array<int, 3>{b, c, d} : std::array<int, 3>{a, c, d};
-        if (l == 1) {  // back layer wound opposite: normals point outwards (−z)
-          std::swap(t1[1], t1[2]);
-          std::swap(t2[1], t2[2]);
-        }
-        F.push_back(t1);
-        F.push_back(t2);
-      }
-  g.mesh.V.resize(V.size(), 3);
-  g.uv.resize(V.size(), 2);
-  for (size_t i = 0; i < V.size(); ++i) {
-    g.mesh.V.row(i) = V[i].transpose();
-    g.uv.row(i) = UV[i].transpose();
-  }
-  g.mesh.F.resize(F.size(), 3);
-  for (size_t f = 0; f < F.size(); ++f) g.mesh.F.row(f) << F[f][0], F[f][1], F[f][2];
-  g.layer = layer;
-  auto anchor = [&](const char* label, int i, int j) {
-    Anchor a;
-    a.label = label;
-    a.vertex = id[0][j][i];
-    a.position = g.mesh.V.row(a.vertex).transpose();
-    a.uv = g.uv.row(a.vertex).transpose();
-    g.anchors.push_back(a);
-  };
-  anchor("top_left", 0, ny);
-  anchor("top_right", nx, ny);
-  anchor("bottom_left", 0, 0);
-  anchor("bottom_right", nx, 0);
-  anchor("top_centre", nx / 2, ny);
-  return g;
-}
 
 double ShearFraction(const TriMesh& hung, const Points3& flat, const Vec3& flat_grasp) {
   int lowest = 0;
@@ -486,8 +415,8 @@ RunOutcome RunBullet(const TriMesh& mesh, const Points3& start, const Points3& r
         ke += 0.5 * model.mass[i] * v2;
       }
       if (!finite) { failure = "NaN in the simulation state"; break; }
-      if (vmax > opt.max_speed) { failure = "blew up: node speed " + std::to_string(vmax) + " m/s"; break; }
-      if (ke > energy_cap) { failure = "blew up: kinetic energy " + std::to_string(ke) + " J"; break; }
+      if (vmax > opt.max_speed) { failure = "blew up: node speed " + FormatNumber(vmax) + " m/s"; break; }
+      if (ke > energy_cap) { failure = "blew up: kinetic energy " + FormatNumber(ke) + " J"; break; }
       std::vector<Vec3> snap(n);
       for (int i = 0; i < n; ++i) snap[i] = pos(i);
       ring.push_back(std::move(snap));
@@ -519,8 +448,8 @@ RunOutcome RunBullet(const TriMesh& mesh, const Points3& start, const Points3& r
   world.removeSoftBody(sb.get());
   if (failure.empty() && !out.x.allFinite()) failure = "NaN in the simulation state";
   if (failure.empty() && !settled) {
-    failure = "not settled within time_cap " + std::to_string(opt.time_cap) + " s (still moving " +
-              std::to_string(out.stats.settle_motion) + " m per settle_window)";
+    failure = "not settled within time_cap " + FormatNumber(opt.time_cap) + " s (still moving " +
+              FormatNumber(out.stats.settle_motion) + " m per settle_window)";
     out.timed_out = true;
   }
   out.failure = failure;
@@ -711,7 +640,7 @@ HangResult Hang(const Garment& garment, int anchor_vertex, const Vec3& grasp_off
   result.stats.retries = retries;
   if (!run.ok && !rescued) {
     result.ok = false;
-    result.failure = run.failure + " (after retry at time_step " + std::to_string(dt) + " s)";
+    result.failure = run.failure + " (after retry at time_step " + FormatNumber(dt) + " s)";
     result.mesh.F = mesh.F;
     result.mesh.V = run.x.allFinite() ? run.x : start;
     result.stats.wall_seconds = Seconds(wall0, Clock::now());

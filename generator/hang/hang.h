@@ -19,6 +19,7 @@
 
 #include "common/mesh.h"
 #include "garments/garment.h"
+#include "generator/cloth/rectangle.h"  // MakeRectangleGarment (the reference cloth of material fits)
 #include "generator/hang/material.h"
 
 namespace drape {
@@ -124,13 +125,6 @@ struct HangResult {
 HangResult Hang(const Garment& garment, int anchor_vertex, const Vec3& grasp_offset,
                 const Material& material, const MaterialFit& fit, const HangOptions& options,
                 uint64_t seed);
-
-// A rectangle garment: width × height (m) in the x–y plane, y up, vertex grid at
-// about edge_length. two_layers: front z=+gap/2 and back z=−gap/2 stitched on the
-// left, right and bottom sides (open at the top, a pillow case); otherwise one sheet
-// at z=0. Anchors "top_left", "top_right", "bottom_left", "bottom_right", "top_centre".
-Garment MakeRectangleGarment(double width, double height, double edge_length, bool two_layers,
-                             double gap = 0.01);
 
 // shear_frac = (L1 − L2)/L2 of a hung mesh (object frame: grasp at origin):
 // L1 = |lowest vertex|, L2 = flat distance from the grasp point to that vertex.

@@ -346,6 +346,9 @@ TEST(Hang, TimedOutCreepIsAcceptedOnlyWhenTheEquilibriumConverges) {
   EXPECT_FALSE(f.ok);
   EXPECT_FALSE(f.stats.settled_by_equilibrium);
   EXPECT_NE(f.failure.find("still moving"), std::string::npos) << f.failure;
+  // Numbers as a person writes them (not "3.000000").
+  EXPECT_NE(f.failure.find("time_cap 3 s"), std::string::npos) << f.failure;
+  EXPECT_EQ(f.failure.find("000000"), std::string::npos) << f.failure;
   EXPECT_EQ(f.stats.retries, 1);
 }
 

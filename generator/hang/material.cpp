@@ -4,6 +4,7 @@
 #include <numbers>
 
 #include "common/error.h"
+#include "common/format.h"
 #include "common/field_error.h"
 
 namespace drape {
@@ -17,13 +18,13 @@ void Material::Validate() const {
     BadField(field, "material '" + name + "': " + field_name, what);
   };
   if (!(stretch_percent > 0 && stretch_percent <= 30))
-    bad(stretch_percent, "stretch_percent", "must be in (0, 30], got " + std::to_string(stretch_percent));
+    bad(stretch_percent, "stretch_percent", "must be in (0, 30], got " + FormatNumber(stretch_percent));
   if (!(friction_deg >= 0 && friction_deg < 90))
-    bad(friction_deg, "friction_deg", "must be in [0, 90), got " + std::to_string(friction_deg));
+    bad(friction_deg, "friction_deg", "must be in [0, 90), got " + FormatNumber(friction_deg));
   if (!(area_density > 0.01 && area_density <= 5))
-    bad(area_density, "area_density", "must be in (0.01, 5] kg/m², got " + std::to_string(area_density));
+    bad(area_density, "area_density", "must be in (0.01, 5] kg/m², got " + FormatNumber(area_density));
   if (!(bending_stiffness > 0 && bending_stiffness <= 1))
-    bad(bending_stiffness, "bending_stiffness", "must be in (0, 1], got " + std::to_string(bending_stiffness));
+    bad(bending_stiffness, "bending_stiffness", "must be in (0, 1], got " + FormatNumber(bending_stiffness));
 }
 
 const std::vector<Material>& MaterialPresets() {

@@ -79,14 +79,6 @@ Json MaterialJson(const Material& m) {
           {"bending_stiffness", m.bending_stiffness}};
 }
 
-// Hang options as used for a garment: the material fit is done at the garment's
-// mesh resolution (its edge length), as hang.h recommends.
-HangOptions HangOptionsFor(const Recipe& recipe, const GarmentSpec& g) {
-  HangOptions h = recipe.hang;
-  if (!g.template_name.empty()) h.fit_edge_length = g.options.edge_length;
-  return h;
-}
-
 Json HangStatsJson(const HangStats& s) {
   return {{"sim_time", s.sim_time},
           {"steps", s.steps},
@@ -138,30 +130,7 @@ Entry BuildEntry(const Recipe& recipe, const Job& job, JobCache& cache) {
   std::shared_ptr<const Garment> garment;
   stage("garment", [&] {
     const std::string gkey = job.instance_name + "@" + std::to_string(job.size_scale);
-    garment = cache.impl->garments.Get(gkey, [&] {
-      Garment out;
-      if (!g.template_name.empty()) {
-        TemplateOptions o = g.options;
-        o.seed = job.instance_seed;
-        out = MakeGarment(g.template_name, o);
-      } else {
-        ImportOptions io;
-        io.unit_scale = g.unit_scale;
-        io.category = g.category;
-        io.instance = g.name;
-        out = ImportGarment(g.file, g.anchors, io);
-      }
-      if (job.size_scale != 1.0) {
-        // Size perturbation: the whole pattern scaled about its origin.
-        out.mesh.V *= job.size_scale;
-        if (out.uv.rows()) out.uv *= job.size_scale;
-        for (auto& a : out.anchors) {
-          a.uv *= job.size_scale;
-          a.position *= job.size_scale;
-        }
-      }
-      return out;
-    });
+    garment = cache.impl->garments.Get(gkey, [&] { return MakeJobGarment(recipe, job); });
   });
 
   // The material's stiffness (cached per material values and fit resolution).
@@ -197,6 +166,8 @@ Entry BuildEntry(const Recipe& recipe, const Job& job, JobCache& cache) {
   rec["anchor"] = {{"label", anchor->label}, {"vertex", anchor->vertex}, {"uv", {anchor->uv.x(), anchor->uv.y()}}};
   rec["grasp_offset"] = {offset.x(), offset.y(), offset.z()};
   rec["seed"] = job.seed;
+  if (job.turn != 0) rec["turn_radians"] = job.turn;
+  if (job.pose_noise_degrees > 0) rec["gripper_pose_noise_degrees"] = job.pose_noise_degrees;
   if (job.repeat) rec["repeat"] = job.repeat;
   rec["garment_mesh"] = {{"vertices", garment->mesh.NumVertices()}, {"faces", garment->mesh.NumFaces()}};
 
@@ -211,7 +182,7 @@ Entry BuildEntry(const Recipe& recipe, const Job& job, JobCache& cache) {
   try {
     HangResult hung;
     stage("hang", [&] {
-      hung = Hang(*garment, anchor->vertex, offset, job.material, *fit, hang_options, DeriveSeed(job.seed, "hang"));
+      hung = Hang(*garment, anchor->vertex, offset, job.material, *fit, hang_options, job.hang_seed);
     });
     rec["hang"] = HangStatsJson(hung.stats);
     timing["bullet"] = hung.stats.bullet_seconds;
@@ -219,6 +190,10 @@ Entry BuildEntry(const Recipe& recipe, const Job& job, JobCache& cache) {
 
     Sweep sweep;
     stage("sweep", [&] {
+      if (job.turn != 0) {
+        // Turned about the gripper: row vectors, so V·Rᵀ.
+        hung.mesh.V = hung.mesh.V * Eigen::AngleAxisd(job.turn, Vec3::UnitY()).toRotationMatrix().transpose();
+      }
       SweepOptions so = sensing.sweep;
       so.threads = 1;  // jobs run in parallel; one thread each
       sweep = SimulateSweep(hung.mesh, so, DeriveSeed(job.seed, "sweep"));
@@ -235,6 +210,7 @@ Entry BuildEntry(const Recipe& recipe, const Job& job, JobCache& cache) {
     stage("fusion", [&] {
       FusionOptions fo = recipe.fusion;
       fo.threads = 1;
+      if (job.pose_noise_degrees > 0) fo.pose_noise_degrees = job.pose_noise_degrees;
       fused = FuseFrames(sweep.frames, sweep.intrinsics, fo, DeriveSeed(job.seed, "fusion"));
     });
     if (fused.mesh.NumFaces() == 0) return fail("fusion: the fused surface is empty (garment not in view?)");
@@ -341,6 +317,12 @@ ReleaseMeta MakeReleaseMeta(const Recipe& recipe, const std::vector<Job>& jobs, 
   meta.description = recipe.description;
   meta.license = recipe.license;
   meta.recipe_summary = RecipeSummary(recipe, jobs);
+  std::vector<std::pair<std::string, fs::path>> imported;  // copied into the release
+  for (const auto& g : recipe.garments) {
+    if (!g.file_as_written.empty()) imported.emplace_back(g.file_as_written, g.file);
+    if (!g.anchors_as_written.empty()) imported.emplace_back(g.anchors_as_written, g.anchors);
+  }
+  meta.sources = PlanSources(imported);
   for (const auto& j : jobs) meta.job_keys.push_back(j.key);
   if (options.shard_count > 1)
     for (int i : shard) meta.shard_keys.push_back(jobs[i].key);

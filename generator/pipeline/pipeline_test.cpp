@@ -10,6 +10,8 @@
 #include <sstream>
 
 #include "common/files.h"
+#include "garments/io.h"
+#include "garments/templates.h"
 #include "generator/release/release.h"
 
 namespace fs = std::filesystem;
@@ -130,6 +132,71 @@ TEST(Build, TinyRecipeEndToEndIsDeterministicAcrossThreadsAndResume) {
   const auto summary = Merge({s1, s2}, merged);
   EXPECT_EQ(summary.digest, ra.digest);
   for (const auto& d : {a, b, c, s1, s2, merged}) fs::remove_all(d);
+}
+
+const char* kImported = R"(
+name: imported
+version: 0.0.1
+seed: 5
+simulation: {time_cap: 8}
+sensing:
+  database: {frames: 8, noise: false}
+  sensed: {frames: 8}
+fusion: {voxels_per_metre: 80}
+feature: {layers: 8, rings: 8, sectors: 8}
+garments:
+  - file: meshes/cloth.obj
+    anchors_file: meshes/cloth.anchors.json
+    category: towel
+    materials: [towel_a]
+    anchors: [top_left]
+splits:
+  train:
+    garments: [{garment: cloth, instances: [0]}]
+)";
+
+// A release built from an imported mesh carries the mesh and its sidecar (hashed, in
+// SHA256SUMS and the digest); moved away from the recipe's folder it still verifies,
+// re-reads its recipe from its own copies and rebuilds to the same digest.
+TEST(Build, ImportedGarmentReleaseIsSelfContained) {
+  const fs::path src = TempDir("import_src"), out = TempDir("import_out"), moved = TempDir("import_moved"),
+                 again = TempDir("import_again");
+  TemplateOptions to;
+  to.edge_length = 0.05;
+  to.params = {{"width", 0.4}, {"length", 0.5}};
+  fs::create_directories(src / "meshes");
+  ExportGarment(MakeGarment("towel", to), src / "meshes" / "cloth.obj");
+  WriteFileAtomic(src / "recipe.yaml", kImported);
+  const Recipe r = LoadRecipe(src / "recipe.yaml");
+  const BuildReport built = Build(r, out, 1);
+  ASSERT_TRUE(built.finalized) << built.error;
+  {
+    const Release rel = Release::Open(out);
+    ASSERT_EQ(rel.SourceFiles().size(), 2u);
+    EXPECT_EQ(rel.SourceFiles().at("meshes/cloth.obj"), out / "sources/meshes/cloth.obj");
+    EXPECT_EQ(ReadFile(out / "sources/meshes/cloth.obj"), ReadFile(src / "meshes/cloth.obj"));
+    EXPECT_EQ(ReadFile(out / "sources/meshes/cloth.anchors.json"), ReadFile(src / "meshes/cloth.anchors.json"));
+    const std::string sums = ReadFile(out / "SHA256SUMS");
+    EXPECT_NE(sums.find("  sources/meshes/cloth.obj\n"), std::string::npos) << sums;
+    EXPECT_NE(rel.digest(), ComputeDigest(rel.entries()));  // the sources are in the digest
+  }
+  fs::rename(out, moved);
+  fs::remove_all(src);
+  EXPECT_TRUE(Verify(moved).ok());
+  const Release rel = Release::Open(moved);
+  const std::string text = rel.dataset()["recipe"]["text"];
+  const Recipe rr = ParseRecipe(text, "dataset.json (recipe)", moved, &rel.SourceFiles());
+  EXPECT_EQ(rr.garments[0].file, moved / "sources/meshes/cloth.obj");
+  const BuildReport rebuilt = Build(rr, again, 1);
+  ASSERT_TRUE(rebuilt.finalized) << rebuilt.error;
+  EXPECT_EQ(rebuilt.digest, built.digest);
+  EXPECT_EQ(ReadFile(again / "SHA256SUMS"), ReadFile(moved / "SHA256SUMS"));
+  // A changed copy is caught by verify (hash and digest).
+  WriteFileAtomic(moved / "sources/meshes/cloth.anchors.json", "{}");
+  const VerifyReport v = Verify(moved);
+  EXPECT_EQ(v.changed, std::vector<std::string>{"sources/meshes/cloth.anchors.json"});
+  EXPECT_NE(v.actual_digest, v.expected_digest);
+  for (const auto& d : {moved, again}) fs::remove_all(d);
 }
 
 }  // namespace

@@ -8,12 +8,46 @@
 
 #include "common/error.h"
 #include "common/rng.h"
+#include "garments/io.h"
+#include "garments/templates.h"
 
 namespace drape {
 
 uint64_t InstanceSeed(const Recipe& recipe, const std::string& garment, int instance) {
   const uint64_t s = DeriveSeed(recipe.seed, garment + "/i" + std::to_string(instance));
   return s == 0 ? 1 : s;
+}
+
+Garment MakeJobGarment(const Recipe& recipe, const Job& job) {
+  const GarmentSpec& g = recipe.garments.at(job.garment);
+  Garment out;
+  if (!g.template_name.empty()) {
+    TemplateOptions o = g.options;
+    o.seed = job.instance_seed;
+    out = MakeGarment(g.template_name, o);
+  } else {
+    ImportOptions io;
+    io.unit_scale = g.unit_scale;
+    io.category = g.category;
+    io.instance = g.name;
+    out = ImportGarment(g.file, g.anchors, io);
+  }
+  if (job.size_scale != 1.0) {
+    // Size perturbation: the whole pattern scaled about its origin.
+    out.mesh.V *= job.size_scale;
+    if (out.uv.rows()) out.uv *= job.size_scale;
+    for (auto& a : out.anchors) {
+      a.uv *= job.size_scale;
+      a.position *= job.size_scale;
+    }
+  }
+  return out;
+}
+
+HangOptions HangOptionsFor(const Recipe& recipe, const GarmentSpec& g) {
+  HangOptions h = recipe.hang;
+  if (!g.template_name.empty()) h.fit_edge_length = g.options.edge_length;
+  return h;
 }
 
 std::string Slug(const std::string& key) {
@@ -77,7 +111,9 @@ std::vector<Job> ExpandJobs(const Recipe& recipe) {
             for (int rep = 0; rep < split.repeats; ++rep) {
               Job j;
               j.index = static_cast<int>(jobs.size());
-              j.key = iname + "/" + mname + "/" + anchor + (split.repeats > 1 ? "/p" + std::to_string(rep) : "");
+              const std::string base = iname + "/" + mname + "/" + anchor + (split.repeats > 1 ? "/p" + std::to_string(rep) : "");
+              const bool ladder = split.name.rfind("test_", 0) == 0;
+              j.key = ladder ? split.name + "/" + base : base;
               j.split = split.name;
               j.sensing = split.sensing;
               j.garment = gi;
@@ -89,6 +125,7 @@ std::vector<Job> ExpandJobs(const Recipe& recipe) {
               j.anchor = anchor;
               j.repeat = rep;
               j.seed = DeriveSeed(recipe.seed, j.key);
+              j.hang_seed = DeriveSeed(DeriveSeed(recipe.seed, base), "hang");
               j.size_scale = size_scale;
               std::copy(jitter, jitter + 4, j.material_jitter);
               if (pt.grasp_offset > 0) {
@@ -96,6 +133,8 @@ std::vector<Job> ExpandJobs(const Recipe& recipe) {
                 const double a = 2 * M_PI * rng.Uniform();
                 j.grasp_offset = pt.grasp_offset * Vec2(std::cos(a), std::sin(a));
               }
+              if (pt.turn) j.turn = 2 * M_PI * Rng(DeriveSeed(j.seed, "turn")).Uniform();
+              j.pose_noise_degrees = pt.gripper_pose_noise;
               jobs.push_back(std::move(j));
             }
           }

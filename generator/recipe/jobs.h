@@ -28,10 +28,15 @@ struct Job {
   std::string anchor;         // anchor label
   int repeat = 0;
   uint64_t seed = 0;          // DeriveSeed(recipe seed, key)
+  // Seed of the hang: DeriveSeed(DeriveSeed(recipe seed, key without a ladder split's
+  // "<split>/" prefix), "hang"), so a ladder rung hangs like the database entry.
+  uint64_t hang_seed = 0;
   // Perturbations (zero / one when the split has none).
   double size_scale = 1.0;    // uniform scale of the instance's mesh and pattern
   double material_jitter[4] = {0, 0, 0, 0};  // applied factors − 1: stretch, friction, density, bending
   Vec2 grasp_offset = Vec2::Zero();          // metres on the flat pattern
+  double turn = 0;                // radians about the gripper (y) axis, applied before the sweep
+  double pose_noise_degrees = 0;  // the fusion's gripper encoder noise (σ per frame)
 };
 
 // Seed of garment instance k (its TemplateOptions::seed): DeriveSeed(recipe seed,
@@ -45,6 +50,15 @@ std::vector<Job> ExpandJobs(const Recipe& recipe);
 
 // Indices of the jobs of shard K of N (1 <= K <= N): index % N == K − 1.
 std::vector<int> ShardJobs(int num_jobs, int k, int n);
+
+// The garment of a job's instance: the template with the instance's seed (or the
+// imported file), scaled by the job's size perturbation. Deterministic; the build caches
+// it per instance and size, the runtime makes its test garments with it.
+Garment MakeJobGarment(const Recipe& recipe, const Job& job);
+
+// Hang options as used for a garment: the material fit is done at the garment's
+// mesh resolution (its edge length), as hang.h recommends.
+HangOptions HangOptionsFor(const Recipe& recipe, const GarmentSpec& garment);
 
 // "pants/i2/jeans/waist_left" → "pants-i2-jeans-waist_left" (filesystem-safe).
 std::string Slug(const std::string& key);

@@ -131,3 +131,52 @@ TEST(Jobs, SlugIsFilesystemSafe) {
 
 }  // namespace
 }  // namespace drape
+
+namespace drape {
+namespace {
+
+// Ladder rungs (test_<rung>) may re-use train instances: keys get the split prefix,
+// hangs keep the database entry's seed, turn and gripper noise reach the jobs.
+TEST(Jobs, LadderRungsReuseTheDatabaseHang) {
+  const std::string text = std::string(kRecipe) + R"(  test_noise:
+    garments: [{garment: pants, instances: [0]}]
+    perturbation: {turn: true}
+  test_pose:
+    garments: [{garment: pants, instances: [0]}]
+    perturbation: {turn: true, grasp_offset: 0.02, gripper_pose_noise: 1.5}
+)";
+  const Recipe r = Parse(text);
+  ASSERT_EQ(r.splits.size(), 5u);
+  EXPECT_EQ(r.splits[3].name, "test_noise");
+  EXPECT_EQ(r.splits[3].sensing, "sensed");
+  const std::vector<Job> jobs = ExpandJobs(r);
+  std::map<std::string, const Job*> train;
+  for (const auto& j : jobs) {
+    if (j.split == "train") {
+      train[j.key] = &j;
+      EXPECT_EQ(j.hang_seed, DeriveSeed(j.seed, "hang"));  // unchanged for ordinary splits
+      EXPECT_EQ(j.turn, 0);
+    }
+  }
+  int rungs = 0;
+  for (const auto& j : jobs) {
+    if (j.split.rfind("test_", 0) != 0) continue;
+    ++rungs;
+    ASSERT_EQ(j.key.rfind(j.split + "/", 0), 0u) << j.key;
+    const Job* db = train.at(j.key.substr(j.split.size() + 1));
+    EXPECT_EQ(j.hang_seed, db->hang_seed);
+    EXPECT_NE(j.seed, db->seed);
+    EXPECT_GT(j.turn, 0);
+    EXPECT_LT(j.turn, 2 * M_PI);
+    EXPECT_EQ(j.pose_noise_degrees, j.split == "test_pose" ? 1.5 : 0.0);
+    EXPECT_EQ(j.grasp_offset.norm() > 0, j.split == "test_pose");
+  }
+  EXPECT_EQ(rungs, 2 * 12);  // pants has 12 anchors
+  EXPECT_THROW(Parse(std::string(kRecipe) + "  test_:\n    garments: [{garment: pants, instances: [0]}]\n"), Error);
+  EXPECT_THROW(Parse(std::string(kRecipe) + "  testing:\n    garments: [{garment: pants, instances: [0]}]\n"), Error);
+  // Gripper noise beyond 45° is rejected.
+  EXPECT_THROW(Parse(std::string(kRecipe) + "  test_x:\n    garments: [{garment: pants, instances: [0]}]\n    perturbation: {gripper_pose_noise: 50}\n"), Error);
+}
+
+}  // namespace
+}  // namespace drape

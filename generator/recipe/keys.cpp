@@ -153,6 +153,8 @@ const std::vector<OptionKey<Perturbation>>& PerturbationKeys() {
       {"grasp_offset", Ref(&Perturbation::grasp_offset), "m", "grasp point moved this far from the anchor on the flat pattern, random direction per job"},
       {"size_scale", {}, "factor or `[min, max]`", "each instance scaled uniformly by a factor drawn once per instance (default 1)"},
       {"material_jitter", Ref(&Perturbation::material_jitter), "fraction", "each of the material's four values × (1 + U(−j, j)), drawn once per instance and material"},
+      {"turn", Ref(&Perturbation::turn), "bool", "the hung garment turned about the gripper by a seeded angle U(0, 360°) before the sweep"},
+      {"gripper_pose_noise", Ref(&Perturbation::gripper_pose_noise), "degrees", "σ of the turning gripper's encoder error per frame (the fusion's pose noise)"},
   };
   return t;
 }

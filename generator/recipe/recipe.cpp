@@ -77,8 +77,9 @@ struct SetField {
 // located errors.
 class Parser {
  public:
-  Parser(const std::string& label, fs::path base, bool allow_outside)
-      : label_(label), base_(std::move(base)), allow_outside_(allow_outside) {}
+  Parser(const std::string& label, fs::path base, bool allow_outside,
+         const std::map<std::string, fs::path>* files = nullptr)
+      : label_(label), base_(std::move(base)), allow_outside_(allow_outside), files_(files) {}
 
   [[noreturn]] void Fail(const YAML::Mark& m, const std::string& path, const std::string& what) const {
     std::ostringstream os;
@@ -225,6 +226,12 @@ class Parser {
   fs::path File(const YAML::Node& map, const std::string& key, const std::string& path) const {
     const auto s = String(map, key, path);
     const std::string p = Sub(path, key);
+    if (files_) {
+      const auto it = files_->find(*s);
+      if (it == files_->end()) Fail(map[key], p, "'" + *s + "' is not among the files carried with the recipe");
+      if (!fs::is_regular_file(it->second)) Fail(map[key], p, "file not found: " + it->second.string());
+      return it->second;
+    }
     const fs::path rel(*s);
     const fs::path full = (rel.is_absolute() ? rel : base_ / rel).lexically_normal();
     const fs::path base = fs::weakly_canonical(base_);
@@ -298,6 +305,7 @@ class Parser {
   std::string label_;
   fs::path base_;
   bool allow_outside_;
+  const std::map<std::string, fs::path>* files_;  // path as written → file (a release's copy)
 };
 
 Material ParseMaterial(const Parser& P, const std::string& name, const YAML::Node& n, const std::string& path) {
@@ -390,7 +398,11 @@ void ParseTemplateGarment(const Parser& P, const YAML::Node& n, const std::strin
 // An imported mesh file: loaded once here for its anchor labels.
 void ParseImportedGarment(const Parser& P, const YAML::Node& n, const std::string& path, GarmentSpec& g) {
   g.file = P.File(n, "file", path);
-  if (n["anchors_file"].IsDefined()) g.anchors = P.File(n, "anchors_file", path);
+  g.file_as_written = n["file"].Scalar();
+  if (n["anchors_file"].IsDefined()) {
+    g.anchors = P.File(n, "anchors_file", path);
+    g.anchors_as_written = n["anchors_file"].Scalar();
+  }
   g.category = P.String(n, "category", path).value_or("custom");
   g.name = n["name"].IsDefined() ? P.Name(n, "name", path) : g.file.stem().string();
   if (!std::regex_match(g.name, kNameRe))
@@ -568,8 +580,19 @@ SplitSelector ParseSelector(const Parser& P, const YAML::Node& e, const std::str
   return sel;
 }
 
+bool IsLadderSplit(const std::string& name) {
+  if (name.rfind("test_", 0) != 0 || name.size() == 5) return false;
+  for (char c : name)
+    if (!((c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_')) return false;
+  return true;
+}
+
 void ParseSplits(const Parser& P, const YAML::Node& n, Recipe& r) {
-  const std::vector<std::string> names = {"train", "calibration", "test"};
+  std::vector<std::string> names = {"train", "calibration", "test"};
+  P.RequireMap(n, "splits");
+  // Ladder rungs (test_<rung>) after test, in the recipe's order.
+  for (auto it = n.begin(); it != n.end(); ++it)
+    if (it->first.IsScalar() && IsLadderSplit(it->first.Scalar())) names.push_back(it->first.Scalar());
   P.CheckKeys(n, "splits", names);
   std::map<std::pair<std::string, int>, InstanceUse> used;
   for (const auto& split : names) {
@@ -589,9 +612,12 @@ void ParseSplits(const Parser& P, const YAML::Node& n, Recipe& r) {
     if (!gl.IsDefined()) P.Fail(s, path, "missing key 'garments' (a list of {garment, instances, ...})");
     if (!gl.IsSequence()) P.Fail(gl, path + ".garments", "expected a list, got " + P.Describe(gl));
     if (gl.size() == 0) P.Fail(gl, path + ".garments", "the list is empty");
-    for (size_t i = 0; i < gl.size(); ++i)
-      sp.selectors.push_back(
-          ParseSelector(P, gl[i], path + ".garments[" + std::to_string(i) + "]", r, split, used));
+    for (size_t i = 0; i < gl.size(); ++i) {
+      // A ladder rung may re-use any instance (the database entries themselves).
+      std::map<std::pair<std::string, int>, InstanceUse> own;
+      sp.selectors.push_back(ParseSelector(P, gl[i], path + ".garments[" + std::to_string(i) + "]", r, split,
+                                           IsLadderSplit(split) ? own : used));
+    }
     r.splits.push_back(std::move(sp));
   }
   if (r.splits.empty()) P.Fail(n, "splits", "no split given (train, calibration, test)");
@@ -615,6 +641,8 @@ void Perturbation::Validate() const {
   if (!(size_scale_min > 0 && size_scale_min <= 10)) BadField(size_scale_min, "size_scale", "must be in (0, 10]");
   if (!(size_scale_max > 0 && size_scale_max <= 10)) BadField(size_scale_max, "size_scale", "must be in (0, 10]");
   if (size_scale_min > size_scale_max) BadField(size_scale_max, "size_scale", "expected [min, max] with min <= max");
+  if (!(gripper_pose_noise >= 0 && gripper_pose_noise <= 45))
+    BadField(gripper_pose_noise, "gripper_pose_noise", "must be in [0, 45] degrees");
 }
 
 void SplitSelector::Validate() const {
@@ -631,7 +659,8 @@ SensingSpec DatabaseSensingDefaults() {
   return s;
 }
 
-Recipe ParseRecipe(const std::string& text, const std::string& file_label, const fs::path& base_dir) {
+Recipe ParseRecipe(const std::string& text, const std::string& file_label, const fs::path& base_dir,
+                   const std::map<std::string, fs::path>* files) {
   YAML::Node loaded;
   try {
     loaded = YAML::Load(text);
@@ -647,7 +676,7 @@ Recipe ParseRecipe(const std::string& text, const std::string& file_label, const
   Parser P0(file_label, base_dir, false);
   if (!root.IsMap()) P0.Fail(root, "(top level)", "a recipe is a mapping of keys (name, version, seed, garments, ...)");
   P0.Keys(root, "", recipe_keys::TopKeys(), r);  // description, license, allow_outside_paths
-  const Parser P(file_label, base_dir, r.allow_outside_paths);
+  const Parser P(file_label, base_dir, r.allow_outside_paths, files);
 
   r.name = P.Name(root, "name", "");
   const auto version = P.String(root, "version", "");

@@ -27,6 +27,7 @@ struct GarmentSpec {
   std::string template_name;  // empty for imports
   std::filesystem::path file;     // absolute, imports only
   std::filesystem::path anchors;  // absolute, imports only (may be empty)
+  std::string file_as_written, anchors_as_written;  // the recipe's text for them (a release keys its copies by it)
   double unit_scale = 1.0;        // imports: file units → metres
   std::string category;           // template's category, or `category:` for imports
   TemplateOptions options;        // size, params, edge_length, ... (seed set per instance)
@@ -42,8 +43,16 @@ struct Perturbation {
   double grasp_offset = 0.0;  // metres on the flat pattern, random direction per job
   double size_scale_min = 1.0, size_scale_max = 1.0;  // uniform per instance
   double material_jitter = 0.0;  // fraction: each measured material value × (1 + U(−j, j)), per instance
+  // The hung garment turned about the gripper (y) axis by a seeded angle U(0, 2π) before
+  // the sweep: a grasp at another orientation (the feature is rotation-invariant only
+  // in steps of 2π/Φ).
+  bool turn = false;
+  // σ of the turning gripper's encoder error, degrees per frame (FusionOptions::
+  // pose_noise_degrees of this split's fusion).
+  double gripper_pose_noise = 0.0;
   bool Any() const {
-    return grasp_offset > 0 || size_scale_min != 1.0 || size_scale_max != 1.0 || material_jitter > 0;
+    return grasp_offset > 0 || size_scale_min != 1.0 || size_scale_max != 1.0 || material_jitter > 0 || turn ||
+           gripper_pose_noise > 0;
   }
   void Validate() const;  // throws drape::FieldError
 };
@@ -59,7 +68,12 @@ struct SplitSelector {
 };
 
 struct SplitSpec {
-  std::string name;     // "train" | "calibration" | "test"
+  // "train" | "calibration" | "test" | "test_<rung>": test-split variants for the
+  // ablation ladder of `drape eval --ladder`; they may use train instances (the
+  // database entries themselves), their job keys start with "<name>/", and their
+  // hangs use the seed of the key without that prefix (an unperturbed rung hangs
+  // exactly like the database entry).
+  std::string name;
   std::string sensing;  // key into Recipe::sensing ("database" | "sensed")
   std::vector<SplitSelector> selectors;
   Perturbation perturbation;
@@ -103,9 +117,11 @@ struct Recipe {
 // Parses and validates a recipe file. Throws drape::Error "FILE:LINE:COL: key: what".
 Recipe LoadRecipe(const std::filesystem::path& path);
 // Parses recipe text; relative paths resolve against `base_dir`. `file_label`
-// names the file in error messages.
+// names the file in error messages. `files` (a release's copies, Release::SourceFiles)
+// maps each file path as written in the recipe to the file to read instead.
 Recipe ParseRecipe(const std::string& text, const std::string& file_label,
-                   const std::filesystem::path& base_dir);
+                   const std::filesystem::path& base_dir,
+                   const std::map<std::string, std::filesystem::path>* files = nullptr);
 
 // The recipe's keys for the documentation, from the parser's own tables
 // (generator/recipe/keys.cpp): recipes/README.md's key tables are exactly

@@ -174,6 +174,18 @@ TEST(Recipe, AnchorSubsetMustBeLabelsOfTheTemplate) {
   EXPECT_EQ(r.garments[0].anchor_labels, (std::vector<std::string>{labels[1], labels[0]}));
 }
 
+TEST(Recipe, SeedTakesTheWhole64BitRange) {
+  TempRecipe t("name: x\nversion: 1.0.0\nseed: 18446744073709551615\ngarments:\n  - template: towel\n"
+               "    materials: [towel_a]\n");
+  EXPECT_EQ(LoadRecipe(t.path()).seed, 18446744073709551615ull);
+  for (const char* bad : {"18446744073709551616", "-1", "1.5"}) {
+    TempRecipe u(std::string("name: x\nversion: 1.0.0\nseed: ") + bad +
+                 "\ngarments:\n  - template: towel\n    materials: [towel_a]\n");
+    EXPECT_NE(LoadError(u.path()).find(":3:7: seed: expected a non-negative integer"), std::string::npos)
+        << LoadError(u.path());
+  }
+}
+
 TEST(Recipe, MissingRequiredKeysAreNamed) {
   TempRecipe t("name: x\nversion: 1.0.0\ngarments:\n  - template: towel\n    materials: [towel_a]\n");
   EXPECT_NE(LoadError(t.path()).find(":1:1: seed: missing key 'seed'"), std::string::npos) << LoadError(t.path());

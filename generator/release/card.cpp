@@ -138,6 +138,9 @@ std::string DatasetCard(const Json& ds, const std::vector<Release::EntryInfo>& e
        "object frame — gripper at the origin, y up —, `recon.ply`, `sdf.vdb`, `feature.bin`, "
        "`preview.png`, optionally `sweep/` 16-bit depth PNGs in mm + `cameras.json`).\n"
        "- `index.html`: a gallery to open in a browser.\n"
+       "- `viewer/`: the gallery's 3D view: three.js (MIT, `LICENSE.three.txt`) and each entry's "
+       "hang.ply + recon.ply as a script `viewer/meshes/<id>.js` (pages opened from file:// may load "
+       "scripts but not read files); outside the release digest.\n"
        "- `SHA256SUMS`: hashes of every file; `build.json`: build times (not hashed); `calibration/`: learned weights written by `drape calibrate` (bound to the digest, not hashed).\n";
   o << "\n## Verify and rebuild\n\n```sh\nsha256sum -c SHA256SUMS        # files\n"
        "drape verify .                  # files + release digest\n"
@@ -177,6 +180,11 @@ std::string Gallery(const Json& ds, const std::vector<Release::EntryInfo>& entri
        ".card .noimg{width:330px;height:150px;background:#eee;display:flex;align-items:center;justify-content:center;color:#888}\n"
        ".card.failed{border-color:#c33}\n.card .fail{color:#c33}\n"
        ".card b{font-size:13px}\n"
+       ".card button.v3d{float:right;font-size:12px}\n"
+       "#v3d{position:fixed;inset:0;background:#fff;z-index:10;display:flex;flex-direction:column;font-size:13px}\n"
+       "#v3d-bar{padding:6px;border-bottom:1px solid #ccc}\n"
+       "#v3d-labels{display:flex;color:#555}\n#v3d-labels span{flex:1;text-align:center}\n"
+       "#v3d-canvas{flex:1;width:100%;min-height:0;display:block}\n"
        "</style>\n</head>\n<body>\n";
   o << "<h1>" << Html(title) << "</h1>\n";
   o << "<p>" << entries.size() << " entries · digest <code>" << Html(ds.value("digest", "")) << "</code></p>\n";
@@ -199,6 +207,8 @@ std::string Gallery(const Json& ds, const std::vector<Release::EntryInfo>& entri
     } else {
       o << "<div class=\"noimg\">no preview</div>";
     }
+    // The 3D view (viewer/drape-viewer.js): hung and fused mesh side by side.
+    if (EntryHas3d(e)) o << "<button class=\"v3d\" data-id=\"" << Html(e.id) << "\">3D view</button>";
     o << "<br><b>" << Html(e.id) << "</b><br>split: " << Html(e.split) << "<br>garment: " << Html(cat);
     const std::string inst = Str(e.record, "instance"), garment = Str(e.record, "garment");
     if (!inst.empty()) o << " / " << Html(inst);
@@ -218,6 +228,7 @@ std::string Gallery(const Json& ds, const std::vector<Release::EntryInfo>& entri
   }
   o << "</div>\n";
   // Plain inline JS: filters, also settable as index.html#split=test&category=shirt.
+  if (GalleryHas3d()) o << "<script src=\"viewer/drape-viewer.js\"></script>\n";
   o << "<script>\n"
        "(function(){\n"
        "  var sp=document.getElementById('split'), ca=document.getElementById('category');\n"
@@ -233,7 +244,10 @@ std::string Gallery(const Json& ds, const std::vector<Release::EntryInfo>& entri
        "  var h=location.hash.replace(/^#/,'').split('&');\n"
        "  for(var i=0;i<h.length;i++){var kv=h[i].split('=');\n"
        "    if(kv[0]==='split') sp.value=decodeURIComponent(kv[1]||'');\n"
-       "    if(kv[0]==='category') ca.value=decodeURIComponent(kv[1]||'');}\n"
+       "    if(kv[0]==='category') ca.value=decodeURIComponent(kv[1]||'');\n"
+       "    if(kv[0]==='view'&&window.drapeOpen3d) window.drapeOpen3d(decodeURIComponent(kv[1]||''));}\n"
+       "  var b=document.querySelectorAll('button.v3d');\n"
+       "  for(var i=0;i<b.length;i++) b[i].addEventListener('click',function(){window.drapeOpen3d(this.getAttribute('data-id'));});\n"
        "  sp.addEventListener('change',apply); ca.addEventListener('change',apply);\n"
        "  apply(); document.getElementById('ready').textContent='(filters ready)';\n"
        "})();\n"

@@ -32,7 +32,8 @@ class Db {
   sqlite3_stmt* Prepare(const std::string& sql) {
     sqlite3_stmt* st = nullptr;
     if (sqlite3_prepare_v2(db_, sql.c_str(), -1, &st, nullptr) != SQLITE_OK)
-      throw Error(path_ + ": " + sqlite3_errmsg(db_) + " in: " + sql.substr(0, 200));
+      throw Error(path_ + ": " + sqlite3_errmsg(db_) + " (not a drape catalog, or truncated/damaged) in: " +
+                  sql.substr(0, 200));
     return st;
   }
   void Step(sqlite3_stmt* st) {
@@ -42,15 +43,20 @@ class Db {
     sqlite3_clear_bindings(st);
   }
   const std::string& path() const { return path_; }
+  std::string ErrMsg() const { return sqlite3_errmsg(db_); }
 
  private:
   std::string path_;
   sqlite3* db_ = nullptr;
 };
 
+// Owns a prepared statement; not copyable, so it is finalized exactly once.
 struct Stmt {
-  sqlite3_stmt* st;
+  explicit Stmt(sqlite3_stmt* s) : st(s) {}
+  Stmt(const Stmt&) = delete;
+  Stmt& operator=(const Stmt&) = delete;
   ~Stmt() { sqlite3_finalize(st); }
+  sqlite3_stmt* st;
 };
 
 std::string Quote(const std::string& ident) {
@@ -256,6 +262,15 @@ void WriteCatalog(const fs::path& path, const fs::path& release_dir, const Json&
 void ReadCatalog(const fs::path& path, std::vector<Release::EntryInfo>* entries,
                  std::vector<std::string>* job_keys) {
   Db db(path, SQLITE_OPEN_READONLY);
+  {
+    // A truncated file can still answer queries that touch only its first pages.
+    Stmt pc{db.Prepare("SELECT page_count * page_size FROM pragma_page_count(), pragma_page_size()")};
+    const int64_t want = sqlite3_step(pc.st) == SQLITE_ROW ? sqlite3_column_int64(pc.st, 0) : -1;
+    const auto have = static_cast<int64_t>(fs::file_size(path));
+    if (want < 0 || have < want)
+      throw Error(db.path() + ": truncated (" + std::to_string(have) + " bytes, its header says " +
+                  std::to_string(want) + ")");
+  }
   Stmt st{db.Prepare(
       "SELECT id, key, split, failed, failure, entry_digest, record_json, files_json FROM entries ORDER BY id")};
   auto text = [](sqlite3_stmt* s, int i) {
@@ -281,11 +296,11 @@ void ReadCatalog(const fs::path& path, std::vector<Release::EntryInfo>* entries,
     }
     entries->push_back(std::move(e));
   }
-  if (rc != SQLITE_DONE) throw Error(db.path() + ": cannot read entries");
+  if (rc != SQLITE_DONE) throw Error(db.path() + ": cannot read entries: " + db.ErrMsg() + " (truncated or damaged?)");
   Stmt sj{db.Prepare("SELECT key FROM jobs ORDER BY position")};
   job_keys->clear();
   while ((rc = sqlite3_step(sj.st)) == SQLITE_ROW) job_keys->push_back(text(sj.st, 0));
-  if (rc != SQLITE_DONE) throw Error(db.path() + ": cannot read jobs");
+  if (rc != SQLITE_DONE) throw Error(db.path() + ": cannot read jobs: " + db.ErrMsg() + " (truncated or damaged?)");
 }
 
 }  // namespace drape::release_detail

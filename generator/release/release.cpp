@@ -20,6 +20,7 @@
 #include "common/error.h"
 #include "common/files.h"
 #include "common/hash.h"
+#include "common/unique_fd.h"
 #include "generator/release/release_internal.h"
 
 namespace drape {
@@ -48,34 +49,9 @@ void CheckSafeRelPath(const std::string& p, const std::string& what) {
   }
 }
 
-namespace {
-nlohmann::json Sorted(const Json& j) {
-  // nlohmann::json keeps object keys in a std::map: sorted by byte order.
-  switch (j.type()) {
-    case Json::value_t::object: {
-      nlohmann::json out = nlohmann::json::object();
-      for (auto it = j.begin(); it != j.end(); ++it) out[it.key()] = Sorted(it.value());
-      return out;
-    }
-    case Json::value_t::array: {
-      nlohmann::json out = nlohmann::json::array();
-      for (const auto& v : j) out.push_back(Sorted(v));
-      return out;
-    }
-    case Json::value_t::string: return j.get<std::string>();
-    case Json::value_t::boolean: return j.get<bool>();
-    case Json::value_t::number_integer: return j.get<int64_t>();
-    case Json::value_t::number_unsigned: return j.get<uint64_t>();
-    case Json::value_t::number_float: return j.get<double>();
-    case Json::value_t::null:
-    case Json::value_t::discarded: return nullptr;
-    case Json::value_t::binary: return nlohmann::json::binary(j.get_binary());
-  }
-  return nullptr;
-}
-}  // namespace
-
-std::string CanonicalJson(const Json& j) { return Sorted(j).dump(); }
+// nlohmann::json (unlike our insertion-ordered Json) keeps object keys in a std::map,
+// sorted by byte order, so converting and dumping gives the canonical form.
+std::string CanonicalJson(const Json& j) { return nlohmann::json(j).dump(); }
 
 Json EntryJson(const Release::EntryInfo& e) {
   Json files = Json::array();
@@ -125,6 +101,13 @@ std::vector<Release::EntryInfo> ScanEntries(const fs::path& dir) {
     }
   }
   std::sort(out.begin(), out.end(), [](auto& a, auto& b) { return a.id < b.id; });
+  std::map<std::string, std::string> id_of_key;
+  for (const auto& e : out) {
+    auto [it, fresh] = id_of_key.emplace(e.key, e.id);
+    if (!fresh)
+      throw Error((root / e.id / kEntryJson).string() + ": job '" + e.key + "' is also entry '" + it->second +
+                  "' (an entry listed twice)");
+  }
   return out;
 }
 
@@ -179,6 +162,16 @@ Json Counts(const std::vector<Release::EntryInfo>& entries) {
               {"categories", categories}, {"split_categories", split_categories}};
 }
 
+void CheckFormatVersion(const Json& dataset, const std::string& where) {
+  if (!dataset.is_object()) throw Error(where + ": expected a JSON object");
+  const Json v = dataset.value("format_version", Json(1));
+  if (!v.is_number_integer() || v.get<int64_t>() < 1)
+    throw Error(where + ": format_version must be a positive integer, got " + v.dump());
+  if (v.get<int64_t>() > kFormatVersion)
+    throw Error(where + ": release format " + v.dump() + " was written by a newer drape; this drape reads format " +
+                std::to_string(kFormatVersion) + " and older (upgrade drape)");
+}
+
 std::map<std::string, std::string> ParseSums(const std::string& text, const std::string& where) {
   std::map<std::string, std::string> out;
   std::istringstream in(text);
@@ -190,7 +183,10 @@ std::map<std::string, std::string> ParseSums(const std::string& text, const std:
     if (line.size() < 67 || line[64] != ' ' || (line[65] != ' ' && line[65] != '*')) {
       throw Error(where + ":" + std::to_string(n) + ": not a sha256sum line");
     }
-    out[line.substr(66)] = line.substr(0, 64);
+    const std::string path = line.substr(66);
+    CheckSafeRelPath(path, where + ":" + std::to_string(n));
+    if (!out.emplace(path, line.substr(0, 64)).second)
+      throw Error(where + ":" + std::to_string(n) + ": '" + path + "' is listed twice");
   }
   return out;
 }
@@ -202,10 +198,8 @@ std::string FormatSums(const std::map<std::string, std::string>& sums) {
 }
 
 void FsyncPath(const fs::path& p) {
-  const int fd = ::open(p.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) return;
-  ::fsync(fd);
-  ::close(fd);
+  const UniqueFd fd(::open(p.c_str(), O_RDONLY | O_CLOEXEC));
+  if (fd.valid()) ::fsync(fd.get());
 }
 
 std::string HostName() {
@@ -233,7 +227,8 @@ std::string EntryDigest(const std::string& id, const std::string& key, const std
   return Sha256Hex(CanonicalJson(canon));
 }
 
-std::string ComputeDigest(const std::vector<Release::EntryInfo>& entries) {
+std::string ComputeDigest(const std::vector<Release::EntryInfo>& entries,
+                          const std::map<std::string, std::string>& sources) {
   std::vector<std::pair<std::string, std::string>> lines;
   for (const auto& e : entries) {
     lines.emplace_back(e.id, EntryDigest(e.id, e.key, e.split, e.failed, e.failure, e.record, e.files));
@@ -241,8 +236,59 @@ std::string ComputeDigest(const std::vector<Release::EntryInfo>& entries) {
   std::sort(lines.begin(), lines.end());
   Sha256 h;
   for (const auto& [id, d] : lines) h.Update(id + " " + d + "\n");
+  for (const auto& [path, sha] : sources) h.Update("source " + path + " " + sha + "\n");  // sorted by path
   return h.HexDigest();
 }
+
+std::vector<SourceFile> PlanSources(const std::vector<std::pair<std::string, fs::path>>& files) {
+  std::vector<SourceFile> out;
+  std::set<std::string> used;
+  std::map<std::string, std::string> by_written;
+  for (const auto& [written, file] : files) {
+    if (by_written.count(written)) continue;  // the same file named twice
+    const fs::path w = fs::path(written).lexically_normal();
+    std::string rel = w.generic_string();
+    const bool plain = !w.is_absolute() && !rel.empty() && rel.rfind("..", 0) != 0;
+    if (!plain) rel = file.filename().string();
+    std::string path = "sources/" + rel;
+    for (int n = 2; used.count(path); ++n) path = "sources/" + std::to_string(n) + "/" + file.filename().string();
+    used.insert(path);
+    by_written[written] = path;
+    out.push_back({written, file, path, ""});
+  }
+  return out;
+}
+
+namespace release_detail {
+// release path → sha256 of a meta's sources.
+std::map<std::string, std::string> SourceSums(const std::vector<SourceFile>& sources) {
+  std::map<std::string, std::string> m;
+  for (const auto& f : sources) m[f.release_path] = f.sha256;
+  return m;
+}
+
+// The same from dataset.json "sources" ({recipe path: {"path", "sha256"}}).
+std::map<std::string, std::string> SourceSums(const Json& ds, const std::string& where) {
+  std::map<std::string, std::string> m;
+  const Json src = ds.value("sources", Json::object());
+  if (!src.is_object()) throw Error(where + ": \"sources\" must be an object");
+  for (auto it = src.begin(); it != src.end(); ++it) {
+    if (!it.value().is_object() || !it.value().value("path", Json()).is_string() ||
+        !it.value().value("sha256", Json()).is_string())
+      throw Error(where + ": sources['" + it.key() + "'] needs \"path\" and \"sha256\" strings");
+    const std::string path = it.value()["path"].get<std::string>();
+    CheckSafeRelPath(path, where + ": sources['" + it.key() + "'].path");
+    m[path] = it.value()["sha256"].get<std::string>();
+  }
+  return m;
+}
+
+std::string SourcesSha(const std::map<std::string, std::string>& sums) {
+  Sha256 h;
+  for (const auto& [p, sha] : sums) h.Update(p + " " + sha + "\n");
+  return h.HexDigest();
+}
+}  // namespace release_detail
 
 // ---------------------------------------------------------------- meta
 
@@ -278,6 +324,14 @@ void ReleaseMeta::Validate() const {
   if (!recipe_sha256.empty() && recipe_sha256 != Sha256Hex(recipe_text))
     throw Error("ReleaseMeta.recipe_sha256 does not match recipe_text");
   for (const auto& b : catalog_blobs) CheckSafeRelPath(b, "ReleaseMeta.catalog_blobs");
+  std::set<std::string> written, paths;
+  for (const auto& f : sources) {
+    CheckSafeRelPath(f.release_path, "ReleaseMeta.sources");
+    if (f.release_path.rfind("sources/", 0) != 0)
+      throw Error("ReleaseMeta.sources: '" + f.release_path + "' is not under sources/");
+    if (!written.insert(f.recipe_path).second || !paths.insert(f.release_path).second)
+      throw Error("ReleaseMeta.sources: '" + f.recipe_path + "' listed twice");
+  }
 }
 
 namespace {
@@ -290,7 +344,7 @@ std::string JobKeysSha(const std::vector<std::string>& keys) {
 
 // The fields that must agree for a build to be resumed or a finished release reused.
 Json IdentityJson(const ReleaseMeta& m) {
-  return Json{{"name", m.name},
+  Json id{{"name", m.name},
               {"version", m.version},
               {"seed", m.seed},
               {"recipe_sha256", m.recipe_sha256},
@@ -298,6 +352,8 @@ Json IdentityJson(const ReleaseMeta& m) {
               {"jobs_sha256", JobKeysSha(m.job_keys)},
               {"shard_index", m.shard_index},
               {"shard_count", m.shard_count}};
+  if (!m.sources.empty()) id["sources_sha256"] = SourcesSha(SourceSums(m.sources));
+  return id;
 }
 
 std::string NowUtc() {
@@ -326,15 +382,9 @@ void WriteAll(int fd, std::string_view bytes, const std::string& what) {
 }
 
 void WriteFileNew(const fs::path& p, std::string_view bytes) {
-  const int fd = ::open(p.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
-  if (fd < 0) throw Error(p.string() + ": cannot create: " + std::strerror(errno));
-  try {
-    WriteAll(fd, bytes, p.string());
-  } catch (...) {
-    ::close(fd);
-    throw;
-  }
-  ::close(fd);
+  const UniqueFd fd(::open(p.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644));
+  if (!fd.valid()) throw Error(p.string() + ": cannot create: " + std::strerror(errno));
+  WriteAll(fd.get(), bytes, p.string());
 }
 
 bool DirHasOnly(const fs::path& dir, const std::set<std::string>& allowed) {
@@ -503,6 +553,8 @@ std::unique_ptr<ReleaseWriter> ReleaseWriter::Open(const fs::path& dir_in, const
                                                    bool resume) {
   ReleaseMeta meta = meta_in;
   if (meta.recipe_sha256.empty()) meta.recipe_sha256 = Sha256Hex(meta.recipe_text);
+  for (auto& f : meta.sources)
+    if (f.sha256.empty()) f.sha256 = Sha256File(f.file);
   meta.Validate();
   const fs::path dir = dir_in.empty() ? fs::path(".") : dir_in;
   const bool existed = fs::exists(dir);
@@ -576,6 +628,7 @@ std::unique_ptr<ReleaseWriter> ReleaseWriter::OpenLocked(std::unique_ptr<Impl>& 
                 {"jobs_sha256", ds.value("jobs", Json::object()).value("keys_sha256", "")},
                 {"shard_index", ds.value("shard", Json::object()).value("index", 0)},
                 {"shard_count", ds.value("shard", Json::object()).value("count", 1)}};
+      if (ds.contains("sources")) have["sources_sha256"] = SourcesSha(SourceSums(ds, (dir / "dataset.json").string()));
       const std::string diff = mismatch(
           have, dir.string() + " already holds a finished release " + ds.value("name", "") + " " +
                     ds.value("version", "") +
@@ -749,7 +802,7 @@ ReleaseWriter::Summary ReleaseWriter::Finalize() {
     e.entry_digest = EntryDigest(e.id, e.key, e.split, e.failed, e.failure, e.record, e.files);
   }
   Summary s;
-  s.digest = ComputeDigest(entries);
+  s.digest = ComputeDigest(entries, SourceSums(m.meta.sources));
   s.entries = static_cast<int>(entries.size());
   for (const auto& e : entries) s.failed += e.failed;
   s.counts = Counts(entries);
@@ -770,10 +823,25 @@ ReleaseWriter::Summary ReleaseWriter::Finalize() {
     dataset["shard"] = {{"index", meta.shard_index}, {"count", meta.shard_count},
                         {"jobs", meta.shard_keys.empty() ? meta.job_keys.size() : meta.shard_keys.size()}};
   }
+  if (!meta.sources.empty()) {
+    Json src = Json::object();
+    for (const auto& f : meta.sources) src[f.recipe_path] = {{"path", f.release_path}, {"sha256", f.sha256}};
+    dataset["sources"] = src;
+  }
+  dataset["format_version"] = kFormatVersion;
   dataset["counts"] = s.counts;
   dataset["catalog"] = {{"file", "catalog.sqlite"}, {"blobs", meta.catalog_blobs}};
   dataset["digest"] = s.digest;
   dataset["digest_algorithm"] = kDigestAlgorithm;
+
+  // The recipe's imported files, as hashed when the build started.
+  for (const auto& f : meta.sources) {
+    const std::string bytes = drape::ReadFile(f.file);
+    if (Sha256Hex(bytes) != f.sha256)
+      throw Error(f.file.string() + ": changed while the release was being built (sha256 " + Sha256Hex(bytes) +
+                  ", was " + f.sha256 + "); build again");
+    WriteFileAtomic(m.dir / f.release_path, bytes);
+  }
 
   // catalog.sqlite: written beside, then renamed into place.
   const fs::path cat_tmp = m.build_dir() / "catalog.sqlite.tmp";
@@ -784,6 +852,13 @@ ReleaseWriter::Summary ReleaseWriter::Finalize() {
 
   WriteFileAtomic(m.dir / "README.md", DatasetCard(dataset, entries));
   WriteFileAtomic(m.dir / "index.html", Gallery(dataset, entries));
+  // The 3D viewer's files: outside entries/, so in SHA256SUMS but not in the digest.
+  std::vector<std::string> top_files;
+  for (const auto& [path, bytes] : GalleryViewerFiles(m.dir, entries)) {
+    fs::create_directories((m.dir / path).parent_path());
+    WriteFileAtomic(m.dir / path, bytes);
+    top_files.push_back(path);
+  }
 
   // build.json: timings only; not in SHA256SUMS.
   const double now = NowSeconds();
@@ -807,9 +882,14 @@ ReleaseWriter::Summary ReleaseWriter::Finalize() {
     sums[base + kEntryJson] = Sha256File(m.dir / "entries" / e.id / kEntryJson);
     s.bytes += fs::file_size(m.dir / "entries" / e.id / kEntryJson);
   }
-  for (const char* f : {"catalog.sqlite", "README.md", "index.html", "dataset.json"}) {
+  for (const char* f : {"catalog.sqlite", "README.md", "index.html", "dataset.json"}) top_files.push_back(f);
+  for (const auto& f : top_files) {
     sums[f] = Sha256File(m.dir / f);
     s.bytes += fs::file_size(m.dir / f);
+  }
+  for (const auto& f : meta.sources) {
+    sums[f.release_path] = f.sha256;
+    s.bytes += fs::file_size(m.dir / f.release_path);
   }
   // SHA256SUMS last: its presence marks a finished release.
   WriteFileAtomic(m.dir / "SHA256SUMS", FormatSums(sums));
@@ -832,12 +912,31 @@ Release Release::Open(const fs::path& dir) {
   }
   Release r;
   r.dir_ = dir;
+  const std::string where = (dir / "dataset.json").string();
   try {
     r.dataset_ = Json::parse(drape::ReadFile(dir / "dataset.json"));
   } catch (const Json::exception& e) {
-    throw Error((dir / "dataset.json").string() + ": " + e.what());
+    throw Error(where + ": " + e.what());
   }
+  CheckFormatVersion(r.dataset_, where);
   ReadCatalog(dir / "catalog.sqlite", &r.entries_, &r.job_keys_);
+  std::map<std::string, std::string> id_of_key;
+  for (size_t i = 0; i < r.entries_.size(); ++i) {
+    const auto& e = r.entries_[i];
+    if (i > 0 && r.entries_[i - 1].id == e.id)
+      throw Error((dir / "catalog.sqlite").string() + ": entry '" + e.id + "' is listed twice");
+    auto [it, fresh] = id_of_key.emplace(e.key, e.id);
+    if (!fresh)
+      throw Error((dir / "catalog.sqlite").string() + ": job '" + e.key + "' is listed twice (entries '" +
+                  it->second + "' and '" + e.id + "')");
+    CheckSafeName(e.id, (dir / "catalog.sqlite").string() + ": entry id");
+    if (!fs::is_directory(dir / "entries" / e.id))
+      throw Error((dir / "entries" / e.id).string() + ": entry folder missing (catalog.sqlite lists it; "
+                  "run drape verify " + dir.string() + ")");
+  }
+  SourceSums(r.dataset_, where);  // checks the shape
+  const Json sources = r.dataset_.value("sources", Json::object());  // items() must not outlive it
+  for (const auto& [written, v] : sources.items()) r.sources_[written] = dir / v["path"].get<std::string>();
   return r;
 }
 

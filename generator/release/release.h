@@ -27,6 +27,10 @@
 //   entry_digest = sha256(canonical JSON of {id, key, split, failed, failure,
 //                          record (keys sorted recursively), files: [[path, sha256]...] sorted})
 //   digest       = sha256 over "<id> <entry_digest>\n" for all entries sorted by id.
+//   A release whose recipe imports files (meshes, anchors sidecars) carries copies of
+//   them under sources/ (listed in dataset.json "sources", in SHA256SUMS), and the
+//   digest then also covers "source <path> <sha256>\n" for each, sorted by path; a
+//   release without imports has the same digest as before sources existed.
 // Never over timestamps, timings, SQLite page layout, code version or shard layout.
 //
 // Record keys the writer understands (all optional; anything else is kept and
@@ -43,6 +47,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <map>
 #include <memory>
 #include <set>
 #include <string>
@@ -54,6 +59,20 @@
 namespace drape {
 
 namespace fs = std::filesystem;
+
+// A file the recipe reads (an imported mesh or anchors sidecar), copied into the release.
+struct SourceFile {
+  std::string recipe_path;   // as written in the recipe (key of dataset.json "sources")
+  fs::path file;             // where the build reads it from
+  std::string release_path;  // "sources/…" inside the release
+  std::string sha256;        // of the bytes (ReleaseWriter::Open fills it if empty)
+};
+
+// Release paths for a recipe's imported files: "sources/<path as written>" when that is
+// a plain relative path inside the recipe folder, else "sources/<file name>" (then
+// "sources/2/<file name>", … on a clash). File names are kept: a garment's default name
+// is its file's stem.
+std::vector<SourceFile> PlanSources(const std::vector<std::pair<std::string, fs::path>>& files);
 
 // What a build knows about the release it writes.
 struct ReleaseMeta {
@@ -75,6 +94,8 @@ struct ReleaseMeta {
   // Entry files whose bytes are also stored as BLOB columns in catalog.sqlite's
   // `entries` table (column name = file stem, e.g. "feature").
   std::vector<std::string> catalog_blobs = {"feature.bin"};
+  // Imported files the recipe names (empty for template-only recipes).
+  std::vector<SourceFile> sources;
 
   void Validate() const;  // throws drape::Error naming the bad field
 };
@@ -162,6 +183,9 @@ class Release {
 
   const Json& dataset() const { return dataset_; }
   const std::vector<EntryInfo>& entries() const { return entries_; }  // sorted by id
+  // The recipe's imported files in this release: path as written in the recipe → file
+  // (for ParseRecipe, so a moved release re-reads its own copies).
+  const std::map<std::string, fs::path>& SourceFiles() const { return sources_; }
   const EntryInfo* Find(const std::string& id) const;
   std::vector<std::string> job_keys() const { return job_keys_; }  // recipe order
   std::string ReadFile(const std::string& id, const std::string& path) const;
@@ -175,13 +199,16 @@ class Release {
   Json dataset_;
   std::vector<EntryInfo> entries_;
   std::vector<std::string> job_keys_;
+  std::map<std::string, fs::path> sources_;
 };
 
 // Canonical per-entry digest and release digest (see the top of this file).
 std::string EntryDigest(const std::string& id, const std::string& key, const std::string& split,
                         bool failed, const std::string& failure, const Json& record,
                         const std::vector<Release::FileInfo>& files);
-std::string ComputeDigest(const std::vector<Release::EntryInfo>& entries);
+// `sources`: release path → sha256 of the release's carried source files.
+std::string ComputeDigest(const std::vector<Release::EntryInfo>& entries,
+                          const std::map<std::string, std::string>& sources = {});
 
 struct VerifyReport {
   std::vector<std::string> missing;  // listed in SHA256SUMS, not on disk

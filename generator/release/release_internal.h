@@ -12,6 +12,8 @@ namespace drape::release_detail {
 inline constexpr const char* kLockFile = ".drape.lock";
 inline constexpr const char* kBuildDir = ".drape-build";
 inline constexpr const char* kEntryJson = "entry.json";
+// dataset.json "format_version" (absent = 1). Readers refuse newer formats.
+inline constexpr int kFormatVersion = 1;
 inline constexpr const char* kDigestAlgorithm =
     "drape-release-digest-v1: sha256 over '<id> <entry_digest>\\n' sorted by id; entry_digest = "
     "sha256 of canonical JSON {id,key,split,failed,failure,record,files:[[path,sha256]]}";
@@ -37,7 +39,12 @@ std::string Category(const Release::EntryInfo& e);
 std::string AnchorLabel(const Release::EntryInfo& e);
 Json Counts(const std::vector<Release::EntryInfo>& entries);
 
-// SHA256SUMS: path → hex, parsed/written in coreutils format.
+// Throws drape::Error naming `where` unless `dataset` is an object of a format this
+// code reads.
+void CheckFormatVersion(const Json& dataset, const std::string& where);
+
+// SHA256SUMS: path → hex, parsed/written in coreutils format; a path listed twice or
+// leaving the folder throws.
 std::map<std::string, std::string> ParseSums(const std::string& text, const std::string& where);
 std::string FormatSums(const std::map<std::string, std::string>& sums);
 
@@ -52,6 +59,20 @@ void ReadCatalog(const fs::path& path, std::vector<Release::EntryInfo>* entries,
 
 std::string DatasetCard(const Json& dataset, const std::vector<Release::EntryInfo>& entries);
 std::string Gallery(const Json& dataset, const std::vector<Release::EntryInfo>& entries);
+
+// Carried source files, release path → sha256: of a meta, or of dataset.json "sources"
+// (throws drape::Error naming `where` when malformed).
+std::map<std::string, std::string> SourceSums(const std::vector<SourceFile>& sources);
+std::map<std::string, std::string> SourceSums(const Json& dataset, const std::string& where);
+std::string SourcesSha(const std::map<std::string, std::string>& sums);
+
+// The gallery's 3D view (viewer.cpp): whether this build carries the three.js files
+// (./setup.sh installs them), whether an entry can be shown in 3D, and the files to
+// write under viewer/ (paths relative to the release; meshes read from `dir`).
+bool GalleryHas3d();
+bool EntryHas3d(const Release::EntryInfo& e);
+std::vector<std::pair<std::string, std::string>> GalleryViewerFiles(const fs::path& dir,
+                                                                    const std::vector<Release::EntryInfo>& entries);
 
 void FsyncPath(const fs::path& p);  // file or directory; best effort
 std::string HostName();

@@ -2,11 +2,14 @@
 
 #include <signal.h>
 #include <sqlite3.h>
+#include <sys/mount.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <map>
 #include <random>
@@ -18,11 +21,24 @@
 #include "common/error.h"
 #include "common/files.h"
 #include "common/hash.h"
+#include "generator/release/release_internal.h"
 
 namespace drape {
 namespace {
 
 constexpr int kJobs = 12;
+
+// Canonical JSON (the entry digest's input) is nlohmann::json's dump: object keys sorted
+// at every depth, arrays kept in order, numbers as nlohmann prints them. Against the
+// explicit form for a record with unsorted keys and every value type.
+TEST(CanonicalJson, SortsKeysAtEveryDepthAndKeepsArrays) {
+  Json j = Json::object();
+  j["zeta"] = Json{{"b", 1}, {"a", -2}};
+  j["alpha"] = Json::array({3.25, "x", true, nullptr, Json{{"y", 1u}, {"x", 0.1}}});
+  j["Mid"] = 18446744073709551615ull;
+  EXPECT_EQ(release_detail::CanonicalJson(j),
+            R"({"Mid":18446744073709551615,"alpha":[3.25,"x",true,null,{"x":0.1,"y":1}],"zeta":{"a":-2,"b":1}})");
+}
 
 std::string Key(int i) { return "garment" + std::to_string(i % 3) + "/tshirt/anchor" + std::to_string(i); }
 std::string Id(int i) {
@@ -305,7 +321,10 @@ TEST_F(ReleaseTest, VerifyCatchesFlippedDeletedAndAddedFiles) {
   Build(dir);
   const VerifyReport clean = Verify(dir);
   EXPECT_TRUE(clean.ok());
-  EXPECT_EQ(clean.files_checked, (kJobs - 1) * 6 + 1 + 4);
+  // Entry files + entry.json, the failed entry's entry.json, 4 top-level files, and the
+  // gallery's 5 viewer files when built with three.js (no entry here has the two meshes
+  // a 3D view needs).
+  EXPECT_EQ(clean.files_checked, (kJobs - 1) * 6 + 1 + 4 + (release_detail::GalleryHas3d() ? 5 : 0));
   EXPECT_EQ(clean.actual_digest, clean.expected_digest);
 
   auto copy = [&](const std::string& name) {
@@ -354,6 +373,166 @@ TEST_F(ReleaseTest, VerifyCatchesFlippedDeletedAndAddedFiles) {
     WriteFileAtomic(d / "calibration.json", "{}");
     EXPECT_EQ(Verify(d).extra, std::vector<std::string>{"calibration.json"});
   }
+}
+
+// Damaged or foreign releases: each a drape::Error (or a verify problem) naming the
+// file, never a crash.
+TEST_F(ReleaseTest, BadReleasesAreClearErrorsNamingTheFile) {
+  const fs::path dir = root_ / "ok";
+  Build(dir);
+  auto copy = [&](const std::string& name) {
+    fs::copy(dir, root_ / name, fs::copy_options::recursive);
+    return root_ / name;
+  };
+  auto open_error = [](const fs::path& d) {
+    try {
+      Release::Open(d);
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  auto problems = [](const VerifyReport& r) {
+    std::string all;
+    for (const auto& p : r.problems) all += p + "\n";
+    return all;
+  };
+  EXPECT_EQ(Release::Open(dir).dataset().value("format_version", 0), 1);
+  // Truncated catalog.sqlite: every cut (header, first pages, half).
+  const std::string cat = Slurp(dir / "catalog.sqlite");
+  for (size_t cut : {size_t{0}, size_t{50}, size_t{4096}, cat.size() / 2}) {
+    const fs::path d = copy("trunc" + std::to_string(cut));
+    WriteFileAtomic(d / "catalog.sqlite", cat.substr(0, cut));
+    const std::string e = open_error(d);
+    EXPECT_NE(e.find((d / "catalog.sqlite").string()), std::string::npos) << cut << ": " << e;
+    EXPECT_EQ(Verify(d).changed, std::vector<std::string>{"catalog.sqlite"});
+  }
+  {
+    const fs::path d = copy("no_entry");
+    fs::remove_all(d / "entries/e003");
+    EXPECT_NE(open_error(d).find((d / "entries/e003").string() + ": entry folder missing"), std::string::npos)
+        << open_error(d);
+    const VerifyReport r = Verify(d);
+    EXPECT_FALSE(r.ok());
+    EXPECT_NE(std::find(r.missing.begin(), r.missing.end(), "entries/e003/entry.json"), r.missing.end());
+  }
+  {
+    // The same job in two entry folders (a copied folder renamed, its id edited).
+    const fs::path d = copy("twice");
+    fs::copy(d / "entries/e004", d / "entries/e099", fs::copy_options::recursive);
+    Json j = Json::parse(Slurp(d / "entries/e099/entry.json"));
+    j["id"] = "e099";
+    WriteFileAtomic(d / "entries/e099/entry.json", j.dump());
+    const VerifyReport r = Verify(d);
+    EXPECT_NE(problems(r).find("entries/e099/entry.json: job '" + Key(4) + "' is also entry 'e004'"),
+              std::string::npos)
+        << problems(r);
+    // …and the same entry twice in the catalog.
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open((d / "catalog.sqlite").c_str(), &db), SQLITE_OK);
+    ASSERT_EQ(sqlite3_exec(db,
+                           "CREATE TABLE e2 AS SELECT * FROM entries; DROP TABLE entries; "
+                           "CREATE TABLE entries AS SELECT * FROM e2 UNION ALL SELECT * FROM e2 WHERE id='e004';",
+                           nullptr, nullptr, nullptr),
+              SQLITE_OK);
+    sqlite3_close(db);
+    EXPECT_NE(open_error(d).find((d / "catalog.sqlite").string() + ": entry 'e004' is listed twice"),
+              std::string::npos)
+        << open_error(d);
+  }
+  {
+    // SHA256SUMS names a file that is not there; a line twice; a line leaving the folder.
+    const fs::path d = copy("sums");
+    const std::string sums = Slurp(d / "SHA256SUMS");
+    WriteFileAtomic(d / "SHA256SUMS", sums + std::string(64, 'a') + "  entries/e001/ghost.ply\n");
+    EXPECT_EQ(Verify(d).missing, std::vector<std::string>{"entries/e001/ghost.ply"});
+    WriteFileAtomic(d / "SHA256SUMS", sums + sums.substr(0, sums.find('\n') + 1));
+    EXPECT_NE(problems(Verify(d)).find("SHA256SUMS:" + std::to_string(std::count(sums.begin(), sums.end(), '\n') + 1) +
+                                       ": '"),
+              std::string::npos)
+        << problems(Verify(d));
+    EXPECT_NE(problems(Verify(d)).find("is listed twice"), std::string::npos);
+    WriteFileAtomic(d / "SHA256SUMS", std::string(64, 'a') + "  ../../etc/passwd\n");
+    EXPECT_NE(problems(Verify(d)).find("SHA256SUMS:1"), std::string::npos) << problems(Verify(d));
+  }
+  {
+    // Written by a newer drape.
+    const fs::path d = copy("newer");
+    Json ds = Json::parse(Slurp(d / "dataset.json"));
+    ds["format_version"] = 2;
+    WriteFileAtomic(d / "dataset.json", ds.dump(2));
+    const std::string e = open_error(d);
+    EXPECT_NE(e.find((d / "dataset.json").string() + ": release format 2 was written by a newer drape"),
+              std::string::npos)
+        << e;
+    EXPECT_NE(problems(Verify(d)).find("newer drape"), std::string::npos);
+    WriteFileAtomic(d / "dataset.json", "[1, 2]");
+    EXPECT_NE(open_error(d).find("dataset.json: expected a JSON object"), std::string::npos) << open_error(d);
+    EXPECT_NE(problems(Verify(d)).find("expected a JSON object"), std::string::npos);
+  }
+}
+
+// A disk that fills up mid-build (a 192 KiB tmpfs: ~6 entries of 4 KiB pages fit):
+// Commit fails with an error naming the file and "No space left on device", the
+// committed entries stay intact, and after space is freed the resumed build — and a
+// Finalize that itself ran out of space — give the digest of an undisturbed build.
+TEST_F(ReleaseTest, DiskFullStopsCleanlyAndResumesToTheSameDigest) {
+  const fs::path mnt = root_ / "small_disk";
+  fs::create_directories(mnt);
+  if (::mount("tmpfs", mnt.c_str(), "tmpfs", 0, "size=192k") != 0)
+    GTEST_SKIP() << "cannot mount a tmpfs (" << std::strerror(errno) << "; needs root): disk-full case not run";
+  struct Unmount {
+    fs::path p;
+    ~Unmount() { ::umount2(p.c_str(), MNT_DETACH); }
+  } unmount{mnt};
+  const std::string want = Build(root_ / "reference").digest;
+  const fs::path dir = mnt / "rel";
+  int committed = 0;
+  std::string error;
+  {
+    auto w = ReleaseWriter::Open(dir, MakeMeta());
+    for (; committed < kJobs; ++committed) {
+      try {
+        w->Commit(MakeEntry(committed));
+      } catch (const std::exception& e) {
+        error = e.what();
+        break;
+      }
+    }
+  }
+  ASSERT_GT(committed, 0);
+  ASSERT_LT(committed, kJobs) << "the small disk never filled up";
+  EXPECT_NE(error.find("No space left on device"), std::string::npos) << error;
+  EXPECT_NE(error.find(dir.string()), std::string::npos) << error;
+  for (int i = 0; i < committed; ++i) {
+    const Entry e = MakeEntry(i);
+    for (const auto& f : e.files) EXPECT_EQ(Slurp(dir / "entries" / e.id / f.path), f.bytes) << e.id << "/" << f.path;
+  }
+  ASSERT_EQ(::mount("tmpfs", mnt.c_str(), "tmpfs", MS_REMOUNT, "size=4m"), 0) << std::strerror(errno);
+  {
+    auto w = ReleaseWriter::Open(dir, MakeMeta(), /*resume=*/true);
+    EXPECT_EQ(static_cast<int>(w->DoneKeys().size()), committed);
+    for (int i = 0; i < kJobs; ++i)
+      if (!w->DoneKeys().count(Key(i))) w->Commit(MakeEntry(i));
+    // Fill the disk again so that Finalize (catalog, card, gallery) runs out of space.
+    int k = 0;
+    for (size_t chunk : {64 * 1024, 4096, 1})
+      for (;; ++k) {
+        try {
+          WriteFileAtomic(mnt / ("filler" + std::to_string(k)), std::string(chunk, 'x'));
+        } catch (const Error&) {
+          break;
+        }
+      }
+    EXPECT_ANY_THROW(w->Finalize());
+  }
+  EXPECT_FALSE(fs::exists(dir / "SHA256SUMS"));  // not marked finished
+  for (const auto& f : fs::directory_iterator(mnt))
+    if (f.path().filename().string().rfind("filler", 0) == 0) fs::remove(f.path());
+  auto w = ReleaseWriter::Open(dir, MakeMeta(), /*resume=*/true);
+  EXPECT_EQ(static_cast<int>(w->DoneKeys().size()), kJobs);
+  EXPECT_EQ(w->Finalize().digest, want);
+  EXPECT_TRUE(Verify(dir).ok());
 }
 
 TEST_F(ReleaseTest, CoreutilsSha256sumAcceptsSha256Sums) {

@@ -63,6 +63,12 @@ VerifyReport Verify(const fs::path& dir) {
     r.problems.push_back("dataset.json: " + std::string(e.what()));
     return r;
   }
+  try {
+    CheckFormatVersion(ds, (dir / "dataset.json").string());
+  } catch (const Error& e) {
+    r.problems.push_back(e.what());
+    return r;
+  }
   r.expected_digest = ds.value("digest", "");
   std::vector<Release::EntryInfo> entries;
   try {
@@ -86,7 +92,18 @@ VerifyReport Verify(const fs::path& dir) {
       }
     }
   }
-  r.actual_digest = ComputeDigest(entries);
+  std::map<std::string, std::string> sources;
+  try {
+    sources = SourceSums(ds, (dir / "dataset.json").string());
+  } catch (const Error& e) {
+    r.problems.push_back(e.what());
+  }
+  for (auto& [p, sha] : sources) {
+    auto it = actual.find(p);
+    sha = it != actual.end() ? it->second : fs::exists(dir / p) ? Sha256File(dir / p) : "missing";
+    if (!sums.count(p)) r.problems.push_back(p + ": a source file of the recipe not listed in SHA256SUMS");
+  }
+  r.actual_digest = ComputeDigest(entries, sources);
   if (r.actual_digest != r.expected_digest) {
     r.problems.push_back("release digest mismatch: dataset.json says " + r.expected_digest +
                          ", the entries on disk give " + r.actual_digest);
@@ -123,7 +140,9 @@ VerifyReport CompareToPublished(const fs::path& dir, const fs::path& reference) 
     r.problems.push_back("recipe sha256 differs from the published one (the recipe changed: bump the version)");
   if (r.expected_digest != r.actual_digest)
     r.problems.push_back("release digest " + r.actual_digest + " differs from the published " + r.expected_digest);
-  auto content = [](const std::string& p) { return p == "catalog.sqlite" || p.rfind("entries/", 0) == 0; };
+  auto content = [](const std::string& p) {
+    return p == "catalog.sqlite" || p.rfind("entries/", 0) == 0 || p.rfind("sources/", 0) == 0;
+  };
   for (const auto& [p, h] : ref_sums) {
     if (!content(p)) continue;
     auto it = sums.find(p);
@@ -204,6 +223,8 @@ ReleaseWriter::Summary Merge(const std::vector<fs::path>& shard_dirs, const fs::
     if (ds["recipe"].value("sha256", "") != first["recipe"].value("sha256", ""))
       throw Error("merge: " + who + " was built from a different recipe (sha256 " + ds["recipe"].value("sha256", "") +
                   ") than " + name0 + " (" + first["recipe"].value("sha256", "") + ")");
+    if (ds.value("sources", Json()) != first.value("sources", Json()))
+      throw Error("merge: " + who + " carries different imported files (dataset.json sources) than " + name0);
     if (ds.value("seed", Json()) != first.value("seed", Json()))
       throw Error("merge: " + who + " has a different seed than " + name0);
     if (shards[i].job_keys() != shards[0].job_keys())
@@ -253,6 +274,9 @@ ReleaseWriter::Summary Merge(const std::vector<fs::path>& shard_dirs, const fs::
   if (first.contains("catalog") && first["catalog"].contains("blobs"))
     for (const auto& b : first["catalog"]["blobs"]) meta.catalog_blobs.push_back(b.get<std::string>());
 
+  const Json sources = first.value("sources", Json::object());  // items() must not outlive it
+  for (const auto& [written, v] : sources.items())
+    meta.sources.push_back({written, shards[0].SourceFiles().at(written), v.value("path", ""), v.value("sha256", "")});
   auto writer = ReleaseWriter::Open(out, meta);
   const std::set<std::string> done = writer->DoneKeys();
   Json shard_info = Json::array();

@@ -9,6 +9,7 @@
 #include <map>
 
 #include "common/error.h"
+#include "common/format.h"
 #include "common/files.h"
 #include "common/hash.h"
 
@@ -17,7 +18,7 @@ namespace drape::recognition {
 namespace fs = std::filesystem;
 
 void CalibrateOptions::Validate() const {
-  if (!(c > 0)) throw Error("calibrate options: c must be > 0 (got " + std::to_string(c) + ")");
+  if (!(c > 0)) throw Error("calibrate options: c must be > 0 (got " + FormatNumber(c) + ")");
   if (!(epsilon > 0)) throw Error("calibrate options: epsilon must be > 0");
   if (max_iterations < 1) throw Error("calibrate options: max_iterations must be >= 1");
 }

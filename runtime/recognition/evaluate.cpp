@@ -12,6 +12,7 @@
 
 #include "common/error.h"
 #include "common/files.h"
+#include "runtime/recognition/ladder.h"
 
 namespace drape::recognition {
 
@@ -414,6 +415,7 @@ std::string ReportMarkdown(const Json& r) {
        << " | " << Num(t["matching"], "%.6f") << " | " << Num(t["total"]) << " | "
        << (c["paper"].is_null() ? std::string("—") : Num(c["paper"]["seconds"], "%.2f")) << " |\n";
   }
+  if (r.contains("ladder") && r["ladder"].is_object()) md << "\n" << LadderMarkdown(r["ladder"]);
   if (r.contains("registration") && r["registration"].is_object()) md << "\n" << RegistrationMarkdown(r["registration"]);
   if (!r["warnings"].empty()) {
     md << "\n## Warnings\n\n";
@@ -567,6 +569,11 @@ void WriteReport(const EvalResult& result, const Json& header, const fs::path& d
   md << "\n## Plots\n\n![accuracy](accuracy.png)\n\n";
   for (const auto& [cat, c] : result.confusion) {
     md << "![" << cat << "](confusion_" << SafeName(cat) << ".png)\n\n";
+  }
+  for (const auto& f : result.report.value("ladder_figures", Json::array())) {
+    md << "Ladder, " << f.value("split", "") << ", " << f.value("category", "") << ": query " << f.value("query", "")
+       << " | matched " << f.value("matched", "") << " | true " << f.value("truth", "") << "\n\n![" << f.value("file", "")
+       << "](" << f.value("file", "") << ")\n\n";
   }
   if (result.report.contains("registration")) {
     for (const auto& f : result.report["registration"].value("figures", Json::array())) {

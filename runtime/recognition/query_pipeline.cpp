@@ -32,7 +32,8 @@ BuildOptions OptionsOf(const Release& release) {
   const std::string text = release.dataset().value("recipe", Json::object()).value("text", "");
   if (text.empty()) throw Error(release.dir().string() + "/dataset.json: no recipe text to take fusion/feature options from");
   try {
-    const Recipe r = ParseRecipe(text, (release.dir() / "dataset.json").string() + " (recipe)", release.dir());
+    const Recipe r = ParseRecipe(text, (release.dir() / "dataset.json").string() + " (recipe)", release.dir(),
+                                 release.SourceFiles().empty() ? nullptr : &release.SourceFiles());
     o.fusion = r.fusion;
     o.feature = r.feature;
     // A mesh query is sensed like the test split (else calibration, else any sensing).

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "common/error.h"
+#include "common/format.h"
 #include "common/parallel.h"
 
 namespace drape::registration {
@@ -20,8 +21,8 @@ double Seconds(std::chrono::steady_clock::time_point t0) {
 
 void GridOptions::Validate() const {
   if (cells < 2 || cells > 4096) throw Error("GridOptions.cells must be in [2, 4096], got " + std::to_string(cells));
-  if (!(padding >= 0 && padding <= 10)) throw Error("GridOptions.padding must be in [0, 10], got " + std::to_string(padding));
-  if (!(band >= 1 && band <= 16)) throw Error("GridOptions.band must be in [1, 16] cells, got " + std::to_string(band));
+  if (!(padding >= 0 && padding <= 10)) throw Error("GridOptions.padding must be in [0, 10], got " + FormatNumber(padding));
+  if (!(band >= 1 && band <= 16)) throw Error("GridOptions.band must be in [1, 16] cells, got " + FormatNumber(band));
   if (max_passes < 1) throw Error("GridOptions.max_passes must be >= 1, got " + std::to_string(max_passes));
   if (max_nodes < 8) throw Error("GridOptions.max_nodes must be >= 8");
 }

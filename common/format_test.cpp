@@ -1,0 +1,23 @@
+#include "common/format.h"
+
+#include <gtest/gtest.h>
+
+#include <limits>
+
+namespace drape {
+namespace {
+
+TEST(FormatNumber, WritesNumbersAsPeopleDo) {
+  EXPECT_EQ(FormatNumber(10), "10");
+  EXPECT_EQ(FormatNumber(0.1), "0.1");
+  EXPECT_EQ(FormatNumber(-2.5), "-2.5");
+  EXPECT_EQ(FormatNumber(1e-9), "1e-09");
+  EXPECT_EQ(FormatNumber(3600), "3600");
+  EXPECT_EQ(FormatNumber(std::numeric_limits<double>::infinity()), "inf");
+  // Shortest text that reads back bit for bit.
+  for (double x : {0.1 + 0.2, 1.0 / 3, 6.02214076e23, 2.2250738585072014e-308})
+    EXPECT_EQ(std::stod(FormatNumber(x)), x) << FormatNumber(x);
+}
+
+}  // namespace
+}  // namespace drape

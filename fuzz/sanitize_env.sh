@@ -1,0 +1,18 @@
+# Sourced by fuzz/run.sh and tests/sanitize.sh: one clang-14 build folder with
+# AddressSanitizer + UndefinedBehaviorSanitizer (and libFuzzer's coverage hooks), used
+# both for the unit tests under sanitizers and for the fuzz targets.
+SAN_BUILD_DIR=${DRAPE_SAN_BUILD_DIR:-build-san}
+SAN_JOBS=${DRAPE_JOBS:-$(nproc)}
+SAN_FLAGS="-fsanitize=address,undefined,fuzzer-no-link -fno-sanitize-recover=undefined -fno-omit-frame-pointer -g1"
+export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1:detect_stack_use_after_return=0}
+export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
+
+san_configure() {
+  local launcher=()
+  command -v ccache >/dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_C_COMPILER_LAUNCHER=ccache)
+  cmake -S . -B "$SAN_BUILD_DIR" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+    -DCMAKE_C_COMPILER=clang-14 -DCMAKE_CXX_COMPILER=clang++-14 \
+    -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O1 $SAN_FLAGS" -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 $SAN_FLAGS" \
+    -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=address,undefined" -DCMAKE_SHARED_LINKER_FLAGS="-fsanitize=address,undefined" \
+    -DDRAPE_BUILD_BENCH=OFF -DDRAPE_BUILD_FUZZ=ON "${launcher[@]}" >/dev/null
+}

@@ -1,0 +1,88 @@
+#include "runtime/folding/evaluate.h"
+
+#include <opencv2/imgproc.hpp>
+
+#include <chrono>
+#include <cmath>
+
+#include "common/error.h"
+#include "common/rng.h"
+
+namespace drape::folding {
+
+FoldScene MakeScene(const FoldSetup& s, double friction_scale, double stiffness_scale, double density_scale) {
+  s.table.Validate();
+  ClothMaterial m = s.material;
+  m.link_stiffness = std::min(1.0, m.link_stiffness * stiffness_scale);
+  m.area_density *= density_scale;
+  FoldScene scene;
+  scene.model = MakeClothModel(s.garment.mesh, s.garment.layer, m, s.cloth);
+  scene.table_top = s.table.top;
+  scene.table.half_extents = Vec3(s.table.half_x, s.table.thickness / 2, s.table.half_z);
+  scene.table.pose.translation() = Vec3(0, s.table.top - s.table.thickness / 2, 0);
+  scene.table.friction = s.friction * friction_scale;
+  return scene;
+}
+
+void TrialOptions::Validate() const {
+  if (trials < 0) throw Error("TrialOptions.trials must be >= 0");
+  if (!(friction_jitter >= 0 && friction_jitter < 1)) throw Error("TrialOptions.friction_jitter must be in [0, 1)");
+  if (!(material_jitter >= 0 && material_jitter < 1)) throw Error("TrialOptions.material_jitter must be in [0, 1)");
+  if (!(placement_offset >= 0)) throw Error("TrialOptions.placement_offset must be >= 0");
+  if (!(d_fraction > 0)) throw Error("TrialOptions.d_fraction must be > 0");
+  if (!(inside > 0 && inside <= 1)) throw Error("TrialOptions.inside must be in (0, 1]");
+}
+
+double SilhouetteInside(const TriMesh& shape, const TriMesh& reference, double tolerance, double mpp) {
+  Points3 both(shape.NumVertices() + reference.NumVertices(), 3);
+  both << shape.V, reference.V;
+  const TopDownCamera cam = FrameCamera(both, mpp, tolerance + 0.02);
+  const cv::Mat a = TopDownMask(shape, cam), b = TopDownMask(reference, cam);
+  cv::Mat grown;
+  const int r = static_cast<int>(std::ceil(tolerance / mpp));
+  cv::dilate(b, grown, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * r + 1, 2 * r + 1)));
+  const double total = cv::countNonZero(a);
+  cv::Mat in;
+  cv::bitwise_and(a, grown, in);
+  return total > 0 ? cv::countNonZero(in) / total : 0.0;
+}
+
+TrialResult RunTrial(const FoldSetup& setup, const FoldingPlan& plan, const PlanRunOptions& run_options,
+                     const std::vector<std::vector<RelativeTrajectory>>& trajectories, const TrialOptions& o,
+                     int index) {
+  o.Validate();
+  const auto t0 = std::chrono::steady_clock::now();
+  Rng rng(DeriveSeed(o.seed, "fold/trial/" + std::to_string(index)));
+  TrialResult r;
+  r.index = index;
+  r.friction_scale = rng.Uniform(1 - o.friction_jitter, 1 + o.friction_jitter);
+  r.stiffness_scale = rng.Uniform(1 - o.material_jitter, 1 + o.material_jitter);
+  r.density_scale = rng.Uniform(1 - o.material_jitter, 1 + o.material_jitter);
+  const double radius = o.placement_offset * std::sqrt(rng.Uniform()), angle = rng.Uniform(0, 2 * M_PI);
+  r.offset = radius * Vec2(std::cos(angle), std::sin(angle));
+  r.yaw_deg = rng.Uniform(-o.yaw_deg, o.yaw_deg);
+  const FoldScene scene = MakeScene(setup, r.friction_scale, r.stiffness_scale, r.density_scale);
+  const Points3 laid = LayFlat(setup.garment.mesh, setup.table, r.offset, r.yaw_deg * M_PI / 180);
+  try {
+    r.run = RunPlan(scene, laid, setup.garment.category, plan, run_options, &trajectories);
+  } catch (const NumericalError& e) {
+    r.failure = e.what();
+    r.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return r;
+  }
+  const Faces& F = setup.garment.mesh.F;
+  const Vec3 lo = r.run.flat.colwise().minCoeff(), hi = r.run.flat.colwise().maxCoeff();
+  r.diagonal = std::hypot(hi.x() - lo.x(), hi.z() - lo.z());
+  r.final_dissimilarity = r.run.final_dissimilarity;
+  r.inside_fraction = SilhouetteInside(TriMesh{r.run.final, F}, r.run.ideal, o.silhouette_tolerance, 0.004);
+  for (const auto& s : r.run.steps) r.sim_time += s.result.after.sim_time;
+  const bool d_ok = r.final_dissimilarity <= o.d_fraction * r.diagonal;
+  const bool in_ok = r.inside_fraction >= o.inside;
+  r.success = d_ok && in_ok;
+  if (!d_ok) r.failure = "D above the threshold";
+  if (!in_ok) r.failure += std::string(r.failure.empty() ? "" : "; ") + "silhouette outside the target's";
+  r.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return r;
+}
+
+}  // namespace drape::folding

@@ -1,0 +1,70 @@
+// A whole folding plan in simulation: the flat garment settles on the table, the
+// camera above it finds the key points, each plan step is prepared from the state the
+// previous one left (fold line fixed on the table, grasp points tracked as cloth
+// points), simulated with the paper's initial trajectories, optimised, and the
+// optimised step's result starts the next step (paper: "similar steps are repeated
+// until the garment is folded in the simulator"). A replay runs stored trajectories
+// (relative to each step's P0 → P3, so they carry over to a garment placed elsewhere)
+// without optimising: the evaluation trials.
+#pragma once
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include "runtime/folding/fold.h"
+#include "runtime/folding/keypoints.h"
+#include "runtime/folding/plan.h"
+#include "runtime/folding/table.h"
+
+namespace drape::folding {
+
+// A knot point in the frame of its step: (P − P0) in units of s = ‖P3 − P0‖ along
+// u = horizontal direction P0 → P3, v = up, w = u × v. The paper's initial knots are
+// (⅓, h, 0) and (⅔, h, 0).
+struct RelativeTrajectory {
+  Vec3 k1 = Vec3::Zero(), k2 = Vec3::Zero();
+};
+RelativeTrajectory ToRelative(const CubicBezier& c);
+CubicBezier FromRelative(const RelativeTrajectory& r, const Vec3& p0, const Vec3& p3);
+
+struct PlanRunOptions {
+  FoldSimOptions sim;
+  OptimiseOptions optimise;
+  KeyPointOptions key_points;
+  double camera_metres_per_pixel = 0.003;
+  double thickness = 0.004;  // m, ideal fold's lift (the cloth world's collision thickness)
+  SettleOptions flat_settle = {0.002, 0.2, 0.3, 3.0};  // the garment laid on the table
+  void Validate() const;
+};
+
+struct StepRecord {
+  std::string name;
+  FoldLine line;                     // world x, z
+  std::vector<std::string> grasps;   // what the plan names, per arm
+  StepSetup setup;
+  StepOptimum result;                // replays: initial = optimised = the replayed paths
+  std::vector<RelativeTrajectory> relative;  // of result.optimised
+};
+
+struct PlanRun {
+  Points3 flat;                            // settled flat garment
+  std::map<std::string, Vec2> key_points;  // world x, z
+  TopDownCamera camera;
+  std::vector<StepRecord> steps;
+  Points3 final;                           // after the last step
+  TriMesh ideal;                           // the ideal folds chained from `flat`
+  double final_dissimilarity = 0;          // D(ideal, final), m
+};
+
+// Optimises every step (replay == nullptr) or replays the given relative trajectories
+// (one vector per step, one per arm). Throws drape::Error for a plan that does not fit
+// the garment, NumericalError when a simulation fails.
+PlanRun RunPlan(const FoldScene& scene, const Points3& laid, const std::string& category,
+                const FoldingPlan& plan, const PlanRunOptions& options,
+                const std::vector<std::vector<RelativeTrajectory>>* replay = nullptr);
+
+// Settles a garment laid on the table (no grippers). Throws NumericalError on a blow-up.
+Points3 SettleFlat(const FoldScene& scene, const Points3& laid, const SettleOptions& settle);
+
+}  // namespace drape::folding

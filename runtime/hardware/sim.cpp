@@ -1,0 +1,526 @@
+// SimWorld: the quasi-static cloth state, two simulated arms, the Kinect, IR sensors and
+// the table (see sim.h).
+#include "runtime/hardware/sim.h"
+
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+#include "common/error.h"
+#include "common/rng.h"
+#include "generator/cloth/world.h"
+
+namespace drape::hardware {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double Since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+Eigen::Matrix3d Yaw(double a) { return Eigen::AngleAxisd(a, Vec3::UnitY()).toRotationMatrix(); }
+
+// Gripper frame columns: closing, approach × closing, approach.
+Eigen::Matrix3d GripperAxes(const GripperPose& p) {
+  Eigen::Matrix3d R;
+  const Vec3 a = p.approach.normalized(), c = p.closing.normalized();
+  R.col(0) = c;
+  R.col(1) = a.cross(c);
+  R.col(2) = a;
+  return R;
+}
+
+// A pinch: a point of the garment's pattern, on face `face` at barycentric `bary`.
+struct Pinch {
+  int face = -1;
+  Vec3 bary = Vec3::Zero();
+  int vertex = -1;          // the face's vertex nearest the pinch (Hang's anchor vertex)
+  Vec3 rest = Vec3::Zero(); // the point on the flat garment (m)
+};
+
+}  // namespace
+
+const char* GraspOutcomeName(GraspOutcome o) {
+  switch (o) {
+    case GraspOutcome::kMiss: return "miss";
+    case GraspOutcome::kOneLayer: return "one_layer";
+    case GraspOutcome::kBothLayers: return "both_layers";
+    case GraspOutcome::kLost: return "lost";
+  }
+  return "?";
+}
+
+const char* ClothStateName(ClothState s) {
+  switch (s) {
+    case ClothState::kOnTable: return "on_table";
+    case ClothState::kHanging: return "hanging";
+    case ClothState::kHeldByTwo: return "held_by_two";
+    case ClothState::kLost: return "lost";
+  }
+  return "?";
+}
+
+void CaptureOptions::Validate() const {
+  if (frames < 1 || frames > 100000) throw Error("capture.frames: must be in 1..100000");
+  if (!(degrees > 0 && degrees <= 3600)) throw Error("capture.degrees: must be in (0, 3600]");
+}
+
+Path StraightPath(const GripperPose& from, const GripperPose& to, double speed, int steps) {
+  if (!(speed > 0)) throw Error("path: speed must be > 0 m/s");
+  if (steps < 1) throw Error("path: steps must be >= 1");
+  const double T = (to.position - from.position).norm() / speed;
+  Path p;
+  for (int i = 0; i <= steps; ++i) {
+    const double s = double(i) / steps;
+    GripperPose q = to;
+    q.position = (1 - s) * from.position + s * to.position;
+    p.push_back({s * T, q});
+  }
+  return p;
+}
+
+void SimOptions::Validate() const {
+  hang.Validate();
+  if (!(jaw_opening > 0 && jaw_opening < 0.5)) throw Error("sim.jaw_opening: must be in (0, 0.5) m");
+  if (!(finger_depth > 0 && finger_depth < 0.5)) throw Error("sim.finger_depth: must be in (0, 0.5) m");
+  if (!(finger_width > 0 && finger_width < 0.5)) throw Error("sim.finger_width: must be in (0, 0.5) m");
+  if (!(speed > 0)) throw Error("sim.speed: must be > 0 m/s");
+  camera.Validate();
+  ir.Validate();
+  if (!ir_mount.allFinite()) throw Error("sim.ir_mount: must be finite");
+  if (table.isEmpty()) throw Error("sim.table: empty box");
+}
+
+namespace {
+
+class SimArm final : public Arm {
+ public:
+  SimArm(SimWorld::Impl* w, int k) : w_(w), k_(k) {}
+  std::string name() const override { return k_ == 0 ? "left" : "right"; }
+  GripperPose pose() const override;
+  double Move(const Path& path) override;
+  GraspReport Close() override;
+  void Open() override;
+  bool HoldsCloth() const override;
+  double jaw_opening() const override;
+
+ private:
+  SimWorld::Impl* w_;
+  int k_;
+};
+
+class SimCamera final : public DepthCamera {
+ public:
+  explicit SimCamera(SimWorld::Impl* w) : w_(w) {}
+  Sweep CaptureTurning(Arm& holder, const CaptureOptions& options, uint64_t seed) override;
+
+ private:
+  SimWorld::Impl* w_;
+};
+
+class SimIr final : public RangeSensor {
+ public:
+  SimIr(SimWorld::Impl* w, int k) : w_(w), k_(k) {}
+  double Read() override;
+  Vec3 mount() const override;
+  double max_range() const override;
+
+ private:
+  SimWorld::Impl* w_;
+  int k_;
+};
+
+class SimTable final : public Table {
+ public:
+  explicit SimTable(const Eigen::AlignedBox3d& b) : box_(b) {}
+  Eigen::AlignedBox3d top() const override { return box_; }
+
+ private:
+  Eigen::AlignedBox3d box_;
+};
+
+}  // namespace
+
+struct SimWorld::Impl {
+  struct ArmState {
+    GripperPose pose;
+    bool closed = false;
+    bool holds = false;
+    Pinch pinch;
+  };
+  Garment garment;
+  Material material;
+  MaterialFit fit;
+  SimOptions o;
+  uint64_t seed = 0;
+  TriMesh mesh;  // world frame
+  ClothState state = ClothState::kOnTable;
+  int hang_from = -1;
+  ArmState arms[2];
+  int hangs = 0;
+  double sim_seconds = 0, sense_seconds = 0;
+  uint64_t version = 0, ir_version = ~uint64_t(0);
+  std::unique_ptr<SweepScene> ir_scene;
+  SweepOptions ir_scene_options;
+  Rng ir_rng[2] = {Rng(0), Rng(0)};
+  std::unique_ptr<SimArm> arm_objs[2];
+  std::unique_ptr<SimIr> ir_objs[2];
+  std::unique_ptr<SimCamera> camera;
+  std::unique_ptr<SimTable> table;
+
+  int ArmIndex(const Arm& a) const {
+    for (int k = 0; k < 2; ++k)
+      if (arm_objs[k].get() == &a) return k;
+    throw Error("sim: the arm does not belong to this world");
+  }
+
+  // The garment hangs from arm k's pinch until stationary (Bullet + equilibrium solve).
+  void Rehang(int k) {
+    const ArmState& a = arms[k];
+    const Vec3 offset = a.pinch.rest - garment.mesh.V.row(a.pinch.vertex).transpose();
+    const auto t0 = Clock::now();
+    const HangResult r = Hang(garment, a.pinch.vertex, Vec3(offset.x(), offset.y(), 0), material, fit, o.hang,
+                              DeriveSeed(seed, "hang/" + std::to_string(hangs)));
+    sim_seconds += Since(t0);
+    ++hangs;
+    if (!r.ok) throw NumericalError("cloth simulation: hanging from the " + std::string(k ? "right" : "left") +
+                                    " gripper did not come to rest (" + r.failure + ")");
+    const Eigen::Matrix3d R = Yaw(a.pose.wrist);
+    mesh.F = r.mesh.F;
+    mesh.V.resize(r.mesh.NumVertices(), 3);
+    for (int i = 0; i < r.mesh.NumVertices(); ++i)
+      mesh.V.row(i) = (R * r.mesh.V.row(i).transpose() + a.pose.position).transpose();
+    state = ClothState::kHanging;
+    hang_from = k;
+    ++version;
+  }
+
+  // Cloth inside arm k's jaws: face samples (barycentric step 1/8) in the jaw box.
+  GraspReport PinchAt(int k) {
+    ArmState& a = arms[k];
+    GraspReport rep;
+    rep.point = a.pose.position;
+    if (state == ClothState::kLost) {
+      rep.note = "the garment is lost (on the floor)";
+      return rep;
+    }
+    const Eigen::Matrix3d Rt = GripperAxes(a.pose).transpose();
+    const Vec3 half(o.jaw_opening / 2, o.finger_width / 2, o.finger_depth / 2);
+    const int n = 8;
+    double best = std::numeric_limits<double>::infinity();
+    bool front = false, back = false;
+    const bool layered = int(garment.layer.size()) == garment.mesh.NumVertices();
+    for (int f = 0; f < mesh.NumFaces(); ++f) {
+      const Vec3 A = mesh.V.row(mesh.F(f, 0)), B = mesh.V.row(mesh.F(f, 1)), C = mesh.V.row(mesh.F(f, 2));
+      bool hit = false;
+      for (int i = 0; i <= n; ++i)
+        for (int j = 0; i + j <= n; ++j) {
+          const Vec3 bary(double(n - i - j) / n, double(i) / n, double(j) / n);
+          const Vec3 p = bary[0] * A + bary[1] * B + bary[2] * C;
+          const Vec3 q = Rt * (p - a.pose.position);
+          if (std::abs(q.x()) > half.x() || std::abs(q.y()) > half.y() || std::abs(q.z()) > half.z()) continue;
+          hit = true;
+          const double d = q.squaredNorm();
+          if (d < best) {
+            best = d;
+            a.pinch.face = f;
+            a.pinch.bary = bary;
+          }
+        }
+      if (!hit) continue;
+      ++rep.captured;
+      bool is_back = false;
+      if (layered)
+        for (int c = 0; c < 3; ++c) is_back |= garment.layer[mesh.F(f, c)] == 1;
+      (is_back ? back : front) = true;
+    }
+    if (rep.captured == 0) {
+      rep.note = "no cloth between the jaws";
+      return rep;
+    }
+    Pinch& p = a.pinch;
+    int m = 0;
+    for (int c = 1; c < 3; ++c)
+      if (p.bary[c] > p.bary[m]) m = c;
+    p.vertex = mesh.F(p.face, m);
+    p.rest = Vec3::Zero();
+    for (int c = 0; c < 3; ++c) p.rest += p.bary[c] * garment.mesh.V.row(mesh.F(p.face, c)).transpose();
+    a.holds = true;
+    rep.outcome = front && back ? GraspOutcome::kBothLayers : GraspOutcome::kOneLayer;
+    rep.note = std::to_string(rep.captured) + " faces between the jaws";
+    return rep;
+  }
+};
+
+GripperPose SimArm::pose() const { return w_->arms[k_].pose; }
+double SimArm::jaw_opening() const { return w_->o.jaw_opening; }
+bool SimArm::HoldsCloth() const { return w_->arms[k_].holds && w_->state != ClothState::kLost; }
+
+double SimArm::Move(const Path& path) {
+  if (path.empty()) return 0;
+  auto& a = w_->arms[k_];
+  const GripperPose before = a.pose;
+  a.pose = path.back().pose;
+  if (!a.holds) return path.back().time;
+  if (w_->state == ClothState::kOnTable) {
+    if (w_->arms[1 - k_].holds) throw Error("sim: lifting a garment from the table with both grippers is not simulated");
+    w_->Rehang(k_);  // picked up: it hangs from this gripper
+  } else if (w_->state == ClothState::kHanging && w_->hang_from == k_) {
+    const Eigen::Matrix3d R = Yaw(a.pose.wrist - before.wrist);
+    for (int i = 0; i < w_->mesh.NumVertices(); ++i)
+      w_->mesh.V.row(i) = (R * (w_->mesh.V.row(i).transpose() - before.position) + a.pose.position).transpose();
+    ++w_->version;
+  }
+  return path.back().time;
+}
+
+GraspReport SimArm::Close() {
+  auto& a = w_->arms[k_];
+  if (a.closed) throw Error("sim: the " + name() + " gripper is already closed");
+  a.closed = true;
+  GraspReport r = w_->PinchAt(k_);
+  if (a.holds && w_->state == ClothState::kHanging && w_->hang_from != k_) w_->state = ClothState::kHeldByTwo;
+  return r;
+}
+
+void SimArm::Open() {
+  auto& a = w_->arms[k_];
+  const bool held = a.holds;
+  a.closed = false;
+  a.holds = false;
+  if (!held) return;
+  if (w_->state == ClothState::kHeldByTwo) {
+    w_->Rehang(1 - k_);
+  } else if (w_->state == ClothState::kHanging) {
+    w_->state = ClothState::kLost;  // dropped
+    ++w_->version;
+  }
+}
+
+Sweep SimCamera::CaptureTurning(Arm& holder, const CaptureOptions& options, uint64_t seed) {
+  options.Validate();
+  SimWorld::Impl& w = *w_;
+  const int k = w.ArmIndex(holder);
+  if (w.state != ClothState::kHanging || w.hang_from != k)
+    throw Error("camera: the garment must hang from the " + holder.name() + " gripper alone to turn it");
+  const GripperPose& p = w.arms[k].pose;
+  if (std::hypot(p.position.x(), p.position.z()) > 1e-9)
+    throw Error("camera: move the holding gripper to the sensing pose (0, y, 0) first");
+  const auto t0 = Clock::now();
+  // Object frame: the jaws at the origin, turned with the wrist.
+  const Eigen::Matrix3d Rt = Yaw(p.wrist).transpose();
+  TriMesh obj;
+  obj.F = w.mesh.F;
+  obj.V.resize(w.mesh.NumVertices(), 3);
+  for (int i = 0; i < w.mesh.NumVertices(); ++i)
+    obj.V.row(i) = (Rt * (w.mesh.V.row(i).transpose() - p.position)).transpose();
+  SweepOptions so = w.o.camera;
+  so.frames = options.frames;
+  so.degrees = options.degrees;
+  so.back_and_forth = options.back_and_forth;
+  so.gripper_height = p.position.y();
+  Sweep s = SimulateSweep(obj, so, seed);
+  w.sense_seconds += Since(t0);
+  return s;
+}
+
+Vec3 SimIr::mount() const { return w_->o.ir_mount; }
+double SimIr::max_range() const { return w_->o.ir.max_range; }
+
+double SimIr::Read() {
+  SimWorld::Impl& w = *w_;
+  if (w.state == ClothState::kLost || w.mesh.NumFaces() == 0) return std::numeric_limits<double>::infinity();
+  const auto t0 = Clock::now();
+  if (w.ir_version != w.version) {
+    // The scene's object frame is the world shifted down by 1 m (its gripper height).
+    TriMesh m = w.mesh;
+    m.V.col(1).array() -= 1.0;
+    w.ir_scene_options = SweepOptions{};
+    w.ir_scene_options.scene = false;
+    w.ir_scene_options.gripper_height = 1.0;
+    w.ir_scene_options.kinect.noise = false;
+    w.ir_scene = std::make_unique<SweepScene>(m, w.ir_scene_options);
+    w.ir_version = w.version;
+  }
+  const GripperPose& p = w.arms[k_].pose;
+  const Vec3 origin = p.position + GripperAxes(p) * w.o.ir_mount;
+  const double r = w.ir_scene->RangeAlongRay(origin, p.approach.normalized(), 0.0, w.o.ir, &w.ir_rng[k_]);
+  w.sense_seconds += Since(t0);
+  return r;
+}
+
+void PlaceFlatOptions::Validate() const {
+  if (!(spread > 0 && spread <= 1.2)) throw Error("place_flat.spread: must be in (0, 1.2]");
+  if (!(lift_time > 0) || !(lay_time > 0) || !(settle_cap > 0)) throw Error("place_flat: times must be > 0 s");
+  if (!(min_pad > 0 && min_pad < 0.5)) throw Error("place_flat.min_pad: must be in (0, 0.5) m");
+}
+
+namespace {
+// Cloth-world gripper frame (generator/cloth Jaw: x = closing, y = towards the wrist).
+Eigen::Isometry3d JawFrame(const GripperPose& p) {
+  const Vec3 x = p.closing.normalized(), y = -p.approach.normalized();
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear().col(0) = x;
+  T.linear().col(1) = y;
+  T.linear().col(2) = x.cross(y);
+  T.translation() = p.position;
+  return T;
+}
+}  // namespace
+
+PlaceFlatReport SimWorld::PlaceFlat(const PlaceFlatOptions& po) {
+  po.Validate();
+  Impl& w = *impl_;
+  if (w.state != ClothState::kHeldByTwo) throw Error("place flat: both grippers must hold the garment");
+  const auto t0 = Clock::now();
+  PlaceFlatReport rep;
+  ClothMaterial cm;
+  cm.area_density = w.material.area_density;
+  cm.link_stiffness = w.fit.stiffness;
+  cm.bending = std::clamp(w.material.bending_stiffness, 1e-3, 1.0);
+  ClothOptions co;
+  co.time_step = w.o.hang.time_step;
+  co.solver_iterations = w.o.hang.solver_iterations;
+  co.damping = w.o.hang.damping;
+  ClothWorld cw(MakeClothModel(w.garment.mesh, w.garment.layer, cm, co), w.mesh.V);
+  BoxCollider table;
+  table.pose.translation() = w.o.table.center();
+  table.half_extents = w.o.table.sizes() / 2;
+  table.friction = w.material.FrictionCoefficient();
+  cw.AddCollider(table);
+  // Pads: 1.5 mean edges at least, so a coarse mesh has nodes between them.
+  double edge = 0;
+  const auto edges = UniqueEdges(w.garment.mesh);
+  for (const auto& e : edges) edge += (w.garment.mesh.V.row(e[0]) - w.garment.mesh.V.row(e[1])).norm();
+  edge /= std::max<size_t>(1, edges.size());
+  Jaw jaw;
+  jaw.opening = w.o.jaw_opening;
+  jaw.pad_length = std::max({po.min_pad, w.o.finger_depth, 1.5 * edge});
+  jaw.pad_width = std::max({po.min_pad, w.o.finger_width, 1.5 * edge});
+  int g[2];
+  for (int k = 0; k < 2; ++k) {
+    g[k] = cw.AddGripper(jaw, JawFrame(w.arms[k].pose));
+    rep.held_nodes[k] = cw.Close(g[k]).nodes;
+  }
+  if (rep.held_nodes[0] == 0 || rep.held_nodes[1] == 0) {
+    rep.failure = "a gripper holds no cloth node in the cloth world";
+    return rep;
+  }
+  // Spread above the near edge of the table, then lower while carrying across it.
+  const Vec3 a = w.arms[0].pose.position, b = w.arms[1].pose.position;
+  const Vec3 mid = 0.5 * (a + b);
+  double hang = 0;
+  for (int i = 0; i < w.mesh.NumVertices(); ++i) hang = std::max(hang, mid.y() - w.mesh.V(i, 1));
+  const Vec2 ua = w.arms[0].pinch.rest.head<2>();
+  const Vec2 ub = w.arms[1].pinch.rest.head<2>();
+  const double d = std::max(0.05, po.spread * (ua - ub).norm());
+  const double top = w.o.table.max().y();
+  const double z0 = w.o.table.min().z() + 0.05, x0 = w.o.table.center().x();
+  const double z1 = std::min(w.o.table.max().z() - 0.05, z0 + hang);
+  const double sx = b.x() >= a.x() ? 1 : -1;  // keep the arms' left/right order along x
+  auto key = [&](int k, const Vec3& c) {
+    GripperPose p = w.arms[k].pose;
+    p.position = c + Vec3((k == 0 ? -0.5 : 0.5) * sx * d, 0, 0);
+    return JawFrame(p);
+  };
+  const double T0 = cw.time(), T1 = T0 + po.lift_time, T2 = T1 + po.lay_time;
+  for (int k = 0; k < 2; ++k) {
+    GripperPath path;
+    path.times = {T0, T1, T2};
+    path.poses = {JawFrame(w.arms[k].pose), key(k, Vec3(x0, top + hang + 0.05, z0)), key(k, Vec3(x0, top + 0.03, z1))};
+    cw.SetPath(g[k], path);
+  }
+  while (cw.time() < T2) {
+    cw.Step();
+    const std::string h = cw.Health();
+    if (!h.empty()) {
+      rep.failure = "cloth world: " + h;
+      w.sim_seconds += Since(t0);
+      return rep;
+    }
+  }
+  for (int k = 0; k < 2; ++k) cw.Open(g[k]);
+  SettleOptions so;
+  so.min_time = 0.25;
+  so.time_cap = po.settle_cap;
+  so.distance = 0.005;
+  const SettleReport sr = cw.Settle(so);
+  rep.settled = sr.settled;
+  if (!sr.failure.empty() && !sr.timed_out) rep.failure = "cloth world: " + sr.failure;
+  rep.sim_time = cw.time();
+  w.mesh.V = cw.positions();
+  for (int k = 0; k < 2; ++k) {
+    w.arms[k].pose.position = cw.GripperPose(g[k]).translation();
+    w.arms[k].closed = false;
+    w.arms[k].holds = false;
+  }
+  w.state = ClothState::kOnTable;
+  ++w.version;
+  rep.ok = rep.failure.empty();
+  w.sim_seconds += Since(t0);
+  return rep;
+}
+
+SimWorld::SimWorld(Garment garment, Material material, MaterialFit fit, const SimOptions& options, uint64_t seed)
+    : impl_(std::make_unique<Impl>()) {
+  options.Validate();
+  material.Validate();
+  Impl& w = *impl_;
+  if (garment.mesh.NumFaces() == 0) throw Error("sim: garment '" + garment.instance + "' has no mesh");
+  w.garment = std::move(garment);
+  w.material = std::move(material);
+  w.fit = fit;
+  w.o = options;
+  w.seed = seed;
+  // Flat on the table, front up: pattern (x, y, z) → world (x, z, −y), centred on the top.
+  const TriMesh& g = w.garment.mesh;
+  const Eigen::AlignedBox3d b = Bounds(g);
+  const Vec3 c = b.center();
+  const Vec3 top = w.o.table.center();
+  w.mesh.F = g.F;
+  w.mesh.V.resize(g.NumVertices(), 3);
+  for (int i = 0; i < g.NumVertices(); ++i) {
+    const Vec3 q = g.V.row(i).transpose() - c;
+    w.mesh.V.row(i) = Vec3(top.x() + q.x(), w.o.table.max().y() + 0.001 + (g.V(i, 2) - b.min().z()), top.z() - q.y())
+                          .transpose();
+  }
+  for (int k = 0; k < 2; ++k) {
+    w.arms[k].pose.position = Vec3(k == 0 ? 0.4 : -0.4, 1.3, 0.3);
+    w.ir_rng[k] = Rng(DeriveSeed(seed, k == 0 ? "ir/left" : "ir/right"));
+    w.arm_objs[k] = std::make_unique<SimArm>(&w, k);
+    w.ir_objs[k] = std::make_unique<SimIr>(&w, k);
+  }
+  w.camera = std::make_unique<SimCamera>(&w);
+  w.table = std::make_unique<SimTable>(w.o.table);
+}
+
+SimWorld::~SimWorld() = default;
+
+Arm& SimWorld::arm(int i) {
+  DRAPE_CHECK(i == 0 || i == 1, "arm index");
+  return *impl_->arm_objs[i];
+}
+DepthCamera& SimWorld::camera() { return *impl_->camera; }
+RangeSensor& SimWorld::ir(int i) {
+  DRAPE_CHECK(i == 0 || i == 1, "arm index");
+  return *impl_->ir_objs[i];
+}
+Table& SimWorld::table() { return *impl_->table; }
+ClothState SimWorld::state() const { return impl_->state; }
+const TriMesh& SimWorld::mesh() const { return impl_->mesh; }
+const Garment& SimWorld::garment() const { return impl_->garment; }
+int SimWorld::HeldVertex(int i) const { return impl_->arms[i].holds ? impl_->arms[i].pinch.vertex : -1; }
+std::optional<Vec2> SimWorld::HeldUv(int i) const {
+  const auto& a = impl_->arms[i];
+  if (!a.holds) return std::nullopt;
+  const Garment& g = impl_->garment;
+  if (g.uv.rows() != g.mesh.NumVertices()) return Vec2(a.pinch.rest.x(), a.pinch.rest.y());
+  Vec2 uv = Vec2::Zero();
+  for (int c = 0; c < 3; ++c) uv += a.pinch.bary[c] * g.uv.row(g.mesh.F(a.pinch.face, c)).transpose();
+  return uv;
+}
+const SimOptions& SimWorld::options() const { return impl_->o; }
+int SimWorld::hangs() const { return impl_->hangs; }
+double SimWorld::simulation_seconds() const { return impl_->sim_seconds; }
+double SimWorld::sensing_seconds() const { return impl_->sense_seconds; }
+
+}  // namespace drape::hardware

@@ -1,0 +1,119 @@
+// Simulated hardware: one garment, two arms with parallel grippers, a Kinect, an IR range
+// sensor beside each gripper and a table, sharing one cloth state (SimWorld).
+//
+// Cloth model (quasi-static). Until the cloth core's world (grippers that move cloth
+// along paths, two-point hanging) is available, the garment's state changes only at
+// the events that change what holds it, and each such state is a Bullet soft-body
+// simulation run to rest (generator/hang: Hang, with the release's simulation settings
+// and the garment's material fit):
+//   - picked up from the table, or the other gripper let go: the garment hangs from the
+//     remaining grasp point until stationary (Hang from that point of the pattern);
+//   - a held garment follows its gripper rigidly (translation, and turns with the wrist);
+//   - held by both grippers, it keeps the shape it had when the second one closed;
+//   - released by its only gripper, it falls and is lost (GraspOutcome::kLost).
+// What this leaves out: the swing and slip while grippers move, two-point sagging,
+// cloth-gripper collisions of a moving arm (a path may pass through the cloth).
+//
+// Jaws. A closing gripper pinches the cloth nodes inside its jaws: a box around the jaw
+// centre, jaw_opening (≈ 8 cm, the paper's Baxter hand) along the closing direction,
+// finger_depth along the approach, finger_width across. No node: a miss; nodes of one
+// layer of the garment: one layer; of both (or a seam, shared by both): both layers. The
+// pinched point of the pattern is the captured node nearest the jaw centre.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "garments/garment.h"
+#include "generator/hang/hang.h"
+#include "generator/hang/material.h"
+#include "generator/sweep/sweep.h"
+#include "runtime/hardware/hardware.h"
+
+namespace drape::hardware {
+
+struct SimOptions {
+  HangOptions hang;            // the cloth model (use the release's recipe simulation settings)
+  double jaw_opening = 0.08;   // m (paper: ≈ 8 cm)
+  double finger_depth = 0.03;  // m along the approach, centred on the jaw centre
+  double finger_width = 0.02;  // m across the fingers
+  double speed = 0.25;         // m/s of the arms (timing of paths only)
+  SweepOptions camera;         // Kinect placement and noise; frames/degrees come per capture
+  IrRangeOptions ir;           // range, noise (generator/sweep defaults: 4–40 cm, σ 1 mm + 1 %)
+  // IR sensor on the gripper (x = closing, y = approach × closing, z = approach), metres:
+  // beside the fingers (3 cm off the jaw plane), 6 cm behind the jaw centre.
+  Vec3 ir_mount = Vec3(0, 0.03, -0.06);
+  // Table top (world, m): 1.6 × 1.4 m, 0.75 m high, in front of the robot (room for
+  // pants laid at full length).
+  Eigen::AlignedBox3d table{Vec3(-0.8, 0.72, 0.2), Vec3(0.8, 0.75, 1.6)};
+  void Validate() const;  // throws drape::Error naming the bad field
+};
+
+// Placing the garment flat with both grippers holding it (paper: "the two arms open to
+// slightly stretch the garment and place it on a table"), simulated with the cloth core
+// (generator/cloth ClothWorld: Bullet + collision handling, the table as a box collider
+// with the material's friction): the grippers take the cloth nodes between their pads
+// where they pinch it, move apart to `spread` × the pinched points' distance on the
+// pattern above the near edge of the table, lower the garment while carrying it across
+// the table so that it lies down behind them, open, and the cloth settles.
+struct PlaceFlatOptions {
+  double spread = 0.9;         // of the pinched points' distance on the flat pattern
+  double lift_time = 1.0;      // s to spread and lift
+  double lay_time = 2.0;       // s to lower and carry across the table
+  double settle_cap = 3.0;     // s of settling at most after opening
+  // Pads of the cloth world's grippers, m: at least this, and 1.5 mesh edges so that a
+  // coarse mesh still has nodes between them.
+  double min_pad = 0.03;
+  void Validate() const;
+};
+struct PlaceFlatReport {
+  bool ok = false;
+  std::string failure;
+  int held_nodes[2] = {0, 0};  // cloth-world nodes each gripper took
+  double sim_time = 0;         // s simulated
+  bool settled = false;
+};
+
+// Where the garment is.
+enum class ClothState { kOnTable, kHanging, kHeldByTwo, kLost };
+const char* ClothStateName(ClothState s);
+
+class SimWorld {
+ public:
+  // The garment (flat pattern, as built), its material and fit. Starts flat on the table,
+  // front up, centred on the table top. Throws drape::Error on bad options.
+  SimWorld(Garment garment, Material material, MaterialFit fit, const SimOptions& options, uint64_t seed);
+  ~SimWorld();
+  SimWorld(const SimWorld&) = delete;
+  SimWorld& operator=(const SimWorld&) = delete;
+
+  Arm& arm(int i);              // 0 and 1
+  DepthCamera& camera();
+  RangeSensor& ir(int arm);
+  Table& table();
+
+  // Both grippers hold the garment (ClothState::kHeldByTwo): lay it on the table (see
+  // PlaceFlatOptions); afterwards the state is kOnTable, both grippers open, and mesh()
+  // is the garment as it lies. Throws drape::Error in another state.
+  PlaceFlatReport PlaceFlat(const PlaceFlatOptions& options = {});
+
+  // Ground truth, for evaluation and pictures (the loop never decides on it).
+  ClothState state() const;
+  const TriMesh& mesh() const;  // current cloth, world frame
+  const Garment& garment() const;
+  int HeldVertex(int arm) const;  // pinched node of the garment, -1 if none
+  std::optional<Vec2> HeldUv(int arm) const;  // pinched point on the flat pattern (m)
+  const SimOptions& options() const;
+  // Hangs from rest so far: their count and wall seconds in the cloth simulation.
+  int hangs() const;
+  double simulation_seconds() const;
+  double sensing_seconds() const;  // Kinect sweeps and IR readings
+
+  struct Impl;
+
+ private:
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace drape::hardware

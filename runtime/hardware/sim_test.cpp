@@ -1,0 +1,216 @@
+#include "runtime/hardware/sim.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <iostream>
+
+#include "common/error.h"
+#include "runtime/unfolding/loop.h"
+#include "runtime/unfolding/refine.h"
+
+namespace drape::hardware {
+namespace {
+
+// A small two-layer cloth (0.2 × 0.3 m, 5 cm edges) with a quick cloth model.
+struct Fixture {
+  Garment garment = MakeRectangleGarment(0.2, 0.3, 0.05, true);
+  Material material = *FindMaterialPreset("towel_b");
+  MaterialFit fit;
+  SimOptions options;
+  Fixture() {
+    fit.stiffness = 0.9;
+    options.hang.equilibrium_solve = false;
+    options.hang.time_cap = 6;
+    options.hang.settle_distance = 0.005;
+  }
+};
+
+GripperPose Down(const Vec3& p) {
+  GripperPose g;
+  g.position = p;
+  g.approach = -Vec3::UnitY();
+  g.closing = Vec3::UnitX();
+  return g;
+}
+
+TEST(SimHardware, ClosingOnEmptySpaceIsAMiss) {
+  Fixture f;
+  SimWorld w(f.garment, f.material, f.fit, f.options, 1);
+  Arm& a = w.arm(0);
+  a.Move(StraightPath(a.pose(), Down(Vec3(0.3, 1.2, 0.3))));
+  const GraspReport r = a.Close();
+  EXPECT_EQ(r.outcome, GraspOutcome::kMiss);
+  EXPECT_EQ(r.captured, 0);
+  EXPECT_FALSE(a.HoldsCloth());
+  EXPECT_EQ(w.state(), ClothState::kOnTable);
+}
+
+TEST(SimHardware, PickUpRegraspReleaseAndLose) {
+  Fixture f;
+  SimWorld w(f.garment, f.material, f.fit, f.options, 2);
+  ASSERT_EQ(w.state(), ClothState::kOnTable);
+  // The cloth's corner vertex (top_left of the pattern) lies flat on the table: pinch it
+  // from above (the jaws reach both layers of a flat cloth).
+  const int v = f.garment.FindAnchor("top_left")->vertex;
+  const Vec3 p = w.mesh().V.row(v).transpose();
+  Arm& left = w.arm(0);
+  Arm& right = w.arm(1);
+  left.Move(StraightPath(left.pose(), Down(p)));
+  GraspReport r = left.Close();
+  EXPECT_EQ(r.outcome, GraspOutcome::kBothLayers);
+  ASSERT_TRUE(left.HoldsCloth());
+  ASSERT_TRUE(w.HeldUv(0).has_value());
+  EXPECT_LT((*w.HeldUv(0) - f.garment.FindAnchor("top_left")->uv).norm(), 0.03);
+  // Lift to the sensing pose: the cloth hangs below the gripper.
+  left.Move(StraightPath(left.pose(), Down(Vec3(0, 1.5, 0))));
+  ASSERT_EQ(w.state(), ClothState::kHanging);
+  EXPECT_EQ(w.hangs(), 1);
+  const Eigen::AlignedBox3d b = Bounds(w.mesh());
+  // Nothing rises above the jaws by more than the held patch (the one ring of a 5 cm mesh).
+  EXPECT_LT(b.max().y(), 1.5 + 0.08);
+  EXPECT_LT(b.min().y(), 1.5 - 0.25);  // the 0.36 m diagonal hangs down
+  // The other gripper closes in empty space beside it: a miss.
+  GripperPose side;
+  side.position = Vec3(0.5, 1.3, 0);
+  side.approach = -Vec3::UnitX();
+  side.closing = Vec3::UnitZ();
+  right.Move(StraightPath(right.pose(), side));
+  EXPECT_EQ(right.Close().outcome, GraspOutcome::kMiss);
+  right.Open();
+  // ... and on the lowest point of the hanging cloth: a pinch.
+  int low = 0;
+  for (int i = 0; i < w.mesh().NumVertices(); ++i)
+    if (w.mesh().V(i, 1) < w.mesh().V(low, 1)) low = i;
+  side.position = w.mesh().V.row(low).transpose() + Vec3(0, 0.01, 0);
+  right.Move(StraightPath(right.pose(), side));
+  r = right.Close();
+  EXPECT_NE(r.outcome, GraspOutcome::kMiss);
+  EXPECT_EQ(w.state(), ClothState::kHeldByTwo);
+  // The first gripper lets go: the cloth re-hangs from the second.
+  left.Open();
+  EXPECT_EQ(w.state(), ClothState::kHanging);
+  EXPECT_EQ(w.hangs(), 2);
+  EXPECT_TRUE(right.HoldsCloth());
+  // It hangs below the new grasp: most of it well below the jaws, the far end lowest.
+  EXPECT_LT(w.mesh().V.col(1).mean(), side.position.y() - 0.05);
+  EXPECT_LT(Bounds(w.mesh()).min().y(), side.position.y() - 0.25);
+  // Letting go of the last grasp drops it.
+  right.Open();
+  EXPECT_EQ(w.state(), ClothState::kLost);
+  EXPECT_FALSE(right.HoldsCloth());
+  EXPECT_EQ(right.Close().outcome, GraspOutcome::kMiss);
+}
+
+TEST(SimHardware, CameraOfAStaticGarmentReproducesTheGeneratorSweep) {
+  Fixture f;
+  f.options.camera.kinect.noise = true;
+  SimWorld w(f.garment, f.material, f.fit, f.options, 3);
+  Arm& a = w.arm(0);
+  const Vec3 p = w.mesh().V.row(f.garment.FindAnchor("top_centre")->vertex).transpose();
+  a.Move(StraightPath(a.pose(), Down(p)));
+  ASSERT_NE(a.Close().outcome, GraspOutcome::kMiss);
+  a.Move(StraightPath(a.pose(), Down(Vec3(0, 1.5, 0))));
+  CaptureOptions co;
+  co.frames = 8;
+  const Sweep s = w.camera().CaptureTurning(a, co, 77);
+  // The generator's sweep of the same hung mesh in the gripper's frame.
+  TriMesh obj = w.mesh();
+  obj.V.col(1).array() -= 1.5;
+  SweepOptions so = f.options.camera;
+  so.frames = 8;
+  so.back_and_forth = true;
+  const Sweep ref = SimulateSweep(obj, so, 77);
+  ASSERT_EQ(s.frames.size(), ref.frames.size());
+  for (size_t i = 0; i < s.frames.size(); ++i) {
+    EXPECT_EQ(s.frames[i].depth, ref.frames[i].depth) << "frame " << i;
+    EXPECT_TRUE(s.frames[i].camera_to_object.isApprox(ref.frames[i].camera_to_object));
+  }
+  EXPECT_GT(ref.stats.garment_pixels_mean, 100);
+  // Turning needs the garment hanging from that gripper alone.
+  EXPECT_THROW(w.camera().CaptureTurning(w.arm(1), co, 1), Error);
+}
+
+// A cloth with a fold: the pattern bulges 3 cm out of its plane along a line x = x0
+// (Gaussian profile, 2.5 cm wide). Lying on the table, the fold is a ridge along the
+// world z axis; the IR sensor looking down while the gripper scans along x finds its crest.
+Garment RidgeGarment(double x0) {
+  Garment g = MakeRectangleGarment(0.3, 0.3, 0.01, false);
+  for (int i = 0; i < g.mesh.NumVertices(); ++i) {
+    const double x = g.mesh.V(i, 0);  // pattern x in [−0.15, 0.15]
+    g.mesh.V(i, 2) = 0.03 * std::exp(-(x - x0) * (x - x0) / (2 * 0.025 * 0.025));
+  }
+  return g;
+}
+
+TEST(SimHardware, IrScanOfAKnownRidgeFindsItsCrest) {
+  for (double x0 : {-0.04, 0.0, 0.027}) {
+    Fixture f;
+    SimWorld w(RidgeGarment(x0), f.material, f.fit, f.options, 4);
+    // Crest in the world: pattern x − centre → world x (see SimWorld: centred on the table).
+    const double crest_x = w.options().table.center().x() + x0;
+    const double top = w.options().table.max().y() + 0.001 + 0.03;
+    Arm& a = w.arm(0);
+    RangeSensor& ir = w.ir(0);
+    unfolding::RefineOptions ro;
+    std::vector<double> ranges;
+    const double z = w.options().table.center().z();
+    for (int i = -ro.half_width_samples; i <= ro.half_width_samples; ++i) {
+      // Jaw centre 15 cm above the crest height; the sensor sits 6 cm behind it.
+      GripperPose g = Down(Vec3(w.options().table.center().x() + i * ro.sample_spacing, top + 0.15, z));
+      a.Move({{0, g}});
+      ranges.push_back(ir.Read());
+    }
+    const auto res = unfolding::RefineScan(ranges, ro);
+    const double found = w.options().table.center().x() + res.offset;
+    // Within 6 mm (1.5 samples) of the crest, with the sensor's noise.
+    EXPECT_NEAR(found, crest_x, 0.006) << "x0 " << x0;
+    // The reading there: from the sensor (0.21 m above the crest) to the crest.
+    EXPECT_NEAR(res.range, 0.21, 0.01);
+  }
+}
+
+TEST(SimHardware, HeldByTwoCornersItIsPlacedFlatOnTheTable) {
+  Fixture f;
+  SimWorld w(f.garment, f.material, f.fit, f.options, 5);
+  Arm& left = w.arm(0);
+  Arm& right = w.arm(1);
+  const Vec3 p = w.mesh().V.row(f.garment.FindAnchor("top_left")->vertex).transpose();
+  left.Move(StraightPath(left.pose(), Down(p)));
+  ASSERT_NE(left.Close().outcome, GraspOutcome::kMiss);
+  left.Move(StraightPath(left.pose(), Down(Vec3(0, 1.5, 0))));
+  EXPECT_THROW(w.PlaceFlat(), Error);  // one gripper only
+  // The other top corner, wherever it hangs now, taken from the side.
+  GripperPose side;
+  side.position = w.mesh().V.row(f.garment.FindAnchor("top_right")->vertex).transpose();
+  side.approach = -Vec3(side.position.x(), 0, side.position.z()).normalized();
+  side.closing = Vec3::UnitY().cross(side.approach);
+  right.Move(StraightPath(right.pose(), side));
+  ASSERT_NE(right.Close().outcome, GraspOutcome::kMiss);
+  ASSERT_EQ(w.state(), ClothState::kHeldByTwo);
+  const PlaceFlatReport r = w.PlaceFlat();
+  ASSERT_TRUE(r.ok) << r.failure;
+  EXPECT_GT(r.held_nodes[0], 0);
+  EXPECT_GT(r.held_nodes[1], 0);
+  EXPECT_EQ(w.state(), ClothState::kOnTable);
+  EXPECT_FALSE(left.HoldsCloth());
+  // On the table top, and spread: most of its flat area seen from above.
+  const double top = w.options().table.max().y();
+  EXPECT_GT(w.mesh().V.col(1).minCoeff(), top - 0.002);
+  // Down on the table: nothing higher than a fold or a rolled edge (10 cm) above it, the
+  // bulk within 2 cm.
+  EXPECT_LT(w.mesh().V.col(1).maxCoeff(), top + 0.10);
+  std::vector<double> y;
+  for (int i = 0; i < w.mesh().NumVertices(); ++i) y.push_back(w.mesh().V(i, 1));
+  std::nth_element(y.begin(), y.begin() + y.size() / 2, y.end());
+  EXPECT_LT(y[y.size() / 2], top + 0.02);
+  const double coverage = unfolding::Coverage(w.mesh(), f.garment);
+  EXPECT_GT(coverage, 0.7);
+  EXPECT_LT(coverage, 1.1);
+  std::cout << "placed flat: coverage " << coverage << ", " << r.sim_time << " s simulated, settled " << r.settled
+            << "\n";
+}
+
+}  // namespace
+}  // namespace drape::hardware

@@ -1,0 +1,525 @@
+// The regrasping loop (see loop.h) and the release model it runs against.
+#include "runtime/unfolding/loop.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <mutex>
+
+#include "common/error.h"
+#include "common/rng.h"
+#include "garments/io.h"
+#include "generator/recipe/jobs.h"
+#include "runtime/recognition/calibrate.h"
+#include "runtime/recognition/release_source.h"
+#include "runtime/folding/table.h"
+#include "runtime/registration/closest_point.h"
+
+namespace drape::unfolding {
+
+namespace fs = std::filesystem;
+namespace rec = drape::recognition;
+namespace hw = drape::hardware;
+
+namespace {
+using Clock = std::chrono::steady_clock;
+double Since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+Json J(const Vec3& v) { return Json::array({v.x(), v.y(), v.z()}); }
+Json J(const Vec2& v) { return Json::array({v.x(), v.y()}); }
+}  // namespace
+
+void LoopOptions::Validate() const {
+  objective.Validate();
+  refine.Validate();
+  capture.Validate();
+  if (max_regrasps < 1 || max_regrasps > 100) throw Error("unfold.max_regrasps: must be in 1..100");
+  if (!(standoff > 0 && standoff < 0.4)) throw Error("unfold.standoff: must be in (0, 0.4) m");
+  if (!(grasp_depth >= 0 && grasp_depth < 0.1)) throw Error("unfold.grasp_depth: must be in [0, 0.1) m");
+  if (!(sensing_height > 0.5 && sensing_height < 3)) throw Error("unfold.sensing_height: must be in (0.5, 3) m");
+  if (!(success_distance > 0)) throw Error("unfold.success_distance: must be > 0 m");
+}
+
+double Coverage(const TriMesh& lying, const Garment& garment, double mpp) {
+  TriMesh flat;
+  flat.F = garment.mesh.F;
+  flat.V = folding::LayFlat(garment.mesh, folding::TableOptions{});
+  auto area = [mpp](const TriMesh& m) {
+    const cv::Mat mask = folding::TopDownMask(m, folding::FrameCamera(m.V, mpp));
+    return double(cv::countNonZero(mask));
+  };
+  const double a = area(flat);
+  DRAPE_CHECK(a > 0, "the flat garment has no top-down area");
+  return area(lying) / a;
+}
+
+std::string NearestAnchor(const Garment& g, const Vec2& uv) {
+  std::string best;
+  double d = std::numeric_limits<double>::infinity();
+  for (const Anchor& a : g.anchors)
+    if ((a.uv - uv).norm() < d) d = (a.uv - uv).norm(), best = a.label;
+  return best;
+}
+
+// ------------------------------------------------------------------ ReleaseModel
+
+struct ReleaseModel::Impl {
+  Release release;
+  Recipe recipe;
+  rec::Database db;
+  std::optional<rec::Weights> weights;
+  std::unique_ptr<rec::Recognizer> weighted, unweighted;
+  rec::AnchorUvMap uvs;
+  mutable std::mutex mu;
+  mutable std::map<int, TriMesh> meshes;
+  mutable std::map<std::string, TestGarment> tests;
+  explicit Impl(const fs::path& dir) : release(Release::Open(dir)) {}
+};
+
+ReleaseModel::ReleaseModel(const fs::path& dir, const fs::path& weights_path) : impl_(std::make_unique<Impl>(dir)) {
+  Impl& m = *impl_;
+  const std::string text = m.release.dataset().value("recipe", Json::object()).value("text", "");
+  if (text.empty()) throw Error(dir.string() + "/dataset.json: no recipe text (needed for the test garments and sensing)");
+  m.recipe = ParseRecipe(text, (dir / "dataset.json").string() + " (recipe)", dir);
+  rec::LoadReport lr;
+  m.db = rec::LoadDatabase(m.release, &lr);
+  if (!weights_path.empty()) m.weights = rec::LoadWeights(weights_path, m.release.digest());
+  m.weighted = std::make_unique<rec::Recognizer>(m.db, m.weights ? &*m.weights : nullptr);
+  m.unweighted = std::make_unique<rec::Recognizer>(m.db, nullptr);
+  m.uvs = rec::AnchorUvs(m.release);
+}
+
+ReleaseModel::~ReleaseModel() = default;
+const Release& ReleaseModel::release() const { return impl_->release; }
+const Recipe& ReleaseModel::recipe() const { return impl_->recipe; }
+const rec::Database& ReleaseModel::database() const { return impl_->db; }
+const rec::Weights* ReleaseModel::weights() const { return impl_->weights ? &*impl_->weights : nullptr; }
+const rec::Recognizer& ReleaseModel::recognizer(bool weighted) const {
+  return weighted ? *impl_->weighted : *impl_->unweighted;
+}
+
+const TriMesh& ReleaseModel::HungMesh(int entry) const {
+  std::lock_guard<std::mutex> lock(impl_->mu);
+  auto it = impl_->meshes.find(entry);
+  if (it == impl_->meshes.end()) {
+    const std::string& id = impl_->db.label(entry).id;
+    it = impl_->meshes.emplace(entry, ReadMesh(impl_->release.EntryPath(id, "hang.ply"))).first;
+  }
+  return it->second;
+}
+
+std::vector<AnchorPoint> ReleaseModel::InstanceAnchors(const std::string& instance) const {
+  std::vector<AnchorPoint> out;
+  for (const auto& [key, uv] : impl_->uvs)
+    if (key.first == instance) out.push_back({key.second, uv});
+  return out;
+}
+
+int ReleaseModel::AnchorVertex(const std::string& instance, const std::string& anchor) const {
+  for (int i = 0; i < impl_->db.size(); ++i) {
+    const rec::EntryLabel& l = impl_->db.label(i);
+    if (l.instance == instance && l.anchor == anchor) return l.anchor_vertex;
+  }
+  return -1;
+}
+
+std::vector<std::string> ReleaseModel::TestCategories() const {
+  std::vector<std::string> out;
+  for (const Job& j : ExpandJobs(impl_->recipe)) {
+    if (j.split != "test") continue;
+    const GarmentSpec& g = impl_->recipe.garments[j.garment];
+    const std::string c = g.template_name.empty() ? g.category : FindTemplate(g.template_name)->category;
+    if (std::find(out.begin(), out.end(), c) == out.end()) out.push_back(c);
+  }
+  return out;
+}
+
+const ReleaseModel::TestGarment& ReleaseModel::TestInstance(const std::string& category) const {
+  std::lock_guard<std::mutex> lock(impl_->mu);
+  auto it = impl_->tests.find(category);
+  if (it != impl_->tests.end()) return it->second;
+  const Recipe& r = impl_->recipe;
+  for (const Job& j : ExpandJobs(r)) {
+    if (j.split != "test") continue;
+    const GarmentSpec& g = r.garments[j.garment];
+    Garment garment = MakeJobGarment(r, j);
+    if (garment.category != category) continue;
+    TestGarment t;
+    t.garment = std::move(garment);
+    t.material = j.material;
+    t.hang = HangOptionsFor(r, g);
+    t.fit = FitMaterial(t.material, t.hang);
+    t.instance = j.instance_name;
+    return impl_->tests.emplace(category, std::move(t)).first->second;
+  }
+  throw Error(impl_->release.dir().string() + ": the release's test split has no garment of category '" + category +
+              "' to unfold");
+}
+
+// ------------------------------------------------------------------ the loop
+
+Json StageTimes::ToJson() const {
+  return {{"simulation", simulation}, {"sensing", sensing},           {"fusion", fusion},
+          {"recognition", recognition}, {"registration", registration}, {"refinement", refinement}};
+}
+
+namespace {
+
+// The recipe's sensing for the test split (what the simulated Kinect is).
+SweepOptions TestSensing(const Recipe& r) {
+  std::string name;
+  for (const auto& s : r.splits)
+    if (s.name == "test") name = s.sensing;
+  auto it = r.sensing.find(name);
+  if (it == r.sensing.end()) it = r.sensing.find("sensed");
+  return it == r.sensing.end() ? SweepOptions{} : it->second.sweep;
+}
+
+hw::GripperPose SensingPose(double height) {
+  hw::GripperPose p;
+  p.position = Vec3(0, height, 0);
+  return p;
+}
+
+hw::GripperPose Home(int arm) {
+  hw::GripperPose p;
+  p.position = Vec3(arm == 0 ? 0.45 : -0.45, 1.3, 0.35);
+  return p;
+}
+
+// Whether the two pinched points are a desired pair of the garment (truth).
+bool IsDesiredPair(const Garment& g, const std::vector<DesiredPair>& pairs, const Vec2& a, const Vec2& b, double tol) {
+  for (const DesiredPair& d : pairs) {
+    const Anchor* l = g.FindAnchor(d.first);
+    const Anchor* r = g.FindAnchor(d.second);
+    if (!l || !r) continue;
+    if (((a - l->uv).norm() <= tol && (b - r->uv).norm() <= tol) ||
+        ((a - r->uv).norm() <= tol && (b - l->uv).norm() <= tol))
+      return true;
+  }
+  return false;
+}
+
+struct TrialRun {
+  const ReleaseModel& model;
+  const LoopOptions& o;
+  const std::string& category;
+  uint64_t seed;
+  hw::SimWorld& world;
+  TrialResult& res;
+  const std::function<void(const std::string&)>& progress;
+  int holder = 0;
+
+  void Say(const std::string& s) const {
+    if (progress) progress(s);
+  }
+
+  // Picks the garment up from the table at a seeded random front-layer point.
+  void FirstGrasp() {
+    const Garment& g = world.garment();
+    std::vector<int> front;
+    for (int i = 0; i < g.mesh.NumVertices(); ++i)
+      if (g.layer.empty() || g.layer[i] == 0) front.push_back(i);
+    Rng rng(DeriveSeed(seed, "first_grasp"));
+    hw::Arm& a = world.arm(0);
+    for (int attempt = 0; attempt < 5; ++attempt) {
+      const int v = front[rng.Below(front.size())];
+      hw::GripperPose p;
+      p.position = world.mesh().V.row(v).transpose();
+      a.Move(hw::StraightPath(a.pose(), p));
+      if (a.Close().outcome != hw::GraspOutcome::kMiss) break;
+      a.Open();
+    }
+    if (!a.HoldsCloth()) throw Error("first grasp: five attempts missed the garment");
+    res.first_grasp_uv = *world.HeldUv(0);
+    a.Move(hw::StraightPath(a.pose(), SensingPose(o.sensing_height)));
+    holder = 0;
+  }
+
+  // Sweep → fusion → feature → recognition → registration → plan; fills `s`.
+  // Returns false (with res.failure) when no plan can be made.
+  bool SenseAndPlan(Step& s, int iteration, const rec::Database& db) {
+    const Recipe& recipe = model.recipe();
+    hw::Arm& h = world.arm(holder);
+    auto t0 = Clock::now();
+    const Sweep sweep = world.camera().CaptureTurning(h, o.capture, DeriveSeed(seed, "sweep/" + std::to_string(iteration)));
+    res.times.sensing += Since(t0);
+    s.frames = static_cast<int>(sweep.frames.size());
+    t0 = Clock::now();
+    FusionOptions fo = recipe.fusion;
+    fo.threads = 0;
+    const FusionResult fused = FuseFrames(sweep.frames, sweep.intrinsics, fo, DeriveSeed(seed, "fusion/" + std::to_string(iteration)));
+    if (fused.mesh.NumFaces() == 0) {
+      res.failure = "fusion: the reconstruction is empty";
+      return false;
+    }
+    const Tsdf& tsdf = *fused.tsdf;
+    const Feature f = ExtractFeature(fused.mesh.V, [&tsdf](const Vec3& p) { return tsdf.Sdf(p); }, recipe.feature);
+    res.times.fusion += Since(t0);
+    s.recon = fused.mesh;
+    rec::Code code;
+    code.layers = f.layers, code.rings = f.rings, code.sectors = f.sectors, code.words = f.words;
+
+    t0 = Clock::now();
+    rec::RecognizeOptions ro;
+    ro.category = o.category_known ? category : "";
+    ro.weighted = o.weighted;
+    s.recognition = model.recognizer(o.weighted).Recognize(code, ro);
+    res.times.recognition += Since(t0);
+    const rec::Recognition& r = s.recognition;
+    s.recognised_right = r.category == category && r.anchor == s.held_true_anchor;
+    const auto pairs = DesiredPairsFor(r.category);
+    if (pairs.empty()) {
+      res.failure = "recognised as '" + r.category + "', which has no desired anchor pair";
+      return false;
+    }
+    const ScoreTable table(model.InstanceAnchors(r.best.instance), pairs, o.objective);
+    const int current = table.IndexOf(r.anchor);
+    DRAPE_CHECK(current >= 0, "recognised anchor not among its instance's anchors");
+    const ScoreTable::Next next = table.BestNext(current);
+    if (next.anchor < 0) {
+      res.failure = "no anchor of " + r.best.instance + " is far enough from " + r.anchor + " to regrasp";
+      return false;
+    }
+    s.current_anchor = r.anchor;
+    s.next_anchor = table.anchor(next.anchor).label;
+    s.f = next.f;
+
+    // Registration: the matched database mesh, turned by the recognised rotation.
+    t0 = Clock::now();
+    TriMesh src = model.HungMesh(r.best.entry);
+    const double yaw = 2 * M_PI * r.best.rotation / db.sectors();
+    const Eigen::Matrix3d R = Eigen::AngleAxisd(yaw, Vec3::UnitY()).toRotationMatrix();
+    for (int i = 0; i < src.NumVertices(); ++i) src.V.row(i) = (R * src.V.row(i).transpose()).transpose();
+    registration::RegistrationOptions rgo;
+    rgo.nonrigid = o.nonrigid;
+    registration::RegistrationResult reg;
+    try {
+      reg = registration::Register(src, s.recon, rgo);
+    } catch (const NumericalError& e) {
+      rgo.nonrigid = false;  // fall back to the rigid result
+      reg = registration::Register(src, s.recon, rgo);
+      s.note = std::string("non-rigid registration failed (") + e.what() + "); rigid used";
+    }
+    s.registered = o.nonrigid ? reg.nonrigid : reg.rigid;
+    s.icp_rms = reg.report.icp.rms_after;
+    const int v = model.AnchorVertex(r.best.instance, s.next_anchor);
+    if (v < 0 || v >= s.registered.NumVertices()) {
+      res.failure = "the database has no vertex for anchor " + s.next_anchor + " of " + r.best.instance;
+      return false;
+    }
+    // Score colouring of the registered mesh: each vertex's pattern point is unknown
+    // here, so colour by its distance to the desired anchors' registered vertices.
+    s.point_score.assign(s.registered.NumVertices(), 0.0);
+    for (const DesiredPair& d : pairs) {
+      for (const std::string& lab : {d.first, d.second}) {
+        const int av = model.AnchorVertex(r.best.instance, lab);
+        if (av < 0 || av >= s.registered.NumVertices()) continue;
+        const Vec3 c = s.registered.V.row(av);
+        const double sig = 1.0 / (2 * o.objective.sigma_length * o.objective.sigma_length);
+        for (int i = 0; i < s.registered.NumVertices(); ++i)
+          s.point_score[i] = std::max(s.point_score[i], std::exp(-sig * (s.registered.V.row(i).transpose() - c).squaredNorm()));
+      }
+    }
+    // Map onto the reconstruction: the closest point of the fused surface.
+    const registration::ExactClosestPoint onto(s.recon);
+    const Vec3 p_obj = onto.Query(s.registered.V.row(v).transpose()).point;
+    res.times.registration += Since(t0);
+    const hw::GripperPose hp = h.pose();
+    s.predicted = Eigen::AngleAxisd(hp.wrist, Vec3::UnitY()).toRotationMatrix() * p_obj + hp.position;
+    return true;
+  }
+
+  // IR scan across the predicted point with the free gripper; returns the grasp pose.
+  hw::GripperPose Refine(Step& s, int free_arm) {
+    const auto t0 = Clock::now();
+    const Vec3 axis = world.arm(holder).pose().position;
+    Vec3 radial(s.predicted.x() - axis.x(), 0, s.predicted.z() - axis.z());
+    if (radial.norm() < 0.02) radial = Vec3(0, 0, 1);  // on the axis: come from the camera's side
+    const Vec3 a = -radial.normalized();
+    const Vec3 c = Vec3::UnitY().cross(a).normalized();
+    s.approach = a;
+    hw::GripperPose g;
+    g.approach = a;
+    g.closing = c;
+    g.position = s.predicted + a * o.grasp_depth;
+    if (o.ir_refinement) {
+      hw::Arm& arm = world.arm(free_arm);
+      hw::RangeSensor& ir = world.ir(free_arm);
+      const Vec3 base = s.predicted - a * o.standoff;
+      hw::GripperPose scan = g;
+      for (int i = -o.refine.half_width_samples; i <= o.refine.half_width_samples; ++i) {
+        scan.position = base + c * (i * o.refine.sample_spacing);
+        arm.Move(i == -o.refine.half_width_samples ? hw::StraightPath(arm.pose(), scan) : hw::Path{{0.016, scan}});
+        s.ir_ranges.push_back(ir.Read());
+      }
+      s.refine = RefineScan(s.ir_ranges, o.refine);
+      if (s.refine.valid) {
+        // Surface at range + mount.z along the approach from the jaw centre.
+        g.position = base + c * s.refine.offset + a * (s.refine.range + ir.mount().z() + o.grasp_depth);
+      } else {
+        s.note += (s.note.empty() ? "" : "; ") + std::string("no IR reading in the whole scan: registered point used");
+      }
+    }
+    res.times.refinement += Since(t0);
+    s.grasp = g.position;
+    return g;
+  }
+
+  void Run() {
+    const rec::Database& db = model.database();
+    FirstGrasp();
+    for (int it = 0; it < o.max_regrasps; ++it) {
+      Step s;
+      s.held_uv = *world.HeldUv(holder);
+      s.held_true_anchor = NearestAnchor(world.garment(), s.held_uv);
+      Say("step " + std::to_string(it + 1) + ": sensing");
+      const bool planned = SenseAndPlan(s, it, db);
+      if (!planned) {
+        res.steps.push_back(std::move(s));
+        return;
+      }
+      Say("step " + std::to_string(it + 1) + ": " + s.current_anchor + " → " + s.next_anchor);
+      const int free_arm = 1 - holder;
+      hw::Arm& fa = world.arm(free_arm);
+      const hw::GripperPose g = Refine(s, free_arm);
+      fa.Move(hw::StraightPath(fa.pose(), g));
+      s.regrasp = fa.Close();
+      ++res.regrasps;
+      if (s.regrasp.outcome == hw::GraspOutcome::kMiss) {
+        fa.Open();
+        fa.Move(hw::StraightPath(fa.pose(), Home(free_arm)));
+        res.steps.push_back(std::move(s));
+        continue;
+      }
+      s.regrasp_uv = world.HeldUv(free_arm);
+      s.regrasp_true_anchor = NearestAnchor(world.garment(), *s.regrasp_uv);
+      if (s.f >= o.objective.xi) {
+        res.converged = true;
+        res.final_f = s.f;
+        res.steps.push_back(std::move(s));
+        return;
+      }
+      // Not there yet: the old grasp lets go, the garment hangs from the new one.
+      world.arm(holder).Open();
+      s.released_other = true;
+      world.arm(holder).Move(hw::StraightPath(world.arm(holder).pose(), Home(holder)));
+      fa.Move(hw::StraightPath(fa.pose(), SensingPose(o.sensing_height)));
+      res.steps.push_back(std::move(s));
+      holder = free_arm;
+      if (world.state() == hw::ClothState::kLost) {
+        res.failure = "the garment was lost";
+        return;
+      }
+    }
+    res.failure = "no desired pair after " + std::to_string(o.max_regrasps) + " regrasps";
+  }
+};
+
+}  // namespace
+
+TrialResult RunTrial(const ReleaseModel& model, const std::string& category, const LoopOptions& options, uint64_t seed,
+                     const std::function<void(const std::string&)>& progress) {
+  options.Validate();
+  const auto t_start = Clock::now();
+  if (DesiredPairsFor(category).empty())
+    throw Error("unfold: category '" + category + "' has no desired anchor pair (long_sleeve_shirt, pants, shorts, towel have)");
+  if (!model.database().HasCategory(category))
+    throw Error("unfold: the release's database has no '" + category + "' garments");
+  const auto& tg = model.TestInstance(category);
+  hw::SimOptions so;
+  so.hang = tg.hang;
+  so.camera = TestSensing(model.recipe());
+  TrialResult res;
+  res.category = category;
+  res.instance = tg.instance;
+  res.seed = seed;
+  hw::SimWorld world(tg.garment, tg.material, tg.fit, so, DeriveSeed(seed, "world"));
+  TrialRun run{model, options, category, seed, world, res, progress};
+  try {
+    run.Run();
+  } catch (const NumericalError& e) {
+    res.failure = std::string("simulation: ") + e.what();
+  }
+  bool all_held = res.regrasps > 0;
+  for (const Step& s : res.steps)
+    if (s.regrasp.outcome == hw::GraspOutcome::kMiss && !s.current_anchor.empty()) all_held = false;
+  res.regrasp_success = all_held;
+  res.recognition_success = !res.steps.empty() && res.steps.front().recognised_right;
+  for (int k = 0; k < 2; ++k)
+    if (auto uv = world.HeldUv(k)) res.final_uv.push_back(*uv);
+  res.unfolded = res.converged && res.final_uv.size() == 2 &&
+                 IsDesiredPair(world.garment(), DesiredPairsFor(category), res.final_uv[0], res.final_uv[1],
+                               options.success_distance);
+  if (res.converged && options.place_flat && world.state() == hw::ClothState::kHeldByTwo) {
+    if (progress) progress("placing flat");
+    try {
+      const hw::PlaceFlatReport pr = world.PlaceFlat(options.place);
+      res.placed = pr.ok;
+      res.place_failure = pr.failure;
+      if (pr.ok) res.coverage = Coverage(world.mesh(), world.garment());
+    } catch (const NumericalError& e) {
+      res.place_failure = e.what();
+    }
+  }
+  res.times.simulation = world.simulation_seconds();
+  res.final_state = hw::ClothStateName(world.state());
+  res.final_mesh = world.mesh();
+  res.seconds = Since(t_start);
+  return res;
+}
+
+Json TrialResult::ToJson() const {
+  Json steps_j = Json::array();
+  for (const Step& s : steps) {
+    Json j{{"held_uv", J(s.held_uv)},
+           {"held_true_anchor", s.held_true_anchor},
+           {"frames", s.frames},
+           {"recon_vertices", s.recon.NumVertices()},
+           {"recognition", rec::ToJson(s.recognition)},
+           {"recognised_right", s.recognised_right},
+           {"icp_rms", s.icp_rms},
+           {"current_anchor", s.current_anchor},
+           {"next_anchor", s.next_anchor},
+           {"f", s.f},
+           {"predicted", J(s.predicted)},
+           {"grasp", J(s.grasp)},
+           {"approach", J(s.approach)},
+           {"ir_ranges", s.ir_ranges},
+           {"ir_response", s.refine.response},
+           {"ir_best_offset", s.refine.offset},
+           {"regrasp", {{"outcome", hw::GraspOutcomeName(s.regrasp.outcome)}, {"captured", s.regrasp.captured},
+                        {"note", s.regrasp.note}}},
+           {"regrasp_uv", s.regrasp_uv ? J(*s.regrasp_uv) : Json(nullptr)},
+           {"regrasp_true_anchor", s.regrasp_true_anchor},
+           {"released_other", s.released_other},
+           {"note", s.note}};
+    // No reading (nothing in range) → null.
+    for (size_t i = 0; i < s.ir_ranges.size(); ++i)
+      if (!std::isfinite(s.ir_ranges[i])) j["ir_ranges"][i] = nullptr;
+    steps_j.push_back(std::move(j));
+  }
+  Json fu = Json::array();
+  for (const Vec2& u : final_uv) fu.push_back(J(u));
+  return {{"category", category},
+          {"instance", instance},
+          {"seed", seed},
+          {"first_grasp_uv", J(first_grasp_uv)},
+          {"steps", steps_j},
+          {"regrasps", regrasps},
+          {"recognition_success", recognition_success},
+          {"regrasp_success", regrasp_success},
+          {"converged", converged},
+          {"unfolded", unfolded},
+          {"final_f", final_f},
+          {"final_uv", fu},
+          {"final_state", final_state},
+          {"placed", placed},
+          {"place_failure", place_failure},
+          {"coverage", placed ? Json(coverage) : Json(nullptr)},
+          {"failure", failure},
+          {"timing", times.ToJson()},
+          {"seconds", seconds}};
+}
+
+}  // namespace drape::unfolding

@@ -1,0 +1,174 @@
+// The paper's Algorithm "Iterative Procedure for Regrasping" on (simulated) hardware:
+//
+//   pick up at a random point with one gripper;
+//   repeat: turn the garment in front of the Kinect → fuse (TSDF) → feature → recognise
+//     the grasped anchor (learned weights) → register the matched database mesh to the
+//     reconstruction (scale + ICP + non-rigid) → f over anchor pairs: the best next
+//     anchor j* for the recognised current one → map j* through the registration onto
+//     the reconstruction → IR scan across it, LoG minimum (local refinement) → the free
+//     gripper takes it; if f(current, j*) ≥ ξ keep both (done), else the other gripper
+//     lets go and the garment hangs from the new grasp;
+//   until f ≥ ξ or max_regrasps regrasps.
+//
+// Every decision uses only what the robot senses (sweeps, IR readings, tactile checks)
+// and the database; the simulation's ground truth (which point of the pattern each
+// gripper pinches) is recorded beside it for evaluation.
+#pragma once
+
+#include <filesystem>
+#include <functional>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "common/json.h"
+#include "generator/fusion/fusion.h"
+#include "generator/feature/feature.h"
+#include "generator/recipe/recipe.h"
+#include "generator/release/release.h"
+#include "runtime/hardware/hardware.h"
+#include "runtime/hardware/sim.h"
+#include "runtime/recognition/recognizer.h"
+#include "runtime/registration/registration.h"
+#include "runtime/unfolding/objective.h"
+#include "runtime/unfolding/refine.h"
+
+namespace drape::unfolding {
+
+struct LoopOptions {
+  ObjectiveOptions objective;
+  RefineOptions refine;
+  int max_regrasps = 4;         // regrasp attempts before giving up
+  bool ir_refinement = true;    // ablation: false grasps the registered point directly
+  bool nonrigid = true;         // ablation: false = rigid-only registration (R)
+  bool weighted = true;         // ablation: false = unweighted recognition (Eq. match)
+  bool category_known = false;  // true: recognition is told the category
+  hardware::CaptureOptions capture;  // frames per turn (paper ~550 both ways)
+  double standoff = 0.12;       // m: the IR scan runs this far before the predicted point
+  double grasp_depth = 0.01;    // m: jaws go this far past the surface reading
+  double sensing_height = 1.5;  // m: the holding gripper's height while the garment turns
+  // Evaluation only: unfolded when each gripper pinches within this distance (m, on the
+  // flat pattern) of the desired pair's anchors.
+  double success_distance = 0.06;
+  bool place_flat = true;       // lay the garment on the table when f ≥ ξ (cloth core)
+  hardware::PlaceFlatOptions place;
+  void Validate() const;  // throws drape::Error naming the bad field
+};
+
+// What the runtime knows of a release: its database, weights, recipe options and
+// database meshes (read on first use).
+class ReleaseModel {
+ public:
+  // Throws drape::Error if the release has no recipe or no usable train entry, or if
+  // `weights_path` is given and cannot be read.
+  ReleaseModel(const std::filesystem::path& release_dir, const std::filesystem::path& weights_path);
+  ~ReleaseModel();
+
+  const Release& release() const;
+  const Recipe& recipe() const;
+  const recognition::Database& database() const;
+  const recognition::Weights* weights() const;  // null without weights
+  const recognition::Recognizer& recognizer(bool weighted) const;
+  // Database entry's hung mesh (object frame), cached.
+  const TriMesh& HungMesh(int entry) const;
+  // Anchors (label, uv) of a database garment instance, in label order.
+  std::vector<AnchorPoint> InstanceAnchors(const std::string& instance) const;
+  // Vertex of `anchor` in the meshes of database `instance`'s entries; -1 if unknown.
+  int AnchorVertex(const std::string& instance, const std::string& anchor) const;
+  // The category's test garment instances (from the recipe's test split): garment,
+  // material and its cloth fit. Throws drape::Error if the category has none.
+  struct TestGarment {
+    Garment garment;
+    Material material;
+    MaterialFit fit;
+    HangOptions hang;
+    std::string instance;
+  };
+  std::vector<std::string> TestCategories() const;
+  const TestGarment& TestInstance(const std::string& category) const;
+
+  struct Impl;
+
+ private:
+  std::unique_ptr<Impl> impl_;
+};
+
+// Seconds of one trial by stage (wall clock; timing only).
+struct StageTimes {
+  double simulation = 0, sensing = 0, fusion = 0, recognition = 0, registration = 0, refinement = 0;
+  Json ToJson() const;
+};
+
+// One pass of the loop.
+struct Step {
+  // Truth: where the holding gripper pinches the pattern, and the nearest anchor.
+  Vec2 held_uv = Vec2::Zero();
+  std::string held_true_anchor;
+  // Sensing and recognition.
+  int frames = 0;
+  TriMesh recon;                // object frame of the holder
+  recognition::Recognition recognition;
+  bool recognised_right = false;  // category right and anchor = the nearest true anchor
+  // Registration of the matched database mesh.
+  TriMesh registered;           // the database mesh after R (+N), object frame
+  std::vector<double> point_score;  // per registered vertex: ScoreTable::PointScore of its uv
+  double icp_rms = 0;
+  // Plan.
+  std::string current_anchor, next_anchor;
+  double f = 0;                 // f(current, next)
+  Vec3 predicted = Vec3::Zero();  // world
+  // Refinement.
+  std::vector<double> ir_ranges;
+  RefineResult refine;
+  Vec3 grasp = Vec3::Zero();    // world, where the free gripper closed
+  Vec3 approach = Vec3::Zero();
+  // Regrasp.
+  hardware::GraspReport regrasp;
+  std::optional<Vec2> regrasp_uv;  // truth: pinched point of the pattern
+  std::string regrasp_true_anchor;
+  bool released_other = false;
+  std::string note;
+};
+
+struct TrialResult {
+  std::string category, instance;
+  uint64_t seed = 0;
+  Vec2 first_grasp_uv = Vec2::Zero();
+  std::vector<Step> steps;
+  int regrasps = 0;              // regrasp attempts made
+  bool recognition_success = false;  // first recognition right
+  bool regrasp_success = false;  // every regrasp attempt pinched cloth
+  bool converged = false;        // f ≥ ξ reached
+  bool unfolded = false;         // truth: both grippers within success_distance of a desired pair
+  double final_f = 0;
+  std::vector<Vec2> final_uv;    // truth: pinched points at the end
+  std::string failure;           // why the trial ended early ("" if it ran to the end)
+  std::string final_state;
+  TriMesh final_mesh;            // world frame (laid on the table when placed)
+  // Placing flat (cloth core) once f ≥ ξ: coverage = top-down silhouette area of the
+  // garment as it lies / that of the garment laid out flat (the metric of current
+  // cloth-unfolding work); -1 when not placed.
+  bool placed = false;
+  std::string place_failure;
+  double coverage = -1;
+  StageTimes times;
+  double seconds = 0;
+  Json ToJson() const;           // the trace (no meshes)
+};
+
+// Runs one trial on a fresh simulated world of the category's test garment. The first
+// grasp is a random point of the garment (seeded). `progress` (optional) is told each
+// step. Numerical failures of the simulation end the trial with `failure` set.
+TrialResult RunTrial(const ReleaseModel& model, const std::string& category, const LoopOptions& options,
+                     uint64_t seed, const std::function<void(const std::string&)>& progress = {});
+
+// Top-down silhouette area of `lying` (world mesh on a table) over that of `garment`
+// laid out flat, both rasterised at `metres_per_pixel`.
+double Coverage(const TriMesh& lying, const Garment& garment, double metres_per_pixel = 0.003);
+
+// The test garment's labelled anchor nearest a pattern point.
+std::string NearestAnchor(const Garment& g, const Vec2& uv);
+
+}  // namespace drape::unfolding

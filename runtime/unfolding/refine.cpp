@@ -1,0 +1,76 @@
+#include "runtime/unfolding/refine.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "common/error.h"
+
+namespace drape::unfolding {
+
+void RefineOptions::Validate() const {
+  if (!(sigma_samples >= 0.5 && sigma_samples <= 1000)) throw Error("refine.sigma_samples: must be in [0.5, 1000]");
+  if (!(sample_spacing > 0 && sample_spacing < 1)) throw Error("refine.sample_spacing: must be in (0, 1) m");
+  if (half_width_samples < 1 || half_width_samples > 100000) throw Error("refine.half_width_samples: must be in 1..100000");
+}
+
+std::vector<double> LaplacianOfGaussian(double sigma) {
+  DRAPE_CHECK(sigma > 0, "sigma must be positive");
+  const int r = static_cast<int>(std::ceil(4 * sigma));
+  std::vector<double> k(2 * r + 1);
+  const double s2 = sigma * sigma;
+  for (int i = -r; i <= r; ++i) {
+    const double x2 = double(i) * i;
+    k[i + r] = (x2 / (s2 * s2) - 1 / s2) * std::exp(-x2 / (2 * s2));
+  }
+  return k;
+}
+
+std::vector<double> Convolve(const std::vector<double>& signal, const std::vector<double>& kernel) {
+  const int n = static_cast<int>(signal.size()), m = static_cast<int>(kernel.size()), r = m / 2;
+  std::vector<double> out(n, 0.0);
+  if (n == 0) return out;
+  for (int i = 0; i < n; ++i) {
+    double s = 0;
+    for (int k = 0; k < m; ++k) s += signal[std::clamp(i - k + r, 0, n - 1)] * kernel[k];
+    out[i] = s;
+  }
+  return out;
+}
+
+RefineResult RefineScan(const std::vector<double>& ranges, const RefineOptions& options) {
+  options.Validate();
+  if (ranges.empty()) throw Error("refine: the IR scan has no readings");
+  const int n = static_cast<int>(ranges.size());
+  auto ok = [&](int i) { return std::isfinite(ranges[i]) && ranges[i] > 0; };
+  RefineResult r;
+  r.height.assign(n, 0.0);
+  // Nearest valid reading for the missing ones (ties: the earlier sample).
+  std::vector<int> src(n, -1);
+  int last = -1;
+  for (int i = 0; i < n; ++i) {
+    if (ok(i)) last = i;
+    src[i] = last;
+  }
+  last = -1;
+  for (int i = n - 1; i >= 0; --i) {
+    if (ok(i)) last = i;
+    if (last >= 0 && (src[i] < 0 || last - i < i - src[i])) src[i] = last;
+  }
+  const double centre = 0.5 * (double(n) - 1);
+  if (src[0] < 0) {  // nothing in range anywhere
+    r.best = n / 2;
+    r.offset = (r.best - centre) * options.sample_spacing;
+    r.response.assign(n, 0.0);
+    return r;
+  }
+  r.valid = true;
+  for (int i = 0; i < n; ++i) r.height[i] = -ranges[src[i]];
+  r.response = Convolve(r.height, LaplacianOfGaussian(options.sigma_samples));
+  r.best = static_cast<int>(std::min_element(r.response.begin(), r.response.end()) - r.response.begin());
+  r.offset = (r.best - centre) * options.sample_spacing;
+  r.range = -r.height[r.best];
+  r.measured = ok(r.best);
+  return r;
+}
+
+}  // namespace drape::unfolding

@@ -1,0 +1,57 @@
+// Local refinement of a regrasp point with the IR range sensor (paper §"Grasping Point
+// Localization" and §"Search for Best Grasping Point by Local Curvature"): the gripper
+// scans horizontally across the predicted point, the 1-D range signal is convolved with
+// the Laplacian-of-Gaussian kernel
+//
+//   g''(x) = (x²/σ⁴ − 1/σ²) · exp(−x²/(2σ²)),
+//
+// and the grasp goes where the response is lowest: a fold standing out towards the
+// gripper, as wide as the gripper's opening, is what it can pinch.
+//
+// Units. The paper gives σ = 10 for a gripper opening of ≈ 8 cm without units; here x is
+// the sample index along the scan and σ = 10 samples, with samples 4 mm apart, so σ is
+// 4 cm and the kernel's negative lobe (|x| < σ) spans 8 cm, the gripper's opening.
+// Signal. The sensor reads a range r (metres, larger = farther). We convolve the
+// surface's height towards the sensor, h = −r: at the crest of a ridge h has a maximum,
+// h'' < 0, and (h ∗ g'') = (h'' ∗ Gaussian) is at its minimum there — the paper's
+// "lowest point is where the gripper should grasp".
+#pragma once
+
+#include <vector>
+
+namespace drape::unfolding {
+
+struct RefineOptions {
+  double sigma_samples = 10;     // σ of g'' in samples (paper: 10)
+  double sample_spacing = 0.004; // m between IR readings along the scan
+  int half_width_samples = 25;   // scan from −25 to +25 samples: ±10 cm around the prediction
+  void Validate() const;         // throws drape::Error naming the bad field
+};
+
+// g''(x) sampled at x = −radius … radius (2·radius + 1 values), radius = ⌈4σ⌉.
+std::vector<double> LaplacianOfGaussian(double sigma);
+
+// (signal ∗ kernel)[i] = Σ_k signal[i − k + r]·kernel[k] with the kernel centred
+// (r = kernel.size()/2) and the signal extended by its end values (no edge artefacts
+// from zero padding). Same length as signal.
+std::vector<double> Convolve(const std::vector<double>& signal, const std::vector<double>& kernel);
+
+// Missing readings (nothing within the sensor's range: off the garment's edge) take the
+// nearest valid reading, so running off the cloth reads as more of the same surface
+// rather than as a deep step, whose edge the filter would otherwise take for a fold.
+struct RefineResult {
+  bool valid = false;            // at least one reading
+  std::vector<double> height;    // −range per sample, m (missing readings filled as above)
+  std::vector<double> response;  // height ∗ g''
+  int best = -1;                 // argmin of the response
+  double offset = 0;             // m along the scan from its centre to the best sample
+  double range = 0;              // m, the (filled) reading at the best sample
+  bool measured = false;         // the best sample has a reading of its own (not filled)
+};
+
+// ranges: readings in scan order, centred on the predicted point, +inf or ≤ 0 = none.
+// Throws drape::Error on an empty scan; with no reading at all, valid = false and best
+// is the centre.
+RefineResult RefineScan(const std::vector<double>& ranges, const RefineOptions& options);
+
+}  // namespace drape::unfolding

@@ -1,0 +1,33 @@
+// The paper's unfolding table (Fig. "garment_stat_unfold"): per category the trials,
+// successful recognition, successful regrasping, successful unfolding and the average
+// number of regrasps on success, next to the paper's; plus the variants (ablations).
+#pragma once
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include "common/json.h"
+#include "runtime/unfolding/loop.h"
+
+namespace drape::unfolding {
+
+// One row: counts over trials of one category under one variant.
+struct TableRow {
+  std::string category, variant;
+  int trials = 0, recognised = 0, regrasped = 0, unfolded = 0;
+  double regrasps_on_success = 0;  // mean over unfolded trials (0 if none)
+  int placed = 0;                  // trials laid on the table
+  double coverage = 0;             // mean coverage over placed trials (0 if none)
+  double seconds = 0;              // mean wall seconds per trial
+  StageTimes times;                // summed
+};
+
+TableRow Summarise(const std::string& category, const std::string& variant, const std::vector<TrialResult>& trials);
+
+// report.json: {"rows": [...], "paper": {...}}.
+Json ReportJson(const std::vector<TableRow>& rows);
+// Markdown: the table per variant next to the paper's average row.
+std::string ReportMarkdown(const std::vector<TableRow>& rows);
+
+}  // namespace drape::unfolding

@@ -1,0 +1,28 @@
+#!/usr/bin/env bash
+# One short unfolding trial on the quickstart release (towel; 36 Kinect frames per turn,
+# at most 2 regrasps), its trace and pictures, and the command's errors on bad input.
+source "$(dirname "$0")/e2e_lib.sh"
+rel="$WORK/../quickstart_reference/quickstart"
+[ -f "$rel/dataset.json" ] || fail "the quickstart fixture did not build $rel"
+"$DRAPE" calibrate "$rel" --out "$WORK/calibration" > /dev/null
+w="$WORK/calibration/weights.json"
+rm -rf "$WORK/out"
+"$DRAPE" unfold "$rel" --weights "$w" --category towel --trials 1 --frames 36 --max-regrasps 2 -o "$WORK/out"
+t="$WORK/out/towel/trial_1"
+for f in trace.json pickup.png step_1.png final.png; do
+  [ -s "$t/$f" ] || fail "unfold wrote no $t/$f"
+done
+grep -q '"regrasps"' "$t/trace.json" || fail "trace has no regrasp count"
+grep -q 'successful unfolding' "$WORK/out/report.md" || fail "report has no table"
+
+# Bad input: a clear error, exit status 1.
+expect_error() {
+  local pattern=$1
+  shift
+  if out=$("$DRAPE" unfold "$rel" "$@" 2>&1); then fail "unfold $* succeeded"; fi
+  echo "$out" | grep -q "$pattern" || fail "unfold $*: expected '$pattern', got: $out"
+}
+expect_error "unknown category" --weights "$w" --category socks
+expect_error "no desired anchor pair" --weights "$w" --category tshirt
+expect_error "database has no 'pants'" --weights "$w" --category pants
+expect_error "weights" --weights "$WORK/none/weights.json" --category towel
