@@ -173,6 +173,7 @@ void RecordRun(const Run& run, HangStats& st) {
   st.ccd_collisions = t.ccd_collisions;
   st.fail_safe_steps = t.fail_safe_steps;
   st.remaining_collisions = t.remaining_collisions;
+  st.strain_violation_steps = t.strain_violation_steps;
   st.bullet_seconds = t.bullet_seconds;
   st.collision_seconds = t.collision_seconds;
   st.broad_seconds = t.broad_seconds;

@@ -100,6 +100,7 @@ Json HangStatsJson(const HangStats& s) {
           {"ccd_collisions", s.ccd_collisions},
           {"fail_safe_steps", s.fail_safe_steps},
           {"remaining_collisions", s.remaining_collisions},
+          {"strain_violation_steps", s.strain_violation_steps},
           {"retries", s.retries}};
 }
 

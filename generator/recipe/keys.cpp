@@ -66,7 +66,7 @@ const std::vector<OptionKey<HangOptions>>& SimulationKeys() {
       {"damping", Ref(&H::damping), "fraction per step", "Bullet kDP: node velocity removed per step"},
       {"self_collision", Ref(&H::self_collision), "bool", "the collision handler after every step (off only to measure its cost: no guarantee)"},
       {"layer_thickness", Ref(&H::layer_thickness), "m", "vertex–face and edge–edge pairs closer than this are repelled (with repulsion)"},
-      {"repulsion", Ref(&H::repulsion), "bool", "proximity repulsion in the collision handler (off: it re-stretches edges past strain_limit; CCD alone keeps the mesh intersection-free)"},
+      {"repulsion", Ref(&H::repulsion), "bool", "proximity repulsion in the collision handler (off: CCD and impact zones alone keep the mesh intersection-free, layers touch)"},
       {"strain_limit", Ref(&H::strain_limit), "× stretch", "edges clamped to (1 + strain_limit × the material's stretch) × rest length"},
       {"settle.distance", Ref(&H::settle_distance), "m", "settled when no node moved more than this ..."},
       {"settle.window", Ref(&H::settle_window), "s", "... over this window"},
