@@ -116,5 +116,34 @@ TEST(RecognitionEvaluate, CountsTheTableAndWritesTheReport) {
   EXPECT_THROW(Evaluate(db, nullptr, {}, uvs, {}), Error);
 }
 
+TEST(RecognitionEvaluate, SymmetryTwinsSwapWholeSideTokens) {
+  using V = std::vector<std::string>;
+  EXPECT_EQ(SymmetryTwins("left_cuff"), V{"right_cuff"});
+  EXPECT_EQ(SymmetryTwins("right_leg_inner"), V{"left_leg_inner"});
+  EXPECT_EQ(SymmetryTwins("top_left"), (V{"top_right", "bottom_left", "bottom_right"}));
+  EXPECT_EQ(SymmetryTwins("bottom_center"), V{"top_center"});
+  EXPECT_EQ(SymmetryTwins("waist_center"), V{});
+  EXPECT_EQ(SymmetryTwins("crotch"), V{});
+  EXPECT_EQ(SymmetryTwins("leftover_right"), V{"leftover_left"});
+}
+
+// A query matched to its anchor's mirror twin is wrong strictly and right twin credited;
+// one matched to an unrelated anchor is wrong both ways.
+TEST(RecognitionEvaluate, TwinCreditedAccuracy) {
+  Rng rng(11);
+  std::vector<LabelledCode> train = {L("l", "shorts", "s-1", "left_leg", RandomCode(rng)),
+                                     L("r", "shorts", "s-1", "right_leg", RandomCode(rng)),
+                                     L("w", "shorts", "s-1", "waist", RandomCode(rng))};
+  Database db(train);
+  std::vector<EvalQuery> qs(2);
+  qs[0].query = L("q0", "shorts", "s-q", "left_leg", train[1].code);  // looks like right_leg
+  qs[1].query = L("q1", "shorts", "s-q", "waist", train[0].code);     // looks like left_leg
+  const Json r = Evaluate(db, nullptr, qs, {}, {}).report;
+  const Json& c = r["categories"][0];
+  EXPECT_DOUBLE_EQ(c["pose_accuracy"]["both"]["unweighted"].get<double>(), 0.0);
+  EXPECT_DOUBLE_EQ(c["pose_accuracy_twin_credited"]["unweighted"].get<double>(), 0.5);
+  EXPECT_TRUE(c["pose_accuracy_twin_credited"]["learned"].is_null());  // no weights
+}
+
 }  // namespace
 }  // namespace drape::recognition
