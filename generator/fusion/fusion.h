@@ -150,8 +150,8 @@ class Tsdf {
   // centres whose values differ in sign (< 0 vs >= 0), linearly interpolated. Edges
   // touching a surface block or an unobserved-interior block are considered (elsewhere
   // the field is +μ everywhere). What the feature needs from the surface (its extent,
-  // the top layer's centre, the largest radius) without meshing: ~20× cheaper than
-  // ExtractMesh. Deterministic order.
+  // the top layer's centre, the largest radius) without meshing (recognition_bench, 384
+  // voxels/m: 77 CPU-ms against ExtractMesh's 280). Deterministic order.
   Points3 SurfacePoints() const;
   // Bytes of a .vdb file with two FloatGrids: "sdf" (level set class, background
   // +μ, active = observed voxels, unobserved interior as inactive -μ tiles/voxels) and

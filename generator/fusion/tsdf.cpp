@@ -718,13 +718,23 @@ Points3 Tsdf::SurfacePoints() const {
       nb[axis] -= 2;
       low_free[axis] = !block_values(nb).active;
     }
+    // A block of one sign (free space, deep inside, interior blocks) can only cross at
+    // its faces.
+    bool uniform = true;
+    if (self.values) {
+      int negative = 0;
+      for (int o = 0; o < kBlockVoxels; ++o) negative += self.values[o] < 0;
+      uniform = negative == 0 || negative == kBlockVoxels;
+    }
     for (int o = 0; o < kBlockVoxels; ++o) {
       const int l[3] = {o >> 6, (o >> 3) & 7, o & 7};
+      const bool face = l[0] == 0 || l[1] == 0 || l[2] == 0 || l[0] == kBlockDim - 1 || l[1] == kBlockDim - 1 ||
+                        l[2] == kBlockDim - 1;
+      if (uniform && !face) continue;
       const float v = self.values ? self.values[o] : self.constant;
       for (int axis = 0; axis < 3; ++axis) {
         const bool is_high = l[axis] == kBlockDim - 1, is_low = l[axis] == 0 && low_free[axis];
-        // Inside an interior block every value is -μ: only its faces can cross.
-        if (!self.values && !is_high && !is_low) continue;
+        if (uniform && !is_high && !is_low) continue;
         const Eigen::Vector3i a = base + Eigen::Vector3i(l[0], l[1], l[2]);
         if (!is_high) {
           if (self.values) edge(a, v, axis, self.values[o + kStride[axis]]);
