@@ -10,6 +10,7 @@
 #include <iomanip>
 #include <iostream>
 #include <mutex>
+#include <optional>
 #include <sstream>
 #include <thread>
 
@@ -111,6 +112,87 @@ JobCache::~JobCache() = default;
 
 fs::path DefaultOutput(const Recipe& recipe) { return fs::path("datasets") / recipe.name / recipe.version; }
 
+namespace {
+
+// The garment of a job's instance, made (or imported) and size-scaled once per
+// instance: every anchor of it shares it.
+std::shared_ptr<const Garment> InstanceGarment(const Recipe& recipe, const Job& job, JobCache& cache) {
+  const std::string gkey = job.instance_name + "@" + std::to_string(job.size_scale);
+  return cache.impl->garments.Get(gkey, [&] { return MakeJobGarment(recipe, job); });
+}
+
+// The material's stiffness, fitted once per material values and fit resolution.
+std::shared_ptr<const MaterialFit> MaterialFitFor(const Material& m, const HangOptions& hang_options, JobCache& cache) {
+  std::ostringstream fkey;
+  fkey << std::setprecision(17) << m.stretch_percent << "/" << m.friction_deg << "/" << m.area_density << "/"
+       << m.bending_stiffness << "/" << hang_options.fit_edge_length;
+  return cache.impl->fits.Get(fkey.str(), [&] { return FitMaterial(m, hang_options); });
+}
+
+// What a record says about the job itself: garment, instance, material, anchor, seed.
+void RecordJob(Json& rec, const Job& job, const GarmentSpec& g, const Garment& garment, const MaterialFit& fit,
+               const Anchor& anchor, const Vec3& offset) {
+  rec["category"] = garment.category;
+  rec["garment"] = g.name;
+  rec["template"] = g.template_name.empty() ? g.file.filename().string() : g.template_name;
+  rec["instance"] = job.instance_name;
+  rec["instance_name"] = garment.instance;
+  if (!g.template_name.empty()) rec["size"] = g.options.size;
+  rec["size_scale"] = job.size_scale;
+  rec["material"] = job.material_name;
+  rec["material_values"] = MaterialJson(job.material);
+  rec["material_fit"] = {{"stiffness", fit.stiffness},
+                         {"spring_stiffness", fit.spring_stiffness},
+                         {"target_stretch_percent", fit.target_stretch_percent},
+                         {"reproduced_stretch_percent", fit.reproduced_stretch_percent},
+                         {"equilibrium_stretch_percent", fit.equilibrium_stretch_percent},
+                         {"converged", fit.converged}};
+  rec["anchor"] = {{"label", anchor.label}, {"vertex", anchor.vertex}, {"uv", {anchor.uv.x(), anchor.uv.y()}}};
+  rec["grasp_offset"] = {offset.x(), offset.y(), offset.z()};
+  rec["seed"] = job.seed;
+  if (job.turn != 0) rec["turn_radians"] = job.turn;
+  if (job.pose_noise_degrees > 0) rec["gripper_pose_noise_degrees"] = job.pose_noise_degrees;
+  if (job.repeat) rec["repeat"] = job.repeat;
+  rec["garment_mesh"] = {{"vertices", garment.mesh.NumVertices()}, {"faces", garment.mesh.NumFaces()}};
+}
+
+Json SweepRecord(const Sweep& sweep, const SweepOptions& o) {
+  return {{"frames", sweep.stats.frames},
+          {"degrees", o.degrees},
+          {"back_and_forth", o.back_and_forth},
+          {"noise", o.kinect.noise},
+          {"garment_pixels_mean", sweep.stats.garment_pixels_mean},
+          {"valid_fraction_mean", sweep.stats.valid_fraction_mean},
+          {"warnings", sweep.stats.warnings}};
+}
+
+Json FusionRecord(const Accuracy& acc, const FusionResult& fused, const FusionOptions& o) {
+  return {{"recon_to_truth_mean", acc.recon_to_truth_mean},
+          {"recon_to_truth_p95", acc.recon_to_truth_p95},
+          {"truth_to_recon_mean", acc.truth_to_recon_mean},
+          {"truth_to_recon_p95", acc.truth_to_recon_p95},
+          {"voxels_per_metre", o.voxels_per_metre},
+          {"truncation", o.Truncation()},
+          {"frames_integrated", fused.stats.frames_integrated},
+          {"surface_blocks", fused.stats.surface_blocks},
+          {"mesh_vertices", fused.mesh.NumVertices()},
+          {"mesh_faces", fused.mesh.NumFaces()}};
+}
+
+// preview.png: hung mesh with its grasp point, the depth frame a quarter turn in
+// (the garment from the side) and the reconstruction.
+std::string EntryPreview(const Job& job, const HangResult& hung, const Anchor& anchor, const Sweep& sweep,
+                         const FusionResult& fused) {
+  std::string depth_png;
+  if (!sweep.frames.empty()) depth_png = RenderDepthPreview(sweep.frames[sweep.frames.size() / 4], sweep.intrinsics);
+  const Vec3 anchor_hung = anchor.vertex >= 0 && anchor.vertex < hung.mesh.NumVertices()
+                               ? Vec3(hung.mesh.V.row(anchor.vertex).transpose())
+                               : Vec3::Zero();
+  return RenderEntryPreview(hung.mesh, anchor_hung, depth_png, fused.mesh, job.key + " (" + job.split + ")");
+}
+
+}  // namespace
+
 Entry BuildEntry(const Recipe& recipe, const Job& job, JobCache& cache) {
   const auto t_start = Clock::now();
   const GarmentSpec& g = recipe.garments.at(job.garment);
@@ -126,50 +208,17 @@ Entry BuildEntry(const Recipe& recipe, const Job& job, JobCache& cache) {
     timing[name] = Seconds(t0, Clock::now());
   };
 
-  // The garment of this instance (cached: every anchor of it shares it).
   std::shared_ptr<const Garment> garment;
-  stage("garment", [&] {
-    const std::string gkey = job.instance_name + "@" + std::to_string(job.size_scale);
-    garment = cache.impl->garments.Get(gkey, [&] { return MakeJobGarment(recipe, job); });
-  });
-
-  // The material's stiffness (cached per material values and fit resolution).
+  stage("garment", [&] { garment = InstanceGarment(recipe, job, cache); });
   const HangOptions hang_options = HangOptionsFor(recipe, g);
   std::shared_ptr<const MaterialFit> fit;
-  stage("fit", [&] {
-    std::ostringstream fkey;
-    fkey << std::setprecision(17) << job.material.stretch_percent << "/" << job.material.friction_deg << "/"
-         << job.material.area_density << "/" << job.material.bending_stiffness << "/" << hang_options.fit_edge_length;
-    fit = cache.impl->fits.Get(fkey.str(), [&] { return FitMaterial(job.material, hang_options); });
-  });
+  stage("fit", [&] { fit = MaterialFitFor(job.material, hang_options, cache); });
 
   const Anchor* anchor = garment->FindAnchor(job.anchor);
   if (!anchor) throw Error(job.key + ": garment '" + g.name + "' has no anchor '" + job.anchor + "'");
   const Vec3 offset(job.grasp_offset.x(), job.grasp_offset.y(), 0.0);
-
   Json& rec = e.record;
-  rec["category"] = garment->category;
-  rec["garment"] = g.name;
-  rec["template"] = g.template_name.empty() ? g.file.filename().string() : g.template_name;
-  rec["instance"] = job.instance_name;
-  rec["instance_name"] = garment->instance;
-  if (!g.template_name.empty()) rec["size"] = g.options.size;
-  rec["size_scale"] = job.size_scale;
-  rec["material"] = job.material_name;
-  rec["material_values"] = MaterialJson(job.material);
-  rec["material_fit"] = {{"stiffness", fit->stiffness},
-                         {"spring_stiffness", fit->spring_stiffness},
-                         {"target_stretch_percent", fit->target_stretch_percent},
-                         {"reproduced_stretch_percent", fit->reproduced_stretch_percent},
-                         {"equilibrium_stretch_percent", fit->equilibrium_stretch_percent},
-                         {"converged", fit->converged}};
-  rec["anchor"] = {{"label", anchor->label}, {"vertex", anchor->vertex}, {"uv", {anchor->uv.x(), anchor->uv.y()}}};
-  rec["grasp_offset"] = {offset.x(), offset.y(), offset.z()};
-  rec["seed"] = job.seed;
-  if (job.turn != 0) rec["turn_radians"] = job.turn;
-  if (job.pose_noise_degrees > 0) rec["gripper_pose_noise_degrees"] = job.pose_noise_degrees;
-  if (job.repeat) rec["repeat"] = job.repeat;
-  rec["garment_mesh"] = {{"vertices", garment->mesh.NumVertices()}, {"faces", garment->mesh.NumFaces()}};
+  RecordJob(rec, job, g, *garment, *fit, *anchor, offset);
 
   auto fail = [&](const std::string& why) {
     e.failed = true;
@@ -198,13 +247,7 @@ Entry BuildEntry(const Recipe& recipe, const Job& job, JobCache& cache) {
       so.threads = 1;  // jobs run in parallel; one thread each
       sweep = SimulateSweep(hung.mesh, so, DeriveSeed(job.seed, "sweep"));
     });
-    rec["sweep"] = {{"frames", sweep.stats.frames},
-                    {"degrees", sensing.sweep.degrees},
-                    {"back_and_forth", sensing.sweep.back_and_forth},
-                    {"noise", sensing.sweep.kinect.noise},
-                    {"garment_pixels_mean", sweep.stats.garment_pixels_mean},
-                    {"valid_fraction_mean", sweep.stats.valid_fraction_mean},
-                    {"warnings", sweep.stats.warnings}};
+    rec["sweep"] = SweepRecord(sweep, sensing.sweep);
 
     FusionResult fused;
     stage("fusion", [&] {
@@ -216,16 +259,7 @@ Entry BuildEntry(const Recipe& recipe, const Job& job, JobCache& cache) {
     if (fused.mesh.NumFaces() == 0) return fail("fusion: the fused surface is empty (garment not in view?)");
     Accuracy acc;
     stage("accuracy", [&] { acc = MeasureAccuracy(fused.mesh, hung.mesh); });
-    rec["fusion"] = {{"recon_to_truth_mean", acc.recon_to_truth_mean},
-                     {"recon_to_truth_p95", acc.recon_to_truth_p95},
-                     {"truth_to_recon_mean", acc.truth_to_recon_mean},
-                     {"truth_to_recon_p95", acc.truth_to_recon_p95},
-                     {"voxels_per_metre", recipe.fusion.voxels_per_metre},
-                     {"truncation", recipe.fusion.Truncation()},
-                     {"frames_integrated", fused.stats.frames_integrated},
-                     {"surface_blocks", fused.stats.surface_blocks},
-                     {"mesh_vertices", fused.mesh.NumVertices()},
-                     {"mesh_faces", fused.mesh.NumFaces()}};
+    rec["fusion"] = FusionRecord(acc, fused, recipe.fusion);
 
     Feature feature;
     stage("feature", [&] {
@@ -245,17 +279,7 @@ Entry BuildEntry(const Recipe& recipe, const Job& job, JobCache& cache) {
       if (sensing.keep_frames)
         for (auto& [path, bytes] : EncodeSweep(sweep)) e.files.push_back({path, std::move(bytes)});
     });
-    stage("preview", [&] {
-      // The frame a quarter turn in shows the garment from the side.
-      std::string depth_png;
-      if (!sweep.frames.empty())
-        depth_png = RenderDepthPreview(sweep.frames[sweep.frames.size() / 4], sweep.intrinsics);
-      const Vec3 anchor_hung = anchor->vertex >= 0 && anchor->vertex < hung.mesh.NumVertices()
-                                   ? Vec3(hung.mesh.V.row(anchor->vertex).transpose())
-                                   : Vec3::Zero();
-      e.files.push_back({"preview.png", RenderEntryPreview(hung.mesh, anchor_hung, depth_png, fused.mesh,
-                                                           job.key + " (" + job.split + ")")});
-    });
+    stage("preview", [&] { e.files.push_back({"preview.png", EntryPreview(job, hung, *anchor, sweep, fused)}); });
   } catch (const NumericalError& err) {
     return fail(std::string("numerical: ") + err.what());
   }
@@ -263,8 +287,6 @@ Entry BuildEntry(const Recipe& recipe, const Job& job, JobCache& cache) {
   e.timing = timing;
   return e;
 }
-
-namespace {
 
 std::string FormatDuration(double s) {
   if (!std::isfinite(s) || s < 0) return "--";
@@ -275,6 +297,23 @@ std::string FormatDuration(double s) {
   else std::snprintf(buf, sizeof buf, "%lds", t);
   return buf;
 }
+
+void ProgressLine::Print(int done, int total, int failed, double elapsed, double eta, bool over,
+                         const std::string& suffix) {
+  if (mode_ == ProgressMode::kQuiet) return;
+  std::ostringstream line;
+  line << "[" << done << "/" << total << "] " << failed << " failed, " << FormatDuration(elapsed) << " elapsed, ETA "
+       << (done < total ? FormatDuration(eta) : "0s") << suffix;
+  if (mode_ == ProgressMode::kTty) {
+    log_ << "\r\033[K" << line.str() << (over ? "\n" : "") << std::flush;
+  } else if (done != last_reported_ && (over || Seconds(last_plain_, Clock::now()) >= interval_)) {
+    log_ << line.str() << "\n" << std::flush;
+    last_plain_ = Clock::now();
+    last_reported_ = done;
+  }
+}
+
+namespace {
 
 Json RecipeSummary(const Recipe& r, const std::vector<Job>& jobs) {
   Json s;
@@ -364,6 +403,41 @@ void FinishBuild(ReleaseWriter& writer, BuildReport& report, ProgressMode mode, 
         << summary.published_digest << "\n";
 }
 
+namespace {
+
+// BuildEntry, or with keep_going a failed entry carrying the error; nullopt (and
+// *error) when the error stops the build.
+std::optional<Entry> BuildOrFailEntry(const Recipe& recipe, const Job& job, JobCache& cache, bool keep_going,
+                                      std::string* error) {
+  try {
+    return BuildEntry(recipe, job, cache);
+  } catch (const std::exception& ex) {
+    *error = ex.what();
+    if (!keep_going) return std::nullopt;
+    Entry entry;
+    entry.id = job.id;
+    entry.key = job.key;
+    entry.split = job.split;
+    entry.failed = true;
+    entry.failure = std::string("error: ") + ex.what();
+    entry.record = {{"seed", job.seed}};
+    return entry;
+  }
+}
+
+// A committed entry in the report: built or failed, and its stage times.
+void CountEntry(const Entry& entry, const Job& job, BuildReport& report) {
+  ++report.built;
+  if (entry.failed) {
+    ++report.failed;
+    report.failures.push_back({job.key, entry.failure});
+  }
+  for (auto it = entry.timing.begin(); it != entry.timing.end(); ++it)
+    if (it->is_number() && it.key() != "total") report.stage_seconds[it.key()] += it->get<double>();
+}
+
+}  // namespace
+
 BuildReport RunBuild(const Recipe& recipe, const BuildOptions& options) {
   const auto t0 = Clock::now();
   std::ostream& log = options.log ? *options.log : std::cerr;
@@ -405,113 +479,71 @@ BuildReport RunBuild(const Recipe& recipe, const BuildOptions& options) {
   JobCache cache;
   std::mutex mu;
   std::condition_variable cv;
-  std::atomic<size_t> next{0};
   std::atomic<bool> abort{false};
   int finished = 0, running = 0;
   double busy_seconds = 0;  // summed job wall time, for the ETA
+  bool over = false;        // every job handed out has returned
 
   auto stopping = [&] { return abort.load() || (options.stop && options.stop->load()); };
-  auto worker = [&] {
-    for (;;) {
-      if (stopping()) return;
-      const size_t k = next.fetch_add(1);
-      if (k >= todo.size()) return;
-      const Job& job = jobs[todo[k]];
-      {
-        std::lock_guard<std::mutex> lock(mu);
-        ++running;
-      }
-      const auto tj = Clock::now();
-      Entry entry;
-      bool have = false;
-      std::string error;
-      try {
-        entry = BuildEntry(recipe, job, cache);
-        have = true;
-      } catch (const std::exception& ex) {
-        error = ex.what();
-        if (options.keep_going) {
-          entry = Entry{};
-          entry.id = job.id;
-          entry.key = job.key;
-          entry.split = job.split;
-          entry.failed = true;
-          entry.failure = std::string("error: ") + ex.what();
-          entry.record = {{"seed", job.seed}};
-          have = true;
-        }
-      }
-      if (have) {
-        try {
-          writer->Commit(entry);
-        } catch (const std::exception& ex) {
-          have = false;
-          error = std::string("committing ") + job.key + ": " + ex.what();
-        }
-      }
+  // One job: build, commit, count. An error stops handing out jobs (unless keep_going).
+  auto run_job = [&](int k) {
+    if (stopping()) return;
+    const Job& job = jobs[todo[k]];
+    {
       std::lock_guard<std::mutex> lock(mu);
-      --running;
-      if (!have) {
-        if (!abort.exchange(true)) report.error = job.key + ": " + error;
-        report.aborted = true;
-      } else {
-        ++finished;
-        ++report.built;
-        busy_seconds += Seconds(tj, Clock::now());
-        if (entry.failed) {
-          ++report.failed;
-          report.failures.push_back({job.key, entry.failure});
-        }
-        for (auto it = entry.timing.begin(); it != entry.timing.end(); ++it)
-          if (it->is_number() && it.key() != "total") report.stage_seconds[it.key()] += it->get<double>();
-      }
-      cv.notify_all();
+      ++running;
     }
+    const auto tj = Clock::now();
+    std::string error;
+    std::optional<Entry> entry = BuildOrFailEntry(recipe, job, cache, options.keep_going, &error);
+    if (entry) {
+      try {
+        writer->Commit(*entry);
+      } catch (const std::exception& ex) {
+        entry.reset();
+        error = std::string("committing ") + job.key + ": " + ex.what();
+      }
+    }
+    std::lock_guard<std::mutex> lock(mu);
+    --running;
+    if (!entry) {
+      if (!abort.exchange(true)) report.error = job.key + ": " + error;
+      report.aborted = true;
+    } else {
+      ++finished;
+      busy_seconds += Seconds(tj, Clock::now());
+      CountEntry(*entry, job, report);
+    }
+    cv.notify_all();
   };
+  // The jobs run on common/parallel's pool; this thread only watches and prints.
+  std::thread jobs_thread([&] {
+    ParallelFor(static_cast<int>(todo.size()), threads, run_job);
+    std::lock_guard<std::mutex> lock(mu);
+    over = true;
+    cv.notify_all();
+  });
 
-  int alive = threads;
-  std::vector<std::thread> pool;
-  for (int t = 0; t < threads; ++t)
-    pool.emplace_back([&] {
-      worker();
-      std::lock_guard<std::mutex> lock(mu);
-      --alive;
-      cv.notify_all();
-    });
-
-  // Progress: the main thread only watches until every worker has returned.
   {
     std::unique_lock<std::mutex> lock(mu);
-    auto last_plain = Clock::now();
-    int last_reported = -1;
+    ProgressLine progress(log, mode, options.progress_interval);
     bool stop_noted = false;
     for (;;) {
-      const bool over = alive == 0;
-      const double elapsed = Seconds(t0, Clock::now());
+      const bool last = over;
       const int remaining = static_cast<int>(todo.size()) - finished;
       const double eta = finished ? busy_seconds / finished * remaining / threads : NAN;
-      std::ostringstream line;
-      line << "[" << report.already_done + finished << "/" << report.shard_jobs << "] " << report.failed
-           << " failed, " << FormatDuration(elapsed) << " elapsed, ETA " << (remaining ? FormatDuration(eta) : "0s");
       if (options.stop && options.stop->load() && !stop_noted && mode != ProgressMode::kQuiet) {
         stop_noted = true;
         log << (mode == ProgressMode::kTty ? "\n" : "") << "drape build: interrupted; letting " << running
             << " running job(s) finish and commit (Ctrl-C again quits at once; --resume continues)\n";
       }
-      if (mode == ProgressMode::kTty) {
-        log << "\r\033[K" << line.str() << std::flush;
-      } else if (mode == ProgressMode::kPlain && finished != last_reported &&
-                 (over || Seconds(last_plain, Clock::now()) >= options.progress_interval)) {
-        log << line.str() << "\n" << std::flush;
-        last_plain = Clock::now();
-        last_reported = finished;
-      }
-      if (over) break;
+      progress.Print(report.already_done + finished, report.shard_jobs, report.failed, Seconds(t0, Clock::now()), eta,
+                     last);
+      if (last) break;
       cv.wait_for(lock, std::chrono::milliseconds(500));
     }
-    if (mode == ProgressMode::kTty) log << "\n";
   }
-  for (auto& t : pool) t.join();
+  jobs_thread.join();
 
   writer->SetBuildInfo("threads", threads);
   FinishBuild(*writer, report, mode, log);

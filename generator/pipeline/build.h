@@ -8,6 +8,7 @@
 #pragma once
 
 #include <atomic>
+#include <chrono>
 #include <filesystem>
 #include <map>
 #include <memory>
@@ -18,7 +19,6 @@
 #include "generator/recipe/jobs.h"
 #include "generator/recipe/recipe.h"
 #include "generator/release/entry.h"
-#include "generator/release/release.h"
 #include "generator/release/release.h"
 
 namespace drape {
@@ -90,6 +90,26 @@ void LogStageSeconds(std::ostream& log, const std::map<std::string, double>& sta
 // times in build.json, logs them, and finalizes the release unless the build was
 // aborted or interrupted (sets report.interrupted, finalized, digest, release_failed).
 void FinishBuild(ReleaseWriter& writer, BuildReport& report, ProgressMode mode, std::ostream& log);
+
+// A duration for people: "42s", "3m05s", "1h02m"; "--" when unknown (NaN, negative).
+std::string FormatDuration(double seconds);
+
+// The progress line of both builds (thread pool and MPI): "[done/total] F failed,
+// 1m05s elapsed, ETA 3m10s" and a suffix, rewritten in place on a terminal (kTty),
+// printed every `interval` seconds when it changed (kPlain), not at all (kQuiet).
+class ProgressLine {
+ public:
+  ProgressLine(std::ostream& log, ProgressMode mode, double interval) : log_(log), mode_(mode), interval_(interval) {}
+  // `over`: the last call (kTty ends the line, kPlain prints it if it changed).
+  void Print(int done, int total, int failed, double elapsed, double eta, bool over, const std::string& suffix = "");
+
+ private:
+  std::ostream& log_;
+  ProgressMode mode_;
+  double interval_;
+  std::chrono::steady_clock::time_point last_plain_ = std::chrono::steady_clock::now();
+  int last_reported_ = -1;
+};
 
 // Default output folder: datasets/<name>/<version>.
 std::filesystem::path DefaultOutput(const Recipe& recipe);

@@ -261,16 +261,6 @@ std::string ResultFrame(char kind, int job, const std::string& payload) {
   return out;
 }
 
-std::string FormatDuration(double s) {
-  if (!std::isfinite(s) || s < 0) return "--";
-  const long t = std::lround(s);
-  char buf[32];
-  if (t >= 3600) std::snprintf(buf, sizeof buf, "%ldh%02ldm", t / 3600, (t / 60) % 60);
-  else if (t >= 60) std::snprintf(buf, sizeof buf, "%ldm%02lds", t / 60, t % 60);
-  else std::snprintf(buf, sizeof buf, "%lds", t);
-  return buf;
-}
-
 int StatusOf(const std::exception_ptr& error) {
   try {
     std::rethrow_exception(error);
@@ -366,8 +356,7 @@ MpiBuildOutcome Coordinate(const Recipe& recipe, const BuildOptions& options, in
     }
   };
 
-  auto last_plain = Clock::now();
-  int last_reported = -1;
+  ProgressLine progress_line(log, mode, options.progress_interval);
   bool stop_noted = false;
   auto note_stop = [&] {
     if (mode == ProgressMode::kQuiet || error || stop_noted || !options.stop || !options.stop->load()) return;
@@ -378,23 +367,13 @@ MpiBuildOutcome Coordinate(const Recipe& recipe, const BuildOptions& options, in
         << " running job(s) finish and commit (--resume continues)\n";
   };
   auto progress = [&](bool over) {
-    if (mode == ProgressMode::kQuiet || error) return;
+    if (error) return;
     int in_flight = 0;
     for (int j : running) in_flight += j >= 0;
     const int remaining = static_cast<int>(todo.size()) - finished;
     const double eta = finished ? busy_seconds / finished * remaining / std::max(1, workers) : NAN;
-    std::ostringstream line;
-    line << "[" << report.already_done + finished << "/" << report.shard_jobs << "] " << report.failed
-         << " failed, " << FormatDuration(Seconds(t0, Clock::now())) << " elapsed, ETA "
-         << (remaining ? FormatDuration(eta) : "0s") << ", " << in_flight << "/" << workers << " ranks busy";
-    if (mode == ProgressMode::kTty) {
-      log << "\r\033[K" << line.str() << (over ? "\n" : "") << std::flush;
-    } else if (finished != last_reported &&
-               (over || Seconds(last_plain, Clock::now()) >= options.progress_interval)) {
-      log << line.str() << "\n" << std::flush;
-      last_plain = Clock::now();
-      last_reported = finished;
-    }
+    progress_line.Print(report.already_done + finished, report.shard_jobs, report.failed, Seconds(t0, Clock::now()),
+                        eta, over, ", " + std::to_string(in_flight) + "/" + std::to_string(workers) + " ranks busy");
   };
 
   auto last_tick = Clock::now() - std::chrono::seconds(1);

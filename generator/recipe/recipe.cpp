@@ -659,6 +659,89 @@ SensingSpec DatabaseSensingDefaults() {
   return s;
 }
 
+namespace {
+
+// name, version (semantic) and seed.
+void ParseIdentity(const Parser& P, const YAML::Node& root, Recipe& r) {
+  r.name = P.Name(root, "name", "");
+  const auto version = P.String(root, "version", "");
+  if (!version) P.Fail(root, "version", "missing key 'version' (MAJOR.MINOR.PATCH)");
+  if (!std::regex_match(*version, std::regex("(0|[1-9][0-9]*)\\.(0|[1-9][0-9]*)\\.(0|[1-9][0-9]*)")))
+    P.Fail(root["version"], "version", "'" + *version + "' is not a semantic version MAJOR.MINOR.PATCH");
+  r.version = *version;
+  if (!root["seed"].IsDefined()) P.Fail(root, "seed", "missing key 'seed' (a non-negative integer)");
+  const YAML::Node s = root["seed"];
+  try {
+    r.seed = s.as<uint64_t>();
+    if (!s.IsScalar() || s.Scalar().empty() || s.Scalar()[0] == '-') throw YAML::Exception(s.Mark(), "");
+  } catch (const YAML::Exception&) {
+    P.Fail(s, "seed", "expected a non-negative integer, got " + P.Describe(s));
+  }
+}
+
+// Materials: every preset by name, plus the recipe's own.
+void ParseMaterials(const Parser& P, const YAML::Node& root, Recipe& r) {
+  for (const auto& m : MaterialPresets()) r.materials[m.name] = m;
+  if (!root["materials"].IsDefined()) return;
+  const YAML::Node ms = root["materials"];
+  P.RequireMap(ms, "materials");
+  for (auto it = ms.begin(); it != ms.end(); ++it) {
+    const std::string name = it->first.Scalar();
+    const std::string path = "materials." + name;
+    if (!std::regex_match(name, kNameRe)) P.Fail(it->first, path, "not a valid name (letters, digits, '_' and '-')");
+    if (FindMaterialPreset(name))
+      P.Fail(it->first, path,
+             "'" + name + "' is a preset name; give your material another name (preset: " + name + ")");
+    r.materials[name] = ParseMaterial(P, name, it->second, path);
+  }
+}
+
+// Sensing: database defaults to noise off, sensed to noise on; sensed inherits every
+// other key from database.
+void ParseSensingKinds(const Parser& P, const YAML::Node& root, Recipe& r) {
+  const YAML::Node s = root["sensing"];
+  if (s.IsDefined()) P.CheckKeys(s, "sensing", {"database", "sensed"});
+  SensingSpec db = DatabaseSensingDefaults();
+  if (s.IsDefined() && s["database"].IsDefined()) ParseSensing(P, s["database"], "sensing.database", db);
+  SensingSpec sensed = db;
+  sensed.sweep.kinect.noise = true;
+  if (s.IsDefined() && s["sensed"].IsDefined()) ParseSensing(P, s["sensed"], "sensing.sensed", sensed);
+  if (!s.IsDefined() || !s["database"].IsDefined()) db.sweep.Validate();
+  if (!s.IsDefined() || !s["sensed"].IsDefined()) sensed.sweep.Validate();
+  r.sensing["database"] = db;
+  r.sensing["sensed"] = sensed;
+}
+
+void ParseGarments(const Parser& P, const YAML::Node& root, Recipe& r) {
+  const YAML::Node gl = root["garments"];
+  if (!gl.IsDefined()) P.Fail(root, "garments", "missing key 'garments' (a list of garments)");
+  if (!gl.IsSequence()) P.Fail(gl, "garments", "expected a list, got " + P.Describe(gl));
+  if (gl.size() == 0) P.Fail(gl, "garments", "the garment list is empty");
+  for (size_t i = 0; i < gl.size(); ++i) {
+    const std::string path = "garments[" + std::to_string(i) + "]";
+    GarmentSpec g = ParseGarment(P, gl[i], path, r);
+    if (r.FindGarment(g.name))
+      P.Fail(gl[i], path, "garment name '" + g.name + "' used twice; give one of them name: OTHER");
+    r.garments.push_back(std::move(g));
+  }
+}
+
+// No splits: every instance is in train (the database).
+SplitSpec EverythingInTrain(const Recipe& r) {
+  SplitSpec sp;
+  sp.name = "train";
+  sp.sensing = "database";
+  for (const auto& g : r.garments) {
+    SplitSelector sel;
+    sel.garment = g.name;
+    for (int i = 0; i < g.instances; ++i) sel.instances.push_back(i);
+    sp.selectors.push_back(sel);
+  }
+  return sp;
+}
+
+}  // namespace
+
 Recipe ParseRecipe(const std::string& text, const std::string& file_label, const fs::path& base_dir,
                    const std::map<std::string, fs::path>* files) {
   YAML::Node loaded;
@@ -678,86 +761,17 @@ Recipe ParseRecipe(const std::string& text, const std::string& file_label, const
   P0.Keys(root, "", recipe_keys::TopKeys(), r);  // description, license, allow_outside_paths
   const Parser P(file_label, base_dir, r.allow_outside_paths, files);
 
-  r.name = P.Name(root, "name", "");
-  const auto version = P.String(root, "version", "");
-  if (!version) P.Fail(root, "version", "missing key 'version' (MAJOR.MINOR.PATCH)");
-  if (!std::regex_match(*version, std::regex("(0|[1-9][0-9]*)\\.(0|[1-9][0-9]*)\\.(0|[1-9][0-9]*)")))
-    P.Fail(root["version"], "version", "'" + *version + "' is not a semantic version MAJOR.MINOR.PATCH");
-  r.version = *version;
-  if (!root["seed"].IsDefined()) P.Fail(root, "seed", "missing key 'seed' (a non-negative integer)");
-  {
-    const YAML::Node s = root["seed"];
-    try {
-      r.seed = s.as<uint64_t>();
-      if (!s.IsScalar() || s.Scalar().empty() || s.Scalar()[0] == '-') throw YAML::Exception(s.Mark(), "");
-    } catch (const YAML::Exception&) {
-      P.Fail(s, "seed", "expected a non-negative integer, got " + P.Describe(s));
-    }
-  }
-
-  // Materials: every preset by name, plus the recipe's own.
-  for (const auto& m : MaterialPresets()) r.materials[m.name] = m;
-  if (root["materials"].IsDefined()) {
-    const YAML::Node ms = root["materials"];
-    P.RequireMap(ms, "materials");
-    for (auto it = ms.begin(); it != ms.end(); ++it) {
-      const std::string name = it->first.Scalar();
-      const std::string path = "materials." + name;
-      if (!std::regex_match(name, kNameRe)) P.Fail(it->first, path, "not a valid name (letters, digits, '_' and '-')");
-      if (FindMaterialPreset(name))
-        P.Fail(it->first, path, "'" + name + "' is a preset name; give your material another name (preset: " + name + ")");
-      r.materials[name] = ParseMaterial(P, name, it->second, path);
-    }
-  }
-
+  ParseIdentity(P, root, r);
+  ParseMaterials(P, root, r);
   if (root["simulation"].IsDefined()) ParseSimulation(P, root["simulation"], r.hang);
-
-  // Sensing: database defaults to noise off, sensed to noise on; sensed inherits
-  // every other key from database.
-  {
-    const YAML::Node s = root["sensing"];
-    if (s.IsDefined()) P.CheckKeys(s, "sensing", {"database", "sensed"});
-    SensingSpec db = DatabaseSensingDefaults();
-    if (s.IsDefined() && s["database"].IsDefined()) ParseSensing(P, s["database"], "sensing.database", db);
-    SensingSpec sensed = db;
-    sensed.sweep.kinect.noise = true;
-    if (s.IsDefined() && s["sensed"].IsDefined()) ParseSensing(P, s["sensed"], "sensing.sensed", sensed);
-    if (!s.IsDefined() || !s["database"].IsDefined()) db.sweep.Validate();
-    if (!s.IsDefined() || !s["sensed"].IsDefined()) sensed.sweep.Validate();
-    r.sensing["database"] = db;
-    r.sensing["sensed"] = sensed;
-  }
-
+  ParseSensingKinds(P, root, r);
   if (root["fusion"].IsDefined()) ParseFusion(P, root["fusion"], r.fusion);
   if (root["feature"].IsDefined()) ParseFeature(P, root["feature"], r.feature);
-
-  const YAML::Node gl = root["garments"];
-  if (!gl.IsDefined()) P.Fail(root, "garments", "missing key 'garments' (a list of garments)");
-  if (!gl.IsSequence()) P.Fail(gl, "garments", "expected a list, got " + P.Describe(gl));
-  if (gl.size() == 0) P.Fail(gl, "garments", "the garment list is empty");
-  for (size_t i = 0; i < gl.size(); ++i) {
-    const std::string path = "garments[" + std::to_string(i) + "]";
-    GarmentSpec g = ParseGarment(P, gl[i], path, r);
-    if (r.FindGarment(g.name))
-      P.Fail(gl[i], path, "garment name '" + g.name + "' used twice; give one of them name: OTHER");
-    r.garments.push_back(std::move(g));
-  }
-
-  if (root["splits"].IsDefined()) {
+  ParseGarments(P, root, r);
+  if (root["splits"].IsDefined())
     ParseSplits(P, root["splits"], r);
-  } else {
-    // No splits: every instance is in train (the database).
-    SplitSpec sp;
-    sp.name = "train";
-    sp.sensing = "database";
-    for (const auto& g : r.garments) {
-      SplitSelector sel;
-      sel.garment = g.name;
-      for (int i = 0; i < g.instances; ++i) sel.instances.push_back(i);
-      sp.selectors.push_back(sel);
-    }
-    r.splits.push_back(sp);
-  }
+  else
+    r.splits.push_back(EverythingInTrain(r));
   return r;
 }
 
