@@ -184,7 +184,7 @@ void ExpectSelfContained(const std::string& ext, const std::string& companion) {
     ASSERT_EQ(rel.SourceFiles().size(), 3u);
     EXPECT_EQ(rel.SourceFiles().at(mesh), out / "sources" / mesh);
     EXPECT_EQ(rel.SourceFiles().at(companion), out / "sources" / companion);
-    for (const std::string f : {mesh, companion, std::string("meshes/cloth.anchors.json")})
+    for (const std::string& f : {mesh, companion, std::string("meshes/cloth.anchors.json")})
       EXPECT_EQ(ReadFile(out / "sources" / f), ReadFile(src / f)) << f;
     const std::string sums = ReadFile(out / "SHA256SUMS");
     EXPECT_NE(sums.find("  sources/" + mesh + "\n"), std::string::npos) << sums;
