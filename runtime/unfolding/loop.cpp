@@ -7,14 +7,14 @@
 #include <limits>
 #include <mutex>
 
+#include "common/closest_point.h"
 #include "common/error.h"
 #include "common/rng.h"
 #include "garments/io.h"
 #include "generator/recipe/jobs.h"
+#include "runtime/folding/table.h"
 #include "runtime/recognition/calibrate.h"
 #include "runtime/recognition/release_source.h"
-#include "runtime/folding/table.h"
-#include "runtime/registration/closest_point.h"
 
 namespace drape::unfolding {
 
@@ -322,7 +322,7 @@ struct TrialRun {
       }
     }
     // Map onto the reconstruction: the closest point of the fused surface.
-    const registration::ExactClosestPoint onto(s.recon);
+    const ExactClosestPoint onto(s.recon);
     const Vec3 p_obj = onto.Query(s.registered.V.row(v).transpose()).point;
     res.times.registration += Since(t0);
     const hw::GripperPose hp = h.pose();
