@@ -4,6 +4,8 @@
 #include "garments/io.h"
 #include "garments/templates.h"
 
+namespace fs = std::filesystem;
+
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace drape;
   static const fs::path mesh = [] {

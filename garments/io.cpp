@@ -19,6 +19,8 @@
 #include "garments/mesh_read.h"
 #include "garments/validate.h"
 
+namespace fs = std::filesystem;
+
 namespace drape {
 namespace {
 

@@ -12,6 +12,8 @@
 #include "garments/templates.h"
 #include "garments/validate.h"
 
+namespace fs = std::filesystem;
+
 namespace drape {
 namespace {
 

@@ -23,6 +23,8 @@
 #include "common/unique_fd.h"
 #include "generator/release/release_internal.h"
 
+namespace fs = std::filesystem;
+
 namespace drape {
 namespace release_detail {
 
