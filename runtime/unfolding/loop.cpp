@@ -257,8 +257,7 @@ struct TrialRun {
     const Feature f = ExtractFeature(fused.mesh.V, [&tsdf](const Vec3& p) { return tsdf.Sdf(p); }, recipe.feature);
     res.times.fusion += Since(t0);
     s.recon = fused.mesh;
-    rec::Code code;
-    code.layers = f.layers, code.rings = f.rings, code.sectors = f.sectors, code.words = f.words;
+    const rec::Code& code = f;
 
     t0 = Clock::now();
     rec::RecognizeOptions ro;
