@@ -506,6 +506,8 @@ void CollisionOptions::Validate() const {
   if (!(max_strain < 10)) bad("max_strain", "must be < 10 (≤ 0: off)");
   if (!(max_compression >= 0 && max_compression < 1)) bad("max_compression", "must be in [0, 1)");
   if (strain_iterations < 0 || strain_iterations > 10000) bad("strain_iterations", "must be in [0, 10000]");
+  if (!(strain_tolerance >= 0 && strain_tolerance < 1)) bad("strain_tolerance", "must be in [0, 1)");
+  if (strain_rounds < 0 || strain_rounds > 100) bad("strain_rounds", "must be in [0, 100]");
   if (!(strain_lead_weight >= 0 && strain_lead_weight <= 1)) bad("strain_lead_weight", "must be in [0, 1]");
   if (proximity_iterations < 0 || proximity_iterations > 100) bad("proximity_iterations", "must be in [0, 100]");
   if (ccd_iterations < 0 || ccd_iterations > 1000) bad("ccd_iterations", "must be in [0, 1000]");
@@ -531,6 +533,9 @@ struct ApplyContext {
   const Points3& x0;
   Points3& x1;
   const Eigen::VectorXd& inv_mass;
+  const Eigen::VectorXd& rest_lengths;           // m, per edge of E
+  const std::vector<int>& adj_start;             // vertex → neighbours (CSR)
+  const std::vector<int>& adj;
   double dt;
   double cell;
   CollisionReport& rep;
@@ -563,12 +568,12 @@ struct ApplyContext {
 };
 
 // ---- strain limiting ------------------------------------------------------------
-// Hop distance of every node from the kinematic nodes (INT_MAX: none reachable).
-std::vector<int> HopLevels(const std::vector<int>& start, const std::vector<int>& adj, const Eigen::VectorXd& inv_mass) {
-  const int n = static_cast<int>(inv_mass.size());
+// Hop distance of every node from the nodes with w == 0 (INT_MAX: none reachable).
+std::vector<int> HopLevels(const std::vector<int>& start, const std::vector<int>& adj, const Eigen::VectorXd& w) {
+  const int n = static_cast<int>(w.size());
   std::vector<int> level(n, std::numeric_limits<int>::max()), queue;
   for (int i = 0; i < n; ++i)
-    if (inv_mass[i] == 0) {
+    if (w[i] == 0) {
       level[i] = 0;
       queue.push_back(i);
     }
@@ -583,31 +588,46 @@ std::vector<int> HopLevels(const std::vector<int>& start, const std::vector<int>
   return level;
 }
 
-void LimitStrain(ApplyContext& cx, const Eigen::VectorXd& rest_lengths, const std::vector<int>& level) {
+// Edge length bounds as multiples of L0: [lo, hi] clamped to, [lo_ok, hi_ok] accepted.
+struct StrainBounds {
+  double lo, hi, lo_ok, hi_ok;
+  bool active;
+  explicit StrainBounds(const CollisionOptions& o)
+      : lo(o.max_compression > 0 ? 1 - o.max_compression : 0),
+        hi(o.max_strain > 0 ? 1 + o.max_strain : std::numeric_limits<double>::infinity()),
+        lo_ok(o.max_compression > 0 ? lo - o.strain_tolerance : 0),
+        hi_ok(hi + o.strain_tolerance),
+        active(std::isfinite(hi) || lo > 0) {}
+};
+
+// Gauss–Seidel clamp of the edges of x1 into [lo, hi]·L0, sweeping outwards from the
+// nodes with w == 0 (kinematic, or frozen in an impact zone): w is the inverse mass
+// the clamp uses.
+void LimitStrain(ApplyContext& cx, const Eigen::VectorXd& w) {
   const auto t0 = Clock::now();
-  const double hi = cx.opt.max_strain > 0 ? 1 + cx.opt.max_strain : std::numeric_limits<double>::infinity();
-  const double lo = cx.opt.max_compression > 0 ? 1 - cx.opt.max_compression : 0;
-  if (!std::isfinite(hi) && !(lo > 0)) return;
+  const StrainBounds b(cx.opt);
+  if (!b.active) return;
+  const std::vector<int> level = HopLevels(cx.adj_start, cx.adj, w);
   // Edges ordered by their hop level (stable: by index within a level).
   const int ne = static_cast<int>(cx.E.size());
   std::vector<int> order(ne);
   std::iota(order.begin(), order.end(), 0);
   auto edge_level = [&](int e) { return std::min(level[cx.E[e][0]], level[cx.E[e][1]]); };
-  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return edge_level(a) < edge_level(b); });
+  std::stable_sort(order.begin(), order.end(), [&](int a, int c) { return edge_level(a) < edge_level(c); });
   for (int it = 0; it < cx.opt.strain_iterations; ++it) {
     double worst = 0;  // largest relative violation corrected in this sweep
     for (const int e : order) {
       const int i = cx.E[e][0], j = cx.E[e][1];
-      double wi = cx.inv_mass[i], wj = cx.inv_mass[j];
+      double wi = w[i], wj = w[j];
       if (level[i] < level[j]) wi *= cx.opt.strain_lead_weight;
       if (level[j] < level[i]) wj *= cx.opt.strain_lead_weight;
-      const double L0 = rest_lengths[e];
+      const double L0 = cx.rest_lengths[e];
       if (!(L0 > 0) || !(wi + wj > 0)) continue;
       const Vec3 d = (cx.x1.row(j) - cx.x1.row(i)).transpose();
       const double l = d.norm();
       double target = l;
-      if (l > hi * L0) target = hi * L0;
-      else if (l < lo * L0 && l > 0) target = lo * L0;
+      if (l > b.hi * L0) target = b.hi * L0;
+      else if (l < b.lo * L0 && l > 0) target = b.lo * L0;
       else continue;
       worst = std::max(worst, std::abs(l - target) / L0);
       const Vec3 corr = d * ((l - target) / l);
@@ -618,6 +638,22 @@ void LimitStrain(ApplyContext& cx, const Eigen::VectorXd& rest_lengths, const st
     if (worst < 1e-6) break;
   }
   cx.rep.strain_seconds += Since(t0);
+}
+
+// Edges of x1 outside the accepted bounds (sorted); *max_strain: the largest (l − L0)/L0.
+std::vector<int> StrainViolations(const ApplyContext& cx, double* max_strain = nullptr) {
+  const StrainBounds b(cx.opt);
+  std::vector<int> out;
+  double worst = -std::numeric_limits<double>::infinity();
+  for (int e = 0; e < static_cast<int>(cx.E.size()); ++e) {
+    const double L0 = cx.rest_lengths[e];
+    if (!(L0 > 0)) continue;
+    const double r = (cx.x1.row(cx.E[e][1]) - cx.x1.row(cx.E[e][0])).norm() / L0;
+    worst = std::max(worst, r - 1);
+    if (r > b.hi_ok || r < b.lo_ok) out.push_back(e);
+  }
+  if (max_strain) *max_strain = cx.E.empty() ? 0 : worst;
+  return out;
 }
 
 // ---- proximity repulsion (Bridson §7.2) -------------------------------------------
@@ -704,10 +740,12 @@ bool CollideNode(const BoxCollider& box, double pad, const Vec3& x0, Vec3& x1) {
   return true;
 }
 
-void HandleColliders(ApplyContext& cx, const std::vector<BoxCollider>& colliders) {
+// frozen (optional): nodes in an impact zone, left alone.
+void HandleColliders(ApplyContext& cx, const std::vector<BoxCollider>& colliders,
+                     const std::vector<char>* frozen = nullptr) {
   const auto t0 = Clock::now();
   for (int i = 0; i < cx.x1.rows() && !colliders.empty(); ++i) {
-    if (cx.inv_mass[i] == 0) continue;
+    if (cx.inv_mass[i] == 0 || (frozen && (*frozen)[i])) continue;
     const Vec3 a = cx.x0.row(i).transpose();
     Vec3 b = cx.x1.row(i).transpose();
     bool hit = false;
@@ -789,17 +827,34 @@ std::vector<std::vector<int>> BuildZones(UnionFind& uf, const std::vector<char>&
   return zones;
 }
 
-void ImpactZones(ApplyContext& cx, std::vector<Hit> hits) {
+// Edges in `stretched` whose two nodes are not in one zone (a zone keeps x0's lengths:
+// merging cannot change an edge inside it).
+std::vector<int> AcrossZones(const ApplyContext& cx, const std::vector<int>& stretched, const std::vector<int>& zone_of) {
+  std::vector<int> out;
+  for (int e : stretched) {
+    const int z = zone_of[cx.E[e][0]];
+    if (z < 0 || zone_of[cx.E[e][1]] != z) out.push_back(e);
+  }
+  return out;
+}
+
+// Rigid impact zones, merged from colliding pairs and from edges beyond the strain
+// bound; after each move the free nodes are clamped with the zones frozen and the
+// colliders re-checked, so the last change of x1 is always followed by the checks.
+void ImpactZones(ApplyContext& cx, std::vector<Hit> hits, std::vector<int> stretched,
+                 const std::vector<BoxCollider>& colliders) {
   const auto t0 = Clock::now();
-  const double ccd_before = cx.rep.ccd_seconds, broad_before = cx.rep.broad_seconds;
+  const CollisionReport before = cx.rep;
   cx.rep.fail_safe_used = true;
   const int n = static_cast<int>(cx.x1.rows());
   const Points3 xin = cx.x1;  // zone momenta come from the motion proposed here
   UnionFind uf(n);
   std::vector<char> in_zone(n, 0), nonrigid_node(n, 0);
-  std::vector<int> zone_of;
+  std::vector<int> zone_of(n, -1);
   std::vector<std::vector<int>> zones;
-  while (!hits.empty()) {
+  Eigen::VectorXd w = cx.inv_mass;  // the clamp's inverse masses: zone nodes frozen
+  if (!hits.empty()) stretched.clear();  // the clamp after the first zone move may fix them
+  while (!hits.empty() || !stretched.empty()) {
     if (cx.rep.zone_iterations == cx.opt.max_zone_iterations) {  // last resort: one zone
       std::fill(in_zone.begin(), in_zone.end(), 1);
       for (int i = 1; i < n; ++i) uf.Unite(0, i);
@@ -811,23 +866,48 @@ void ImpactZones(ApplyContext& cx, std::vector<Hit> hits) {
         in_zone[h.s.n[k]] = 1;
         uf.Unite(h.s.n[0], h.s.n[k]);
       }
+    for (int e : stretched) {
+      in_zone[cx.E[e][0]] = in_zone[cx.E[e][1]] = 1;
+      uf.Unite(cx.E[e][0], cx.E[e][1]);
+    }
+    cx.rep.strain_merges += static_cast<int>(stretched.size());
     zones = BuildZones(uf, in_zone, &zone_of);
     for (const auto& zone : zones)
       if (!MoveZone(cx, zone, xin)) {
         cx.rep.nonrigid_kinematic = true;
         for (int i : zone) nonrigid_node[i] = 1;
       }
+    if (cx.rep.reverted) break;  // one zone: nothing is left to clamp or collide
+    for (int i = 0; i < n; ++i) w[i] = in_zone[i] ? 0.0 : cx.inv_mass[i];
+    LimitStrain(cx, w);
+    HandleColliders(cx, colliders, &in_zone);
     hits = Detect(cx, &zone_of);
-    if (cx.rep.reverted) break;
+    stretched = AcrossZones(cx, StrainViolations(cx), zone_of);
   }
   cx.rep.impact_zones = static_cast<int>(zones.size());
+  hits.clear();
   if (cx.rep.nonrigid_kinematic) {  // pairs inside a non-rigid zone are not covered: count them
     for (int i = 0; i < n; ++i)
       if (nonrigid_node[i]) zone_of[i] = -1;
     hits = Detect(cx, &zone_of);
   }
   cx.rep.remaining_collisions = static_cast<int>(hits.size());
-  cx.rep.zone_seconds += Since(t0) - (cx.rep.ccd_seconds - ccd_before) - (cx.rep.broad_seconds - broad_before);
+  const CollisionReport& r = cx.rep;
+  cx.rep.zone_seconds += Since(t0) - (r.ccd_seconds - before.ccd_seconds) - (r.broad_seconds - before.broad_seconds) -
+                         (r.strain_seconds - before.strain_seconds) - (r.collider_seconds - before.collider_seconds);
+}
+
+// CCD + impulse passes until no pair collides or ccd_iterations passes ran; returns
+// the pairs still colliding.
+std::vector<Hit> ImpulsePasses(ApplyContext& cx) {
+  for (int pass = 0;; ++pass) {
+    std::vector<Hit> hits = Detect(cx, nullptr);
+    if (hits.empty() || pass == cx.opt.ccd_iterations) return hits;
+    ++cx.rep.ccd_passes;
+    cx.rep.ccd_collisions += static_cast<int>(hits.size());
+    std::stable_sort(hits.begin(), hits.end(), [](const Hit& a, const Hit& b) { return a.toi < b.toi; });
+    for (const Hit& h : hits) Impulse(cx, h);
+  }
 }
 
 }  // namespace
@@ -866,20 +946,23 @@ CollisionReport CollisionHandler::Apply(const Points3& x0, Points3& x1, const Ei
 
   CollisionReport rep;
   const double cell = std::max(mean_edge_length_, 2 * options_.thickness);
-  ApplyContext cx{F_, edges_, rest_, options_, x0, x1, inv_mass, dt, cell, rep, BroadPhase(F_, edges_), {}, {}};
-  LimitStrain(cx, rest_lengths_, HopLevels(adjacency_start_, adjacency_, inv_mass));
+  ApplyContext cx{F_,  edges_, rest_, options_, x0,   x1,   inv_mass, rest_lengths_, adjacency_start_,
+                  adjacency_, dt, cell, rep, BroadPhase(F_, edges_), {}, {}};
+  LimitStrain(cx, inv_mass);
   Repel(cx);
   HandleColliders(cx, colliders);
-  std::vector<Hit> hits;
-  for (;;) {
-    hits = Detect(cx, nullptr);
-    if (hits.empty() || rep.ccd_passes == options_.ccd_iterations) break;
-    ++rep.ccd_passes;
-    rep.ccd_collisions += static_cast<int>(hits.size());
-    std::stable_sort(hits.begin(), hits.end(), [](const Hit& a, const Hit& b) { return a.toi < b.toi; });
-    for (const Hit& h : hits) Impulse(cx, h);
+  std::vector<Hit> hits = ImpulsePasses(cx);
+  std::vector<int> stretched = StrainViolations(cx);
+  // Impulses and repulsion re-stretch edges next to contacts: clamp again and re-check.
+  while (hits.empty() && !stretched.empty() && rep.strain_rounds < options_.strain_rounds) {
+    ++rep.strain_rounds;
+    LimitStrain(cx, inv_mass);
+    HandleColliders(cx, colliders);
+    hits = ImpulsePasses(cx);
+    stretched = StrainViolations(cx);
   }
-  if (!hits.empty()) ImpactZones(cx, std::move(hits));
+  if (!hits.empty() || !stretched.empty()) ImpactZones(cx, std::move(hits), std::move(stretched), colliders);
+  rep.strain_violations = static_cast<int>(StrainViolations(cx, &rep.max_strain).size());
   return rep;
 }
 

@@ -15,8 +15,16 @@
 //   4. continuous collision detection (CCD) on the straight path x0→x1 for every VF
 //      and EE pair that shares no vertex, with inelastic impulses at the time of
 //      impact, up to `ccd_iterations` passes;
-//   5. fail-safe: rigid impact zones (Provot 1997, Bridson §7.4) merged until no
-//      pair collides; as the last resort the whole mesh becomes one zone.
+//   5. the impulses (and repulsion) re-stretch edges the clamp had fixed: while some
+//      edge is beyond the strain bound, clamp again, re-check the colliders and run
+//      the CCD again, up to `strain_rounds` times;
+//   6. fail-safe: rigid impact zones (Provot 1997, Bridson §7.4). A zone moves rigidly
+//      from x0, so edges inside it keep their x0 length, but edges leaving it are
+//      stretched by the zone's motion: after every zone move the free nodes are clamped
+//      again with the zones' nodes held (infinitely heavy), the colliders re-checked,
+//      and colliding pairs and still-violating edges both merge into zones, until no
+//      pair collides and no edge is beyond the bound. Every round merges at least two
+//      components, so this ends; as the last resort the whole mesh becomes one zone.
 // The caller then uses x1 as the new state and (x1 − x0)/dt as the node velocities.
 //
 // Guarantee: when every kinematic node (inv_mass == 0) moves rigidly as a group over
@@ -24,6 +32,12 @@
 // free of VF and EE crossings between elements that share no vertex
 // (report.remaining_collisions == 0): the CCD is conservative and a rigid zone moves
 // by an affine map (1−t)·I + t·R that stays invertible for rotation angles < π.
+// When in addition every edge of x0 is within the strain bound, so is every edge of
+// the returned x1 (report.strain_violations == 0; bound: (1 + max_strain +
+// strain_tolerance)·L0, and (1 − max_compression − strain_tolerance)·L0 below).
+// Otherwise report.strain_violations counts the edges that could not be brought
+// within it (an edge of x0 already beyond it inside a zone, or between kinematic nodes
+// pulled apart): the caller decides (e.g. fails the job).
 // Kinematic nodes that move non-rigidly relative to each other (two grippers pulling
 // apart) can force a crossing no correction of free nodes can avoid; then the zones
 // follow the best rigid fit of their kinematic nodes, report.nonrigid_kinematic is
@@ -71,6 +85,12 @@ struct CollisionOptions {
   double max_strain = 0.06;
   double max_compression = 0.0;
   int strain_iterations = 20;       // Gauss–Seidel sweeps (stops early when all edges are within)
+  // Strain (absolute, like max_strain) an edge may exceed the bound by and still count
+  // as within it: the Gauss–Seidel clamp converges to the bound, not onto it.
+  double strain_tolerance = 1e-3;
+  // Clamp → colliders → CCD rounds after the first CCD before edges still beyond the
+  // bound go to the fail-safe (where they merge into rigid zones).
+  int strain_rounds = 3;
   // Sweeps run outwards from the kinematic nodes (mesh hops); on an edge between two
   // hop levels the node nearer to a held node gets its inverse mass scaled by this
   // (1: plain mass weighting, which needs hundreds of sweeps to carry a grip's pull
@@ -97,6 +117,10 @@ struct CollisionReport {
   bool fail_safe_used = false;  // rigid impact zones were needed
   bool reverted = false;        // gave up on zones: the whole mesh moved as one rigid zone
   bool nonrigid_kinematic = false;  // a zone's kinematic nodes moved non-rigidly
+  int strain_rounds = 0;        // re-clamp rounds after the first CCD (step 5)
+  int strain_merges = 0;        // edges beyond the bound merged into impact zones (step 6)
+  int strain_violations = 0;    // edges of the returned x1 beyond the bound (0 unless x0 was, or non-rigid kinematics)
+  double max_strain = 0;        // largest edge strain (l − L0)/L0 of the returned x1
   double broad_seconds = 0, strain_seconds = 0, proximity_seconds = 0, collider_seconds = 0,
          ccd_seconds = 0, zone_seconds = 0;  // s, wall clock, timing only
 };

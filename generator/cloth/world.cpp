@@ -349,6 +349,8 @@ CollisionReport ClothWorld::Step() {
     timings_.fail_safe_steps += rep.fail_safe_used;
     timings_.reverted_steps += rep.reverted;
     timings_.remaining_collisions += rep.remaining_collisions;
+    timings_.strain_violation_steps += rep.strain_violations > 0;
+    timings_.max_strain = std::max(timings_.max_strain, rep.max_strain);
   }
   v_ = (x1 - x_) * ((1 - kdp_) / dt);
   for (int i = 0; i < n; ++i)

@@ -20,7 +20,9 @@
 //   3. the collision handler corrects the proposed positions from the last
 //      intersection-free state: strain limiting (edges ≤ (1 + max_strain)·L0), VF and EE
 //      repulsion, box colliders with Coulomb friction, continuous collision detection
-//      and rigid impact zones; held nodes are infinitely heavy (inverse mass 0);
+//      and rigid impact zones; held nodes are infinitely heavy (inverse mass 0). It
+//      ends with both no crossing and no edge beyond the bound, or reports which could
+//      not be met (CollisionReport::remaining_collisions / strain_violations);
 //   4. the corrected positions become the state (kept in double precision here;
 //      Bullet's float copy follows them), velocities = (x1 − x0)/dt·(1 − kDP).
 // Deterministic: the same model, start state and calls give the same bytes on any
@@ -141,6 +143,8 @@ struct ClothTimings {
   int fail_safe_steps = 0;        // steps that needed rigid impact zones
   int reverted_steps = 0;         // steps where the whole mesh moved as one zone
   long remaining_collisions = 0;  // crossings left (only with non-rigid kinematics), summed
+  int strain_violation_steps = 0; // steps that ended with an edge beyond the strain bound
+  double max_strain = 0;          // largest edge strain (l − L0)/L0 at the end of any step
 };
 
 struct SettleOptions {
