@@ -4,8 +4,6 @@
 #include "garments/io.h"
 #include "garments/templates.h"
 
-namespace fs = std::filesystem;
-
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace drape;
   static const fs::path mesh = [] {

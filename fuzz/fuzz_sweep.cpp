@@ -5,8 +5,6 @@
 #include "fuzz/fuzz_util.h"
 #include "generator/sweep/sweep.h"
 
-namespace fs = std::filesystem;
-
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace drape;
   const auto parts = fuzz::SplitParts(fuzz::Bytes(data, size));
