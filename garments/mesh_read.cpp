@@ -449,8 +449,10 @@ void OnlyLoadersFor(Assimp::Importer& importer, std::string ext, const std::stri
     Assimp::BaseImporter* loader = importer.GetImporter(i);
     std::set<std::string> exts;
     loader->GetExtensionList(exts);
-    if (exts.count(ext)) found = true;
-    else others.push_back(loader);
+    if (exts.count(ext))
+      found = true;
+    else
+      others.push_back(loader);
   }
   if (ext.empty() || ext == "ply" || ext == "obj" || !found)
     throw Error(where + ": cannot read mesh: no reader for '." + ext + "' files");
