@@ -2,19 +2,19 @@
 
 #include <Eigen/SVD>
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <limits>
 #include <numeric>
 #include <string>
 
+#include "common/cpu_time.h"
 #include "common/error.h"
 
 namespace drape {
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double Since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+// Phase timings in thread CPU seconds: a busy shared machine does not inflate them.
+double Since(double t0) { return ThreadCpuSeconds() - t0; }
 
 constexpr double kTiny = 1e-30;          // m²: below this a segment has zero length
 constexpr double kAccdShrink = 0.1;      // ACCD's s: report when the gap falls below s × initial
@@ -550,7 +550,7 @@ struct ApplyContext {
   // Candidates padded by thickness/2 on x0 ∪ box_ref; still valid for CCD (pad ξ/2)
   // while every node's x1 stays within its box grown by (thickness − ξ)/2.
   const Candidates& Fresh() {
-    const auto t0 = Clock::now();
+    const auto t0 = ThreadCpuSeconds();
     bool valid = have_cand;
     const double m = 0.5 * (opt.thickness - opt.min_separation);
     for (int i = 0; valid && i < x1.rows(); ++i) {
@@ -604,7 +604,7 @@ struct StrainBounds {
 // nodes with w == 0 (kinematic, or frozen in an impact zone): w is the inverse mass
 // the clamp uses.
 void LimitStrain(ApplyContext& cx, const Eigen::VectorXd& w) {
-  const auto t0 = Clock::now();
+  const auto t0 = ThreadCpuSeconds();
   const StrainBounds b(cx.opt);
   if (!b.active) return;
   const std::vector<int> level = HopLevels(cx.adj_start, cx.adj, w);
@@ -689,7 +689,7 @@ bool RepelPair(ApplyContext& cx, const Stencil& s) {
 
 void Repel(ApplyContext& cx) {
   const Candidates& cand = cx.Fresh();
-  const auto t0 = Clock::now();
+  const auto t0 = ThreadCpuSeconds();
   for (int it = 0; it < cx.opt.proximity_iterations; ++it) {
     int moved = 0;
     for (const auto& [v, f] : cand.vf) moved += RepelPair(cx, cx.VF(v, f));
@@ -750,7 +750,7 @@ bool CollideNode(const BoxCollider& box, double pad, const Vec3& x0, Vec3& x1) {
 // frozen (optional): nodes in an impact zone, left alone.
 void HandleColliders(ApplyContext& cx, const std::vector<BoxCollider>& colliders,
                      const std::vector<char>* frozen = nullptr) {
-  const auto t0 = Clock::now();
+  const auto t0 = ThreadCpuSeconds();
   for (int i = 0; i < cx.x1.rows() && !colliders.empty(); ++i) {
     if (cx.inv_mass[i] == 0 || (frozen && (*frozen)[i])) continue;
     const Vec3 a = cx.x0.row(i).transpose();
@@ -808,7 +808,7 @@ std::vector<BoxHit> DetectBoxes(ApplyContext& cx, const std::vector<BoxCollider>
                                 const std::vector<char>* pinned = nullptr) {
   std::vector<BoxHit> hits;
   if (colliders.empty()) return hits;
-  const auto t0 = Clock::now();
+  const auto t0 = ThreadCpuSeconds();
   const double pad = cx.opt.min_separation;
   auto moving = [&](int i) { return cx.inv_mass[i] != 0 && !(pinned && (*pinned)[i]); };
   auto node_box = [&](int i) {
@@ -895,7 +895,7 @@ void BoxImpulse(ApplyContext& cx, const BoxHit& hit, const std::vector<BoxCollid
 // Colliding pairs on x0 → x1; pairs whose nodes all lie in one rigid zone are skipped.
 std::vector<Hit> Detect(ApplyContext& cx, const std::vector<int>* zone_of) {
   const Candidates& cand = cx.Fresh();
-  const auto t0 = Clock::now();
+  const auto t0 = ThreadCpuSeconds();
   std::vector<Hit> hits;
   auto test = [&](const Stencil& s) {
     if (zone_of) {
@@ -995,7 +995,7 @@ bool FreezeZone(ApplyContext& cx, const std::vector<int>& zone) {
 // so the last change of x1 is always followed by all the checks.
 void ImpactZones(ApplyContext& cx, Pending pending, std::vector<int> stretched,
                  const std::vector<BoxCollider>& colliders) {
-  const auto t0 = Clock::now();
+  const auto t0 = ThreadCpuSeconds();
   const CollisionReport before = cx.rep;
   cx.rep.fail_safe_used = true;
   const int n = static_cast<int>(cx.x1.rows());

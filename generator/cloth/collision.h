@@ -126,7 +126,7 @@ struct CollisionReport {
   int strain_violations = 0;    // edges of the returned x1 beyond the bound (0 unless x0 was, or non-rigid kinematics)
   double max_strain = 0;        // largest edge strain (l − L0)/L0 of the returned x1
   double broad_seconds = 0, strain_seconds = 0, proximity_seconds = 0, collider_seconds = 0,
-         ccd_seconds = 0, zone_seconds = 0;  // s, wall clock, timing only
+         ccd_seconds = 0, zone_seconds = 0;  // s, thread CPU time, timing only
 };
 
 class CollisionHandler {
