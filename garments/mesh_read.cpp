@@ -1,5 +1,6 @@
 #include "garments/mesh_read.h"
 
+#include <assimp/BaseImporter.h>
 #include <assimp/Importer.hpp>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
@@ -11,6 +12,7 @@
 #include <cstring>
 #include <numeric>
 #include <optional>
+#include <set>
 
 #include "common/error.h"
 #include "common/format.h"
@@ -214,7 +216,7 @@ int PropIndex(const PlyElement& e, std::initializer_list<const char*> names) {
 size_t ListLength(PlyReader& r, const PlyProperty& p, const std::string& at) {
   const double n = r.Read(p.count_size, false, p.count_signed);
   if (!(n >= 0) || n != std::floor(n) || n > static_cast<double>(r.Remaining()))
-    throw Error(at + ": list length " + std::to_string(static_cast<long long>(n)) + " is not possible here");
+    throw Error(at + ": list length " + FormatNumber(n) + " is not possible here");  // may be nan or 1e300
   return static_cast<size_t>(n);
 }
 
@@ -435,10 +437,35 @@ MeshData FromScene(const aiScene* sc, const std::string& where) {
 // later code walk them.
 constexpr unsigned kAssimpFlags = aiProcess_ValidateDataStructure;
 
+// Leaves in `importer` only the loaders of the file's extension. assimp otherwise falls
+// back to guessing the format from the content when those loaders decline a file, so
+// a damaged .glb that looks like OBJ text went to assimp's OBJ loader, which crashed on
+// it (found by fuzz/fuzz_mesh; the file is in fuzz/corpus/mesh and mesh_read_test).
+void OnlyLoadersFor(Assimp::Importer& importer, std::string ext, const std::string& where) {
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  std::vector<Assimp::BaseImporter*> others;
+  bool found = false;
+  for (size_t i = 0; i < importer.GetImporterCount(); ++i) {
+    Assimp::BaseImporter* loader = importer.GetImporter(i);
+    std::set<std::string> exts;
+    loader->GetExtensionList(exts);
+    if (exts.count(ext)) found = true;
+    else others.push_back(loader);
+  }
+  if (ext.empty() || ext == "ply" || ext == "obj" || !found)
+    throw Error(where + ": cannot read mesh: no reader for '." + ext + "' files");
+  for (Assimp::BaseImporter* loader : others) {
+    importer.UnregisterLoader(loader);
+    delete loader;  // unregistered loaders are no longer the importer's to delete
+  }
+}
+
 }  // namespace
 
 MeshData ReadWithAssimp(const std::filesystem::path& path) {
   Assimp::Importer importer;
+  const std::string ext = path.extension().string();
+  OnlyLoadersFor(importer, ext.empty() ? "" : ext.substr(1), path.string());
   const aiScene* sc = importer.ReadFile(path.string(), kAssimpFlags);
   if (!sc || !sc->mRootNode) throw Error(path.string() + ": cannot read mesh: " + importer.GetErrorString());
   return FromScene(sc, path.string());
@@ -446,6 +473,7 @@ MeshData ReadWithAssimp(const std::filesystem::path& path) {
 
 MeshData ParseWithAssimp(std::string_view bytes, const std::string& hint, const std::string& where) {
   Assimp::Importer importer;
+  OnlyLoadersFor(importer, hint, where);
   const aiScene* sc = importer.ReadFileFromMemory(bytes.data(), bytes.size(), kAssimpFlags, hint.c_str());
   if (!sc || !sc->mRootNode) throw Error(where + ": cannot read mesh: " + importer.GetErrorString());
   return FromScene(sc, where);

@@ -27,10 +27,11 @@
 //   entry_digest = sha256(canonical JSON of {id, key, split, failed, failure,
 //                          record (keys sorted recursively), files: [[path, sha256]...] sorted})
 //   digest       = sha256 over "<id> <entry_digest>\n" for all entries sorted by id.
-//   A release whose recipe imports files (meshes, anchors sidecars) carries copies of
-//   them under sources/ (listed in dataset.json "sources", in SHA256SUMS), and the
-//   digest then also covers "source <path> <sha256>\n" for each, sorted by path; a
-//   release without imports has the same digest as before sources existed.
+//   A release whose recipe imports files (meshes and the files they refer to, anchors
+//   sidecars) carries copies of them under sources/ (listed in dataset.json "sources",
+//   in SHA256SUMS), and the digest then also covers "source <path> <sha256>\n" for
+//   each, sorted by path; a release without imports has the same digest as before
+//   sources existed.
 // Never over timestamps, timings, SQLite page layout, code version or shard layout.
 //
 // Record keys the writer understands (all optional; anything else is kept and
@@ -60,7 +61,8 @@ namespace drape {
 
 namespace fs = std::filesystem;
 
-// A file the recipe reads (an imported mesh or anchors sidecar), copied into the release.
+// A file the recipe reads (an imported mesh, its companions, an anchors sidecar), copied
+// into the release.
 struct SourceFile {
   std::string recipe_path;   // as written in the recipe (key of dataset.json "sources")
   fs::path file;             // where the build reads it from
@@ -71,7 +73,10 @@ struct SourceFile {
 // Release paths for a recipe's imported files: "sources/<path as written>" when that is
 // a plain relative path inside the recipe folder, else "sources/<file name>" (then
 // "sources/2/<file name>", … on a clash). File names are kept: a garment's default name
-// is its file's stem.
+// is its file's stem. The files a mesh refers to (garments/mesh_companions.h: a .gltf's
+// .bin and images, an .obj's .mtl and textures) follow it, at the same place relative
+// to the copy (keyed by the recipe folder's path to them); one that would land on
+// another file's place throws drape::Error.
 std::vector<SourceFile> PlanSources(const std::vector<std::pair<std::string, fs::path>>& files);
 
 // What a build knows about the release it writes.
