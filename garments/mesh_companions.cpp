@@ -141,8 +141,10 @@ void ObjCompanions(const fs::path& mesh, Collector& c) {
 std::vector<std::string> MeshCompanions(const fs::path& mesh) {
   const std::string ext = Lower(mesh.extension().string());
   Collector c(mesh);
-  if (ext == ".gltf" || ext == ".glb") GltfCompanions(mesh, ext == ".glb", c);
-  else if (ext == ".obj") ObjCompanions(mesh, c);
+  if (ext == ".gltf" || ext == ".glb")
+    GltfCompanions(mesh, ext == ".glb", c);
+  else if (ext == ".obj")
+    ObjCompanions(mesh, c);
   return c.out();
 }
 

@@ -15,6 +15,7 @@
 #include <set>
 
 #include "common/error.h"
+#include "common/files.h"
 #include "common/format.h"
 
 namespace drape {
@@ -449,8 +450,10 @@ void OnlyLoadersFor(Assimp::Importer& importer, std::string ext, const std::stri
     Assimp::BaseImporter* loader = importer.GetImporter(i);
     std::set<std::string> exts;
     loader->GetExtensionList(exts);
-    if (exts.count(ext)) found = true;
-    else others.push_back(loader);
+    if (exts.count(ext))
+      found = true;
+    else
+      others.push_back(loader);
   }
   if (ext.empty() || ext == "ply" || ext == "obj" || !found)
     throw Error(where + ": cannot read mesh: no reader for '." + ext + "' files");
@@ -460,12 +463,36 @@ void OnlyLoadersFor(Assimp::Importer& importer, std::string ext, const std::stri
   }
 }
 
+// A GLB's lengths must fit in the file: assimp's glTF loaders allocate what the chunk
+// header says before reading, so a damaged length asked for 4 GB (found by
+// fuzz/fuzz_mesh: garments/testdata/assimp-oom-glb-chunk.glb).
+void CheckGlbLengths(std::string_view b, const std::string& where) {
+  auto u32 = [&](size_t at) {
+    uint32_t v = 0;
+    std::memcpy(&v, b.data() + at, 4);
+    return v;  // little-endian, as this machine
+  };
+  const auto bad = [&](const std::string& what) { throw Error(where + ": cannot read mesh: damaged GLB: " + what); };
+  if (b.size() < 20 || b.substr(0, 4) != "glTF") bad("no GLB header");
+  if (u32(8) != b.size())
+    bad("header length " + std::to_string(u32(8)) + " but " + std::to_string(b.size()) + " bytes");
+  if (u32(4) == 1) {  // glTF 1.0 binary: one content block after the 20-byte header
+    if (u32(12) > b.size() - 20) bad("content length " + std::to_string(u32(12)) + " beyond the file");
+    return;
+  }
+  for (size_t at = 12; at < b.size(); at += 8 + static_cast<size_t>(u32(at))) {
+    if (b.size() - at < 8 || u32(at) > b.size() - at - 8)
+      bad("chunk at byte " + std::to_string(at) + " beyond the file");
+  }
+}
+
 }  // namespace
 
 MeshData ReadWithAssimp(const std::filesystem::path& path) {
   Assimp::Importer importer;
   const std::string ext = path.extension().string();
   OnlyLoadersFor(importer, ext.empty() ? "" : ext.substr(1), path.string());
+  if (path.extension() == ".glb" || path.extension() == ".GLB") CheckGlbLengths(ReadFile(path), path.string());
   const aiScene* sc = importer.ReadFile(path.string(), kAssimpFlags);
   if (!sc || !sc->mRootNode) throw Error(path.string() + ": cannot read mesh: " + importer.GetErrorString());
   return FromScene(sc, path.string());
@@ -474,6 +501,7 @@ MeshData ReadWithAssimp(const std::filesystem::path& path) {
 MeshData ParseWithAssimp(std::string_view bytes, const std::string& hint, const std::string& where) {
   Assimp::Importer importer;
   OnlyLoadersFor(importer, hint, where);
+  if (hint == "glb") CheckGlbLengths(bytes, where);
   const aiScene* sc = importer.ReadFileFromMemory(bytes.data(), bytes.size(), kAssimpFlags, hint.c_str());
   if (!sc || !sc->mRootNode) throw Error(where + ": cannot read mesh: " + importer.GetErrorString());
   return FromScene(sc, where);

@@ -14,6 +14,8 @@
 #include "garments/io.h"
 #include "garments/templates.h"
 
+namespace fs = std::filesystem;
+
 namespace drape {
 namespace {
 
@@ -91,6 +93,12 @@ TEST(MeshRead, DamagedGlbIsAnErrorNotACrash) {
   o.edge_length = 0.1;
   WriteMesh(MakeGarment("towel", o).mesh, d / "t.glb");
   EXPECT_GT(ReadMesh(d / "t.glb").NumVertices(), 0);
+  // fuzz_mesh again: a chunk length of ~4 GB made assimp allocate it (out of memory).
+  const std::string oom = ReadFile(kTestdata / "assimp-oom-glb-chunk.glb");
+  EXPECT_CONTAINS(ErrorOf([&] { ParseWithAssimp(oom, "glb", "x.glb"); }), "damaged GLB: chunk at byte 12 beyond");
+  const std::string glb = ReadFile(d / "t.glb");
+  EXPECT_CONTAINS(ErrorOf([&] { ParseWithAssimp(glb.substr(0, glb.size() - 1), "glb", "x.glb"); }),
+                  "damaged GLB: header length");
   EXPECT_CONTAINS(ErrorOf([&] { ParseWithAssimp("ply\n", "ply", "x.ply"); }), "no reader for '.ply' files");
   EXPECT_CONTAINS(ErrorOf([&] { ParseWithAssimp("v 0 0 0\n", "xyz123", "x"); }), "no reader for '.xyz123' files");
 }
