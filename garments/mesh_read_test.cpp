@@ -14,6 +14,8 @@
 #include "garments/io.h"
 #include "garments/templates.h"
 
+namespace fs = std::filesystem;
+
 namespace drape {
 namespace {
 

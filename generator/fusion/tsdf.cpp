@@ -50,7 +50,7 @@ double Lap(Clock::time_point& t0) {
 void FusionOptions::Validate() const {
   if (!(voxels_per_metre >= 10 && voxels_per_metre <= 4096))
     Bad(voxels_per_metre, "voxels_per_metre", "must be in [10, 4096]");
-  if (!std::isfinite(truncation) || truncation < 0) Bad(truncation, "truncation", "must be >= 0 (0 = 4 voxels)");
+  if (!(truncation >= 0 && truncation <= 1)) Bad(truncation, "truncation", "must be in [0, 1] m (0 = 4 voxels)");
   if (truncation > 0 && truncation < 1.0 / voxels_per_metre)
     Bad(truncation, "truncation", "must be at least one voxel");
   if (truncation > 16.0 / voxels_per_metre)
@@ -61,11 +61,11 @@ void FusionOptions::Validate() const {
     Bad(box, "box", "too large for the carving grid at this voxel size");
   if (!std::isfinite(radius)) Bad(radius, "radius", "must be finite (<= 0: no radial limit)");
   if (min_weight < 1) Bad(min_weight, "min_weight", "must be >= 1");
-  if (carve_min_views < 1) Bad(carve_min_views, "carve_min_views", "must be >= 1");
+  if (carve_min_views < 1 || carve_min_views > 100000) Bad(carve_min_views, "carve_min_views", "must be in 1..100000");
   if (!(carve_min_fraction >= 0 && carve_min_fraction <= 1))
     Bad(carve_min_fraction, "carve_min_fraction", "must be in [0, 1]");
   if (hole_radius_px < 0 || hole_radius_px > 64) Bad(hole_radius_px, "hole_radius_px", "must be in [0, 64]");
-  if (frames_stride < 1) Bad(frames_stride, "frames_stride", "must be >= 1");
+  if (frames_stride < 1 || frames_stride > 100000) Bad(frames_stride, "frames_stride", "must be in 1..100000");
   if (!(pose_noise_degrees >= 0 && pose_noise_degrees <= 45))
     Bad(pose_noise_degrees, "pose_noise_degrees", "must be in [0, 45]");
 }

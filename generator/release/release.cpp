@@ -24,6 +24,8 @@
 #include "garments/mesh_companions.h"
 #include "generator/release/release_internal.h"
 
+namespace fs = std::filesystem;
+
 namespace drape {
 namespace release_detail {
 

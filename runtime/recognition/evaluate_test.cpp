@@ -14,14 +14,14 @@ namespace {
 namespace fs = std::filesystem;
 
 Code RandomCode(Rng& rng) {
-  Code c = ZeroCode(4, 4, 8);
-  for (int b = 0; b < c.bits(); ++b) c.Set(b, rng.Uniform() < 0.5);
+  Code c = ZeroFeature(4, 4, 8);
+  for (int b = 0; b < c.NumBits(); ++b) c.Set(b, rng.Uniform() < 0.5);
   return c;
 }
 
 Code Flip(Code c, Rng& rng, int n) {
   for (int i = 0; i < n; ++i) {
-    const int b = static_cast<int>(rng.Below(c.bits()));
+    const int b = static_cast<int>(rng.Below(c.NumBits()));
     c.Set(b, !c.Get(b));
   }
   return c;
@@ -64,7 +64,7 @@ TEST(RecognitionEvaluate, CountsTheTableAndWritesTheReport) {
     q.timing_source = "test";
     qs.push_back(std::move(q));
   };
-  add(L("q1", "pants", "pants-q", "a", RotateCode(Flip(proto["pants/a"], rng, 1), 3)), 0.2);
+  add(L("q1", "pants", "pants-q", "a", Rotate(Flip(proto["pants/a"], rng, 1), 3)), 0.2);
   add(L("q2", "pants", "pants-q", "b", Flip(proto["pants/b"], rng, 1)), 0.2);
   add(L("q3", "pants", "pants-q", "a", train[1].code), 0.2);  // looks exactly like pants-1 "b"
   add(L("q4", "shorts", "shorts-q", "c", Flip(proto["shorts/c"], rng, 1)), -1);

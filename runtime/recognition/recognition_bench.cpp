@@ -29,9 +29,9 @@ namespace drape::recognition {
 namespace {
 
 Code RandomCode(Rng& rng, int l, int r, int s) {
-  Code c = ZeroCode(l, r, s);
+  Code c = ZeroFeature(l, r, s);
   for (auto& w : c.words) w = rng.NextU64();
-  if (c.bits() % 64) c.words.back() &= (uint64_t{1} << (c.bits() % 64)) - 1;
+  if (c.NumBits() % 64) c.words.back() &= (uint64_t{1} << (c.NumBits() % 64)) - 1;
   return c;
 }
 
@@ -278,7 +278,7 @@ void BM_PaperQuery(benchmark::State& state) {
     f = QueryFeature(frames, K, stride, threads, &steps);
     const auto w0 = std::chrono::steady_clock::now();
     const double c0 = ProcessCpuSeconds();
-    Code q = ZeroCode(f.layers, f.rings, f.sectors);
+    Code q = ZeroFeature(f.layers, f.rings, f.sectors);
     q.words = f.words;
     benchmark::DoNotOptimize(rec.Recognize(q, RecognizeOptions()).best.entry);
     steps["matching"].first += std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count();

@@ -1,13 +1,14 @@
 // Exact closest-point queries on a triangle mesh: an Embree BVH (rtcPointQuery) and a
-// brute-force reference. Used for the registration error metric, as the reference the
-// closest-point grid is tested and benchmarked against, and by the grid's narrow band.
+// brute-force reference. Used by fusion's accuracy (recon ↔ truth distances), the
+// registration error metric, and as the reference the registration's closest-point
+// grid is tested and benchmarked against. Library drape_embree.
 #pragma once
 
 #include <memory>
 
 #include "common/mesh.h"
 
-namespace drape::registration {
+namespace drape {
 
 // One closest-point answer: the point on the mesh (metres), its distance to the query
 // (metres) and the triangle it lies on (-1 only for an empty mesh).
@@ -41,4 +42,4 @@ class ExactClosestPoint {
   std::unique_ptr<Impl> impl_;
 };
 
-}  // namespace drape::registration
+}  // namespace drape

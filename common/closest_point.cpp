@@ -1,12 +1,12 @@
-#include "runtime/registration/closest_point.h"
+#include "common/closest_point.h"
 
-#include <embree3/rtcore.h>
-
+#include <algorithm>
 #include <limits>
 
+#include "common/embree.h"
 #include "common/error.h"
 
-namespace drape::registration {
+namespace drape {
 
 ClosestPoint ClosestOnTriangle(const TriMesh& mesh, int f, const Vec3& p) {
   const Vec3 a = mesh.V.row(mesh.F(f, 0)), b = mesh.V.row(mesh.F(f, 1)), c = mesh.V.row(mesh.F(f, 2));
@@ -29,6 +29,7 @@ ClosestPoint BruteForceClosestPoint(const TriMesh& mesh, const Vec3& p) {
 
 struct ExactClosestPoint::Impl {
   TriMesh mesh;
+  double max_abs_coordinate = 0;  // metres: the float rounding of the BVH scales with it
   RTCDevice device = nullptr;
   RTCScene scene = nullptr;
 };
@@ -38,6 +39,7 @@ namespace {
 struct QueryState {
   const TriMesh* mesh;
   Vec3 p;
+  double pad;  // metres added to the search radius (see Query)
   ClosestPoint best;
 };
 
@@ -46,11 +48,10 @@ bool PointQueryCallback(RTCPointQueryFunctionArguments* args) {
   const int f = static_cast<int>(args->primID);
   ClosestPoint c = ClosestOnTriangle(*s->mesh, f, s->p);
   // Ties go to the lower index so the answer does not depend on traversal order.
-  if (c.distance < s->best.distance ||
-      (c.distance == s->best.distance && f < s->best.triangle)) {
+  if (c.distance < s->best.distance || (c.distance == s->best.distance && f < s->best.triangle)) {
     s->best = c;
-    // Shrink the search radius (slightly padded: the BVH bounds are floats).
-    args->query->radius = static_cast<float>(c.distance * (1 + 1e-6) + 1e-9);
+    // Shrink the search radius, padded: the BVH bounds and the query centre are floats.
+    args->query->radius = static_cast<float>(c.distance * (1 + 1e-6) + s->pad);
     return true;
   }
   return false;
@@ -61,23 +62,16 @@ bool PointQueryCallback(RTCPointQueryFunctionArguments* args) {
 ExactClosestPoint::ExactClosestPoint(const TriMesh& mesh) : impl_(std::make_unique<Impl>()) {
   if (mesh.NumFaces() == 0) throw Error("closest-point query: target mesh has no faces");
   impl_->mesh = mesh;
-  // Pinned ISA as in the rest of drape; the answers are computed in double anyway.
-  impl_->device = rtcNewDevice("isa=avx2");
-  if (!impl_->device) impl_->device = rtcNewDevice(nullptr);
-  DRAPE_CHECK(impl_->device != nullptr, "rtcNewDevice failed");
+  if (mesh.NumVertices()) impl_->max_abs_coordinate = mesh.V.cwiseAbs().maxCoeff();
+  // The answers are exact (double) whatever the BVH, so any ISA will do when the
+  // pinned one is missing.
+  try {
+    impl_->device = NewEmbreeDevice();
+  } catch (const Error&) {
+    impl_->device = NewEmbreeDevice("");
+  }
   impl_->scene = rtcNewScene(impl_->device);
-  RTCGeometry geom = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
-  auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0,
-                                                         RTC_FORMAT_FLOAT3, 3 * sizeof(float),
-                                                         mesh.NumVertices()));
-  for (int v = 0; v < mesh.NumVertices(); ++v)
-    for (int k = 0; k < 3; ++k) vb[3 * v + k] = static_cast<float>(mesh.V(v, k));
-  auto* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0,
-                                                            RTC_FORMAT_UINT3, 3 * sizeof(unsigned),
-                                                            mesh.NumFaces()));
-  for (int f = 0; f < mesh.NumFaces(); ++f)
-    for (int k = 0; k < 3; ++k) ib[3 * f + k] = static_cast<unsigned>(mesh.F(f, k));
-  rtcCommitGeometry(geom);
+  RTCGeometry geom = NewTriangleGeometry(impl_->device, mesh);
   rtcAttachGeometry(impl_->scene, geom);
   rtcReleaseGeometry(geom);
   rtcSetSceneBuildQuality(impl_->scene, RTC_BUILD_QUALITY_HIGH);
@@ -94,7 +88,11 @@ ExactClosestPoint::~ExactClosestPoint() {
 const TriMesh& ExactClosestPoint::mesh() const { return impl_->mesh; }
 
 ClosestPoint ExactClosestPoint::Query(const Vec3& p) const {
-  QueryState s{&impl_->mesh, p, {}};
+  // Float rounding moves the query centre and every BVH bound by at most
+  // 2^-24 |coordinate| per axis; 1e-6 of the largest coordinate is ~8 times that, so
+  // the closest triangle is never culled however close the query is to the mesh.
+  const double pad = 1e-6 * std::max(impl_->max_abs_coordinate, p.cwiseAbs().maxCoeff()) + 1e-9;
+  QueryState s{&impl_->mesh, p, pad, {}};
   s.best.distance = std::numeric_limits<double>::infinity();
   RTCPointQuery q;
   q.x = static_cast<float>(p.x());
@@ -109,4 +107,4 @@ ClosestPoint ExactClosestPoint::Query(const Vec3& p) const {
   return s.best;
 }
 
-}  // namespace drape::registration
+}  // namespace drape
