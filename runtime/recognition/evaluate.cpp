@@ -216,8 +216,10 @@ void FillConfusion(const Database& db, const std::vector<EvalQuery>& queries, co
     }
     conf.labels.assign(labels.begin(), labels.end());
     conf.counts.assign(conf.labels.size(), std::vector<int>(conf.labels.size(), 0));
-    auto index = [&](const std::string& l) {
-      return static_cast<int>(std::lower_bound(conf.labels.begin(), conf.labels.end(), l) - conf.labels.begin());
+    // Captures the labels, not the structured binding (clang 14 rejects capturing those).
+    const std::vector<std::string>& sorted = conf.labels;
+    auto index = [&sorted](const std::string& l) {
+      return static_cast<int>(std::lower_bound(sorted.begin(), sorted.end(), l) - sorted.begin());
     };
     const std::string key = "both/" + conf.metric;
     for (const auto& pq : per_query) {
