@@ -14,6 +14,7 @@
 #include <ctime>
 #include <map>
 
+#include "common/cpu_time.h"
 #include "common/rng.h"
 #include "generator/feature/feature.h"
 #include "generator/fusion/fusion.h"
@@ -66,12 +67,6 @@ __attribute__((target("avx512f,avx512vpopcntdq"))) uint64_t BareAvx512(const uin
   return _mm512_reduce_add_epi64(_mm512_add_epi64(_mm512_add_epi64(acc0, acc1), _mm512_add_epi64(acc2, acc3)));
 }
 #endif
-
-double ThreadCpuSeconds() {
-  timespec ts;
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return ts.tv_sec + 1e-9 * ts.tv_nsec;
-}
 
 // Words per second of the bare loop for a kernel, measured once (≈0.2 s of this thread's
 // CPU time: Google Benchmark's rates are per CPU second too, so a busy machine does not
@@ -157,10 +152,8 @@ BENCHMARK(BM_MatchAll)
 // One whole query as `drape recognize` runs it after loading: prepare the Φ rotations,
 // Eq. match over the database, category by NN, weighted pose ranking in the category.
 // 70 entries ≈ the paper's database (shirts 2×19, pants 2×12, shorts 8, one material).
-void BM_WholeQuery(benchmark::State& state) {
-  const int n = static_cast<int>(state.range(0));
-  const bool weighted = state.range(1) != 0;
-  Rng rng(4);
+// n random 16×16×16 codes labelled over three categories, two instances, 12 anchors.
+std::vector<LabelledCode> RandomDatabase(Rng& rng, int n) {
   std::vector<LabelledCode> v;
   for (int i = 0; i < n; ++i) {
     LabelledCode lc;
@@ -171,7 +164,14 @@ void BM_WholeQuery(benchmark::State& state) {
     lc.code = RandomCode(rng, 16, 16, 16);
     v.push_back(std::move(lc));
   }
-  Database db(std::move(v));
+  return v;
+}
+
+void BM_WholeQuery(benchmark::State& state) {
+  const int n = static_cast<int>(state.range(0));
+  const bool weighted = state.range(1) != 0;
+  Rng rng(4);
+  Database db(RandomDatabase(rng, n));
   Weights w;
   w.layers = w.rings = w.sectors = 16;
   for (const char* c : {"shirt", "pants", "shorts"}) {
@@ -285,17 +285,7 @@ void BM_PaperQuery(benchmark::State& state) {
   if (!references.count(vpm)) references[vpm] = QueryFeature(frames, K, 1, vpm, false, nullptr);
   const Feature& reference = references[vpm];
   Rng rng(5);
-  std::vector<LabelledCode> v;
-  for (int i = 0; i < 70; ++i) {
-    LabelledCode lc;
-    lc.label.id = "e" + std::to_string(i);
-    lc.label.category = i % 3 == 0 ? "shirt" : i % 3 == 1 ? "pants" : "shorts";
-    lc.label.instance = lc.label.category + std::to_string(i % 2);
-    lc.label.anchor = "a" + std::to_string(i % 12);
-    lc.code = RandomCode(rng, 16, 16, 16);
-    v.push_back(std::move(lc));
-  }
-  Database db(std::move(v));
+  Database db(RandomDatabase(rng, 70));
   Recognizer rec(db, nullptr);
   StageTimes steps;
   Feature f;
