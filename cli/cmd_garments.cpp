@@ -13,6 +13,8 @@
 #include "garments/templates.h"
 #include "garments/validate.h"
 
+namespace fs = std::filesystem;
+
 namespace drape::cli {
 namespace {
 

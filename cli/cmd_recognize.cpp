@@ -131,7 +131,7 @@ int RunRecognize(const std::vector<std::string>& argv) {
       timing["refused"] = {{"read_seconds", pr.timing.read_seconds},
                            {"fusion_seconds", pr.timing.fusion_seconds},
                            {"feature_seconds", pr.timing.feature_seconds}};
-      const Match m = MatchReference(q, pr.code);
+      const Match m = DistanceReference(q, pr.code);
       query["refused_vs_stored_feature"] = {{"distance", m.distance}, {"rotation", m.rotation}};
     }
   } else {

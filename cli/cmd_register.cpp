@@ -10,6 +10,8 @@
 #include "garments/io.h"
 #include "runtime/registration/registration.h"
 
+namespace fs = std::filesystem;
+
 namespace drape::cli {
 namespace {
 

@@ -11,6 +11,8 @@
 #include "common/error.h"
 #include "generator/release/release.h"
 
+namespace fs = std::filesystem;
+
 namespace drape::cli {
 namespace {
 

@@ -13,6 +13,10 @@
 #include "common/error.h"
 #include "common/files.h"
 
+namespace drape {
+namespace fs = std::filesystem;
+}
+
 namespace drape::fuzz {
 
 inline std::string_view Bytes(const uint8_t* data, size_t size) {

@@ -1,38 +1,64 @@
 #!/usr/bin/env bash
-# Builds the libFuzzer targets (clang-14, ASan + UBSan) and runs each for SECONDS
-# (default 10) from a seed corpus made of the repository's own files.
-#   fuzz/run.sh [SECONDS] [TARGET...]      targets: recipe anchors mesh feature sweep release
-# Prints executions, coverage and crashes per target; exits 1 if any target crashed
-# (the reproducer is in $SAN_BUILD_DIR/fuzz-out/TARGET/crash-*; make it a regression
-# test in fuzz/regressions/TARGET/ — tests/fuzz_regressions.sh replays them).
+# Builds the libFuzzer targets (clang-14, ASan + UBSan) and runs them on the corpora:
+#   fuzz/run.sh [SECONDS] [TARGET...]   fuzz each target for SECONDS (default 10)
+#   fuzz/run.sh --replay [TARGET...]    run each target once over its corpus, no new inputs
+# Targets: recipe anchors mesh feature sweep release plan (default: all). The corpus of
+# target T: fuzz/corpus/T (committed: minimised finds and crash reproducers),
+# fuzz/seeds/T and the repository's own files (fuzz/seed_corpora.sh). New finds go to
+# $SAN_BUILD_DIR/fuzz-out/T/corpus (kept between runs; `-merge=1` them into
+# fuzz/corpus/T to keep them). Prints executions, coverage and crashes per target;
+# exits 1 if any target crashed (the reproducer is $SAN_BUILD_DIR/fuzz-out/T/crash-*:
+# fix the reader, add the file to fuzz/corpus/T and a unit test beside the reader).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 . fuzz/sanitize_env.sh
-SECONDS_PER_TARGET=${1:-10}
-shift || true
+MODE=fuzz
+SECONDS_PER_TARGET=10
+if [ "${1:-}" = --replay ]; then
+  MODE=replay
+  shift
+elif [[ "${1:-}" =~ ^[0-9]+$ ]]; then
+  SECONDS_PER_TARGET=$1
+  shift
+fi
 TARGETS=("$@")
-[ ${#TARGETS[@]} -gt 0 ] || TARGETS=(recipe anchors mesh feature sweep release)
+[ ${#TARGETS[@]} -gt 0 ] || TARGETS=(recipe anchors mesh feature sweep release plan)
 
 san_configure
 cmake --build "$SAN_BUILD_DIR" -j "$SAN_JOBS" --target $(printf 'fuzz_%s ' "${TARGETS[@]}")
 OUT=$SAN_BUILD_DIR/fuzz-out
 fuzz/seed_corpora.sh "$OUT/seeds"
+# The targets write their inputs to files (fuzz_util.h: Scratch): on tmpfs if there is one.
+if [ -z "${TMPDIR:-}" ] && [ -d /dev/shm ] && [ -w /dev/shm ]; then
+  export TMPDIR=/dev/shm
+fi
 
 status=0
 for t in "${TARGETS[@]}"; do
-  mkdir -p "$OUT/$t/corpus"
-  log=$OUT/$t/log.txt
-  # The seeds are read-only inputs; new finds go to corpus/ (kept between runs).
+  mkdir -p "$OUT/$t/corpus" fuzz/corpus/"$t"
+  log=$OUT/$t/$MODE.log
+  rm -f "$OUT/$t"/crash-* "$OUT/$t"/leak-* "$OUT/$t"/timeout-* "$OUT/$t"/oom-*
+  # The first folder receives new finds; the others are read only.
+  if [ "$MODE" = replay ]; then
+    rm -rf "$OUT/$t/replay-new" && mkdir -p "$OUT/$t/replay-new"
+    args=("$OUT/$t/replay-new" fuzz/corpus/"$t" "$OUT/seeds/$t" -runs=0)
+  else
+    args=("$OUT/$t/corpus" fuzz/corpus/"$t" "$OUT/seeds/$t" -max_total_time="$SECONDS_PER_TARGET")
+  fi
   set +e
-  "$SAN_BUILD_DIR/fuzz/fuzz_$t" "$OUT/$t/corpus" "$OUT/seeds/$t" -max_total_time="$SECONDS_PER_TARGET" \
-    -timeout=20 -rss_limit_mb=3072 -max_len=1048576 -artifact_prefix="$OUT/$t/" -print_final_stats=1 \
-    >"$log" 2>&1
+  "$SAN_BUILD_DIR/fuzz/fuzz_$t" "${args[@]}" -timeout=20 -rss_limit_mb=3072 -max_len=1048576 \
+    -artifact_prefix="$OUT/$t/" -print_final_stats=1 >"$log" 2>&1
   rc=$?
   set -e
   execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' || echo "?")
   cov=$(grep -o 'cov: [0-9]*' "$log" | tail -1 | grep -o '[0-9]*' || echo "?")
-  crashes=$(ls "$OUT/$t"/crash-* "$OUT/$t"/leak-* "$OUT/$t"/timeout-* "$OUT/$t"/oom-* 2>/dev/null | wc -l)
-  echo "fuzz_$t: ${SECONDS_PER_TARGET}s, $execs executions, coverage $cov edges, $crashes crash/leak/timeout/oom inputs (rc $rc)"
+  crashes=$(find "$OUT/$t" -maxdepth 1 -name 'crash-*' -o -maxdepth 1 -name 'leak-*' -o -maxdepth 1 -name 'timeout-*' \
+    -o -maxdepth 1 -name 'oom-*' | wc -l)
+  if [ "$MODE" = replay ]; then
+    echo "fuzz_$t: replayed $execs inputs, coverage $cov edges, $crashes crash/leak/timeout/oom (rc $rc)"
+  else
+    echo "fuzz_$t: ${SECONDS_PER_TARGET}s, $execs executions, coverage $cov edges, $crashes crash/leak/timeout/oom inputs (rc $rc)"
+  fi
   if [ "$rc" -ne 0 ] || [ "$crashes" -ne 0 ]; then
     status=1
     grep -m1 -A25 "ERROR\|runtime error\|==ERROR" "$log" || tail -30 "$log"

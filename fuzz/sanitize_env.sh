@@ -14,5 +14,5 @@ san_configure() {
     -DCMAKE_C_COMPILER=clang-14 -DCMAKE_CXX_COMPILER=clang++-14 \
     -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O1 $SAN_FLAGS" -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 $SAN_FLAGS" \
     -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=address,undefined" -DCMAKE_SHARED_LINKER_FLAGS="-fsanitize=address,undefined" \
-    -DDRAPE_BUILD_BENCH=OFF -DDRAPE_BUILD_FUZZ=ON "${launcher[@]}" >/dev/null
+    -DDRAPE_BUILD_BENCH=OFF -DDRAPE_BUILD_PYTHON=OFF -DDRAPE_BUILD_FUZZ=ON "${launcher[@]}" >/dev/null
 }

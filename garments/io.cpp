@@ -19,6 +19,8 @@
 #include "garments/mesh_read.h"
 #include "garments/validate.h"
 
+namespace fs = std::filesystem;
+
 namespace drape {
 namespace {
 
@@ -168,8 +170,8 @@ RawAnchor ParseAnchor(const std::string& label, const Json& v, const std::string
 }  // namespace
 
 void ImportOptions::Validate() const {
-  if (!(unit_scale > 0 && std::isfinite(unit_scale)))
-    throw Error("unit_scale must be a positive number, got " + FormatNumber(unit_scale));
+  if (!(unit_scale > 0 && unit_scale <= 1e6))
+    throw Error("unit_scale must be in (0, 1e6] m per file unit, got " + FormatNumber(unit_scale));
   if (!(max_anchor_distance >= 0)) throw Error("max_anchor_distance must be >= 0");
 }
 

@@ -30,8 +30,6 @@
 
 namespace drape {
 
-namespace fs = std::filesystem;
-
 struct ImportOptions {
   double unit_scale = 1;            // multiplies file coordinates (e.g. 0.01 for centimetres)
   std::string category = "custom";  // used unless the sidecar names one
@@ -46,28 +44,28 @@ struct ImportReport {
 
 // Reads and validates a garment; throws drape::Error naming the file and the element
 // at fault (vertex, face, edge, anchor). `anchors_json` may be empty (no anchors).
-Garment ImportGarment(const fs::path& mesh, const fs::path& anchors_json, const ImportOptions& options,
-                      ImportReport* report = nullptr);
+Garment ImportGarment(const std::filesystem::path& mesh, const std::filesystem::path& anchors_json,
+                      const ImportOptions& options, ImportReport* report = nullptr);
 
 // Writes the mesh (format from the extension: .ply binary, .obj (+ .mtl), .glb,
 // .gltf (+ .bin), .stl binary) and AnchorsPath(out). Pattern uv goes into the texture
 // coordinates (PLY s/t, OBJ vt, glTF TEXCOORD_0) when the garment has it.
-void ExportGarment(const Garment& garment, const fs::path& out);
+void ExportGarment(const Garment& garment, const std::filesystem::path& out);
 
 // out with its extension replaced by ".anchors.json" (shirt.ply → shirt.anchors.json).
-fs::path AnchorsPath(const fs::path& mesh_path);
+std::filesystem::path AnchorsPath(const std::filesystem::path& mesh_path);
 
 // Deterministic bytes of a mesh: "ply" (binary little-endian PLY), "obj", "glb", "stl".
 // Same mesh → same bytes. `uv` (optional, #V×2) is written as texture coordinates.
 std::string EncodeMesh(const TriMesh& mesh, std::string_view format = "ply", const Points2* uv = nullptr);
 
-void WriteMesh(const TriMesh& mesh, const fs::path& path, const Points2* uv = nullptr);
+void WriteMesh(const TriMesh& mesh, const std::filesystem::path& path, const Points2* uv = nullptr);
 // PLY and OBJ by drape's own readers, any other format assimp reads; polygons split
 // as fans, vertices at one position joined, node transforms applied, all meshes of
 // the scene merged, the file's vertex order kept (garments/mesh_read.h). Throws
 // drape::Error naming the file; never aborts on a malformed file.
 // `uv` (optional) receives the first texture coordinate set, or is left empty.
-TriMesh ReadMesh(const fs::path& path, double unit_scale = 1, Points2* uv = nullptr);
+TriMesh ReadMesh(const std::filesystem::path& path, double unit_scale = 1, Points2* uv = nullptr);
 
 // The sidecar JSON text for a garment (what ExportGarment writes).
 std::string EncodeAnchors(const Garment& garment, const std::string& mesh_name);

@@ -12,6 +12,8 @@
 #include "garments/templates.h"
 #include "garments/validate.h"
 
+namespace fs = std::filesystem;
+
 namespace drape {
 namespace {
 
@@ -197,6 +199,8 @@ TEST(Io, BadInputsNameFileAndElement) {
   ImportOptions bad;
   bad.unit_scale = 0;
   EXPECT_CONTAINS(ErrorOf([&] { ImportGarment(dir / "sq.obj", {}, bad); }), "unit_scale");
+  bad.unit_scale = 2e6;  // the cap the recipe had before ranges moved into Validate()
+  EXPECT_CONTAINS(ErrorOf([&] { ImportGarment(dir / "sq.obj", {}, bad); }), "unit_scale must be in (0, 1e6]");
 }
 
 TEST(Validate, InMemoryGarmentProblemsAreNamed) {

@@ -1,5 +1,6 @@
 #include "garments/mesh_read.h"
 
+#include <assimp/BaseImporter.h>
 #include <assimp/Importer.hpp>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
@@ -11,8 +12,10 @@
 #include <cstring>
 #include <numeric>
 #include <optional>
+#include <set>
 
 #include "common/error.h"
+#include "common/files.h"
 #include "common/format.h"
 
 namespace drape {
@@ -214,7 +217,7 @@ int PropIndex(const PlyElement& e, std::initializer_list<const char*> names) {
 size_t ListLength(PlyReader& r, const PlyProperty& p, const std::string& at) {
   const double n = r.Read(p.count_size, false, p.count_signed);
   if (!(n >= 0) || n != std::floor(n) || n > static_cast<double>(r.Remaining()))
-    throw Error(at + ": list length " + std::to_string(static_cast<long long>(n)) + " is not possible here");
+    throw Error(at + ": list length " + FormatNumber(n) + " is not possible here");  // may be nan or 1e300
   return static_cast<size_t>(n);
 }
 
@@ -435,10 +438,61 @@ MeshData FromScene(const aiScene* sc, const std::string& where) {
 // later code walk them.
 constexpr unsigned kAssimpFlags = aiProcess_ValidateDataStructure;
 
+// Leaves in `importer` only the loaders of the file's extension. assimp otherwise falls
+// back to guessing the format from the content when those loaders decline a file, so
+// a damaged .glb that looks like OBJ text went to assimp's OBJ loader, which crashed on
+// it (found by fuzz/fuzz_mesh; the file is in fuzz/corpus/mesh and mesh_read_test).
+void OnlyLoadersFor(Assimp::Importer& importer, std::string ext, const std::string& where) {
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  std::vector<Assimp::BaseImporter*> others;
+  bool found = false;
+  for (size_t i = 0; i < importer.GetImporterCount(); ++i) {
+    Assimp::BaseImporter* loader = importer.GetImporter(i);
+    std::set<std::string> exts;
+    loader->GetExtensionList(exts);
+    if (exts.count(ext))
+      found = true;
+    else
+      others.push_back(loader);
+  }
+  if (ext.empty() || ext == "ply" || ext == "obj" || !found)
+    throw Error(where + ": cannot read mesh: no reader for '." + ext + "' files");
+  for (Assimp::BaseImporter* loader : others) {
+    importer.UnregisterLoader(loader);
+    delete loader;  // unregistered loaders are no longer the importer's to delete
+  }
+}
+
+// A GLB's lengths must fit in the file: assimp's glTF loaders allocate what the chunk
+// header says before reading, so a damaged length asked for 4 GB (found by
+// fuzz/fuzz_mesh: garments/testdata/assimp-oom-glb-chunk.glb).
+void CheckGlbLengths(std::string_view b, const std::string& where) {
+  auto u32 = [&](size_t at) {
+    uint32_t v = 0;
+    std::memcpy(&v, b.data() + at, 4);
+    return v;  // little-endian, as this machine
+  };
+  const auto bad = [&](const std::string& what) { throw Error(where + ": cannot read mesh: damaged GLB: " + what); };
+  if (b.size() < 20 || b.substr(0, 4) != "glTF") bad("no GLB header");
+  if (u32(8) != b.size())
+    bad("header length " + std::to_string(u32(8)) + " but " + std::to_string(b.size()) + " bytes");
+  if (u32(4) == 1) {  // glTF 1.0 binary: one content block after the 20-byte header
+    if (u32(12) > b.size() - 20) bad("content length " + std::to_string(u32(12)) + " beyond the file");
+    return;
+  }
+  for (size_t at = 12; at < b.size(); at += 8 + static_cast<size_t>(u32(at))) {
+    if (b.size() - at < 8 || u32(at) > b.size() - at - 8)
+      bad("chunk at byte " + std::to_string(at) + " beyond the file");
+  }
+}
+
 }  // namespace
 
 MeshData ReadWithAssimp(const std::filesystem::path& path) {
   Assimp::Importer importer;
+  const std::string ext = path.extension().string();
+  OnlyLoadersFor(importer, ext.empty() ? "" : ext.substr(1), path.string());
+  if (path.extension() == ".glb" || path.extension() == ".GLB") CheckGlbLengths(ReadFile(path), path.string());
   const aiScene* sc = importer.ReadFile(path.string(), kAssimpFlags);
   if (!sc || !sc->mRootNode) throw Error(path.string() + ": cannot read mesh: " + importer.GetErrorString());
   return FromScene(sc, path.string());
@@ -446,6 +500,8 @@ MeshData ReadWithAssimp(const std::filesystem::path& path) {
 
 MeshData ParseWithAssimp(std::string_view bytes, const std::string& hint, const std::string& where) {
   Assimp::Importer importer;
+  OnlyLoadersFor(importer, hint, where);
+  if (hint == "glb") CheckGlbLengths(bytes, where);
   const aiScene* sc = importer.ReadFileFromMemory(bytes.data(), bytes.size(), kAssimpFlags, hint.c_str());
   if (!sc || !sc->mRootNode) throw Error(where + ": cannot read mesh: " + importer.GetErrorString());
   return FromScene(sc, where);

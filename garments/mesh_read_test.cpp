@@ -14,6 +14,8 @@
 #include "garments/io.h"
 #include "garments/templates.h"
 
+namespace fs = std::filesystem;
+
 namespace drape {
 namespace {
 
@@ -76,6 +78,29 @@ TEST(MeshRead, ReleaseFilesThatCrashedAssimpReadExactly) {
   }
   EXPECT_EQ(ReadMesh(kTestdata / "assimp-abort-hang.ply").NumVertices(), 539);
   EXPECT_EQ(ReadMesh(kTestdata / "assimp-segv-recon.ply").NumFaces(), 117676);
+}
+
+// fuzz/fuzz_mesh found: a damaged .glb (an OBJ text behind the "glTF" magic) was
+// declined by assimp's glTF loaders and then handed to its OBJ loader, which crashed
+// (SEGV). Only the loaders of the file's extension may read it now.
+TEST(MeshRead, DamagedGlbIsAnErrorNotACrash) {
+  const std::string bytes = ReadFile(kTestdata / "assimp-crash-glb-as-obj.glb");
+  EXPECT_CONTAINS(ErrorOf([&] { ParseWithAssimp(bytes, "glb", "x.glb"); }), "x.glb: cannot read mesh");
+  EXPECT_CONTAINS(ErrorOf([&] { ReadMesh(kTestdata / "assimp-crash-glb-as-obj.glb"); }), "cannot read mesh");
+  // A real GLB still reads, and assimp never reads what drape's own readers own.
+  const fs::path d = TempDir("glb");
+  TemplateOptions o;
+  o.edge_length = 0.1;
+  WriteMesh(MakeGarment("towel", o).mesh, d / "t.glb");
+  EXPECT_GT(ReadMesh(d / "t.glb").NumVertices(), 0);
+  // fuzz_mesh again: a chunk length of ~4 GB made assimp allocate it (out of memory).
+  const std::string oom = ReadFile(kTestdata / "assimp-oom-glb-chunk.glb");
+  EXPECT_CONTAINS(ErrorOf([&] { ParseWithAssimp(oom, "glb", "x.glb"); }), "damaged GLB: chunk at byte 12 beyond");
+  const std::string glb = ReadFile(d / "t.glb");
+  EXPECT_CONTAINS(ErrorOf([&] { ParseWithAssimp(glb.substr(0, glb.size() - 1), "glb", "x.glb"); }),
+                  "damaged GLB: header length");
+  EXPECT_CONTAINS(ErrorOf([&] { ParseWithAssimp("ply\n", "ply", "x.ply"); }), "no reader for '.ply' files");
+  EXPECT_CONTAINS(ErrorOf([&] { ParseWithAssimp("v 0 0 0\n", "xyz123", "x"); }), "no reader for '.xyz123' files");
 }
 
 // Any byte after end_header reads the same: a mesh whose first x coordinate starts
@@ -225,6 +250,9 @@ TEST(MeshRead, MalformedFilesAreErrorsNamingTheFile) {
   check(head + "3 0 1 -1\n", "is not a valid index");
   check(head + "3 0 1\n", "ends early");
   check(head + "3 0 1 x\n", "'x' is not a number");
+  // ASCII list lengths that no integer holds (casting them was undefined behaviour).
+  check(head + "nan 0 1 2\n", "face 0: list length nan is not possible");
+  check(head + "1e300 0 1 2\n", "face 0: list length 1e+300 is not possible");
   check("ply\nformat ascii 1.0\nelement vertex 99999999\nproperty float x\nend_header\n1\n", "ends early");
   check("ply\nformat binary_little_endian 1.0\nelement vertex 1\nproperty float x\n", "no end_header");
   check("ply\nformat weird 1.0\nend_header\n", "unknown PLY format");

@@ -27,18 +27,6 @@ namespace {
 namespace fs = std::filesystem;
 using namespace drape::recognition;
 
-py::array_t<bool> CodeToArray(const Code& c) {
-  py::array_t<bool> a({c.layers, c.rings, c.sectors});
-  bool* out = a.mutable_data();
-  for (int b = 0; b < c.bits(); ++b) out[b] = c.Get(b);
-  return a;
-}
-
-Code CodeFromArray(const BoolArray& a) {
-  const Feature f = FeatureFromArray(a, "feature");
-  return Code{f.layers, f.rings, f.sectors, f.words};
-}
-
 Database LoadDb(const Release& rel) {
   LoadReport lr;
   return LoadDatabase(rel, &lr);
@@ -76,7 +64,7 @@ class Runtime {
       q = pr.code;
       query.update({{"path", value}, {"info", pr.info}});
     } else if (kind == "feature") {
-      q = CodeFromArray(*feature);
+      q = FeatureFromArray(*feature, "feature");
     } else {
       throw Error("recognize: unknown query kind '" + kind + "'");
     }
@@ -106,7 +94,7 @@ class Runtime {
   // release's recipe options.
   py::array_t<bool> PipelineFeature(const std::string& kind, const fs::path& path, uint64_t seed) const {
     if (kind != "sweep" && kind != "mesh") throw Error("extract_feature: unknown kind '" + kind + "'");
-    return CodeToArray(kind == "sweep" ? FeatureFromSweep(rel_, path, seed).code : FeatureFromMesh(rel_, path, seed).code);
+    return FeatureToArray(kind == "sweep" ? FeatureFromSweep(rel_, path, seed).code : FeatureFromMesh(rel_, path, seed).code);
   }
 
   int database_size() const { return db_.size(); }

@@ -6,7 +6,7 @@
 #      --dependency=afterok), then `drape verify`;
 #   2. the `srun --mpi=pmix` direct launch with DRAPE_MPI=1 (3 tasks);
 # and compares both digests and SHA256SUMS with a one-process build.
-# Opt-in (it starts daemons as root and takes a few minutes): DRAPE_SLURM_TEST=1.
+# Opt-in (it starts daemons as root; about a minute here): DRAPE_SLURM_TEST=1.
 # Exits 77 (ctest: skipped) with the reason when it cannot run here.
 source "$(dirname "$0")/e2e_lib.sh"
 skip() {
@@ -36,7 +36,8 @@ trap cleanup EXIT
 dd if=/dev/urandom of="$S/munge/munge.key" bs=1024 count=1 status=none
 chmod 0400 "$S/munge/munge.key"
 munged --foreground --force --key-file="$S/munge/munge.key" --socket="$S/munge/munge.socket" \
-  --pid-file="$S/munge/munged.pid" --log-file="$S/munge/munged.log" --seed-file="$S/munge/seed" &
+  --pid-file="$S/munge/munged.pid" --log-file="$S/munge/munged.log" --seed-file="$S/munge/seed" \
+  &>"$S/munge/munged.out" &
 pids+=($!)
 
 cat >"$S/slurm.conf" <<CONF

@@ -2,19 +2,19 @@
 
 #include <Eigen/SVD>
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <limits>
 #include <numeric>
 #include <string>
 
+#include "common/cpu_time.h"
 #include "common/error.h"
 
 namespace drape {
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double Since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+// Phase timings in thread CPU seconds: a busy shared machine does not inflate them.
+double Since(double t0) { return ThreadCpuSeconds() - t0; }
 
 constexpr double kTiny = 1e-30;          // m²: below this a segment has zero length
 constexpr double kAccdShrink = 0.1;      // ACCD's s: report when the gap falls below s × initial
@@ -550,7 +550,7 @@ struct ApplyContext {
   // Candidates padded by thickness/2 on x0 ∪ box_ref; still valid for CCD (pad ξ/2)
   // while every node's x1 stays within its box grown by (thickness − ξ)/2.
   const Candidates& Fresh() {
-    const auto t0 = Clock::now();
+    const auto t0 = ThreadCpuSeconds();
     bool valid = have_cand;
     const double m = 0.5 * (opt.thickness - opt.min_separation);
     for (int i = 0; valid && i < x1.rows(); ++i) {
@@ -604,7 +604,7 @@ struct StrainBounds {
 // nodes with w == 0 (kinematic, or frozen in an impact zone): w is the inverse mass
 // the clamp uses.
 void LimitStrain(ApplyContext& cx, const Eigen::VectorXd& w) {
-  const auto t0 = Clock::now();
+  const auto t0 = ThreadCpuSeconds();
   const StrainBounds b(cx.opt);
   if (!b.active) return;
   const std::vector<int> level = HopLevels(cx.adj_start, cx.adj, w);
@@ -689,7 +689,7 @@ bool RepelPair(ApplyContext& cx, const Stencil& s) {
 
 void Repel(ApplyContext& cx) {
   const Candidates& cand = cx.Fresh();
-  const auto t0 = Clock::now();
+  const auto t0 = ThreadCpuSeconds();
   for (int it = 0; it < cx.opt.proximity_iterations; ++it) {
     int moved = 0;
     for (const auto& [v, f] : cand.vf) moved += RepelPair(cx, cx.VF(v, f));
@@ -703,24 +703,31 @@ void Repel(ApplyContext& cx) {
 // ---- static boxes --------------------------------------------------------------------
 // Puts a node whose path enters the box (grown by pad) back on the face it entered
 // through, with Coulomb friction on its tangential displacement. True if it moved.
-bool CollideNode(const BoxCollider& box, double pad, const Vec3& x0, Vec3& x1) {
-  const Eigen::Isometry3d inv = box.pose.inverse(Eigen::Isometry);
-  const Vec3 p0 = inv * x0, h = box.half_extents.array() + pad;
-  Vec3 p1 = inv * x1;
+// Slab test of the segment p0 → p1 (box frame) against the open box |p| < h: true when
+// the segment enters it; *axis: the face's axis it enters through (−1: p0 is inside).
+bool SegmentEntersBox(const Vec3& p0, const Vec3& p1, const Vec3& h, int* axis) {
   const Vec3 d = p1 - p0;
   double enter = 0, exit = 1;
-  int axis = -1;
-  for (int a = 0; a < 3; ++a) {  // slab test of the open box against the segment
+  *axis = -1;
+  for (int a = 0; a < 3; ++a) {
     if (d[a] == 0) {
       if (std::abs(p0[a]) >= h[a]) return false;
       continue;
     }
     double t1 = (-h[a] - p0[a]) / d[a], t2 = (h[a] - p0[a]) / d[a];
     if (t1 > t2) std::swap(t1, t2);
-    if (t1 > enter) enter = t1, axis = a;
+    if (t1 > enter) enter = t1, *axis = a;
     exit = std::min(exit, t2);
   }
-  if (!(enter < exit)) return false;
+  return enter < exit;
+}
+
+bool CollideNode(const BoxCollider& box, double pad, const Vec3& x0, Vec3& x1) {
+  const Eigen::Isometry3d inv = box.pose.inverse(Eigen::Isometry);
+  const Vec3 p0 = inv * x0, h = box.half_extents.array() + pad;
+  Vec3 p1 = inv * x1;
+  int axis = -1;
+  if (!SegmentEntersBox(p0, p1, h, &axis)) return false;
   double side;
   if (axis >= 0) {
     side = p0[axis] > 0 ? 1 : -1;
@@ -743,7 +750,7 @@ bool CollideNode(const BoxCollider& box, double pad, const Vec3& x0, Vec3& x1) {
 // frozen (optional): nodes in an impact zone, left alone.
 void HandleColliders(ApplyContext& cx, const std::vector<BoxCollider>& colliders,
                      const std::vector<char>* frozen = nullptr) {
-  const auto t0 = Clock::now();
+  const auto t0 = ThreadCpuSeconds();
   for (int i = 0; i < cx.x1.rows() && !colliders.empty(); ++i) {
     if (cx.inv_mass[i] == 0 || (frozen && (*frozen)[i])) continue;
     const Vec3 a = cx.x0.row(i).transpose();
@@ -758,11 +765,137 @@ void HandleColliders(ApplyContext& cx, const std::vector<BoxCollider>& colliders
   cx.rep.collider_seconds += Since(t0);
 }
 
+// ---- box edges and corners ------------------------------------------------------------------
+// Nodes are kept out of the boxes above; a cloth edge can still cut across a box's edge
+// and a box's corner poke through a cloth face with every node outside. These pairs
+// (cloth EE against the box's 12 edges, cloth faces against its 8 corners) go through the
+// same CCD with the box as infinitely heavy and static, and so does every node path
+// (against the box itself, no pad) after the last change of x1.
+struct BoxHit {
+  bool vf = false;            // corner–face (slot 0: the corner) or edge–edge (slots 2, 3: the box's)
+  std::array<int, 4> n{};     // node per cloth slot (−1: a box point)
+  Quad box{Vec3::Zero(), Vec3::Zero(), Vec3::Zero(), Vec3::Zero()};  // the box points in their slots
+  double toi = 0;
+  int node_box = -1;          // ≥ 0: the path of node n[0] enters this box (no CCD pair)
+};
+
+Quad BoxGather(const BoxHit& h, const Points3& x) {
+  Quad q = h.box;
+  for (int k = 0; k < 4; ++k)
+    if (h.n[k] >= 0) q[k] = x.row(h.n[k]).transpose();
+  return q;
+}
+
+struct BoxGeometry {
+  std::array<Vec3, 8> corner;
+  Aabb bounds;
+};
+constexpr std::array<std::array<int, 2>, 12> kBoxEdges = {{{0, 1}, {2, 3}, {4, 5}, {6, 7}, {0, 2}, {1, 3},
+                                                           {4, 6}, {5, 7}, {0, 4}, {1, 5}, {2, 6}, {3, 7}}};
+BoxGeometry Geometry(const BoxCollider& b) {
+  BoxGeometry g;
+  for (int k = 0; k < 8; ++k) {
+    const Vec3 s((k & 1) ? 1 : -1, (k & 2) ? 1 : -1, (k & 4) ? 1 : -1);
+    g.corner[k] = b.pose * Vec3(s.cwiseProduct(b.half_extents));
+  }
+  g.bounds = {g.corner[0], g.corner[0]};
+  for (const Vec3& c : g.corner) g.bounds = {g.bounds.lo.cwiseMin(c), g.bounds.hi.cwiseMax(c)};
+  return g;
+}
+
+// Colliding box pairs on x0 → x1; nodes with static[i] set (frozen at x0 in a pinned zone) are skipped.
+std::vector<BoxHit> DetectBoxes(ApplyContext& cx, const std::vector<BoxCollider>& colliders,
+                                const std::vector<char>* pinned = nullptr) {
+  std::vector<BoxHit> hits;
+  if (colliders.empty()) return hits;
+  const auto t0 = ThreadCpuSeconds();
+  const double pad = cx.opt.min_separation;
+  auto moving = [&](int i) { return cx.inv_mass[i] != 0 && !(pinned && (*pinned)[i]); };
+  auto node_box = [&](int i) {
+    const Vec3 a = cx.x0.row(i).transpose(), b = cx.x1.row(i).transpose();
+    return Aabb{a.cwiseMin(b).array() - pad, a.cwiseMax(b).array() + pad};
+  };
+  for (int b = 0; b < static_cast<int>(colliders.size()); ++b) {
+    const BoxGeometry g = Geometry(colliders[b]);
+    const Eigen::Isometry3d inv = colliders[b].pose.inverse(Eigen::Isometry);
+    for (int i = 0; i < cx.x1.rows(); ++i) {  // node paths against the box itself
+      if (!moving(i) || !node_box(i).Overlaps(g.bounds)) continue;
+      const Vec3 p0 = inv * Vec3(cx.x0.row(i).transpose()), p1 = inv * Vec3(cx.x1.row(i).transpose());
+      int axis = -1;
+      if (SegmentEntersBox(p0, p1, colliders[b].half_extents, &axis) && axis >= 0) {
+        BoxHit h;
+        h.n = {i, -1, -1, -1};
+        h.node_box = b;
+        hits.push_back(h);
+      }
+    }
+    for (int e = 0; e < static_cast<int>(cx.E.size()); ++e) {  // cloth edges against box edges
+      const auto [i, j] = cx.E[e];
+      if (!moving(i) && !moving(j)) continue;
+      const Aabb eb{node_box(i).lo.cwiseMin(node_box(j).lo), node_box(i).hi.cwiseMax(node_box(j).hi)};
+      if (!eb.Overlaps(g.bounds)) continue;
+      for (const auto& [a, c] : kBoxEdges) {
+        const Aabb be{g.corner[a].cwiseMin(g.corner[c]), g.corner[a].cwiseMax(g.corner[c])};
+        if (!eb.Overlaps(be)) continue;
+        BoxHit h;
+        h.n = {i, j, -1, -1};
+        h.box = {Vec3::Zero(), Vec3::Zero(), g.corner[a], g.corner[c]};
+        if (AdditiveCCD(false, BoxGather(h, cx.x0), BoxGather(h, cx.x1), cx.opt.min_separation, &h.toi))
+          hits.push_back(h);
+      }
+    }
+    for (int f = 0; f < cx.F.rows(); ++f) {  // box corners against cloth faces
+      const int fa = cx.F(f, 0), fb = cx.F(f, 1), fc = cx.F(f, 2);
+      if (!moving(fa) && !moving(fb) && !moving(fc)) continue;
+      Aabb fbx = node_box(fa);
+      for (int v : {fb, fc}) fbx = {fbx.lo.cwiseMin(node_box(v).lo), fbx.hi.cwiseMax(node_box(v).hi)};
+      if (!fbx.Overlaps(g.bounds)) continue;
+      for (const Vec3& corner : g.corner) {
+        if (!fbx.Overlaps(Aabb{corner, corner})) continue;
+        BoxHit h;
+        h.vf = true;
+        h.n = {-1, fa, fb, fc};
+        h.box = {corner, Vec3::Zero(), Vec3::Zero(), Vec3::Zero()};
+        if (AdditiveCCD(true, BoxGather(h, cx.x0), BoxGather(h, cx.x1), cx.opt.min_separation, &h.toi))
+          hits.push_back(h);
+      }
+    }
+  }
+  cx.rep.collider_seconds += Since(t0);
+  return hits;
+}
+
+// Removes the cloth's approaching normal motion against the static box feature at the
+// time of impact (a node entering the box: put back on its surface).
+void BoxImpulse(ApplyContext& cx, const BoxHit& hit, const std::vector<BoxCollider>& colliders) {
+  if (hit.node_box >= 0) {
+    const int i = hit.n[0];
+    Vec3 b = cx.x1.row(i).transpose();
+    if (CollideNode(colliders[hit.node_box], 0.5 * cx.opt.thickness, cx.x0.row(i).transpose(), b))
+      cx.x1.row(i) = b.transpose();
+    return;
+  }
+  const Quad q0 = BoxGather(hit, cx.x0), q1 = BoxGather(hit, cx.x1), qt = Lerp(q0, q1, hit.toi);
+  Coeffs c;
+  const double d = std::sqrt(Closest(hit.vf, qt, &c));
+  Vec3 n = d > 0 ? Combine(c, qt) : Combine(c, q0);
+  if (!(n.norm() > 0)) return;
+  n.normalize();
+  const double vn = (Combine(c, q1) - Combine(c, q0)).dot(n);
+  if (vn >= 0) return;
+  double denom = 0;
+  for (int k = 0; k < 4; ++k)
+    if (hit.n[k] >= 0) denom += c[k] * c[k] * cx.inv_mass[hit.n[k]];
+  if (!(denom > 0)) return;
+  for (int k = 0; k < 4; ++k)
+    if (hit.n[k] >= 0) cx.x1.row(hit.n[k]) += (c[k] * cx.inv_mass[hit.n[k]] / denom * -vn) * n.transpose();
+}
+
 // ---- continuous collision detection and impulses (Bridson §7.3) -------------------------
 // Colliding pairs on x0 → x1; pairs whose nodes all lie in one rigid zone are skipped.
 std::vector<Hit> Detect(ApplyContext& cx, const std::vector<int>* zone_of) {
   const Candidates& cand = cx.Fresh();
-  const auto t0 = Clock::now();
+  const auto t0 = ThreadCpuSeconds();
   std::vector<Hit> hits;
   auto test = [&](const Stencil& s) {
     if (zone_of) {
@@ -793,6 +926,13 @@ void Impulse(ApplyContext& cx, const Hit& hit) {
   if (ShiftRelative(hit.s, c, -vn * n, cx.inv_mass, cx.x1))
     PairFriction(hit.s, c, n, -vn, cx.opt.cloth_friction, cx.x0, cx.inv_mass, cx.x1);
 }
+
+// Pairs still colliding after the impulses: cloth–cloth and cloth–box.
+struct Pending {
+  std::vector<Hit> self;
+  std::vector<BoxHit> box;
+  bool Empty() const { return self.empty() && box.empty(); }
+};
 
 // ---- rigid impact zones (Provot 1997, Bridson §7.4) ----------------------------------
 // Moves the zone's free nodes rigidly; returns false when its kinematic nodes moved non-rigidly.
@@ -838,75 +978,102 @@ std::vector<int> AcrossZones(const ApplyContext& cx, const std::vector<int>& str
   return out;
 }
 
-// Rigid impact zones, merged from colliding pairs and from edges beyond the strain
-// bound; after each move the free nodes are clamped with the zones frozen and the
-// colliders re-checked, so the last change of x1 is always followed by the checks.
-void ImpactZones(ApplyContext& cx, std::vector<Hit> hits, std::vector<int> stretched,
+// A zone touching a box stays where it was at x0 (the identity is rigid, and x0 was
+// clear of the static box); false when its kinematic nodes move (then it cannot).
+bool FreezeZone(ApplyContext& cx, const std::vector<int>& zone) {
+  bool still = true;
+  for (int i : zone) {
+    if (cx.inv_mass[i] != 0) cx.x1.row(i) = cx.x0.row(i);
+    else still &= cx.x1.row(i) == cx.x0.row(i);
+  }
+  return still;
+}
+
+// Rigid impact zones, merged from colliding pairs, from pairs against a box (such a
+// zone is pinned: it stays at x0) and from edges beyond the strain bound; after each
+// move the free nodes are clamped with the zones frozen and the colliders re-checked,
+// so the last change of x1 is always followed by all the checks.
+void ImpactZones(ApplyContext& cx, Pending pending, std::vector<int> stretched,
                  const std::vector<BoxCollider>& colliders) {
-  const auto t0 = Clock::now();
+  const auto t0 = ThreadCpuSeconds();
   const CollisionReport before = cx.rep;
   cx.rep.fail_safe_used = true;
   const int n = static_cast<int>(cx.x1.rows());
   const Points3 xin = cx.x1;  // zone momenta come from the motion proposed here
   UnionFind uf(n);
-  std::vector<char> in_zone(n, 0), nonrigid_node(n, 0);
+  std::vector<char> in_zone(n, 0), nonrigid_node(n, 0), pinned(n, 0);
   std::vector<int> zone_of(n, -1);
   std::vector<std::vector<int>> zones;
   Eigen::VectorXd w = cx.inv_mass;  // the clamp's inverse masses: zone nodes frozen
-  if (!hits.empty()) stretched.clear();  // the clamp after the first zone move may fix them
-  while (!hits.empty() || !stretched.empty()) {
+  if (!pending.Empty()) stretched.clear();  // the clamp after the first zone move may fix them
+  while (!pending.Empty() || !stretched.empty()) {
     if (cx.rep.zone_iterations == cx.opt.max_zone_iterations) {  // last resort: one zone
       std::fill(in_zone.begin(), in_zone.end(), 1);
       for (int i = 1; i < n; ++i) uf.Unite(0, i);
       cx.rep.reverted = true;
     }
     ++cx.rep.zone_iterations;
-    for (const Hit& h : hits)
+    for (const Hit& h : pending.self)
       for (int k = 0; k < 4; ++k) {
         in_zone[h.s.n[k]] = 1;
         uf.Unite(h.s.n[0], h.s.n[k]);
       }
+    for (const BoxHit& h : pending.box) {
+      int first = -1;
+      for (int i : h.n) {
+        if (i < 0) continue;
+        in_zone[i] = pinned[i] = 1;
+        if (first < 0) first = i;
+        uf.Unite(first, i);
+      }
+    }
     for (int e : stretched) {
       in_zone[cx.E[e][0]] = in_zone[cx.E[e][1]] = 1;
       uf.Unite(cx.E[e][0], cx.E[e][1]);
     }
     cx.rep.strain_merges += static_cast<int>(stretched.size());
     zones = BuildZones(uf, in_zone, &zone_of);
-    for (const auto& zone : zones)
-      if (!MoveZone(cx, zone, xin)) {
+    for (const auto& zone : zones) {
+      const bool pin = std::any_of(zone.begin(), zone.end(), [&](int i) { return pinned[i] != 0; });
+      if (pin) for (int i : zone) pinned[i] = 1;
+      if (!(pin ? FreezeZone(cx, zone) : MoveZone(cx, zone, xin))) {
         cx.rep.nonrigid_kinematic = true;
         for (int i : zone) nonrigid_node[i] = 1;
       }
+    }
     if (cx.rep.reverted) break;  // one zone: nothing is left to clamp or collide
     for (int i = 0; i < n; ++i) w[i] = in_zone[i] ? 0.0 : cx.inv_mass[i];
     LimitStrain(cx, w);
     HandleColliders(cx, colliders, &in_zone);
-    hits = Detect(cx, &zone_of);
+    pending = {Detect(cx, &zone_of), DetectBoxes(cx, colliders, &pinned)};
     stretched = AcrossZones(cx, StrainViolations(cx), zone_of);
   }
   cx.rep.impact_zones = static_cast<int>(zones.size());
-  hits.clear();
+  std::vector<Hit> hits;
   if (cx.rep.nonrigid_kinematic) {  // pairs inside a non-rigid zone are not covered: count them
     for (int i = 0; i < n; ++i)
       if (nonrigid_node[i]) zone_of[i] = -1;
     hits = Detect(cx, &zone_of);
   }
   cx.rep.remaining_collisions = static_cast<int>(hits.size());
+  cx.rep.collider_violations = static_cast<int>(DetectBoxes(cx, colliders, &pinned).size());
   const CollisionReport& r = cx.rep;
   cx.rep.zone_seconds += Since(t0) - (r.ccd_seconds - before.ccd_seconds) - (r.broad_seconds - before.broad_seconds) -
                          (r.strain_seconds - before.strain_seconds) - (r.collider_seconds - before.collider_seconds);
 }
 
-// CCD + impulse passes until no pair collides or ccd_iterations passes ran; returns
-// the pairs still colliding.
-std::vector<Hit> ImpulsePasses(ApplyContext& cx) {
+// CCD + impulse passes until no pair collides (cloth–cloth and cloth–box) or
+// ccd_iterations passes ran; returns the pairs still colliding.
+Pending ImpulsePasses(ApplyContext& cx, const std::vector<BoxCollider>& colliders) {
   for (int pass = 0;; ++pass) {
-    std::vector<Hit> hits = Detect(cx, nullptr);
-    if (hits.empty() || pass == cx.opt.ccd_iterations) return hits;
+    Pending p{Detect(cx, nullptr), DetectBoxes(cx, colliders)};
+    if (p.Empty() || pass == cx.opt.ccd_iterations) return p;
     ++cx.rep.ccd_passes;
-    cx.rep.ccd_collisions += static_cast<int>(hits.size());
-    std::stable_sort(hits.begin(), hits.end(), [](const Hit& a, const Hit& b) { return a.toi < b.toi; });
-    for (const Hit& h : hits) Impulse(cx, h);
+    cx.rep.ccd_collisions += static_cast<int>(p.self.size());
+    cx.rep.box_collisions += static_cast<int>(p.box.size());
+    std::stable_sort(p.self.begin(), p.self.end(), [](const Hit& a, const Hit& b) { return a.toi < b.toi; });
+    for (const Hit& h : p.self) Impulse(cx, h);
+    for (const BoxHit& h : p.box) BoxImpulse(cx, h, colliders);
   }
 }
 
@@ -951,17 +1118,17 @@ CollisionReport CollisionHandler::Apply(const Points3& x0, Points3& x1, const Ei
   LimitStrain(cx, inv_mass);
   Repel(cx);
   HandleColliders(cx, colliders);
-  std::vector<Hit> hits = ImpulsePasses(cx);
+  Pending pending = ImpulsePasses(cx, colliders);
   std::vector<int> stretched = StrainViolations(cx);
   // Impulses and repulsion re-stretch edges next to contacts: clamp again and re-check.
-  while (hits.empty() && !stretched.empty() && rep.strain_rounds < options_.strain_rounds) {
+  while (pending.Empty() && !stretched.empty() && rep.strain_rounds < options_.strain_rounds) {
     ++rep.strain_rounds;
     LimitStrain(cx, inv_mass);
     HandleColliders(cx, colliders);
-    hits = ImpulsePasses(cx);
+    pending = ImpulsePasses(cx, colliders);
     stretched = StrainViolations(cx);
   }
-  if (!hits.empty() || !stretched.empty()) ImpactZones(cx, std::move(hits), std::move(stretched), colliders);
+  if (!pending.Empty() || !stretched.empty()) ImpactZones(cx, std::move(pending), std::move(stretched), colliders);
   rep.strain_violations = static_cast<int>(StrainViolations(cx, &rep.max_strain).size());
   return rep;
 }

@@ -43,9 +43,11 @@
 // follow the best rigid fit of their kinematic nodes, report.nonrigid_kinematic is
 // set and any crossing left is counted in report.remaining_collisions.
 //
-// Not handled: cloth edges and faces against box edges and corners (only nodes are
-// kept out of boxes), and the colliders are not re-enforced after the CCD and the
-// fail-safe (self-intersection freedom wins over a node grazing a box).
+// Boxes: nodes are put back thickness/2 outside (step 3, with friction); in every CCD
+// pass, cloth edges against the box's 12 edges, cloth faces against its 8 corners and
+// node paths against the box itself are tested as well (the box infinitely heavy), and
+// in the fail-safe a zone touching a box stays at x0. So the returned path enters no
+// box (report.collider_violations == 0) unless a held node is pushed into one.
 //
 // Units: metres, seconds; masses enter only through inv_mass (1/kg; any consistent
 // scale, only ratios matter).
@@ -111,6 +113,8 @@ struct CollisionReport {
   int collider_contacts = 0;    // nodes put back on a collider's surface
   int ccd_collisions = 0;       // colliding pairs found by CCD (summed over passes)
   int ccd_passes = 0;           // CCD + impulse passes run
+  int box_collisions = 0;       // cloth edges/faces/node paths found crossing a box's edges/corners/faces (summed over passes)
+  int collider_violations = 0;  // node paths, edges or faces still entering a box on the returned path (0 unless held nodes push into one)
   int impact_zones = 0;         // zones in the final fail-safe state (0: fail-safe not used)
   int zone_iterations = 0;      // fail-safe detect-and-merge rounds
   int remaining_collisions = 0; // pairs still colliding on the returned path (0 unless non-rigid kinematics)
@@ -122,7 +126,7 @@ struct CollisionReport {
   int strain_violations = 0;    // edges of the returned x1 beyond the bound (0 unless x0 was, or non-rigid kinematics)
   double max_strain = 0;        // largest edge strain (l − L0)/L0 of the returned x1
   double broad_seconds = 0, strain_seconds = 0, proximity_seconds = 0, collider_seconds = 0,
-         ccd_seconds = 0, zone_seconds = 0;  // s, wall clock, timing only
+         ccd_seconds = 0, zone_seconds = 0;  // s, thread CPU time, timing only
 };
 
 class CollisionHandler {

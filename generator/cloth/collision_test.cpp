@@ -541,7 +541,9 @@ TEST(CollisionApply, StrainBoundSurvivesImpulsesAndImpactZones) {
       x = x1;
     }
     EXPECT_GT(worst_before, 2 * o.max_strain);  // the motion really was beyond the bound
-    if (zones_only) EXPECT_GT(fail_safe, 0);
+    if (zones_only) {
+      EXPECT_GT(fail_safe, 0);
+    }
     RecordProperty("strain_merges_" + std::to_string(zones_only), merges);
   }
 }
@@ -604,6 +606,85 @@ TEST(CollisionApply, CoulombFrictionOnATable) {
       EXPECT_NEAR(x1(i, 0) - x0(i, 0), slide <= 0.5 * depth ? 0.0 : slide - 0.5 * depth, 1e-12);
     }
   }
+}
+
+// Faces of x (at `samples` + 1 states on x0 → x1) that meet the axis-aligned box
+// (CGAL exact test, the box closed): the brute-force reference of the box tests.
+int PathBoxIntersections(const Faces& F, const Points3& x0, const Points3& x1, const BoxCollider& box, int samples) {
+  const Vec3 lo = box.pose.translation() - box.half_extents, hi = box.pose.translation() + box.half_extents;
+  const K::Iso_cuboid_3 cube(K::Point_3(lo.x(), lo.y(), lo.z()), K::Point_3(hi.x(), hi.y(), hi.z()));
+  int worst = 0;
+  for (int k = 0; k <= samples; ++k) {
+    const Points3 x = x0 + (double(k) / samples) * (x1 - x0);
+    int count = 0;
+    for (int f = 0; f < F.rows(); ++f) count += CGAL::do_intersect(Tri(x, F, f), cube);
+    worst = std::max(worst, count);
+  }
+  return worst;
+}
+
+// A box whose top is z = 0 and whose corner (0, 0, 0) sticks out towards +x, +y.
+BoxCollider CornerBox() {
+  BoxCollider box;
+  box.half_extents = Vec3(0.1, 0.1, 0.1);
+  box.pose.translation() = Vec3(-0.1, -0.1, -0.1);
+  box.friction = 0;
+  return box;
+}
+
+TEST(CollisionApply, ClothEdgeSweptAcrossABoxEdgeStaysOutside) {
+  // A triangle lying on the top (z = 2 mm) with one corner past the box's edge x = 0;
+  // that corner is pulled down beside the side face: both nodes stay outside the box,
+  // the edge between them would cut through the box's edge.
+  std::vector<Vec3> V = {Vec3(-0.02, -0.05, 0.002), Vec3(-0.02, -0.03, 0.002), Vec3(0.01, -0.04, 0.002)};
+  const TriMesh m = ToMesh(V, {{0, 1, 2}});
+  const BoxCollider box = CornerBox();
+  CollisionHandler handler(m.F, m.V, TestOptions());
+  Points3 x1 = m.V;
+  x1.row(2) = Eigen::RowVector3d(0.004, -0.04, -0.02);  // beside the side face x = 0, below the top
+  ASSERT_GT(PathBoxIntersections(m.F, m.V, x1, box, 64), 0);  // the proposal cuts the box
+  const CollisionReport rep = handler.Apply(m.V, x1, Eigen::VectorXd::Ones(3), 1.0 / 240, {box});
+  EXPECT_GT(rep.box_collisions, 0);
+  EXPECT_EQ(rep.collider_violations, 0);
+  EXPECT_EQ(PathBoxIntersections(m.F, m.V, x1, box, 256), 0);
+}
+
+TEST(CollisionApply, BoxCornerDoesNotPokeThroughAFace) {
+  // A triangle whose nodes all lie outside the box (each has x > 0 or y > 0) lowered
+  // 2 cm onto the box's corner: only its face and edges meet the box.
+  std::vector<Vec3> V = {Vec3(0.01, -0.02, 0.01), Vec3(-0.02, 0.01, 0.01), Vec3(0.01, 0.01, 0.01)};
+  const TriMesh m = ToMesh(V, {{0, 1, 2}});
+  const BoxCollider box = CornerBox();
+  CollisionHandler handler(m.F, m.V, TestOptions());
+  Points3 x1 = m.V;
+  x1.col(2).array() -= 0.02;
+  ASSERT_GT(PathBoxIntersections(m.F, m.V, x1, box, 64), 0);
+  const CollisionReport rep = handler.Apply(m.V, x1, Eigen::VectorXd::Ones(3), 1.0 / 240, {box});
+  EXPECT_GT(rep.box_collisions, 0);
+  EXPECT_EQ(rep.collider_violations, 0);
+  EXPECT_EQ(PathBoxIntersections(m.F, m.V, x1, box, 256), 0);
+}
+
+TEST(CollisionApply, BoxesAreRecheckedAfterTheFailSafe) {
+  // Two layers falling through each other onto the box's corner, straight to the
+  // fail-safe: zones move rigidly and would carry nodes, edges and faces into the box.
+  TriMesh m = Layers(2, 6, 6, 0.01, 0.006);
+  for (int i = 0; i < m.V.rows(); ++i) m.V.row(i) += Eigen::RowVector3d(-0.025, -0.025, 0.004);
+  const BoxCollider box = CornerBox();
+  CollisionOptions o = TestOptions();
+  o.ccd_iterations = 0;
+  o.proximity_iterations = 0;
+  CollisionHandler handler(m.F, m.V, o);
+  Rng rng(DeriveSeed(9, "box-fail-safe"));
+  Points3 x1 = m.V + RandomMotion(m.V, rng, 0.01);
+  for (int i = 0; i < x1.rows(); ++i) x1(i, 2) -= i < 36 ? 0.012 : 0.03;
+  ASSERT_GT(PathBoxIntersections(m.F, m.V, x1, box, 16), 0);
+  const CollisionReport rep = handler.Apply(m.V, x1, Eigen::VectorXd::Ones(m.V.rows()), 1.0 / 240, {box});
+  EXPECT_TRUE(rep.fail_safe_used);
+  EXPECT_EQ(rep.remaining_collisions, 0);
+  EXPECT_EQ(rep.collider_violations, 0);
+  EXPECT_EQ(PathBoxIntersections(m.F, m.V, x1, box, 64), 0);
+  EXPECT_EQ(PathIntersections(m.F, m.V, x1, 16), 0);
 }
 
 TEST(CollisionApply, Deterministic) {

@@ -6,9 +6,9 @@
 #include <btBulletDynamicsCommon.h>
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 
+#include "common/cpu_time.h"
 #include "common/error.h"
 #include "common/format.h"
 
@@ -16,8 +16,6 @@ namespace drape {
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double Seconds(Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double>(b - a).count(); }
 
 [[noreturn]] void Bad(const char* where, const char* field, const std::string& what) {
   throw Error(std::string(where) + ": " + field + " " + what);
@@ -320,9 +318,9 @@ CollisionReport ClothWorld::Step() {
       sb->m_nodes[i].m_v = Bt((p.x() - x_(i, 0)) / dt, (p.y() - x_(i, 1)) / dt, (p.z() - x_(i, 2)) / dt);
     }
   }
-  const auto t0 = Clock::now();
+  const auto t0 = ThreadCpuSeconds();
   bullet_->world.stepSimulation(btScalar(dt), 0, btScalar(dt));
-  timings_.bullet_seconds += Seconds(t0, Clock::now());
+  timings_.bullet_seconds += (ThreadCpuSeconds() - t0);
 
   Points3 x1(n, 3);
   for (int i = 0; i < n; ++i) {
@@ -337,9 +335,9 @@ CollisionReport ClothWorld::Step() {
   if (handler_) {
     Eigen::VectorXd im(n);
     for (int i = 0; i < n; ++i) im[i] = holder_[i] >= 0 ? 0.0 : 1 / m.mass[i];
-    const auto tc = Clock::now();
+    const auto tc = ThreadCpuSeconds();
     rep = handler_->Apply(x_, x1, im, dt, colliders_);
-    timings_.collision_seconds += Seconds(tc, Clock::now());
+    timings_.collision_seconds += (ThreadCpuSeconds() - tc);
     timings_.broad_seconds += rep.broad_seconds;
     timings_.strain_seconds += rep.strain_seconds;
     timings_.proximity_seconds += rep.proximity_seconds;

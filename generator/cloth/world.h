@@ -128,7 +128,8 @@ struct GraspReport {
   std::vector<int> layers;    // distinct garment layers among them, sorted (empty if unknown)
 };
 
-// Cumulative cost and counts since the world was made (timing is never hashed).
+// Cumulative cost (thread CPU seconds) and counts since the world was made (timing is
+// never hashed).
 struct ClothTimings {
   int steps = 0;
   double bullet_seconds = 0;      // inside Bullet's stepSimulation
@@ -138,7 +139,7 @@ struct ClothTimings {
   double collider_seconds = 0;    // ... box colliders
   double ccd_seconds = 0;         // ... continuous collision detection + impulses
   double zone_seconds = 0;        // ... rigid impact zones (fail-safe)
-  double collision_seconds = 0;   // the handler in total (wall clock around Apply)
+  double collision_seconds = 0;   // the handler in total (around Apply)
   long ccd_collisions = 0;        // colliding pairs found by CCD, summed
   int fail_safe_steps = 0;        // steps that needed rigid impact zones
   int reverted_steps = 0;         // steps where the whole mesh moved as one zone

@@ -14,15 +14,13 @@ namespace {
 
 constexpr int kMaxDim = 1024;
 
-int NumWords(int bits) { return (bits + 63) / 64; }
-
 void CheckSameShape(const Feature& a, const Feature& b) {
   if (a.layers != b.layers || a.rings != b.rings || a.sectors != b.sectors)
     throw Error("Distance: features of different shapes (" + std::to_string(a.layers) + "x" +
                 std::to_string(a.rings) + "x" + std::to_string(a.sectors) + " vs " +
                 std::to_string(b.layers) + "x" + std::to_string(b.rings) + "x" +
                 std::to_string(b.sectors) + ")");
-  DRAPE_CHECK(a.words.size() == size_t(NumWords(a.NumBits())) && b.words.size() == a.words.size(),
+  DRAPE_CHECK(a.words.size() == size_t(a.NumWords()) && b.words.size() == a.words.size(),
               "feature word count");
 }
 
@@ -86,6 +84,35 @@ void Feature::Set(int l, int r, int s, bool value) {
   words[i / 64] = value ? (words[i / 64] | bit) : (words[i / 64] & ~bit);
 }
 
+void Feature::Set(int bit, bool value) {
+  const uint64_t m = uint64_t(1) << (bit & 63);
+  words[bit >> 6] = value ? (words[bit >> 6] | m) : (words[bit >> 6] & ~m);
+}
+
+void Feature::Check(const std::string& where) const {
+  const std::string shape = std::to_string(layers) + "x" + std::to_string(rings) + "x" + std::to_string(sectors);
+  try {
+    FeatureOptions{layers, rings, sectors}.Validate();
+  } catch (const Error& e) {
+    throw Error(where + ": invalid feature shape " + shape + ": " + e.what());
+  }
+  if (int(words.size()) != NumWords())
+    throw Error(where + ": feature of shape " + shape + " needs " + std::to_string(NumWords()) + " 64-bit words, has " +
+                std::to_string(words.size()));
+  const int used = NumBits() % 64;
+  if (used != 0 && (words.back() & ~LowMask(used)) != 0)
+    throw Error(where + ": feature has bits set beyond its last cell");
+}
+
+Feature ZeroFeature(int layers, int rings, int sectors) {
+  Feature f;
+  f.layers = layers;
+  f.rings = rings;
+  f.sectors = sectors;
+  f.words.assign(f.NumWords(), 0);
+  return f;
+}
+
 int Feature::PopCount() const {
   int n = 0;
   for (uint64_t w : words) n += __builtin_popcountll(w);
@@ -137,7 +164,7 @@ Feature ExtractFeature(const Points3& P, const SdfFunction& sdf, const FeatureOp
   f.layers = opt.layers;
   f.rings = opt.rings;
   f.sectors = opt.sectors;
-  f.words.assign(NumWords(f.NumBits()), 0);
+  f.words.assign(f.NumWords(), 0);
   for (int l = 0; l < opt.layers; ++l)
     for (int r = 0; r < opt.rings; ++r)
       for (int s = 0; s < opt.sectors; ++s)
@@ -151,6 +178,11 @@ Feature Rotate(const Feature& f, int k) {
   Feature out = f;
   for (int g = 0; g < f.layers * f.rings; ++g) SetGroup(out, g, RotateGroup(GetGroup(f, g), k, phi));
   return out;
+}
+
+int RotatedBit(int bit, int sectors, int k) {
+  const int lr = bit / sectors, s = bit % sectors;
+  return lr * sectors + ((s + k) % sectors + sectors) % sectors;
 }
 
 Match DistanceReference(const Feature& a, const Feature& b) {
@@ -207,7 +239,7 @@ Match Distance(const Feature& a, const Feature& b) {
 }
 
 std::string EncodeFeature(const Feature& f) {
-  DRAPE_CHECK(f.words.size() == size_t(NumWords(f.NumBits())), "feature word count");
+  DRAPE_CHECK(f.words.size() == size_t(f.NumWords()), "feature word count");
   std::string s = "DRFT";
   PutU32(s, 1);
   PutU32(s, uint32_t(f.layers));
@@ -239,7 +271,7 @@ Feature DecodeFeature(std::string_view s, const std::string& where) {
   f.layers = o.layers;
   f.rings = o.rings;
   f.sectors = o.sectors;
-  if (nw != uint32_t(NumWords(f.NumBits())))
+  if (nw != uint32_t(f.NumWords()))
     throw bad("word count " + std::to_string(nw) + " does not match the shape");
   if (s.size() != 24 + 8 * size_t(nw))
     throw bad("size " + std::to_string(s.size()) + " bytes, expected " + std::to_string(24 + 8 * size_t(nw)));

@@ -41,12 +41,23 @@ struct Feature {
   std::vector<uint64_t> words;
 
   int NumBits() const { return layers * rings * sectors; }
+  int NumWords() const { return (NumBits() + 63) / 64; }
   static int Index(int l, int r, int s, int rings, int sectors) { return (l * rings + r) * sectors + s; }
   bool Get(int l, int r, int s) const;
   void Set(int l, int r, int s, bool value);
+  // Bit `bit` = Index(l, r, s) (no range check: the matcher's inner loops use these).
+  bool Get(int bit) const { return (words[bit >> 6] >> (bit & 63)) & 1u; }
+  void Set(int bit, bool value);
   int PopCount() const;
+  bool SameShape(const Feature& o) const { return layers == o.layers && rings == o.rings && sectors == o.sectors; }
+  // Throws drape::Error starting with `where` if the shape is outside FeatureOptions'
+  // ranges or the words do not fit it (count, non-zero padding bits).
+  void Check(const std::string& where) const;
   bool operator==(const Feature& o) const = default;
 };
+
+// All-zero feature of the given shape.
+Feature ZeroFeature(int layers, int rings, int sectors);
 
 // Signed distance in metres, ≤ 0 inside (Tsdf::Sdf or an analytic function).
 using SdfFunction = std::function<double(const Vec3&)>;
@@ -74,6 +85,8 @@ Match Distance(const Feature& a, const Feature& b);           // word-parallel
 Match DistanceReference(const Feature& a, const Feature& b);  // bit by bit
 // Per-ring circular shift: out(l, r, (s + k) mod Φ) = f(l, r, s). Any integer k.
 Feature Rotate(const Feature& f, int k);
+// Where bit `bit` goes under Rotate(·, k) for Φ = sectors.
+int RotatedBit(int bit, int sectors, int k);
 
 // Binary format (little-endian), 24 + 8·W bytes:
 //   "DRFT" | u32 version = 1 | u32 N | u32 R | u32 Φ | u32 W = ceil(N·R·Φ / 64) | W × u64

@@ -1,12 +1,11 @@
 // Reconstruction accuracy: area-weighted surface samples and exact point-to-mesh
 // distances through Embree's BVH point queries.
-#include <embree3/rtcore.h>
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numeric>
 
+#include "common/closest_point.h"
 #include "common/error.h"
 #include "common/parallel.h"
 #include "common/rng.h"
@@ -21,28 +20,6 @@ void CheckMesh(const TriMesh& mesh, const char* what) {
     throw Error(std::string("MeasureAccuracy: ") + what + " mesh is empty");
   if (mesh.F.minCoeff() < 0 || mesh.F.maxCoeff() >= mesh.NumVertices())
     throw Error(std::string("MeasureAccuracy: ") + what + " mesh has out-of-range face indices");
-}
-
-struct QueryData {
-  const TriMesh* mesh;
-  Vec3 p;
-  double best2;
-};
-
-bool ClosestCallback(RTCPointQueryFunctionArguments* args) {
-  auto* q = static_cast<QueryData*>(args->userPtr);
-  const auto& F = q->mesh->F;
-  const auto& V = q->mesh->V;
-  const int f = static_cast<int>(args->primID);
-  const Vec3 c = ClosestPointOnTriangle(q->p, V.row(F(f, 0)), V.row(F(f, 1)), V.row(F(f, 2)));
-  const double d2 = (c - q->p).squaredNorm();
-  if (d2 < q->best2) {
-    q->best2 = d2;
-    // Shrink the search (rounded up so that float rounding never culls the closest).
-    args->query->radius = std::nextafter(float(std::sqrt(d2)), std::numeric_limits<float>::max());
-    return true;
-  }
-  return false;
 }
 
 double Mean(const std::vector<double>& v) {
@@ -81,43 +58,11 @@ Points3 SampleSurface(const TriMesh& mesh, int samples, uint64_t seed) {
 
 std::vector<double> PointToMeshDistances(const Points3& points, const TriMesh& mesh) {
   CheckMesh(mesh, "target");
-  RTCDevice device = rtcNewDevice("threads=1");
-  if (!device) throw Error("MeasureAccuracy: cannot create an Embree device");
-  RTCScene scene = rtcNewScene(device);
-  RTCGeometry geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
-  auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0,
-                                                         RTC_FORMAT_FLOAT3, 3 * sizeof(float),
-                                                         mesh.NumVertices()));
-  for (int i = 0; i < mesh.NumVertices(); ++i)
-    for (int a = 0; a < 3; ++a) vb[3 * i + a] = float(mesh.V(i, a));
-  auto* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0,
-                                                            RTC_FORMAT_UINT3, 3 * sizeof(unsigned),
-                                                            mesh.NumFaces()));
-  for (int f = 0; f < mesh.NumFaces(); ++f)
-    for (int a = 0; a < 3; ++a) ib[3 * f + a] = unsigned(mesh.F(f, a));
-  rtcCommitGeometry(geom);
-  rtcAttachGeometry(scene, geom);
-  rtcReleaseGeometry(geom);
-  rtcCommitScene(scene);
-
+  const ExactClosestPoint closest(mesh);
   std::vector<double> dist(points.rows());
   // Each query is independent; the distance is the exact minimum whatever the order.
-  ParallelFor(static_cast<int>(points.rows()), 1, [&](int i) {
-    QueryData data{&mesh, points.row(i).transpose(), std::numeric_limits<double>::infinity()};
-    RTCPointQuery q;
-    q.x = float(data.p.x());
-    q.y = float(data.p.y());
-    q.z = float(data.p.z());
-    q.time = 0;
-    q.radius = std::numeric_limits<float>::infinity();
-    RTCPointQueryContext ctx;
-    rtcInitPointQueryContext(&ctx);
-    rtcPointQuery(scene, &q, &ctx, ClosestCallback, &data);
-    DRAPE_CHECK(std::isfinite(data.best2), "point query found no triangle");
-    dist[i] = std::sqrt(data.best2);
-  });
-  rtcReleaseScene(scene);
-  rtcReleaseDevice(device);
+  ParallelFor(static_cast<int>(points.rows()), 1,
+              [&](int i) { dist[i] = closest.Query(points.row(i).transpose()).distance; });
   return dist;
 }
 

@@ -3,6 +3,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <ctime>
 #include <limits>
 #include <sstream>
 
@@ -45,12 +46,25 @@ double Lap(Clock::time_point& t0) {
   return s;
 }
 
+double ProcessCpuSeconds() {
+  timespec ts;
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return ts.tv_sec + 1e-9 * ts.tv_nsec;
+}
+// CPU seconds since c0; restarts c0.
+double CpuLap(double& c0) {
+  const double now = ProcessCpuSeconds();
+  const double s = now - c0;
+  c0 = now;
+  return s;
+}
+
 }  // namespace
 
 void FusionOptions::Validate() const {
   if (!(voxels_per_metre >= 10 && voxels_per_metre <= 4096))
     Bad(voxels_per_metre, "voxels_per_metre", "must be in [10, 4096]");
-  if (!std::isfinite(truncation) || truncation < 0) Bad(truncation, "truncation", "must be >= 0 (0 = 4 voxels)");
+  if (!(truncation >= 0 && truncation <= 1)) Bad(truncation, "truncation", "must be in [0, 1] m (0 = 4 voxels)");
   if (truncation > 0 && truncation < 1.0 / voxels_per_metre)
     Bad(truncation, "truncation", "must be at least one voxel");
   if (truncation > 16.0 / voxels_per_metre)
@@ -61,11 +75,11 @@ void FusionOptions::Validate() const {
     Bad(box, "box", "too large for the carving grid at this voxel size");
   if (!std::isfinite(radius)) Bad(radius, "radius", "must be finite (<= 0: no radial limit)");
   if (min_weight < 1) Bad(min_weight, "min_weight", "must be >= 1");
-  if (carve_min_views < 1) Bad(carve_min_views, "carve_min_views", "must be >= 1");
+  if (carve_min_views < 1 || carve_min_views > 100000) Bad(carve_min_views, "carve_min_views", "must be in 1..100000");
   if (!(carve_min_fraction >= 0 && carve_min_fraction <= 1))
     Bad(carve_min_fraction, "carve_min_fraction", "must be in [0, 1]");
   if (hole_radius_px < 0 || hole_radius_px > 64) Bad(hole_radius_px, "hole_radius_px", "must be in [0, 64]");
-  if (frames_stride < 1) Bad(frames_stride, "frames_stride", "must be >= 1");
+  if (frames_stride < 1 || frames_stride > 100000) Bad(frames_stride, "frames_stride", "must be in 1..100000");
   if (!(pose_noise_degrees >= 0 && pose_noise_degrees <= 45))
     Bad(pose_noise_degrees, "pose_noise_degrees", "must be in [0, 45]");
 }
@@ -168,16 +182,17 @@ void Tsdf::Impl::Integrate(const std::vector<float>& depth, const Eigen::Isometr
   UpdateRays(K);
   const FrameView view = MakeView(pose, K);
   auto t0 = Clock::now();
+  double c0 = ProcessCpuSeconds();
   const int64_t fg_count = Segment(depth, view);
-  times.segment += Lap(t0);
+  times.segment += Lap(t0), times_cpu.segment += CpuLap(c0);
   if (fg_count > 0) IgnoreDropouts(view);
-  times.dropouts += Lap(t0);
+  times.dropouts += Lap(t0), times_cpu.dropouts += CpuLap(c0);
   const std::vector<int> touched = AllocateBand(view, scratch.code, frames);
-  times.allocate += Lap(t0);
+  times.allocate += Lap(t0), times_cpu.allocate += CpuLap(c0);
   voxel_updates += UpdateVoxels(view, touched);
-  times.update += Lap(t0);
+  times.update += Lap(t0), times_cpu.update += CpuLap(c0);
   CarveBlocks(view);
-  times.carve += Lap(t0);
+  times.carve += Lap(t0), times_cpu.carve += CpuLap(c0);
   foreground_pixels += fg_count;
   ++frames;
   dirty.store(true);
@@ -665,6 +680,92 @@ double Tsdf::Weight(const Vec3& p) const {
   return m.blocks[bi]->weight[LocalOffset(l.x(), l.y(), l.z())];
 }
 
+Points3 Tsdf::SurfacePoints() const {
+  const Impl& m = *impl_;
+  m.EnsureComplete();
+  const float fmu = float(m.mu);
+  // A block's values: allocated (its completed values), unobserved interior (-μ), or
+  // elsewhere +μ; active = allocated or interior.
+  struct BlockValues {
+    const float* values = nullptr;
+    float constant = 0;
+    bool active = false;
+  };
+  auto block_values = [&](const Eigen::Vector3i& b) -> BlockValues {
+    const int bi = m.FindBlock(b);
+    if (bi >= 0) return {m.completed[bi].data(), 0.f, true};
+    const int ci = m.CarveIndex(b);
+    const bool in = ci >= 0 && m.inside[ci];
+    return {nullptr, in ? -fmu : fmu, in};
+  };
+  std::vector<Vec3> pts;
+  auto edge = [&](const Eigen::Vector3i& a, float va, int axis, float vb) {
+    if ((va < 0) == (vb < 0)) return;
+    Vec3 p = a.cast<double>();
+    p[axis] += double(va) / (double(va) - double(vb));
+    pts.push_back(p * m.h);
+  };
+  constexpr int kStride[3] = {64, 8, 1};  // LocalOffset steps along x, y, z
+  // Each edge (a, a + e) belongs to a's block if that is active, else to the other end's.
+  auto block_edges = [&](const Eigen::Vector3i& b, const BlockValues& self) {
+    const Eigen::Vector3i base = b * kBlockDim;
+    BlockValues high[3];
+    bool low_free[3];
+    for (int axis = 0; axis < 3; ++axis) {
+      Eigen::Vector3i nb = b;
+      nb[axis] += 1;
+      high[axis] = block_values(nb);
+      nb[axis] -= 2;
+      low_free[axis] = !block_values(nb).active;
+    }
+    // A block of one sign (free space, deep inside, interior blocks) can only cross at
+    // its faces.
+    bool uniform = true;
+    if (self.values) {
+      int negative = 0;
+      for (int o = 0; o < kBlockVoxels; ++o) negative += self.values[o] < 0;
+      uniform = negative == 0 || negative == kBlockVoxels;
+    }
+    for (int o = 0; o < kBlockVoxels; ++o) {
+      const int l[3] = {o >> 6, (o >> 3) & 7, o & 7};
+      const bool face = l[0] == 0 || l[1] == 0 || l[2] == 0 || l[0] == kBlockDim - 1 || l[1] == kBlockDim - 1 ||
+                        l[2] == kBlockDim - 1;
+      if (uniform && !face) continue;
+      const float v = self.values ? self.values[o] : self.constant;
+      for (int axis = 0; axis < 3; ++axis) {
+        const bool is_high = l[axis] == kBlockDim - 1, is_low = l[axis] == 0 && low_free[axis];
+        if (uniform && !is_high && !is_low) continue;
+        const Eigen::Vector3i a = base + Eigen::Vector3i(l[0], l[1], l[2]);
+        if (!is_high) {
+          if (self.values) edge(a, v, axis, self.values[o + kStride[axis]]);
+        } else {
+          const BlockValues& n = high[axis];
+          edge(a, v, axis, n.values ? n.values[o - (kBlockDim - 1) * kStride[axis]] : n.constant);
+        }
+        if (is_low) {
+          Eigen::Vector3i p = a;
+          p[axis] -= 1;
+          edge(p, fmu, axis, v);
+        }
+      }
+    }
+  };
+  for (size_t bi = 0; bi < m.blocks.size(); ++bi) {
+    block_edges(m.blocks[bi]->coord, {m.completed[bi].data(), 0.f, true});
+  }
+  for (int bx = 0; bx < m.carve_dims.x(); ++bx)
+    for (int by = 0; by < m.carve_dims.y(); ++by)
+      for (int bz = 0; bz < m.carve_dims.z(); ++bz) {
+        const size_t ci = (size_t(bx) * m.carve_dims.y() + by) * m.carve_dims.z() + bz;
+        if (!m.inside[ci]) continue;
+        const Eigen::Vector3i b = m.carve_lo + Eigen::Vector3i(bx, by, bz);
+        if (m.FindBlock(b) < 0) block_edges(b, {nullptr, -fmu, true});
+      }
+  Points3 P(pts.size(), 3);
+  for (size_t i = 0; i < pts.size(); ++i) P.row(i) = pts[i].transpose();
+  return P;
+}
+
 FusionStats Tsdf::Stats() const {
   const Impl& m = *impl_;
   m.EnsureComplete();
@@ -676,11 +777,12 @@ FusionStats Tsdf::Stats() const {
   s.observed_voxels = m.observed_voxels;
   s.inside_blocks = m.inside_blocks;
   s.steps = {m.times.segment, m.times.dropouts, m.times.allocate, m.times.update, m.times.carve};
+  s.steps_cpu = m.times_cpu;
   return s;
 }
 
 FusionResult FuseFrames(const std::vector<DepthFrame>& frames, const Intrinsics& intrinsics,
-                        const FusionOptions& options, uint64_t seed) {
+                        const FusionOptions& options, uint64_t seed, bool extract_mesh) {
   options.Validate();
   const auto start = std::chrono::steady_clock::now();
   FusionResult result;
@@ -701,7 +803,7 @@ FusionResult FuseFrames(const std::vector<DepthFrame>& frames, const Intrinsics&
     }
     result.tsdf->impl_->Integrate(frames[i].depth, pose, intrinsics);
   }
-  result.mesh = result.tsdf->ExtractMesh();
+  if (extract_mesh) result.mesh = result.tsdf->ExtractMesh();
   result.stats = result.tsdf->Stats();
   result.stats.mesh_vertices = result.mesh.NumVertices();
   result.stats.mesh_faces = result.mesh.NumFaces();

@@ -80,7 +80,8 @@ struct Tsdf::Impl {
   int frames = 0;
   int64_t foreground_pixels = 0, voxel_updates = 0;
   FrameScratch scratch;
-  FusionStats::Steps times;  // accumulated wall time of each step
+  FusionStats::Steps times;      // accumulated wall time of each step
+  FusionStats::Steps times_cpu;  // and process CPU time
 
   // Cached ray directions for the last intrinsics.
   Intrinsics rays_for{};

@@ -94,4 +94,29 @@ DenseSdf SdfGrid::Dense() const {
   return d;
 }
 
+Points3 DenseSurfacePoints(const DenseSdf& d) {
+  std::vector<Vec3> pts;
+  auto at = [&](int a, int b, int c) -> float {
+    if (a < 0 || b < 0 || c < 0 || a >= d.dims.x() || b >= d.dims.y() || c >= d.dims.z()) return float(d.truncation);
+    return d.sdf[(size_t(a) * d.dims.y() + b) * d.dims.z() + c];
+  };
+  // Every edge with an end in the box, from one voxel before it to the last voxel.
+  for (int a = -1; a < d.dims.x(); ++a)
+    for (int b = -1; b < d.dims.y(); ++b)
+      for (int c = -1; c < d.dims.z(); ++c) {
+        const float v = at(a, b, c);
+        for (int axis = 0; axis < 3; ++axis) {
+          const int n[3] = {a + (axis == 0), b + (axis == 1), c + (axis == 2)};
+          const float w = at(n[0], n[1], n[2]);
+          if ((v < 0) == (w < 0)) continue;
+          Vec3 p(d.origin.x() + a, d.origin.y() + b, d.origin.z() + c);
+          p[axis] += double(v) / (double(v) - double(w));
+          pts.push_back(p * d.voxel_size);
+        }
+      }
+  Points3 P(pts.size(), 3);
+  for (size_t i = 0; i < pts.size(); ++i) P.row(i) = pts[i].transpose();
+  return P;
+}
+
 }  // namespace drape

@@ -26,6 +26,10 @@ struct DenseSdf {
   Eigen::Matrix4d IndexToObject() const;
 };
 
+// Tsdf::SurfacePoints on a dense copy (every edge of the box, brute force; the field is
+// +truncation outside it, so no crossing is missed): the same points, in x-major edge order.
+Points3 DenseSurfacePoints(const DenseSdf& d);
+
 // The sdf grid of a .vdb file. Cheap to copy (shared, immutable); Sample is thread-safe.
 class SdfGrid {
  public:

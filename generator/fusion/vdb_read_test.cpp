@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <unistd.h>
 
@@ -80,6 +82,27 @@ TEST_F(VdbRead, DenseHoldsEveryVoxel) {
   for (int v = 0; v < fused_->mesh.NumVertices(); ++v) {
     const Vec3 p = fused_->mesh.V.row(v);
     EXPECT_TRUE((p.array() >= lo.array()).all() && (p.array() <= hi.array()).all());
+  }
+}
+
+std::vector<std::array<double, 3>> SortedRows(const Points3& P) {
+  std::vector<std::array<double, 3>> rows(P.rows());
+  for (Eigen::Index i = 0; i < P.rows(); ++i) rows[i] = {P(i, 0), P(i, 1), P(i, 2)};
+  std::sort(rows.begin(), rows.end());
+  return rows;
+}
+
+// Tsdf::SurfacePoints (block by block) against every edge of the dense copy.
+TEST_F(VdbRead, SurfacePointsEqualDenseBruteForce) {
+  const Points3 fast = fused_->tsdf->SurfacePoints();
+  const Points3 brute = DenseSurfacePoints(SdfGrid::Read(*path_).Dense());
+  ASSERT_GT(fast.rows(), 1000);
+  EXPECT_EQ(SortedRows(fast), SortedRows(brute));
+  // Where the mesh is: the same extent to within a voxel.
+  const Points3& V = fused_->mesh.V;
+  for (int a = 0; a < 3; ++a) {
+    EXPECT_NEAR(fast.col(a).maxCoeff(), V.col(a).maxCoeff(), 1.0 / 128) << a;
+    EXPECT_NEAR(fast.col(a).minCoeff(), V.col(a).minCoeff(), 1.0 / 128) << a;
   }
 }
 

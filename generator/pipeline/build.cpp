@@ -423,18 +423,23 @@ std::optional<Entry> BuildOrFailEntry(const Recipe& recipe, const Job& job, JobC
   } catch (const std::exception& ex) {
     *error = ex.what();
     if (!keep_going) return std::nullopt;
-    Entry entry;
-    entry.id = job.id;
-    entry.key = job.key;
-    entry.split = job.split;
-    entry.failed = true;
-    entry.failure = std::string("error: ") + ex.what();
-    entry.record = {{"seed", job.seed}};
-    return entry;
+    return FailedEntry(job, ex.what());
   }
 }
 
-// A committed entry in the report: built or failed, and its stage times.
+}  // namespace
+
+Entry FailedEntry(const Job& job, const std::string& error) {
+  Entry entry;
+  entry.id = job.id;
+  entry.key = job.key;
+  entry.split = job.split;
+  entry.failed = true;
+  entry.failure = "error: " + error;
+  entry.record = {{"seed", job.seed}};
+  return entry;
+}
+
 void CountEntry(const Entry& entry, const Job& job, BuildReport& report) {
   ++report.built;
   if (entry.failed) {
@@ -442,46 +447,57 @@ void CountEntry(const Entry& entry, const Job& job, BuildReport& report) {
     report.failures.push_back({job.key, entry.failure});
   }
   for (auto it = entry.timing.begin(); it != entry.timing.end(); ++it)
-    if (it->is_number() && it.key() != "total") report.stage_seconds[it.key()] += it->get<double>();
+    if (it->is_number() && it.key() != "total" && it.key() != "mpi_rank")
+      report.stage_seconds[it.key()] += it->get<double>();
 }
 
-}  // namespace
+BuildStart StartBuild(const Recipe& recipe, const BuildOptions& options, BuildReport& report) {
+  BuildStart start;
+  report.output = options.output.empty() ? DefaultOutput(recipe) : options.output;
+  start.jobs = ExpandJobs(recipe);
+  report.total_jobs = static_cast<int>(start.jobs.size());
+  const std::vector<int> shard = ShardJobs(report.total_jobs, options.shard_index, options.shard_count);
+  report.shard_jobs = static_cast<int>(shard.size());
+  start.writer =
+      ReleaseWriter::Open(report.output, MakeReleaseMeta(recipe, start.jobs, shard, options), options.resume);
+  const std::set<std::string> done = start.writer->DoneKeys();
+  for (int i : shard)
+    if (!done.count(start.jobs[i].key)) start.todo.push_back(i);
+  report.already_done = report.shard_jobs - static_cast<int>(start.todo.size());
+  return start;
+}
+
+ProgressMode ResolveProgressMode(ProgressMode mode, const std::ostream& log) {
+  if (mode != ProgressMode::kAuto) return mode;
+  return (&log == &std::cerr && isatty(STDERR_FILENO)) || (&log == &std::cout && isatty(STDOUT_FILENO))
+             ? ProgressMode::kTty
+             : ProgressMode::kPlain;
+}
+
+void LogBuildStart(std::ostream& log, const Recipe& recipe, const BuildOptions& options, const BuildReport& report,
+                   size_t todo) {
+  log << "drape build: " << recipe.name << " " << recipe.version << " → " << report.output.string() << "\n"
+      << "  " << report.total_jobs << " jobs";
+  if (options.shard_count > 1)
+    log << ", shard " << options.shard_index << "/" << options.shard_count << ": " << report.shard_jobs;
+  if (report.already_done) log << ", " << report.already_done << " already done (resuming)";
+  log << ", " << todo << " to run on ";
+}
 
 BuildReport RunBuild(const Recipe& recipe, const BuildOptions& options) {
   const auto t0 = Clock::now();
   std::ostream& log = options.log ? *options.log : std::cerr;
   BuildReport report;
-  report.output = options.output.empty() ? DefaultOutput(recipe) : options.output;
-
-  const std::vector<Job> jobs = ExpandJobs(recipe);
-  report.total_jobs = static_cast<int>(jobs.size());
-  const std::vector<int> shard = ShardJobs(report.total_jobs, options.shard_index, options.shard_count);
-  report.shard_jobs = static_cast<int>(shard.size());
-
-  const ReleaseMeta meta = MakeReleaseMeta(recipe, jobs, shard, options);
-
-  auto writer = ReleaseWriter::Open(report.output, meta, options.resume);
-  const std::set<std::string> done = writer->DoneKeys();
-  std::vector<int> todo;
-  for (int i : shard)
-    if (!done.count(jobs[i].key)) todo.push_back(i);
-  report.already_done = report.shard_jobs - static_cast<int>(todo.size());
-
+  BuildStart start = StartBuild(recipe, options, report);
+  const std::vector<Job>& jobs = start.jobs;
+  const std::vector<int>& todo = start.todo;
+  std::unique_ptr<ReleaseWriter>& writer = start.writer;
   const int threads = std::max(1, std::min<int>(options.threads > 0 ? options.threads : HardwareThreads(),
                                                 std::max<size_t>(1, todo.size())));
-  ProgressMode mode = options.progress;
-  if (mode == ProgressMode::kAuto)
-    mode = (&log == &std::cerr && isatty(STDERR_FILENO)) || (&log == &std::cout && isatty(STDOUT_FILENO))
-               ? ProgressMode::kTty
-               : ProgressMode::kPlain;
-
+  const ProgressMode mode = ResolveProgressMode(options.progress, log);
   if (mode != ProgressMode::kQuiet) {
-    log << "drape build: " << recipe.name << " " << recipe.version << " → " << report.output.string() << "\n"
-        << "  " << report.total_jobs << " jobs";
-    if (options.shard_count > 1)
-      log << ", shard " << options.shard_index << "/" << options.shard_count << ": " << report.shard_jobs;
-    if (report.already_done) log << ", " << report.already_done << " already done (resuming)";
-    log << ", " << todo.size() << " to run on " << threads << " thread" << (threads > 1 ? "s" : "") << "\n";
+    LogBuildStart(log, recipe, options, report, todo.size());
+    log << threads << " thread" << (threads > 1 ? "s" : "") << "\n";
     log.flush();
   }
 

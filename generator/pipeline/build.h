@@ -83,6 +83,31 @@ BuildReport RunBuild(const Recipe& recipe, const BuildOptions& options);
 ReleaseMeta MakeReleaseMeta(const Recipe& recipe, const std::vector<Job>& jobs, const std::vector<int>& shard,
                             const BuildOptions& options);
 
+// The start both builds share (thread pool and the MPI build's rank 0): the jobs, the
+// release opened (or resumed) for this shard and the shard's jobs still to run (indices
+// into `jobs`); sets report's output, total_jobs, shard_jobs and already_done.
+struct BuildStart {
+  std::vector<Job> jobs;
+  std::vector<int> todo;
+  std::unique_ptr<ReleaseWriter> writer;
+};
+BuildStart StartBuild(const Recipe& recipe, const BuildOptions& options, BuildReport& report);
+
+// kAuto → kTty when `log` is std::cerr or std::cout on a terminal, else kPlain.
+ProgressMode ResolveProgressMode(ProgressMode mode, const std::ostream& log);
+
+// "drape build: NAME VERSION → OUT\n  N jobs[, shard i/n: M][, K already done (resuming)], T to run on "
+// (the caller ends the line with what runs them).
+void LogBuildStart(std::ostream& log, const Recipe& recipe, const BuildOptions& options, const BuildReport& report,
+                   size_t todo);
+
+// The entry that stands for a job whose error --keep-going tolerates: failed, "error: ...".
+Entry FailedEntry(const Job& job, const std::string& error);
+
+// A committed entry in the report: built or failed, and its stage times (not "total" or
+// "mpi_rank").
+void CountEntry(const Entry& entry, const Job& job, BuildReport& report);
+
 // The "stage wall time (summed over jobs): ..." line of the build summary.
 void LogStageSeconds(std::ostream& log, const std::map<std::string, double>& stage_seconds);
 

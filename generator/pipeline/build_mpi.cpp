@@ -9,6 +9,7 @@
 #include <cstring>
 #include <exception>
 #include <iostream>
+#include <optional>
 #include <sstream>
 #include <thread>
 #include <vector>
@@ -281,6 +282,47 @@ std::string WhatOf(const std::exception_ptr& error) {
   }
 }
 
+// The entry in a worker's result frame (kind byte, job index, payload): deserialized, or
+// for an error with keep_going a failed entry; nullopt (and *error) when the build stops.
+std::optional<Entry> ResultEntry(const std::string& frame, const Job& job, int rank, bool keep_going,
+                                 std::string* error) {
+  const std::string_view payload = std::string_view(frame).substr(9);
+  std::optional<Entry> entry;
+  if (frame[0] == 0) {
+    try {
+      entry = DeserializeEntry(payload, job.key + " from MPI rank " + std::to_string(rank));
+    } catch (const std::exception& ex) {
+      *error = ex.what();
+    }
+  } else {
+    *error = std::string(payload);
+    if (keep_going) entry = FailedEntry(job, *error);  // as in RunBuild
+  }
+  if (entry && (entry->key != job.key || entry->id != job.id)) {
+    *error = "MPI rank " + std::to_string(rank) + " returned entry " + entry->key + " for job " + job.key;
+    entry.reset();
+  }
+  return entry;
+}
+
+// What rank 0 tells every worker at the end: the error, or the build's report.
+Json FinalMessage(const BuildReport& report, const std::exception_ptr& error) {
+  if (error) return {{"error", WhatOf(error)}, {"status", StatusOf(error)}};
+  return {{"output", report.output.string()},
+          {"total_jobs", report.total_jobs},
+          {"shard_jobs", report.shard_jobs},
+          {"already_done", report.already_done},
+          {"built", report.built},
+          {"failed", report.failed},
+          {"interrupted", report.interrupted},
+          {"aborted", report.aborted},
+          {"error", report.error},
+          {"finalized", report.finalized},
+          {"digest", report.digest},
+          {"release_failed", report.release_failed},
+          {"wall_seconds", report.wall_seconds}};
+}
+
 // Rank 0: opens the release, serves jobs, commits entries, finalizes, tells every
 // worker the outcome. An exception is stored in `error` (rethrown by the caller
 // after MPI_Finalize) so that the workers are always released.
@@ -294,43 +336,26 @@ MpiBuildOutcome Coordinate(const Recipe& recipe, const BuildOptions& options, in
   BuildReport& report = out.report;
   report.output = options.output.empty() ? DefaultOutput(recipe) : options.output;
   const int workers = size - 1;
+  const ProgressMode mode = ResolveProgressMode(options.progress, log);
 
-  ProgressMode mode = options.progress;
-  if (mode == ProgressMode::kAuto)
-    mode = (&log == &std::cerr && isatty(STDERR_FILENO)) || (&log == &std::cout && isatty(STDOUT_FILENO))
-               ? ProgressMode::kTty
-               : ProgressMode::kPlain;
-
-  std::vector<Job> jobs;
-  std::vector<int> todo;
-  std::unique_ptr<ReleaseWriter> writer;
+  BuildStart start;
   std::string expected;
   try {
-    jobs = ExpandJobs(recipe);
-    expected = Fingerprint(recipe, options, jobs.size());
-    report.total_jobs = static_cast<int>(jobs.size());
-    const std::vector<int> shard = ShardJobs(report.total_jobs, options.shard_index, options.shard_count);
-    report.shard_jobs = static_cast<int>(shard.size());
-    writer = ReleaseWriter::Open(report.output, MakeReleaseMeta(recipe, jobs, shard, options), options.resume);
-    const std::set<std::string> done = writer->DoneKeys();
-    for (int i : shard)
-      if (!done.count(jobs[i].key)) todo.push_back(i);
-    report.already_done = report.shard_jobs - static_cast<int>(todo.size());
+    start = StartBuild(recipe, options, report);
+    expected = Fingerprint(recipe, options, start.jobs.size());
     if (mode != ProgressMode::kQuiet) {
-      log << "drape build: " << recipe.name << " " << recipe.version << " → " << report.output.string() << "\n"
-          << "  " << report.total_jobs << " jobs";
-      if (options.shard_count > 1)
-        log << ", shard " << options.shard_index << "/" << options.shard_count << ": " << report.shard_jobs;
-      if (report.already_done) log << ", " << report.already_done << " already done (resuming)";
-      log << ", " << todo.size() << " to run on " << workers << " MPI worker rank" << (workers > 1 ? "s" : "")
-          << " (rank 0 coordinates" << (options.threads > 1 ? "; -j is ignored: one job per worker rank" : "")
-          << ")\n";
+      LogBuildStart(log, recipe, options, report, start.todo.size());
+      log << workers << " MPI worker rank" << (workers > 1 ? "s" : "") << " (rank 0 coordinates"
+          << (options.threads > 1 ? "; -j is ignored: one job per worker rank" : "") << ")\n";
       log.flush();
     }
   } catch (...) {
     error = std::current_exception();
-    todo.clear();
+    start.todo.clear();
   }
+  const std::vector<Job>& jobs = start.jobs;
+  const std::vector<int>& todo = start.todo;
+  std::unique_ptr<ReleaseWriter>& writer = start.writer;
 
   std::vector<int> running(size, -1);  // job index each worker is computing
   std::vector<Clock::time_point> started(size);
@@ -405,54 +430,22 @@ MpiBuildOutcome Coordinate(const Recipe& recipe, const BuildOptions& options, in
       if (static_cast<int>(header.U64("job")) != job_index)
         Abort("rank " + std::to_string(w) + " returned a job it was not given");
       const Job& job = jobs[job_index];
-      const std::string_view payload = std::string_view(frame).substr(9);
-      Entry entry;
-      bool have = false;
       std::string err;
-      if (frame[0] == 0) {
+      std::optional<Entry> entry = ResultEntry(frame, job, w, options.keep_going, &err);
+      if (entry) {
         try {
-          entry = DeserializeEntry(payload, job.key + " from MPI rank " + std::to_string(w));
-          have = true;
+          writer->Commit(*entry);
         } catch (const std::exception& ex) {
-          err = ex.what();
-        }
-      } else {
-        err = std::string(payload);
-        if (options.keep_going) {  // as in RunBuild: the error becomes a failed entry
-          entry.id = job.id;
-          entry.key = job.key;
-          entry.split = job.split;
-          entry.failed = true;
-          entry.failure = "error: " + err;
-          entry.record = {{"seed", job.seed}};
-          have = true;
-        }
-      }
-      if (have && (entry.key != job.key || entry.id != job.id)) {
-        have = false;
-        err = "MPI rank " + std::to_string(w) + " returned entry " + entry.key + " for job " + job.key;
-      }
-      if (have) {
-        try {
-          writer->Commit(entry);
-        } catch (const std::exception& ex) {
-          have = false;
+          entry.reset();
           err = std::string("committing ") + job.key + ": " + ex.what();
         }
       }
-      if (!have) {
+      if (!entry) {
         fail_build(job.key + ": " + err);
       } else {
         ++finished;
-        ++report.built;
         busy_seconds += Seconds(started[w], Clock::now());
-        if (entry.failed) {
-          ++report.failed;
-          report.failures.push_back({job.key, entry.failure});
-        }
-        for (auto it = entry.timing.begin(); it != entry.timing.end(); ++it)
-          if (it->is_number() && it.key() != "total" && it.key() != "mpi_rank")
-            report.stage_seconds[it.key()] += it->get<double>();
+        CountEntry(*entry, job, report);
       }
       hand_out(w);
     } else {
@@ -474,25 +467,7 @@ MpiBuildOutcome Coordinate(const Recipe& recipe, const BuildOptions& options, in
   writer.reset();  // releases the lock before the workers are let go
   report.wall_seconds = Seconds(t0, Clock::now());
 
-  Json final;
-  if (error) {
-    final = {{"error", WhatOf(error)}, {"status", StatusOf(error)}};
-  } else {
-    final = {{"output", report.output.string()},
-             {"total_jobs", report.total_jobs},
-             {"shard_jobs", report.shard_jobs},
-             {"already_done", report.already_done},
-             {"built", report.built},
-             {"failed", report.failed},
-             {"interrupted", report.interrupted},
-             {"aborted", report.aborted},
-             {"error", report.error},
-             {"finalized", report.finalized},
-             {"digest", report.digest},
-             {"release_failed", report.release_failed},
-             {"wall_seconds", report.wall_seconds}};
-  }
-  const std::string bytes = final.dump();
+  const std::string bytes = FinalMessage(report, error).dump();
   for (int w = 1; w < size; ++w) SendBytes(bytes, w, kFinal);
   return out;
 }

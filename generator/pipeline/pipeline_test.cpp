@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
@@ -134,7 +135,9 @@ TEST(Build, TinyRecipeEndToEndIsDeterministicAcrossThreadsAndResume) {
   for (const auto& d : {a, b, c, s1, s2, merged}) fs::remove_all(d);
 }
 
-const char* kImported = R"(
+// A recipe importing meshes/cloth.EXT (+ its anchors sidecar).
+std::string ImportedRecipe(const std::string& ext) {
+  return R"(
 name: imported
 version: 0.0.1
 seed: 5
@@ -145,7 +148,8 @@ sensing:
 fusion: {voxels_per_metre: 80}
 feature: {layers: 8, rings: 8, sectors: 8}
 garments:
-  - file: meshes/cloth.obj
+  - file: meshes/cloth.)" +
+         ext + R"(
     anchors_file: meshes/cloth.anchors.json
     category: towel
     materials: [towel_a]
@@ -154,30 +158,37 @@ splits:
   train:
     garments: [{garment: cloth, instances: [0]}]
 )";
+}
 
-// A release built from an imported mesh carries the mesh and its sidecar (hashed, in
-// SHA256SUMS and the digest); moved away from the recipe's folder it still verifies,
-// re-reads its recipe from its own copies and rebuilds to the same digest.
-TEST(Build, ImportedGarmentReleaseIsSelfContained) {
+// A release built from an imported mesh carries the mesh, the files it refers to (an
+// .obj's .mtl, a .gltf's .bin) and its sidecar (hashed, in SHA256SUMS and the digest);
+// moved away from the recipe's folder it still verifies, re-reads its recipe from its
+// own copies and rebuilds to the same digest.
+void ExpectSelfContained(const std::string& ext, const std::string& companion) {
+  SCOPED_TRACE(ext);
   const fs::path src = TempDir("import_src"), out = TempDir("import_out"), moved = TempDir("import_moved"),
                  again = TempDir("import_again");
   TemplateOptions to;
   to.edge_length = 0.05;
   to.params = {{"width", 0.4}, {"length", 0.5}};
   fs::create_directories(src / "meshes");
-  ExportGarment(MakeGarment("towel", to), src / "meshes" / "cloth.obj");
-  WriteFileAtomic(src / "recipe.yaml", kImported);
+  const std::string mesh = "meshes/cloth." + ext;
+  ExportGarment(MakeGarment("towel", to), src / mesh);
+  ASSERT_TRUE(fs::exists(src / companion));  // what assimp's exporter writes beside the mesh
+  WriteFileAtomic(src / "recipe.yaml", ImportedRecipe(ext));
   const Recipe r = LoadRecipe(src / "recipe.yaml");
   const BuildReport built = Build(r, out, 1);
   ASSERT_TRUE(built.finalized) << built.error;
   {
     const Release rel = Release::Open(out);
-    ASSERT_EQ(rel.SourceFiles().size(), 2u);
-    EXPECT_EQ(rel.SourceFiles().at("meshes/cloth.obj"), out / "sources/meshes/cloth.obj");
-    EXPECT_EQ(ReadFile(out / "sources/meshes/cloth.obj"), ReadFile(src / "meshes/cloth.obj"));
-    EXPECT_EQ(ReadFile(out / "sources/meshes/cloth.anchors.json"), ReadFile(src / "meshes/cloth.anchors.json"));
+    ASSERT_EQ(rel.SourceFiles().size(), 3u);
+    EXPECT_EQ(rel.SourceFiles().at(mesh), out / "sources" / mesh);
+    EXPECT_EQ(rel.SourceFiles().at(companion), out / "sources" / companion);
+    for (const std::string& f : {mesh, companion, std::string("meshes/cloth.anchors.json")})
+      EXPECT_EQ(ReadFile(out / "sources" / f), ReadFile(src / f)) << f;
     const std::string sums = ReadFile(out / "SHA256SUMS");
-    EXPECT_NE(sums.find("  sources/meshes/cloth.obj\n"), std::string::npos) << sums;
+    EXPECT_NE(sums.find("  sources/" + mesh + "\n"), std::string::npos) << sums;
+    EXPECT_NE(sums.find("  sources/" + companion + "\n"), std::string::npos) << sums;
     EXPECT_NE(rel.digest(), ComputeDigest(rel.entries()));  // the sources are in the digest
   }
   fs::rename(out, moved);
@@ -186,18 +197,29 @@ TEST(Build, ImportedGarmentReleaseIsSelfContained) {
   const Release rel = Release::Open(moved);
   const std::string text = rel.dataset()["recipe"]["text"];
   const Recipe rr = ParseRecipe(text, "dataset.json (recipe)", moved, &rel.SourceFiles());
-  EXPECT_EQ(rr.garments[0].file, moved / "sources/meshes/cloth.obj");
+  EXPECT_EQ(rr.garments[0].file, moved / "sources" / mesh);
   const BuildReport rebuilt = Build(rr, again, 1);
   ASSERT_TRUE(rebuilt.finalized) << rebuilt.error;
   EXPECT_EQ(rebuilt.digest, built.digest);
   EXPECT_EQ(ReadFile(again / "SHA256SUMS"), ReadFile(moved / "SHA256SUMS"));
-  // A changed copy is caught by verify (hash and digest).
+  // A changed copy is caught by verify (hash and digest), the companion as well.
   WriteFileAtomic(moved / "sources/meshes/cloth.anchors.json", "{}");
+  WriteFileAtomic(moved / "sources" / companion, "changed");
   const VerifyReport v = Verify(moved);
-  EXPECT_EQ(v.changed, std::vector<std::string>{"sources/meshes/cloth.anchors.json"});
+  std::vector<std::string> changed = {"sources/meshes/cloth.anchors.json", "sources/" + companion};
+  std::vector<std::string> got = v.changed;
+  std::sort(changed.begin(), changed.end());
+  std::sort(got.begin(), got.end());
+  EXPECT_EQ(got, changed);
   EXPECT_NE(v.actual_digest, v.expected_digest);
   for (const auto& d : {moved, again}) fs::remove_all(d);
 }
+
+TEST(Build, ImportedObjReleaseIsSelfContained) { ExpectSelfContained("obj", "meshes/cloth.mtl"); }
+
+// glTF keeps its geometry in a .bin beside it: without the copy, a moved release could
+// not re-read its mesh (the rebuild above would fail).
+TEST(Build, ImportedGltfReleaseIsSelfContained) { ExpectSelfContained("gltf", "meshes/cloth.bin"); }
 
 }  // namespace
 }  // namespace drape

@@ -107,7 +107,7 @@ class Parser {
     RequireMap(n, path);
     std::set<std::string> seen;
     for (auto it = n.begin(); it != n.end(); ++it) {
-      const YAML::Node& k = it->first;
+      const YAML::Node k = it->first;  // a copy: it-> returns a proxy that dies with this statement
       if (!k.IsScalar()) Fail(k, path, "keys must be plain names");
       const std::string key = k.Scalar();
       const std::string kp = path.empty() ? key : path + "." + key;

@@ -194,6 +194,32 @@ TEST(Recipe, MissingRequiredKeysAreNamed) {
       << LoadError(u.path());
 }
 
+// The upper caps the recipe had before ranges moved into the stages' Validate(): each
+// value just past its cap is rejected at its own line and column, the cap itself is not.
+TEST(Recipe, StageCapsRejectValuesPastThemAtTheirKey) {
+  struct Case {
+    std::string section, bad, good, where;
+  };
+  const std::vector<Case> cases = {
+      {"sensing:\n  database:\n    camera:\n      image_width: ", "8193", "8192", ":7:20: sensing.database.camera.image_width"},
+      {"sensing:\n  database:\n    camera:\n      image_height: ", "4", "8", ":7:21: sensing.database.camera.image_height"},
+      {"sensing:\n  database:\n    camera:\n      look_at_height: ", "10.5", "-10", ":7:23: sensing.database.camera.look_at_height"},
+      {"fusion:\n  voxels_per_metre: 10\n  truncation: ", "1.5", "1", ":6:15: fusion.truncation"},
+      {"fusion:\n  frames_stride: ", "100001", "100000", ":5:18: fusion.frames_stride"},
+      {"fusion:\n  carve_min_views: ", "100001", "100000", ":5:20: fusion.carve_min_views"},
+  };
+  const std::string head = "name: x\nversion: 1.0.0\nseed: 3\n";
+  const std::string tail = "\ngarments:\n  - template: towel\n    materials: [towel_a]\n";
+  for (const auto& c : cases) {
+    SCOPED_TRACE(c.where);
+    TempRecipe bad(head + c.section + c.bad + tail);
+    const std::string err = LoadError(bad.path());
+    EXPECT_NE(err.find(c.where), std::string::npos) << err;
+    TempRecipe good(head + c.section + c.good + tail);
+    EXPECT_EQ(LoadError(good.path()), "");
+  }
+}
+
 TEST(Recipe, EditDistance) {
   EXPECT_EQ(EditDistance("", ""), 0);
   EXPECT_EQ(EditDistance("seed", "sede"), 2);

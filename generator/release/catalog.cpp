@@ -8,6 +8,8 @@
 #include "common/files.h"
 #include "generator/release/release_internal.h"
 
+namespace fs = std::filesystem;
+
 namespace drape::release_detail {
 namespace {
 

@@ -21,7 +21,10 @@
 #include "common/files.h"
 #include "common/hash.h"
 #include "common/unique_fd.h"
+#include "garments/mesh_companions.h"
 #include "generator/release/release_internal.h"
+
+namespace fs = std::filesystem;
 
 namespace drape {
 namespace release_detail {
@@ -255,6 +258,24 @@ std::vector<SourceFile> PlanSources(const std::vector<std::pair<std::string, fs:
     used.insert(path);
     by_written[written] = path;
     out.push_back({written, file, path, ""});
+  }
+  // Companions (a .gltf's .bin, an .obj's .mtl and textures) keep their place beside
+  // the copy of the mesh, so that the copy reads as the original did.
+  const size_t named = out.size();
+  for (size_t i = 0; i < named; ++i) {
+    const SourceFile mesh = out[i];
+    for (const std::string& rel : MeshCompanions(mesh.file)) {
+      const std::string written = (fs::path(mesh.recipe_path).parent_path() / rel).lexically_normal().generic_string();
+      const std::string path = (fs::path(mesh.release_path).parent_path() / rel).lexically_normal().generic_string();
+      const auto it = by_written.find(written);
+      if (it != by_written.end() && it->second == path) continue;  // shared by two meshes
+      if (it != by_written.end() || used.count(path))
+        throw Error(mesh.file.string() + ": its companion '" + rel + "' would be copied to " + path +
+                    ", where the release already carries another file");
+      used.insert(path);
+      by_written[written] = path;
+      out.push_back({written, mesh.file.parent_path() / rel, path, ""});
+    }
   }
   return out;
 }

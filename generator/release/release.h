@@ -27,10 +27,11 @@
 //   entry_digest = sha256(canonical JSON of {id, key, split, failed, failure,
 //                          record (keys sorted recursively), files: [[path, sha256]...] sorted})
 //   digest       = sha256 over "<id> <entry_digest>\n" for all entries sorted by id.
-//   A release whose recipe imports files (meshes, anchors sidecars) carries copies of
-//   them under sources/ (listed in dataset.json "sources", in SHA256SUMS), and the
-//   digest then also covers "source <path> <sha256>\n" for each, sorted by path; a
-//   release without imports has the same digest as before sources existed.
+//   A release whose recipe imports files (meshes and the files they refer to, anchors
+//   sidecars) carries copies of them under sources/ (listed in dataset.json "sources",
+//   in SHA256SUMS), and the digest then also covers "source <path> <sha256>\n" for
+//   each, sorted by path; a release without imports has the same digest as before
+//   sources existed.
 // Never over timestamps, timings, SQLite page layout, code version or shard layout.
 //
 // Record keys the writer understands (all optional; anything else is kept and
@@ -58,12 +59,11 @@
 
 namespace drape {
 
-namespace fs = std::filesystem;
-
-// A file the recipe reads (an imported mesh or anchors sidecar), copied into the release.
+// A file the recipe reads (an imported mesh, its companions, an anchors sidecar), copied
+// into the release.
 struct SourceFile {
   std::string recipe_path;   // as written in the recipe (key of dataset.json "sources")
-  fs::path file;             // where the build reads it from
+  std::filesystem::path file;  // where the build reads it from
   std::string release_path;  // "sources/…" inside the release
   std::string sha256;        // of the bytes (ReleaseWriter::Open fills it if empty)
 };
@@ -71,8 +71,11 @@ struct SourceFile {
 // Release paths for a recipe's imported files: "sources/<path as written>" when that is
 // a plain relative path inside the recipe folder, else "sources/<file name>" (then
 // "sources/2/<file name>", … on a clash). File names are kept: a garment's default name
-// is its file's stem.
-std::vector<SourceFile> PlanSources(const std::vector<std::pair<std::string, fs::path>>& files);
+// is its file's stem. The files a mesh refers to (garments/mesh_companions.h: a .gltf's
+// .bin and images, an .obj's .mtl and textures) follow it, at the same place relative
+// to the copy (keyed by the recipe folder's path to them); one that would land on
+// another file's place throws drape::Error.
+std::vector<SourceFile> PlanSources(const std::vector<std::pair<std::string, std::filesystem::path>>& files);
 
 // What a build knows about the release it writes.
 struct ReleaseMeta {
@@ -118,7 +121,7 @@ class ReleaseWriter {
   // message naming the holder's pid and host. `resume` = the caller expects an unfinished
   // build to continue (error if the folder does not exist); without it an unfinished
   // build is resumed anyway.
-  static std::unique_ptr<ReleaseWriter> Open(const fs::path& dir, const ReleaseMeta& meta,
+  static std::unique_ptr<ReleaseWriter> Open(const std::filesystem::path& dir, const ReleaseMeta& meta,
                                              bool resume = false);
   ~ReleaseWriter();  // releases the lock; keeps progress for a later resume
   ReleaseWriter(const ReleaseWriter&) = delete;
@@ -151,7 +154,7 @@ class ReleaseWriter {
   // "threads", "stage_seconds", "mpi_ranks".
   void SetBuildInfo(const std::string& key, Json value);
 
-  const fs::path& dir() const;
+  const std::filesystem::path& dir() const;
 
  private:
   struct Impl;
@@ -179,27 +182,27 @@ class Release {
   };
 
   // Throws drape::Error if dir is not a finished release.
-  static Release Open(const fs::path& dir);
+  static Release Open(const std::filesystem::path& dir);
 
   const Json& dataset() const { return dataset_; }
   const std::vector<EntryInfo>& entries() const { return entries_; }  // sorted by id
   // The recipe's imported files in this release: path as written in the recipe → file
   // (for ParseRecipe, so a moved release re-reads its own copies).
-  const std::map<std::string, fs::path>& SourceFiles() const { return sources_; }
+  const std::map<std::string, std::filesystem::path>& SourceFiles() const { return sources_; }
   const EntryInfo* Find(const std::string& id) const;
   std::vector<std::string> job_keys() const { return job_keys_; }  // recipe order
   std::string ReadFile(const std::string& id, const std::string& path) const;
-  fs::path EntryPath(const std::string& id, const std::string& path = "") const;
+  std::filesystem::path EntryPath(const std::string& id, const std::string& path = "") const;
   std::string digest() const;
-  const fs::path& dir() const { return dir_; }
+  const std::filesystem::path& dir() const { return dir_; }
   Json build_info() const;  // build.json, or {} if absent
 
  private:
-  fs::path dir_;
+  std::filesystem::path dir_;
   Json dataset_;
   std::vector<EntryInfo> entries_;
   std::vector<std::string> job_keys_;
-  std::map<std::string, fs::path> sources_;
+  std::map<std::string, std::filesystem::path> sources_;
 };
 
 // Canonical per-entry digest and release digest (see the top of this file).
@@ -221,11 +224,11 @@ struct VerifyReport {
 };
 // Hashes every file against SHA256SUMS, looks for unlisted files, recomputes the digest
 // from entries/*/entry.json and the files on disk and compares it with dataset.json.
-VerifyReport Verify(const fs::path& dir);
+VerifyReport Verify(const std::filesystem::path& dir);
 // Compares a release with a published reference (a folder with the committed
 // dataset.json + SHA256SUMS): digest and content files (entries/, catalog.sqlite).
 // dataset.json/README.md/index.html carry the code version, so they may differ.
-VerifyReport CompareToPublished(const fs::path& dir, const fs::path& reference);
+VerifyReport CompareToPublished(const std::filesystem::path& dir, const std::filesystem::path& reference);
 
 // Entry-by-entry comparison of two releases (for verify --rebuild, merge tests).
 struct ReleaseDiff {
@@ -239,15 +242,15 @@ ReleaseDiff CompareReleases(const Release& a, const Release& b);
 // sha256, code version and job list, and that every job is covered exactly once; copies
 // the entries (checking their hashes) and finalizes. The result equals a one-process
 // build (same digest and SHA256SUMS). Throws drape::Error naming the offending shard/key.
-ReleaseWriter::Summary Merge(const std::vector<fs::path>& shards, const fs::path& out);
+ReleaseWriter::Summary Merge(const std::vector<std::filesystem::path>& shards, const std::filesystem::path& out);
 
 // Hook for `drape verify --rebuild`: the build library (or cli/cmd_build.cpp) installs a
 // function that rebuilds the release's recipe into `out` (a fresh temporary folder) with
 // `threads` threads. Unset = --rebuild unavailable.
 struct RebuildRequest {
-  fs::path release;      // the release to check
-  fs::path recipe_path;  // --recipe override; empty = use dataset.json's recipe text
-  fs::path out;          // temporary folder to build into
+  std::filesystem::path release;      // the release to check
+  std::filesystem::path recipe_path;  // --recipe override; empty = use dataset.json's recipe text
+  std::filesystem::path out;          // temporary folder to build into
   int threads = 0;
 };
 using Rebuilder = std::function<void(const RebuildRequest&)>;

@@ -7,6 +7,8 @@
 #include "common/rng.h"
 #include "generator/release/release.h"
 
+namespace fs = std::filesystem;
+
 namespace drape {
 namespace {
 

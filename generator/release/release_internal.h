@@ -29,7 +29,7 @@ std::string CanonicalJson(const Json& j);
 
 // Reads entries/*/entry.json of a release folder, sorted by id. Throws drape::Error
 // naming the file on a malformed one.
-std::vector<Release::EntryInfo> ScanEntries(const fs::path& dir);
+std::vector<Release::EntryInfo> ScanEntries(const std::filesystem::path& dir);
 Release::EntryInfo ParseEntryJson(const Json& j, const std::string& where);
 Json EntryJson(const Release::EntryInfo& e);
 
@@ -49,12 +49,11 @@ std::map<std::string, std::string> ParseSums(const std::string& text, const std:
 std::string FormatSums(const std::map<std::string, std::string>& sums);
 
 // Writes catalog.sqlite to `path` (must not exist) deterministically.
-void WriteCatalog(const fs::path& path, const fs::path& release_dir, const Json& dataset_meta,
-                  const std::vector<Release::EntryInfo>& entries,
-                  const std::vector<std::string>& job_keys,
+void WriteCatalog(const std::filesystem::path& path, const std::filesystem::path& release_dir, const Json& dataset_meta,
+                  const std::vector<Release::EntryInfo>& entries, const std::vector<std::string>& job_keys,
                   const std::vector<std::string>& blob_files);
 // Reads the entries and jobs tables.
-void ReadCatalog(const fs::path& path, std::vector<Release::EntryInfo>* entries,
+void ReadCatalog(const std::filesystem::path& path, std::vector<Release::EntryInfo>* entries,
                  std::vector<std::string>* job_keys);
 
 std::string DatasetCard(const Json& dataset, const std::vector<Release::EntryInfo>& entries);
@@ -71,10 +70,10 @@ std::string SourcesSha(const std::map<std::string, std::string>& sums);
 // write under viewer/ (paths relative to the release; meshes read from `dir`).
 bool GalleryHas3d();
 bool EntryHas3d(const Release::EntryInfo& e);
-std::vector<std::pair<std::string, std::string>> GalleryViewerFiles(const fs::path& dir,
+std::vector<std::pair<std::string, std::string>> GalleryViewerFiles(const std::filesystem::path& dir,
                                                                     const std::vector<Release::EntryInfo>& entries);
 
-void FsyncPath(const fs::path& p);  // file or directory; best effort
+void FsyncPath(const std::filesystem::path& p);  // file or directory; best effort
 std::string HostName();
 
 }  // namespace drape::release_detail

@@ -23,6 +23,8 @@
 #include "common/hash.h"
 #include "generator/release/release_internal.h"
 
+namespace fs = std::filesystem;
+
 namespace drape {
 namespace {
 

@@ -7,6 +7,8 @@
 #include "common/hash.h"
 #include "generator/release/release_internal.h"
 
+namespace fs = std::filesystem;
+
 namespace drape {
 
 using namespace release_detail;

@@ -25,6 +25,8 @@ DRAPE_INCBIN(drape_three_license, DRAPE_THREE_DIR "/LICENSE")
 DRAPE_INCBIN(drape_viewer_js, DRAPE_VIEWER_JS)
 #endif
 
+namespace fs = std::filesystem;
+
 namespace drape::release_detail {
 namespace {
 

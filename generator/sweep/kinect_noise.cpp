@@ -171,8 +171,8 @@ __attribute__((noinline)) void LateralOffsets(const float* __restrict sl, const 
 
 void KinectOptions::Validate() const {
   const Intrinsics& in = intrinsics;
-  if (in.width <= 0 || in.width > 16384) BadField(in.width, "kinect.intrinsics.width", "must be in 1..16384");
-  if (in.height <= 0 || in.height > 16384) BadField(in.height, "kinect.intrinsics.height", "must be in 1..16384");
+  if (in.width < 8 || in.width > 8192) BadField(in.width, "kinect.intrinsics.width", "must be in 8..8192 px");
+  if (in.height < 8 || in.height > 8192) BadField(in.height, "kinect.intrinsics.height", "must be in 8..8192 px");
   if (!(in.fx > 0 && in.fx <= 1e5)) BadField(in.fx, "kinect.intrinsics.fx", "must be in (0, 1e5] px");
   if (!(in.fy > 0 && in.fy <= 1e5)) BadField(in.fy, "kinect.intrinsics.fy", "must be in (0, 1e5] px");
   if (!(std::abs(in.cx) <= 1e5)) BadField(in.cx, "kinect.intrinsics.cx", "must be in [-1e5, 1e5] px");

@@ -13,6 +13,7 @@
 #include <limits>
 #include <sstream>
 
+#include "common/embree.h"
 #include "common/error.h"
 #include "generator/sweep/sweep.h"
 
@@ -223,11 +224,7 @@ SweepScene::SweepScene(const TriMesh& hung, const SweepOptions& options)
   m.options = options;
   m.camera_to_world = CameraToWorld(options);
 
-  std::string config = "threads=1";
-  if (!options.embree_isa.empty()) config += ",isa=" + options.embree_isa;
-  m.device = rtcNewDevice(config.c_str());
-  if (!m.device) throw Error("sweep: rtcNewDevice(\"" + config + "\") failed");
-  ThrowOnDeviceError(m.device, "rtcNewDevice");
+  m.device = NewEmbreeDevice(options.embree_isa, 1);
 
   MeshBuffers garment;
   garment.v.reserve(hung.V.size());

@@ -21,7 +21,8 @@ void SweepOptions::Validate() const {
   if (!(camera_distance > 0.1 && camera_distance < 10))
     BadField(camera_distance, "sweep.camera_distance", "must be in (0.1, 10) m");
   if (!(gripper_height > 0 && gripper_height < 10)) BadField(gripper_height, "sweep.gripper_height", "must be in (0, 10) m");
-  if (!std::isfinite(look_at_height)) BadField(look_at_height, "sweep.look_at_height", "must be finite");
+  if (!(look_at_height >= -10 && look_at_height <= 10))
+    BadField(look_at_height, "sweep.look_at_height", "must be in [-10, 10] m");
   static const char* isas[] = {"", "sse2", "sse4.2", "avx", "avx2", "avx512"};
   bool known = false;
   for (const char* s : isas) known |= embree_isa == s;

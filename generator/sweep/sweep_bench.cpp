@@ -5,10 +5,11 @@
 #include <embree3/rtcore.h>
 
 #include <chrono>
-#include <ctime>
 #include <cmath>
 #include <cstdio>
+#include <ctime>
 
+#include "common/embree.h"
 #include "generator/sweep/sweep.h"
 
 namespace drape {
@@ -99,21 +100,12 @@ BENCHMARK(BM_SweepIsa)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->UseRealTi
 void BM_EmbreeBare(benchmark::State& state) {
   SweepOptions o;
   SweepScene ours(Garment(), o);
-  RTCDevice device = rtcNewDevice("threads=1,isa=avx2");
+  RTCDevice device = NewEmbreeDevice(kEmbreeIsa, 1);
   RTCScene scene = rtcNewScene(device);
   RTCScene bg_scene = rtcNewScene(device);
   {
     const TriMesh& m = Garment();
-    RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
-    auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
-                                                          12, m.NumVertices()));
-    for (int i = 0; i < m.NumVertices(); ++i)
-      for (int c = 0; c < 3; ++c) v[3 * i + c] = float(m.V(i, c));
-    auto* f = static_cast<unsigned*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
-                                                             12, m.NumFaces()));
-    for (int i = 0; i < m.NumFaces(); ++i)
-      for (int c = 0; c < 3; ++c) f[3 * i + c] = unsigned(m.F(i, c));
-    rtcCommitGeometry(g);
+    RTCGeometry g = NewTriangleGeometry(device, m);
     rtcAttachGeometry(scene, g);
     rtcReleaseGeometry(g);
   }

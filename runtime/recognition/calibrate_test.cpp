@@ -14,8 +14,8 @@ namespace {
 namespace fs = std::filesystem;
 
 Code RandomCode(Rng& rng, int l, int r, int s) {
-  Code c = ZeroCode(l, r, s);
-  for (int b = 0; b < c.bits(); ++b) c.Set(b, rng.Uniform() < 0.5);
+  Code c = ZeroFeature(l, r, s);
+  for (int b = 0; b < c.NumBits(); ++b) c.Set(b, rng.Uniform() < 0.5);
   return c;
 }
 
@@ -42,7 +42,7 @@ struct NoisyCategory {
   }
   Code Sample(Rng& rng, int a, int flips) const {
     Code c = protos[a];
-    for (int b = kL / 2 * kR * kS; b < c.bits(); ++b) c.Set(b, rng.Uniform() < 0.5);
+    for (int b = kL / 2 * kR * kS; b < c.NumBits(); ++b) c.Set(b, rng.Uniform() < 0.5);
     for (int i = 0; i < flips; ++i) {
       const int b = static_cast<int>(rng.Below(kL / 2 * kR * kS));
       c.Set(b, !c.Get(b));
@@ -75,7 +75,7 @@ TEST(RecognitionCalibrate, LearnedWeightsIgnoreNoiseBitsAndCutTheError) {
       calib.push_back(Labelled("c" + an + std::to_string(j), an, "shirt-c", cat.Sample(rng, a, 8)));
       // Test queries are also turned on the gripper by a random k·2π/Φ.
       test.push_back(Labelled("q" + an + std::to_string(j), an, "shirt-q",
-                              RotateCode(cat.Sample(rng, a, 8), static_cast<int>(rng.Below(16)))));
+                              Rotate(cat.Sample(rng, a, 8), static_cast<int>(rng.Below(16)))));
     }
   }
   Database db(train);

@@ -1,22 +1,40 @@
 #include "runtime/recognition/evaluate.h"
 
-#include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
-
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <set>
-#include <sstream>
 
 #include "common/error.h"
-#include "common/files.h"
-#include "runtime/recognition/ladder.h"
 
 namespace drape::recognition {
 
-namespace fs = std::filesystem;
+std::vector<std::string> SymmetryTwins(const std::string& anchor) {
+  // Whole '_'-separated tokens only, so e.g. "leftover" stays as it is.
+  std::vector<std::string> tokens(1);
+  for (char c : anchor) {
+    if (c == '_') {
+      tokens.emplace_back();
+    } else {
+      tokens.back() += c;
+    }
+  }
+  auto swapped = [&](bool lr, bool tb) {
+    std::string out;
+    for (size_t i = 0; i < tokens.size(); ++i) {
+      std::string t = tokens[i];
+      if (lr && (t == "left" || t == "right")) t = t == "left" ? "right" : "left";
+      if (tb && (t == "top" || t == "bottom")) t = t == "top" ? "bottom" : "top";
+      out += (i ? "_" : "") + t;
+    }
+    return out;
+  };
+  std::vector<std::string> out;
+  for (const auto& [lr, tb] : {std::pair{true, false}, {false, true}, {true, true}}) {
+    const std::string t = swapped(lr, tb);
+    if (t != anchor && std::find(out.begin(), out.end(), t) == out.end()) out.push_back(t);
+  }
+  return out;
+}
 
 void EvalOptions::Validate() const {
   if (top_k < 1) throw Error("eval options: top_k must be >= 1");
@@ -78,11 +96,174 @@ struct CategoryAcc {
   int absent = 0;  // queries whose category is not in the database
   std::map<std::string, Counter> pose;  // "subset/metric"
   Counter category, top_u, top_l, e2e_u, e2e_l;
+  Counter twin_u, twin_l;  // both instances, the anchor or its mirror twin
   Mean grasp_u, grasp_l, fusion, feature, match, total;
   bool learned = false;
   std::vector<std::string> instances;
 };
 
+// End-to-end recognition (category by unweighted NN, pose by the learned w), timed: this
+// is what one query costs at run time. Leaves the query's matches in `matches`.
+Recognition ScoreEndToEnd(const Recognizer& rec, const Database& db, const EvalQuery& eq, const PreparedQuery& pq,
+                          bool have_weights, int top_k, std::vector<Match>& matches, CategoryAcc& ca,
+                          CategoryAcc& all, Json& rec_json) {
+  const EntryLabel& ql = eq.query.label;
+  RecognizeOptions e2e;
+  e2e.top_k = top_k;
+  const Recognition r_e2e = rec.Recognize(eq.query.code, e2e);
+  e2e.weighted = false;
+  db.matcher().MatchAll(pq, &matches);
+  const Recognition r_e2e_u = rec.Rank(pq, matches, e2e);
+  const bool cat_ok = r_e2e.category == ql.category;
+  ca.category.Add(cat_ok), all.category.Add(cat_ok);
+  ca.e2e_u.Add(cat_ok && r_e2e_u.anchor == ql.anchor), all.e2e_u.Add(cat_ok && r_e2e_u.anchor == ql.anchor);
+  if (have_weights) {
+    ca.e2e_l.Add(cat_ok && r_e2e.anchor == ql.anchor), all.e2e_l.Add(cat_ok && r_e2e.anchor == ql.anchor);
+  }
+  rec_json["predicted_category"] = r_e2e.category;
+  rec_json["end_to_end"] = {{"unweighted", r_e2e_u.anchor}, {"learned", r_e2e.anchor}, {"learned_used_weights", r_e2e.weighted}};
+  return r_e2e;
+}
+
+// Seconds per query; the total only when the build recorded both fusion and feature times.
+void ScoreTiming(const EvalQuery& eq, double match_seconds, CategoryAcc& ca, CategoryAcc& all, Json& rec_json) {
+  const double total =
+      eq.fusion_seconds >= 0 && eq.feature_seconds >= 0 ? eq.fusion_seconds + eq.feature_seconds + match_seconds : -1;
+  for (CategoryAcc* a : {&ca, &all}) {
+    a->fusion.Add(eq.fusion_seconds);
+    a->feature.Add(eq.feature_seconds);
+    a->match.Add(match_seconds);
+    a->total.Add(total);
+  }
+  rec_json["timing"] = {{"fusion_seconds", eq.fusion_seconds >= 0 ? Json(eq.fusion_seconds) : Json(nullptr)},
+                        {"feature_seconds", eq.feature_seconds >= 0 ? Json(eq.feature_seconds) : Json(nullptr)},
+                        {"match_seconds", match_seconds},
+                        {"source", eq.timing_source}};
+}
+
+// A query whose category the database lacks: wrong everywhere (unweighted columns only:
+// the learned columns cover categories that have weights).
+void ScoreAbsentCategory(CategoryAcc& ca, CategoryAcc& all, Json& rec_json) {
+  ++ca.absent;
+  for (const char* s : kSubsets) {
+    ca.pose[std::string(s) + "/unweighted"].Add(false), all.pose[std::string(s) + "/unweighted"].Add(false);
+  }
+  ca.top_u.Add(false), all.top_u.Add(false);
+  rec_json["error"] = "category absent from the database";
+}
+
+// Category known: the paper's table, per database subset and metric.
+Json ScoreKnownCategory(const Recognizer& rec, const Database& db, const AnchorUvMap& uvs, const EntryLabel& ql,
+                        const PreparedQuery& pq, const std::vector<Match>& matches, int top_k, CategoryAcc& ca,
+                        CategoryAcc& all, EvalResult& out) {
+  const std::vector<std::string> insts = db.instances(ql.category);
+  ca.instances = insts;
+  ca.learned = rec.HasWeights(ql.category);
+  Json results = Json::object();
+  for (const char* s : kSubsets) {
+    std::string inst;
+    if (std::string(s) == "instance1") inst = insts[0];
+    if (std::string(s) == "instance2") {
+      if (insts.size() < 2) continue;  // N/A, as the paper's shorts
+      inst = insts[1];
+    }
+    for (const char* m : kMetrics) {
+      const bool learned = std::string(m) == "learned";
+      if (learned && !ca.learned) continue;  // N/A: no weights for this category
+      RecognizeOptions o;
+      o.top_k = top_k;
+      o.category = ql.category;
+      o.instance = inst;
+      o.weighted = learned;
+      const Recognition r = rec.Rank(pq, matches, o);
+      const bool ok = r.anchor == ql.anchor;
+      const std::string key = std::string(s) + "/" + m;
+      ca.pose[key].Add(ok), all.pose[key].Add(ok);
+      Json rj{{"anchor", r.anchor}, {"entry", r.best.id}, {"distance", r.best.distance},
+              {"rotation", r.best.rotation}, {"score", r.best.score}, {"correct", ok}};
+      if (std::string(s) == "both") {
+        const std::vector<std::string> twins = SymmetryTwins(ql.anchor);
+        const bool twin_ok = ok || std::find(twins.begin(), twins.end(), r.anchor) != twins.end();
+        (learned ? ca.twin_l : ca.twin_u).Add(twin_ok);
+        (learned ? all.twin_l : all.twin_u).Add(twin_ok);
+        rj["twin_credited"] = twin_ok;
+        bool in_top = false;
+        for (const auto& c : r.top) in_top |= c.anchor == ql.anchor;
+        (learned ? ca.top_l : ca.top_u).Add(in_top);
+        (learned ? all.top_l : all.top_u).Add(in_top);
+        const double ge = GraspErrorCm(uvs, ql.instance, r.best.instance, ql.anchor, r.anchor);
+        (learned ? ca.grasp_l : ca.grasp_u).Add(ge);
+        (learned ? all.grasp_l : all.grasp_u).Add(ge);
+        rj["grasp_error_cm"] = std::isnan(ge) ? Json(nullptr) : Json(ge);
+        rj["top"] = Json::array();
+        for (const auto& c : r.top) rj["top"].push_back(c.anchor);
+        if (learned || !ca.learned) out.confusion[ql.category].metric = learned ? "learned" : "unweighted";
+      }
+      results[key] = rj;
+    }
+  }
+  return results;
+}
+
+// Confusion matrices (both instances; learned if the category has weights).
+void FillConfusion(const Database& db, const std::vector<EvalQuery>& queries, const Json& per_query,
+                   EvalResult& out) {
+  for (auto& [cat, conf] : out.confusion) {
+    std::set<std::string> labels;
+    for (int i : db.EntriesOf(cat)) labels.insert(db.label(i).anchor);
+    for (const auto& q : queries) {
+      if (q.query.label.category == cat) labels.insert(q.query.label.anchor);
+    }
+    conf.labels.assign(labels.begin(), labels.end());
+    conf.counts.assign(conf.labels.size(), std::vector<int>(conf.labels.size(), 0));
+    // Captures the labels, not the structured binding (clang 14 rejects capturing those).
+    const std::vector<std::string>& sorted = conf.labels;
+    auto index = [&sorted](const std::string& l) {
+      return static_cast<int>(std::lower_bound(sorted.begin(), sorted.end(), l) - sorted.begin());
+    };
+    const std::string key = "both/" + conf.metric;
+    for (const auto& pq : per_query) {
+      if (pq["category"] != cat || !pq.contains("category_known") || !pq["category_known"].contains(key)) continue;
+      ++conf.counts[index(pq["anchor"].get<std::string>())][index(pq["category_known"][key]["anchor"].get<std::string>())];
+    }
+  }
+}
+
+// One row of report.json "categories" (or "overall").
+Json CategoryRow(const std::string& name, const CategoryAcc& a, int top_k) {
+  Json pose = Json::object();
+  for (const char* s : kSubsets) {
+    Json pm = Json::object();
+    for (const char* m : kMetrics) {
+      auto it = a.pose.find(std::string(s) + "/" + m);
+      pm[m] = it == a.pose.end() ? Json(nullptr) : it->second.Rate();
+    }
+    pose[s] = pm;
+  }
+  return Json{{"category", name},
+              {"queries", a.queries},
+              {"queries_category_absent", a.absent},
+              {"database_instances", a.instances},
+              {"learned_weights", a.learned},
+              {"pose_accuracy", pose},
+              {"category_accuracy", a.category.Rate()},
+              {"pose_accuracy_twin_credited", {{"unweighted", a.twin_u.Rate()}, {"learned", a.twin_l.Rate()}}},
+              {"end_to_end_pose_accuracy", {{"unweighted", a.e2e_u.Rate()}, {"learned", a.e2e_l.Rate()}}},
+              {"top_k_accuracy", {{"k", top_k}, {"unweighted", a.top_u.Rate()}, {"learned", a.top_l.Rate()}}},
+              {"grasp_error_cm",
+               {{"surface", "flat pattern of the query's garment instance (uv distance)"},
+                {"unweighted_mean", a.grasp_u.Value()},
+                {"learned_mean", a.grasp_l.Value()},
+                {"unknown", a.grasp_u.unknown + a.grasp_l.unknown}}},
+              {"seconds_per_query",
+               {{"fusion", a.fusion.Value()},
+                {"feature", a.feature.Value()},
+                {"matching", a.match.Value()},
+                {"total", a.total.Value()},
+                {"fusion_known", a.fusion.n},
+                {"feature_known", a.feature.n}}},
+              {"paper", PaperRow(name)}};
+}
 
 }  // namespace
 
@@ -105,160 +286,23 @@ EvalResult Evaluate(const Database& db, const Weights* weights, const std::vecto
     CategoryAcc& ca = acc[ql.category];
     ++ca.queries, ++all.queries;
     Json rec_json{{"id", ql.id}, {"category", ql.category}, {"instance", ql.instance}, {"anchor", ql.anchor}};
-
-    // End-to-end recognition (category by unweighted NN, pose by the learned w): timed,
-    // this is what one query costs at run time.
-    RecognizeOptions e2e;
-    e2e.top_k = options.top_k;
-    const Recognition r_e2e = rec.Recognize(eq.query.code, e2e);
-    e2e.weighted = false;
     const PreparedQuery pq(eq.query.code);
-    db.matcher().MatchAll(pq, &matches);
-    const Recognition r_e2e_u = rec.Rank(pq, matches, e2e);
-    const bool cat_ok = r_e2e.category == ql.category;
-    ca.category.Add(cat_ok), all.category.Add(cat_ok);
-    ca.e2e_u.Add(cat_ok && r_e2e_u.anchor == ql.anchor), all.e2e_u.Add(cat_ok && r_e2e_u.anchor == ql.anchor);
-    if (weights) {
-      ca.e2e_l.Add(cat_ok && r_e2e.anchor == ql.anchor), all.e2e_l.Add(cat_ok && r_e2e.anchor == ql.anchor);
-    }
-    rec_json["predicted_category"] = r_e2e.category;
-    rec_json["end_to_end"] = {{"unweighted", r_e2e_u.anchor}, {"learned", r_e2e.anchor}, {"learned_used_weights", r_e2e.weighted}};
-
-    // Total only when the build recorded both fusion and feature times for this query.
-    const double total = eq.fusion_seconds >= 0 && eq.feature_seconds >= 0
-                             ? eq.fusion_seconds + eq.feature_seconds + r_e2e.match_seconds
-                             : -1;
-    for (CategoryAcc* a : {&ca, &all}) {
-      a->fusion.Add(eq.fusion_seconds);
-      a->feature.Add(eq.feature_seconds);
-      a->match.Add(r_e2e.match_seconds);
-      a->total.Add(total);
-    }
-    rec_json["timing"] = {{"fusion_seconds", eq.fusion_seconds >= 0 ? Json(eq.fusion_seconds) : Json(nullptr)},
-                          {"feature_seconds", eq.feature_seconds >= 0 ? Json(eq.feature_seconds) : Json(nullptr)},
-                          {"match_seconds", r_e2e.match_seconds},
-                          {"source", eq.timing_source}};
-
+    const Recognition r_e2e =
+        ScoreEndToEnd(rec, db, eq, pq, weights != nullptr, options.top_k, matches, ca, all, rec_json);
+    ScoreTiming(eq, r_e2e.match_seconds, ca, all, rec_json);
     if (!db.HasCategory(ql.category)) {
-      // Counted as wrong everywhere: the database cannot answer this query.
-      ++ca.absent;
-      if (warned_absent.insert(ql.category).second) {
+      if (warned_absent.insert(ql.category).second)
         warnings.push_back("category '" + ql.category + "' has test queries but no database entries");
-      }
-      // (Unweighted columns only: the learned columns cover categories that have weights.)
-      for (const char* s : kSubsets) {
-        ca.pose[std::string(s) + "/unweighted"].Add(false), all.pose[std::string(s) + "/unweighted"].Add(false);
-      }
-      ca.top_u.Add(false), all.top_u.Add(false);
-      rec_json["error"] = "category absent from the database";
-      per_query.push_back(rec_json);
-      continue;
+      ScoreAbsentCategory(ca, all, rec_json);
+    } else {
+      rec_json["category_known"] = ScoreKnownCategory(rec, db, uvs, ql, pq, matches, options.top_k, ca, all, out);
     }
-
-    // Category known: the paper's table, per database subset and metric.
-    const std::vector<std::string> insts = db.instances(ql.category);
-    ca.instances = insts;
-    ca.learned = rec.HasWeights(ql.category);
-    Json results = Json::object();
-    for (const char* s : kSubsets) {
-      std::string inst;
-      if (std::string(s) == "instance1") inst = insts[0];
-      if (std::string(s) == "instance2") {
-        if (insts.size() < 2) continue;  // N/A, as the paper's shorts
-        inst = insts[1];
-      }
-      for (const char* m : kMetrics) {
-        const bool learned = std::string(m) == "learned";
-        if (learned && !ca.learned) continue;  // N/A: no weights for this category
-        RecognizeOptions o;
-        o.top_k = options.top_k;
-        o.category = ql.category;
-        o.instance = inst;
-        o.weighted = learned;
-        const Recognition r = rec.Rank(pq, matches, o);
-        const bool ok = r.anchor == ql.anchor;
-        const std::string key = std::string(s) + "/" + m;
-        ca.pose[key].Add(ok), all.pose[key].Add(ok);
-        Json rj{{"anchor", r.anchor}, {"entry", r.best.id}, {"distance", r.best.distance},
-                {"rotation", r.best.rotation}, {"score", r.best.score}, {"correct", ok}};
-        if (std::string(s) == "both") {
-          bool in_top = false;
-          for (const auto& c : r.top) in_top |= c.anchor == ql.anchor;
-          (learned ? ca.top_l : ca.top_u).Add(in_top);
-          (learned ? all.top_l : all.top_u).Add(in_top);
-          const double ge = GraspErrorCm(uvs, ql.instance, r.best.instance, ql.anchor, r.anchor);
-          (learned ? ca.grasp_l : ca.grasp_u).Add(ge);
-          (learned ? all.grasp_l : all.grasp_u).Add(ge);
-          rj["grasp_error_cm"] = std::isnan(ge) ? Json(nullptr) : Json(ge);
-          rj["top"] = Json::array();
-          for (const auto& c : r.top) rj["top"].push_back(c.anchor);
-          if (learned || !ca.learned) {
-            auto& conf = out.confusion[ql.category];
-            conf.metric = learned ? "learned" : "unweighted";
-          }
-        }
-        results[key] = rj;
-      }
-    }
-    rec_json["category_known"] = results;
     per_query.push_back(rec_json);
   }
+  FillConfusion(db, queries, per_query, out);
 
-  // Confusion matrices (both instances; learned if the category has weights).
-  for (auto& [cat, conf] : out.confusion) {
-    std::set<std::string> labels;
-    for (int i : db.EntriesOf(cat)) labels.insert(db.label(i).anchor);
-    for (const auto& q : queries) {
-      if (q.query.label.category == cat) labels.insert(q.query.label.anchor);
-    }
-    conf.labels.assign(labels.begin(), labels.end());
-    conf.counts.assign(conf.labels.size(), std::vector<int>(conf.labels.size(), 0));
-    auto index = [&](const std::string& l) {
-      return static_cast<int>(std::lower_bound(conf.labels.begin(), conf.labels.end(), l) - conf.labels.begin());
-    };
-    const std::string key = "both/" + conf.metric;
-    for (const auto& pq : per_query) {
-      if (pq["category"] != cat || !pq.contains("category_known") || !pq["category_known"].contains(key)) continue;
-      ++conf.counts[index(pq["anchor"].get<std::string>())][index(pq["category_known"][key]["anchor"].get<std::string>())];
-    }
-  }
-
-  auto row = [&](const std::string& name, const CategoryAcc& a) {
-    Json pose = Json::object();
-    for (const char* s : kSubsets) {
-      Json pm = Json::object();
-      for (const char* m : kMetrics) {
-        auto it = a.pose.find(std::string(s) + "/" + m);
-        pm[m] = it == a.pose.end() ? Json(nullptr) : it->second.Rate();
-      }
-      pose[s] = pm;
-    }
-    Json j{{"category", name},
-           {"queries", a.queries},
-           {"queries_category_absent", a.absent},
-           {"database_instances", a.instances},
-           {"learned_weights", a.learned},
-           {"pose_accuracy", pose},
-           {"category_accuracy", a.category.Rate()},
-           {"end_to_end_pose_accuracy", {{"unweighted", a.e2e_u.Rate()}, {"learned", a.e2e_l.Rate()}}},
-           {"top_k_accuracy", {{"k", options.top_k}, {"unweighted", a.top_u.Rate()}, {"learned", a.top_l.Rate()}}},
-           {"grasp_error_cm",
-            {{"surface", "flat pattern of the query's garment instance (uv distance)"},
-             {"unweighted_mean", a.grasp_u.Value()},
-             {"learned_mean", a.grasp_l.Value()},
-             {"unknown", a.grasp_u.unknown + a.grasp_l.unknown}}},
-           {"seconds_per_query",
-            {{"fusion", a.fusion.Value()},
-             {"feature", a.feature.Value()},
-             {"matching", a.match.Value()},
-             {"total", a.total.Value()},
-             {"fusion_known", a.fusion.n},
-             {"feature_known", a.feature.n}}},
-           {"paper", PaperRow(name)}};
-    return j;
-  };
   Json cats = Json::array();
-  for (const auto& [name, a] : acc) cats.push_back(row(name, a));
+  for (const auto& [name, a] : acc) cats.push_back(CategoryRow(name, a, options.top_k));
   Json conf_json = Json::object();
   for (const auto& [cat, c] : out.confusion) {
     conf_json[cat] = {{"metric", c.metric}, {"labels", c.labels}, {"counts", c.counts}};
@@ -271,316 +315,11 @@ EvalResult Evaluate(const Database& db, const Weights* weights, const std::vecto
                       {"kernel", KernelName(db.matcher().kernel())}}},
                     {"top_k", options.top_k},
                     {"categories", cats},
-                    {"overall", row("all", all)},
+                    {"overall", CategoryRow("all", all, options.top_k)},
                     {"confusion", conf_json},
                     {"warnings", warnings},
                     {"per_query", per_query}};
   return out;
-}
-
-// ---------------------------------------------------------------- report
-
-namespace {
-
-std::string Percent(const Json& v) {
-  if (v.is_null()) return "n/a";
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.1f %%", 100.0 * v.get<double>());
-  return buf;
-}
-
-std::string Num(const Json& v, const char* fmt = "%.3f") {
-  if (v.is_null()) return "n/a";
-  char buf[32];
-  std::snprintf(buf, sizeof buf, fmt, v.get<double>());
-  return buf;
-}
-
-std::string Pair(const Json& obj) { return Percent(obj["unweighted"]) + " / " + Percent(obj["learned"]); }
-
-}  // namespace
-
-std::string RegistrationMarkdown(const Json& t) {
-  std::ostringstream md;
-  auto d = [](const Json& v) { return Num(v, "%.4f"); };
-  md << "## Registration (pose known), split " << t.value("split", "?") << "\n\n"
-     << "Source S = the database mesh (train entry's hang.ply) of the test entry's true category and anchor; "
-     << "target T = the test entry's reconstruction (recon.ply), full resolution. Paper's metric: one sample per "
-     << "triangle of the measured-from mesh, area-weighted mean distance to the other mesh, metres. "
-     << "Anchor error: transferred database anchor vertex vs the true anchor vertex on the test entry's hung mesh, "
-     << "cm (both in the object frame). Rows: category / test garment instance.\n\n"
-     << "| garment | pairs | S→T (R) | T→S (R) | S→T (R+N) | T→S (R+N) | anchor cm, mean (R / R+N) | "
-        "anchor cm, median (R / R+N) | s per registration |\n"
-     << "|---|---|---|---|---|---|---|---|---|\n";
-  auto row = [&](const Json& g, bool bold) {
-    const std::string b = bold ? "**" : "";
-    md << "| " << b << g.value("garment", "") << b << " | " << g.value("pairs", 0) << " | " << d(g["s_to_t_rigid"])
-       << " | " << d(g["t_to_s_rigid"]) << " | " << d(g["s_to_t_nonrigid"]) << " | " << d(g["t_to_s_nonrigid"])
-       << " | " << Num(g["anchor_error_cm"]["rigid"], "%.1f") << " / " << Num(g["anchor_error_cm"]["nonrigid"], "%.1f")
-       << " | " << Num(g["anchor_error_cm"].value("rigid_median", Json()), "%.1f") << " / "
-       << Num(g["anchor_error_cm"].value("nonrigid_median", Json()), "%.1f") << " | " << Num(g["timing"]["seconds_per_registration"], "%.2f") << " |\n";
-  };
-  for (const Json& g : t.value("garments", Json::array())) row(g, false);
-  if (t.contains("average")) row(t["average"], true);
-  if (t.contains("paper")) {
-    const Json& p = t["paper"];
-    md << "\nPaper (real Kinect data):\n\n| garment | S→T (R) | T→S (R) | S→T (R+N) | T→S (R+N) |\n|---|---|---|---|---|\n";
-    std::vector<Json> rows(p["rows"].begin(), p["rows"].end());
-    rows.push_back(p["average"]);
-    for (const Json& g : rows) {
-      md << "| " << g.value("garment", "") << " | " << d(g["s_to_t_rigid"]) << " | " << d(g["t_to_s_rigid"]) << " | "
-         << d(g["s_to_t_nonrigid"]) << " | " << d(g["t_to_s_nonrigid"]) << " |\n";
-    }
-  }
-  if (t.contains("average")) {
-    const Json& tm = t["average"]["timing"];
-    md << "\nTime per registration (mean, s): grid " << Num(tm["grid_seconds"]) << ", ICP " << Num(tm["icp_seconds"])
-       << ", non-rigid " << Num(tm["nonrigid_seconds"]) << ", total " << Num(tm["seconds_per_registration"])
-       << "; whole table " << Num(t["timing"]["wall_seconds"], "%.1f") << " s wall on " << t["timing"].value("threads", 0)
-       << " threads.\n";
-  }
-  int recognised = 0, first = 0, offsets = 0;
-  std::vector<double> from_grasp;
-  for (const Json& p : t.value("pairs", Json::array())) {
-    if (p.contains("anchor_truth_from_grasp_cm")) from_grasp.push_back(p["anchor_truth_from_grasp_cm"].get<double>());
-    (p.value("source_choice", "") == "recognised" ? recognised : first) += 1;
-  }
-  if (!from_grasp.empty()) {
-    std::sort(from_grasp.begin(), from_grasp.end());
-    for (double d : from_grasp) offsets += d > 10;
-    md << "\nThe true anchors lie " << Num(Json(from_grasp[from_grasp.size() / 2]), "%.1f")
-       << " cm (median) from the grip (test entries are hung with a grasp offset; database anchors are at the "
-          "grip): a transferred anchor at the grip would be off by this much";
-    if (offsets > 0) md << "; " << offsets << " pair(s) have their true anchor > 10 cm from the grip";
-    md << ".\n";
-  }
-  md << "\nSource instance: " << recognised << " pairs use the entry recognition matched (right anchor), " << first
-     << " the first database instance with the true anchor.";
-  if (t.contains("average") && t["average"].value("pairs_with_warnings", 0) > 0) {
-    md << " Pairs whose registration warned (e.g. ICP not converged; report.json has each): "
-       << t["average"]["pairs_with_warnings"].get<int>() << ".";
-  }
-  if (t.value("failed", 0) > 0) md << " Failed registrations: " << t["failed"].get<int>() << ".";
-  if (t.value("limited_out", 0) > 0) md << " Left out by --registration-pairs: " << t["limited_out"].get<int>() << ".";
-  md << "\n";
-  for (const Json& s : t.value("skipped", Json::array())) {
-    md << "- skipped " << s.value("id", "") << ": " << s.value("reason", "") << "\n";
-  }
-  return md.str();
-}
-
-std::string ReportMarkdown(const Json& r) {
-  std::ostringstream md;
-  std::vector<Json> rows(r["categories"].begin(), r["categories"].end());
-  rows.push_back(r["overall"]);
-
-  md << "## Pose accuracy, category known (unweighted Eq. match / learned Eq. bestmatch)\n\n"
-     << "Correct anchor / all queries, using only database instance 1, only instance 2, or both "
-        "(instances sorted by name). Paper (real Kinect data, learned distance) in the last column.\n\n"
-     << "The learned columns cover the categories that have weights (\"all\" too); n/a = no such "
-        "database instance or no weights.\n\n"
-     << "| category | queries | instance 1 | instance 2 | both | paper: 1 / 2 / both |\n"
-     << "|---|---|---|---|---|---|\n";
-  for (const Json& c : rows) {
-    const Json& p = c["pose_accuracy"];
-    std::string paper = "—";
-    if (!c["paper"].is_null()) {
-      paper = Percent(c["paper"]["instance1"]) + " / " + Percent(c["paper"]["instance2"]) + " / " +
-              Percent(c["paper"]["both"]);
-    }
-    std::string names;
-    for (const auto& n : c["database_instances"]) names += (names.empty() ? "" : ", ") + n.get<std::string>();
-    md << "| " << c["category"].get<std::string>() << (names.empty() ? "" : " (" + names + ")") << " | "
-       << c["queries"].get<int>() << " | " << Pair(p["instance1"]) << " | " << Pair(p["instance2"]) << " | "
-       << Pair(p["both"]) << " | " << paper << " |\n";
-  }
-  md << "\n## Category, end to end, top-" << r["top_k"].get<int>() << ", grasp-point error\n\n"
-     << "Category by the unweighted nearest neighbour over the whole database; end to end = right "
-        "category and right anchor (learned: the runtime's distance, learned w where the category has one). "
-        "Grasp-point error: distance on the flat pattern of the query's "
-        "garment between the predicted and the true anchor, cm (0 when right), both instances.\n\n"
-     << "| category | category accuracy | end-to-end pose (u / l) | top-" << r["top_k"].get<int>()
-     << " (u / l) | grasp error cm (u / l) |\n|---|---|---|---|---|\n";
-  for (const Json& c : rows) {
-    md << "| " << c["category"].get<std::string>() << " | " << Percent(c["category_accuracy"]) << " | "
-       << Pair(c["end_to_end_pose_accuracy"]) << " | " << Pair(c["top_k_accuracy"]) << " | "
-       << Num(c["grasp_error_cm"]["unweighted_mean"], "%.1f") << " / "
-       << Num(c["grasp_error_cm"]["learned_mean"], "%.1f") << " |\n";
-  }
-  md << "\n## Running time per query (seconds)\n\n"
-     << "| category | fusion | feature | matching | total | paper (i7 3.0 GHz) |\n|---|---|---|---|---|---|\n";
-  for (const Json& c : rows) {
-    const Json& t = c["seconds_per_query"];
-    md << "| " << c["category"].get<std::string>() << " | " << Num(t["fusion"]) << " | " << Num(t["feature"])
-       << " | " << Num(t["matching"], "%.6f") << " | " << Num(t["total"]) << " | "
-       << (c["paper"].is_null() ? std::string("—") : Num(c["paper"]["seconds"], "%.2f")) << " |\n";
-  }
-  if (r.contains("ladder") && r["ladder"].is_object()) md << "\n" << LadderMarkdown(r["ladder"]);
-  if (r.contains("registration") && r["registration"].is_object()) md << "\n" << RegistrationMarkdown(r["registration"]);
-  if (!r["warnings"].empty()) {
-    md << "\n## Warnings\n\n";
-    for (const auto& w : r["warnings"]) md << "- " << w.get<std::string>() << "\n";
-  }
-  return md.str();
-}
-
-namespace {
-
-void WriteAccuracyPlot(const Json& r, const fs::path& path) {
-  std::vector<Json> rows(r["categories"].begin(), r["categories"].end());
-  rows.push_back(r["overall"]);
-  const int group = 150, left = 70, top = 50, plot_h = 300;
-  const int width = left + group * static_cast<int>(rows.size()) + 40, height = top + plot_h + 90;
-  cv::Mat img(height, width, CV_8UC3, cv::Scalar(255, 255, 255));
-  cv::putText(img, "Pose accuracy, both instances, category known", {left, 25}, cv::FONT_HERSHEY_SIMPLEX, 0.6,
-              {0, 0, 0}, 1, cv::LINE_AA);
-  for (int p = 0; p <= 100; p += 20) {
-    const int y = top + plot_h - plot_h * p / 100;
-    cv::line(img, {left, y}, {width - 20, y}, {220, 220, 220}, 1);
-    cv::putText(img, std::to_string(p) + "%", {10, y + 5}, cv::FONT_HERSHEY_SIMPLEX, 0.45, {0, 0, 0}, 1, cv::LINE_AA);
-  }
-  const cv::Scalar colors[] = {{180, 130, 70}, {60, 140, 240}, {90, 90, 90}};
-  const char* names[] = {"unweighted", "learned", "paper"};
-  for (size_t i = 0; i < rows.size(); ++i) {
-    const Json& both = rows[i]["pose_accuracy"]["both"];
-    const Json vals[] = {both["unweighted"], both["learned"],
-                         rows[i]["paper"].is_null() ? Json(nullptr) : rows[i]["paper"]["both"]};
-    for (int b = 0; b < 3; ++b) {
-      const int x0 = left + group * static_cast<int>(i) + 15 + b * 40;
-      if (vals[b].is_null()) {
-        cv::putText(img, "n/a", {x0 + 2, top + plot_h - 5}, cv::FONT_HERSHEY_SIMPLEX, 0.35, {0, 0, 0}, 1, cv::LINE_AA);
-        continue;
-      }
-      const double v = vals[b].get<double>();
-      const int h = static_cast<int>(std::lround(plot_h * v));
-      cv::rectangle(img, {x0, top + plot_h - h}, {x0 + 34, top + plot_h}, colors[b], cv::FILLED);
-      char buf[16];
-      std::snprintf(buf, sizeof buf, "%.0f", 100 * v);
-      cv::putText(img, buf, {x0 + 4, top + plot_h - h - 4}, cv::FONT_HERSHEY_SIMPLEX, 0.4, {0, 0, 0}, 1, cv::LINE_AA);
-    }
-    cv::putText(img, rows[i]["category"].get<std::string>().substr(0, 18),
-                {left + group * static_cast<int>(i) + 10, top + plot_h + 20}, cv::FONT_HERSHEY_SIMPLEX, 0.45,
-                {0, 0, 0}, 1, cv::LINE_AA);
-  }
-  for (int b = 0; b < 3; ++b) {
-    const int x = left + 140 * b;
-    cv::rectangle(img, {x, height - 35}, {x + 14, height - 21}, colors[b], cv::FILLED);
-    cv::putText(img, names[b], {x + 20, height - 22}, cv::FONT_HERSHEY_SIMPLEX, 0.45, {0, 0, 0}, 1, cv::LINE_AA);
-  }
-  cv::line(img, {left, top + plot_h}, {width - 20, top + plot_h}, {0, 0, 0}, 1);
-  std::vector<uchar> png;
-  cv::imencode(".png", img, png);
-  WriteFileAtomic(path, std::string(png.begin(), png.end()));
-}
-
-void WriteConfusionPlot(const std::string& cat, const EvalResult::Confusion& c, const fs::path& path) {
-  const int n = static_cast<int>(c.labels.size());
-  const int cell = std::max(22, std::min(40, 600 / std::max(n, 1)));
-  const int left = 190, top = 75;
-  const int width = std::max(left + cell * n + 30, 480), height = top + cell * n + 30;
-  cv::Mat img(height, width, CV_8UC3, cv::Scalar(255, 255, 255));
-  cv::putText(img, cat + " (" + c.metric + " distance, both instances)", {10, 22}, cv::FONT_HERSHEY_SIMPLEX, 0.55,
-              {0, 0, 0}, 1, cv::LINE_AA);
-  cv::putText(img, "rows: true anchor, columns: predicted", {10, 44}, cv::FONT_HERSHEY_SIMPLEX, 0.45,
-              {80, 80, 80}, 1, cv::LINE_AA);
-  for (int i = 0; i < n; ++i) {
-    int row_total = 0;
-    for (int v : c.counts[i]) row_total += v;
-    cv::putText(img, std::to_string(i) + " " + c.labels[i].substr(0, 20), {5, top + cell * i + cell / 2 + 5},
-                cv::FONT_HERSHEY_SIMPLEX, 0.4, {0, 0, 0}, 1, cv::LINE_AA);
-    cv::putText(img, std::to_string(i), {left + cell * i + cell / 3, top - 8}, cv::FONT_HERSHEY_SIMPLEX, 0.4,
-                {0, 0, 0}, 1, cv::LINE_AA);
-    for (int j = 0; j < n; ++j) {
-      const double f = row_total ? double(c.counts[i][j]) / row_total : 0.0;
-      // White → dark blue with the row-normalised share; the diagonal outlined.
-      const cv::Scalar col(255 - 100 * f, 255 - 200 * f, 255 - 230 * f);
-      const cv::Point p0(left + cell * j, top + cell * i), p1(left + cell * (j + 1), top + cell * (i + 1));
-      cv::rectangle(img, p0, p1, col, cv::FILLED);
-      cv::rectangle(img, p0, p1, i == j ? cv::Scalar(0, 160, 0) : cv::Scalar(200, 200, 200), i == j ? 2 : 1);
-      if (c.counts[i][j]) {
-        cv::putText(img, std::to_string(c.counts[i][j]), {p0.x + cell / 3, p0.y + cell / 2 + 5},
-                    cv::FONT_HERSHEY_SIMPLEX, 0.4, f > 0.5 ? cv::Scalar(255, 255, 255) : cv::Scalar(0, 0, 0), 1,
-                    cv::LINE_AA);
-      }
-    }
-  }
-  std::vector<uchar> png;
-  cv::imencode(".png", img, png);
-  WriteFileAtomic(path, std::string(png.begin(), png.end()));
-}
-
-std::string SafeName(const std::string& s) {
-  std::string o;
-  for (char ch : s) o += (std::isalnum(static_cast<unsigned char>(ch)) || ch == '-' || ch == '_') ? ch : '_';
-  return o;
-}
-
-}  // namespace
-
-void WriteReport(const EvalResult& result, const Json& header, const fs::path& dir) {
-  Json full = header;
-  for (const auto& [k, v] : result.report.items()) full[k] = v;
-  Json plots = Json::array({"accuracy.png"});
-  WriteAccuracyPlot(result.report, dir / "accuracy.png");
-  for (const auto& [cat, c] : result.confusion) {
-    const std::string name = "confusion_" + SafeName(cat) + ".png";
-    WriteConfusionPlot(cat, c, dir / name);
-    plots.push_back(name);
-  }
-  if (result.report.contains("registration")) {
-    for (const auto& f : result.report["registration"].value("figures", Json::array())) plots.push_back(f);
-  }
-  full["plots"] = plots;
-  WriteFileAtomic(dir / "report.json", full.dump(2) + "\n");
-
-  std::ostringstream md;
-  md << "# Pose recognition report\n\n";
-  for (const auto& [k, v] : header.items()) {
-    if (v.is_object() || v.is_array() || v.is_null()) continue;  // tables below / report.json
-    md << "- **" << k << "**: " << (v.is_string() ? v.get<std::string>() : v.dump()) << "\n";
-  }
-  md << "- **queries**: " << result.report["queries"] << ", database entries: "
-     << result.report["database"]["entries"] << " (kernel " << result.report["database"]["kernel"].get<std::string>()
-     << ")\n\nEvery number below comes from this run (report.json has each query).\n\n";
-  md << ReportMarkdown(result.report);
-  if (header.contains("calibration") && header["calibration"].is_object()) {
-    const Json& cal = header["calibration"];
-    md << "\n## Calibration (Eq. learn) of the weights used\n\n"
-       << "RankSVM, C = " << cal["options"].value("c", 0.0) << ", frame " << cal["options"].value("frame", "?")
-       << ", learned on split '" << cal["options"].value("split", "calibration") << "'. Pair accuracy = share of "
-       << "(right-anchor, wrong-anchor) database pairs ranked right for the calibration queries.\n\n"
-       << "| category | queries | skipped | pairs | pair accuracy u → l | calibration top-1 u → l | nonzero w |\n"
-       << "|---|---|---|---|---|---|---|\n";
-    for (const auto& c : cal["stats"].value("categories", Json::array())) {
-      char buf[256];
-      std::snprintf(buf, sizeof buf, "| %s | %d | %d | %lld | %.3f → %.3f | %d → %d | %.1f %% |\n",
-                    c.value("category", "").c_str(), c.value("queries", 0), c.value("skipped", 0),
-                    c.value("pairs", 0LL), c.value("ranking_accuracy_unweighted", 0.0),
-                    c.value("ranking_accuracy_learned", 0.0), c.value("top1_unweighted", 0),
-                    c.value("top1_learned", 0), 100 * c.value("nonzero_weight_fraction", 0.0));
-      md << buf;
-    }
-    for (const auto& w : cal["stats"].value("warnings", Json::array())) md << "- " << w.get<std::string>() << "\n";
-  }
-  if (header.contains("load_warnings") && !header["load_warnings"].empty()) {
-    md << "\n## Entries skipped while loading\n\n";
-    for (const auto& w : header["load_warnings"]) md << "- " << w.get<std::string>() << "\n";
-  }
-  md << "\n## Plots\n\n![accuracy](accuracy.png)\n\n";
-  for (const auto& [cat, c] : result.confusion) {
-    md << "![" << cat << "](confusion_" << SafeName(cat) << ".png)\n\n";
-  }
-  for (const auto& f : result.report.value("ladder_figures", Json::array())) {
-    md << "Ladder, " << f.value("split", "") << ", " << f.value("category", "") << ": query " << f.value("query", "")
-       << " | matched " << f.value("matched", "") << " | true " << f.value("truth", "") << "\n\n![" << f.value("file", "")
-       << "](" << f.value("file", "") << ")\n\n";
-  }
-  if (result.report.contains("registration")) {
-    for (const auto& f : result.report["registration"].value("figures", Json::array())) {
-      md << "![" << f.get<std::string>() << "](" << f.get<std::string>() << ")\n\n";
-    }
-  }
-  WriteFileAtomic(dir / "report.md", md.str());
 }
 
 }  // namespace drape::recognition

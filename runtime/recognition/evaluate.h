@@ -27,6 +27,16 @@ struct EvalQuery {
 // Anchor positions on the flat pattern, metres, by (garment instance, anchor label).
 using AnchorUvMap = std::map<std::pair<std::string, std::string>, Vec2>;
 
+// The anchors a garment's symmetry maps this one onto: "left"/"right" swapped, "top"/
+// "bottom" swapped, and both ("left_cuff" → {"right_cuff"}; the towel's "top_left" →
+// {"top_right", "bottom_left", "bottom_right"}); empty when the label names no side. Every
+// template's outline is left/right symmetric (the towel's also top/bottom: a rectangle;
+// no other template has top/bottom labels) and its back layer mirrors the front, so a
+// garment hung from a twin is the other's hang turned about the gripper (up to the
+// triangulation and the simulation's chaos): no rotation-invariant feature can tell
+// twins apart. Reported beside the strict (paper's) accuracy as "twin credited".
+std::vector<std::string> SymmetryTwins(const std::string& anchor);
+
 struct EvalOptions {
   int top_k = 3;  // for the top-k accuracy (distinct anchors)
   void Validate() const;

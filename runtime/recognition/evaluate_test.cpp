@@ -14,14 +14,14 @@ namespace {
 namespace fs = std::filesystem;
 
 Code RandomCode(Rng& rng) {
-  Code c = ZeroCode(4, 4, 8);
-  for (int b = 0; b < c.bits(); ++b) c.Set(b, rng.Uniform() < 0.5);
+  Code c = ZeroFeature(4, 4, 8);
+  for (int b = 0; b < c.NumBits(); ++b) c.Set(b, rng.Uniform() < 0.5);
   return c;
 }
 
 Code Flip(Code c, Rng& rng, int n) {
   for (int i = 0; i < n; ++i) {
-    const int b = static_cast<int>(rng.Below(c.bits()));
+    const int b = static_cast<int>(rng.Below(c.NumBits()));
     c.Set(b, !c.Get(b));
   }
   return c;
@@ -64,7 +64,7 @@ TEST(RecognitionEvaluate, CountsTheTableAndWritesTheReport) {
     q.timing_source = "test";
     qs.push_back(std::move(q));
   };
-  add(L("q1", "pants", "pants-q", "a", RotateCode(Flip(proto["pants/a"], rng, 1), 3)), 0.2);
+  add(L("q1", "pants", "pants-q", "a", Rotate(Flip(proto["pants/a"], rng, 1), 3)), 0.2);
   add(L("q2", "pants", "pants-q", "b", Flip(proto["pants/b"], rng, 1)), 0.2);
   add(L("q3", "pants", "pants-q", "a", train[1].code), 0.2);  // looks exactly like pants-1 "b"
   add(L("q4", "shorts", "shorts-q", "c", Flip(proto["shorts/c"], rng, 1)), -1);
@@ -114,6 +114,35 @@ TEST(RecognitionEvaluate, CountsTheTableAndWritesTheReport) {
 
   EXPECT_THROW(Evaluate(Database(), nullptr, qs, uvs, {}), Error);
   EXPECT_THROW(Evaluate(db, nullptr, {}, uvs, {}), Error);
+}
+
+TEST(RecognitionEvaluate, SymmetryTwinsSwapWholeSideTokens) {
+  using V = std::vector<std::string>;
+  EXPECT_EQ(SymmetryTwins("left_cuff"), V{"right_cuff"});
+  EXPECT_EQ(SymmetryTwins("right_leg_inner"), V{"left_leg_inner"});
+  EXPECT_EQ(SymmetryTwins("top_left"), (V{"top_right", "bottom_left", "bottom_right"}));
+  EXPECT_EQ(SymmetryTwins("bottom_center"), V{"top_center"});
+  EXPECT_EQ(SymmetryTwins("waist_center"), V{});
+  EXPECT_EQ(SymmetryTwins("crotch"), V{});
+  EXPECT_EQ(SymmetryTwins("leftover_right"), V{"leftover_left"});
+}
+
+// A query matched to its anchor's mirror twin is wrong strictly and right twin credited;
+// one matched to an unrelated anchor is wrong both ways.
+TEST(RecognitionEvaluate, TwinCreditedAccuracy) {
+  Rng rng(11);
+  std::vector<LabelledCode> train = {L("l", "shorts", "s-1", "left_leg", RandomCode(rng)),
+                                     L("r", "shorts", "s-1", "right_leg", RandomCode(rng)),
+                                     L("w", "shorts", "s-1", "waist", RandomCode(rng))};
+  Database db(train);
+  std::vector<EvalQuery> qs(2);
+  qs[0].query = L("q0", "shorts", "s-q", "left_leg", train[1].code);  // looks like right_leg
+  qs[1].query = L("q1", "shorts", "s-q", "waist", train[0].code);     // looks like left_leg
+  const Json r = Evaluate(db, nullptr, qs, {}, {}).report;
+  const Json& c = r["categories"][0];
+  EXPECT_DOUBLE_EQ(c["pose_accuracy"]["both"]["unweighted"].get<double>(), 0.0);
+  EXPECT_DOUBLE_EQ(c["pose_accuracy_twin_credited"]["unweighted"].get<double>(), 0.5);
+  EXPECT_TRUE(c["pose_accuracy_twin_credited"]["learned"].is_null());  // no weights
 }
 
 }  // namespace

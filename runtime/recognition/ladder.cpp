@@ -91,6 +91,9 @@ Json LadderTable(const std::vector<LadderResult>& results) {
            {"pose_unweighted", both["unweighted"]},
            {"pose_learned", both["learned"]},
            {"category_accuracy", c["category_accuracy"]},
+           {"pose_learned_twin_credited", c.value("pose_accuracy_twin_credited", Json::object()).value("learned", Json())},
+           {"pose_unweighted_twin_credited",
+            c.value("pose_accuracy_twin_credited", Json::object()).value("unweighted", Json())},
            {"grasp_error_cm_unweighted", c["grasp_error_cm"]["unweighted_mean"]}});
     }
   }
@@ -101,17 +104,22 @@ std::string LadderMarkdown(const Json& table) {
   std::ostringstream md;
   md << "## Ablation ladder (pose accuracy, both database instances, category known)\n\n"
      << "Each rung adds one difference between a database entry and the query; the drop from one "
-        "row to the next is what that difference costs.\n";
+        "row to the next is what that difference costs. Twin credited: the anchor's symmetry twins (left/right, "
+        "for the towel also top/bottom) count as right — indistinguishable in principle for these symmetric "
+        "two-layer templates.\n";
   for (const auto& [cat, rows] : table.items()) {
     md << "\n### " << cat << "\n\n| rung | queries | differs from the database entry by | pose (unweighted) | "
-          "pose (learned) | category | grasp error cm (u) |\n|---|---|---|---|---|---|---|\n";
+          "pose (learned) | twin credited (u / l) | category | grasp error cm (u) |\n"
+          "|---|---|---|---|---|---|---|---|\n";
     for (const Json& r : rows) {
       char ge[32] = "n/a";
       if (!r["grasp_error_cm_unweighted"].is_null())
         std::snprintf(ge, sizeof ge, "%.1f", r["grasp_error_cm_unweighted"].get<double>());
       md << "| " << r["split"].get<std::string>() << " | " << r["queries"].get<int>() << " | "
          << r["differs"].get<std::string>() << " | " << Percent(r["pose_unweighted"]) << " | "
-         << Percent(r["pose_learned"]) << " | " << Percent(r["category_accuracy"]) << " | " << ge << " |\n";
+         << Percent(r["pose_learned"]) << " | " << Percent(r.value("pose_unweighted_twin_credited", Json())) << " / "
+         << Percent(r.value("pose_learned_twin_credited", Json())) << " | " << Percent(r["category_accuracy"]) << " | "
+         << ge << " |\n";
     }
   }
   return md.str();

@@ -14,107 +14,14 @@
 
 namespace drape::recognition {
 
-void Code::Set(int bit, bool v) {
-  const uint64_t m = uint64_t{1} << (bit & 63);
-  if (v) {
-    words[bit >> 6] |= m;
-  } else {
-    words[bit >> 6] &= ~m;
-  }
-}
-
-void Code::Check(const std::string& where) const {
-  if (layers <= 0 || rings <= 0 || sectors <= 0 || layers > 4096 || rings > 4096 || sectors > 4096) {
-    std::ostringstream os;
-    os << where << ": invalid feature shape " << layers << "x" << rings << "x" << sectors;
-    throw Error(os.str());
-  }
-  if (static_cast<int>(words.size()) != num_words()) {
-    std::ostringstream os;
-    os << where << ": feature of shape " << layers << "x" << rings << "x" << sectors << " needs "
-       << num_words() << " 64-bit words, has " << words.size();
-    throw Error(os.str());
-  }
-  if (bits() % 64 != 0 && (words.back() >> (bits() % 64)) != 0) {
-    throw Error(where + ": feature has bits set beyond its last cell");
-  }
-}
-
-Code ZeroCode(int layers, int rings, int sectors) {
-  Code c;
-  c.layers = layers;
-  c.rings = rings;
-  c.sectors = sectors;
-  c.words.assign(c.num_words(), 0);
-  return c;
-}
-
-int RotatedBit(int bit, int sectors, int k) {
-  const int lr = bit / sectors;
-  const int s = bit % sectors;
-  const int t = ((s + k) % sectors + sectors) % sectors;
-  return lr * sectors + t;
-}
-
-namespace {
-
-// n <= 64 bits starting at bit `off` (LSB first across words).
-uint64_t GetBits(const std::vector<uint64_t>& w, int off, int n) {
-  const int wi = off >> 6, sh = off & 63;
-  uint64_t v = w[wi] >> sh;
-  if (sh + n > 64) v |= w[wi + 1] << (64 - sh);
-  return n == 64 ? v : v & ((uint64_t{1} << n) - 1);
-}
-
-void OrBits(std::vector<uint64_t>& w, int off, int n, uint64_t v) {
-  const int wi = off >> 6, sh = off & 63;
-  w[wi] |= v << sh;
-  if (sh + n > 64) w[wi + 1] |= v >> (64 - sh);
-}
-
-}  // namespace
-
-Code RotateCode(const Code& x, int k) {
-  Code out = ZeroCode(x.layers, x.rings, x.sectors);
-  const int s = x.sectors;
-  const int kk = ((k % s) + s) % s;
-  if (s > 64) {
-    for (int b = 0; b < x.bits(); ++b) {
-      if (x.Get(b)) out.Set(RotatedBit(b, s, kk), true);
-    }
-    return out;
-  }
-  // Per (layer, ring): the Φ sector bits as one integer, rotated left by k within Φ bits
-  // (sector j moves to j + k).
-  const uint64_t mask = s == 64 ? ~uint64_t{0} : (uint64_t{1} << s) - 1;
-  for (int g = 0; g < x.layers * x.rings; ++g) {
-    const uint64_t v = GetBits(x.words, g * s, s);
-    const uint64_t r = kk == 0 ? v : ((v << kk) | (v >> (s - kk))) & mask;
-    OrBits(out.words, g * s, s, r);
-  }
-  return out;
-}
-
-Match MatchReference(const Code& x, const Code& q) {
-  DRAPE_CHECK(x.SameShape(q), "feature shapes differ");
-  Match best{INT_MAX, 0};
-  for (int k = 0; k < x.sectors; ++k) {
-    const Code xr = RotateCode(x, k);
-    int d = 0;
-    for (int b = 0; b < x.bits(); ++b) d += xr.Get(b) != q.Get(b);
-    if (d < best.distance) best = {d, k};
-  }
-  return best;
-}
-
 double WeightedDistanceReference(const Code& x, int k, const Code& q, const std::vector<double>& w,
                                  bool query_frame) {
   DRAPE_CHECK(x.SameShape(q), "feature shapes differ");
-  DRAPE_CHECK(static_cast<int>(w.size()) == x.bits(), "weight vector size");
-  const Code a = query_frame ? RotateCode(x, k) : x;
-  const Code b = query_frame ? q : RotateCode(q, -k);
+  DRAPE_CHECK(static_cast<int>(w.size()) == x.NumBits(), "weight vector size");
+  const Code a = query_frame ? Rotate(x, k) : x;
+  const Code b = query_frame ? q : Rotate(q, -k);
   double sum = 0;
-  for (int i = 0; i < x.bits(); ++i) {
+  for (int i = 0; i < x.NumBits(); ++i) {
     if (a.Get(i) != b.Get(i)) sum += w[i];
   }
   return sum;
@@ -167,10 +74,10 @@ static int PadWords(int words) { return (words + 7) / 8 * 8; }
 
 PreparedQuery::PreparedQuery(const Code& q) : q_(q) {
   q.Check("query feature");
-  padded_words_ = PadWords(q.num_words());
+  padded_words_ = PadWords(q.NumWords());
   rot_.assign(size_t(q.sectors) * padded_words_, 0);
   for (int k = 0; k < q.sectors; ++k) {
-    const Code r = RotateCode(q, -k);
+    const Code r = Rotate(q, -k);
     std::copy(r.words.begin(), r.words.end(), rot_.begin() + size_t(k) * padded_words_);
   }
 }
@@ -191,7 +98,7 @@ PreparedWeights::PreparedWeights(const std::vector<double>& w, int layers, int r
 
 Matcher::Matcher(int layers, int rings, int sectors, Kernel kernel)
     : layers_(layers), rings_(rings), sectors_(sectors) {
-  ZeroCode(layers, rings, sectors).Check("matcher");
+  ZeroFeature(layers, rings, sectors).Check("matcher");
   words_ = (layers * rings * sectors + 63) / 64;
   padded_words_ = PadWords(words_);
   set_kernel(kernel);

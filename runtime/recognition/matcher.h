@@ -1,51 +1,25 @@
-// Rotation-invariant Hamming matching of binary shape features (paper Eq. match) and
-// the weighted Hamming distance of Eq. bestmatch.
+// Rotation-invariant Hamming matching of many binary shape features at once (paper
+// Eq. match, the word-parallel kernels of the database search) and the weighted Hamming
+// distance of Eq. bestmatch.
 //
-// A Code is the packed feature of generator/feature (same layout as drape::Feature):
-// N layers × R rings × Φ sectors, bit b = (l·R + r)·Φ + s stored in words[b / 64] at
-// bit (b % 64), LSB first; unused high bits of the last word are zero. Rotating the
-// garment by 2π/Φ about the vertical axis is, per (layer, ring), a circular shift of
-// the Φ sector bits: R_k maps sector s to (s + k) mod Φ.
+// A Code is the packed feature of generator/feature (drape::Feature): N layers × R rings
+// × Φ sectors, bit b = (l·R + r)·Φ + s stored in words[b / 64] at bit (b % 64), LSB
+// first. Rotating the garment by 2π/Φ about the vertical axis is, per (layer, ring), a
+// circular shift of the Φ sector bits: R_k = Rotate(·, k) maps sector s to (s + k) mod Φ.
+// Eq. match of one pair, and its bit-by-bit reference, are generator/feature's Distance
+// and DistanceReference; the kernels here are tested against them.
 #pragma once
 
 #include <cstdint>
 #include <string>
 #include <vector>
 
+#include "generator/feature/feature.h"
+
 namespace drape::recognition {
 
-struct Code {
-  int layers = 0;
-  int rings = 0;
-  int sectors = 0;
-  std::vector<uint64_t> words;  // ceil(bits / 64)
-
-  int bits() const { return layers * rings * sectors; }
-  int num_words() const { return (bits() + 63) / 64; }
-  bool Get(int bit) const { return (words[bit >> 6] >> (bit & 63)) & 1u; }
-  void Set(int bit, bool v);
-  bool SameShape(const Code& o) const {
-    return layers == o.layers && rings == o.rings && sectors == o.sectors;
-  }
-  // Throws drape::Error naming `where` if the shape is invalid or the words do not fit it.
-  void Check(const std::string& where) const;
-};
-
-// All-zero code of the given shape.
-Code ZeroCode(int layers, int rings, int sectors);
-
-// R_k x: sector s → (s + k) mod Φ in every (layer, ring). k may be negative.
-Code RotateCode(const Code& x, int k);
-// Bit permutation of R_k: index of bit b after rotating by k.
-int RotatedBit(int bit, int sectors, int k);
-
-struct Match {
-  int distance = 0;  // min_k |R_k x ⊕ q|_1
-  int rotation = 0;  // the smallest k attaining it (k in [0, Φ))
-};
-
-// Plain reference of Eq. match: rotates x bit by bit and counts differing bits.
-Match MatchReference(const Code& x, const Code& q);
+using Code = drape::Feature;
+using drape::Match;  // {min_k |R_k x ⊕ q|_1, the smallest k attaining it}
 
 // Weighted distance of Eq. bestmatch at rotation k, computed bit by bit: in the query
 // frame w^T (R_k x ⊕ q) (the paper's literal form), in the database frame

@@ -12,14 +12,14 @@ namespace drape::recognition {
 namespace {
 
 Code RandomCode(Rng& rng, int l, int r, int s, double p = 0.5) {
-  Code c = ZeroCode(l, r, s);
-  for (int b = 0; b < c.bits(); ++b) c.Set(b, rng.Uniform() < p);
+  Code c = ZeroFeature(l, r, s);
+  for (int b = 0; b < c.NumBits(); ++b) c.Set(b, rng.Uniform() < p);
   return c;
 }
 
 Code FlipBits(Code c, Rng& rng, int flips) {
   for (int i = 0; i < flips; ++i) {
-    const int b = static_cast<int>(rng.Below(c.bits()));
+    const int b = static_cast<int>(rng.Below(c.NumBits()));
     c.Set(b, !c.Get(b));
   }
   return c;
@@ -36,13 +36,13 @@ std::vector<Kernel> AvailableKernels() {
 TEST(RecognitionMatcher, RotationComposesAndPermutes) {
   Rng rng(1);
   const Code x = RandomCode(rng, 3, 4, 7);
-  EXPECT_EQ(RotateCode(x, 7).words, x.words);
-  EXPECT_EQ(RotateCode(RotateCode(x, 3), 5).words, RotateCode(x, 8).words);
-  EXPECT_EQ(RotateCode(RotateCode(x, 3), -3).words, x.words);
+  EXPECT_EQ(Rotate(x, 7).words, x.words);
+  EXPECT_EQ(Rotate(Rotate(x, 3), 5).words, Rotate(x, 8).words);
+  EXPECT_EQ(Rotate(Rotate(x, 3), -3).words, x.words);
   // Sector s of (layer, ring) moves to s + k: check one bit by hand.
-  Code one = ZeroCode(2, 2, 5);
+  Code one = ZeroFeature(2, 2, 5);
   one.Set((1 * 2 + 1) * 5 + 4, true);  // l=1, r=1, s=4
-  const Code rot = RotateCode(one, 2);
+  const Code rot = Rotate(one, 2);
   EXPECT_TRUE(rot.Get((1 * 2 + 1) * 5 + 1));  // s = (4+2) mod 5 = 1
   EXPECT_EQ(std::popcount(rot.words[0]), 1);
 }
@@ -60,8 +60,8 @@ TEST(RecognitionMatcher, FastEqualsReferenceAllRotations) {
     std::vector<Code> queries;
     for (int k = 0; k < s; ++k) {
       // Exactly rotated copy: the reference finds k (or a rotation with the same distance).
-      queries.push_back(RotateCode(db[k % db.size()], k));
-      queries.push_back(FlipBits(RotateCode(db[(k + 3) % db.size()], k), rng, 1 + k % 5));
+      queries.push_back(Rotate(db[k % db.size()], k));
+      queries.push_back(FlipBits(Rotate(db[(k + 3) % db.size()], k), rng, 1 + k % 5));
     }
     queries.push_back(RandomCode(rng, l, r, s));
     for (Kernel kern : AvailableKernels()) {
@@ -72,7 +72,7 @@ TEST(RecognitionMatcher, FastEqualsReferenceAllRotations) {
         m.MatchAll(PreparedQuery(q), &got);
         ASSERT_EQ(got.size(), db.size());
         for (size_t i = 0; i < db.size(); ++i) {
-          const Match ref = MatchReference(db[i], q);
+          const Match ref = DistanceReference(db[i], q);
           ASSERT_EQ(got[i].distance, ref.distance) << KernelName(kern) << " shape " << l << "x" << r << "x" << s;
           ASSERT_EQ(got[i].rotation, ref.rotation) << KernelName(kern);
         }
@@ -80,9 +80,9 @@ TEST(RecognitionMatcher, FastEqualsReferenceAllRotations) {
     }
     // A pure rotation is found exactly.
     for (int k = 0; k < s; ++k) {
-      const Match ref = MatchReference(db[0], RotateCode(db[0], k));
+      const Match ref = DistanceReference(db[0], Rotate(db[0], k));
       EXPECT_EQ(ref.distance, 0);
-      EXPECT_EQ(RotateCode(db[0], ref.rotation).words, RotateCode(db[0], k).words);
+      EXPECT_EQ(Rotate(db[0], ref.rotation).words, Rotate(db[0], k).words);
     }
   }
 }
@@ -109,15 +109,15 @@ TEST(RecognitionMatcher, WeightedAndXorVectorEqualReference) {
         EXPECT_EQ(m.Weighted(i, pq, k, pw), WeightedDistanceReference(db[i], k, q, w, qf));
         std::vector<double> x;
         m.XorVector(i, pq, k, frame, &x);
-        const Code a = qf ? RotateCode(db[i], k) : db[i];
-        const Code b = qf ? q : RotateCode(q, -k);
+        const Code a = qf ? Rotate(db[i], k) : db[i];
+        const Code b = qf ? q : Rotate(q, -k);
         for (int j = 0; j < l * r * s; ++j) ASSERT_EQ(x[j], a.Get(j) != b.Get(j) ? 1.0 : 0.0);
       }
     }
   }
   // The database-frame weighted distance is invariant to turning the query.
   PreparedWeights pw(w, l, r, s, WeightFrame::kDatabase);
-  const PreparedQuery turned(RotateCode(q, 3));
+  const PreparedQuery turned(Rotate(q, 3));
   for (int i = 0; i < 6; ++i) {
     for (int k = 0; k < s; ++k) EXPECT_EQ(m.Weighted(i, pq, k, pw), m.Weighted(i, turned, (k + 3) % s, pw));
   }
@@ -125,7 +125,7 @@ TEST(RecognitionMatcher, WeightedAndXorVectorEqualReference) {
 
 TEST(RecognitionMatcher, ShapeErrorsAreClear) {
   Matcher m(4, 4, 8);
-  Code bad = ZeroCode(4, 4, 8);
+  Code bad = ZeroFeature(4, 4, 8);
   bad.words.pop_back();
   try {
     m.Add(bad, "entry e7");
@@ -133,11 +133,11 @@ TEST(RecognitionMatcher, ShapeErrorsAreClear) {
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("entry e7"), std::string::npos) << e.what();
   }
-  EXPECT_THROW(m.Add(ZeroCode(4, 4, 16), "entry e8"), Error);
-  m.Add(ZeroCode(4, 4, 8), "ok");
+  EXPECT_THROW(m.Add(ZeroFeature(4, 4, 16), "entry e8"), Error);
+  m.Add(ZeroFeature(4, 4, 8), "ok");
   std::vector<Match> out;
   try {
-    m.MatchAll(PreparedQuery(ZeroCode(4, 8, 4)), &out);
+    m.MatchAll(PreparedQuery(ZeroFeature(4, 8, 4)), &out);
     FAIL();
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("differs from the database"), std::string::npos) << e.what();
@@ -173,7 +173,7 @@ TEST(RecognitionRecognizer, FindsAnchorCategoryAndRotation) {
   Recognizer rec(db, nullptr);
   RecognizeOptions o;
   o.top_k = 3;
-  const Recognition r = rec.Recognize(RotateCode(FlipBits(protos[1], rng, 2), 5), o);
+  const Recognition r = rec.Recognize(Rotate(FlipBits(protos[1], rng, 2), 5), o);
   EXPECT_EQ(r.category, "pants");
   EXPECT_EQ(r.category_source, "unweighted_nn");
   EXPECT_EQ(r.anchor, "b");
@@ -191,7 +191,7 @@ TEST(RecognitionRecognizer, EmptyDatabaseAndAbsentCategoryAreClearErrors) {
   Database empty;
   Recognizer r0(empty, nullptr);
   try {
-    r0.Recognize(ZeroCode(4, 4, 8), {});
+    r0.Recognize(ZeroFeature(4, 4, 8), {});
     FAIL();
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("database is empty"), std::string::npos) << e.what();

@@ -1,8 +1,10 @@
 // Queries that are not stored release entries: a recorded sweep folder (depth PNGs +
 // cameras.json) or a mesh. Both go through the generator's own stages with the
 // release's recipe options, so a query is featurised exactly as the database was:
-//   sweep folder: ReadSweep → FuseFrames(recipe fusion options) → ExtractFeature(recipe
-//                 feature options) on the fused mesh's vertices and the TSDF;
+//   sweep folder: ReadSweep → FuseFrames(recipe fusion options, no mesh) → ExtractFeature
+//                 (recipe feature options) on the field's zero crossings
+//                 (Tsdf::SurfacePoints) and the TSDF — the release's entries take the
+//                 mesh's vertices instead (same accuracy, see query_pipeline.cpp);
 //   mesh:         a hung mesh in the object frame (gripper at the origin, y up) →
 //                 SimulateSweep with the recipe's "sensed" sensing (noise and all, seeded)
 //                 → the same fusion and feature. An SDF computed any other way (e.g. from

@@ -135,19 +135,36 @@ struct Sum {
 
 Json V3(const Vec3& v) { return Json::array({v.x(), v.y(), v.z()}); }
 
-}  // namespace
+// The source for a test entry: the train entry recognition matched (when it did), else
+// the true anchor's train entry of the first instance (by name) that has it; -1 if none.
+int SourceFor(const Database& db, const EntryLabel& l, const std::string& recognised_id,
+              const std::map<std::string, int>& db_by_id, std::string* choice) {
+  if (auto it = db_by_id.find(recognised_id); !recognised_id.empty() && it != db_by_id.end()) {
+    *choice = "recognised";
+    return it->second;
+  }
+  if (!db.HasCategory(l.category)) return -1;
+  int best = -1;
+  for (int i : db.EntriesOf(l.category)) {
+    const EntryLabel& d = db.label(i);
+    if (d.anchor != l.anchor) continue;
+    if (best < 0 || d.instance < db.label(best).instance ||
+        (d.instance == db.label(best).instance && d.id < db.label(best).id)) {
+      best = i;
+    }
+  }
+  *choice = "first_instance";
+  return best;
+}
 
-RegistrationEvalResult EvaluateRegistration(const Release& release, const Database& db, const Json& per_query,
-                                            const std::string& split, const RegistrationEvalOptions& options) {
-  options.Validate();
-  const auto t_all = std::chrono::steady_clock::now();
+// Pairs, in entry-id order (release entries are sorted by id); the entries left out go
+// to `skipped` with the reason, or count in `limited` (max_pairs_per_category).
+std::vector<Pair> ChoosePairs(const Release& release, const Database& db, const Json& per_query,
+                              const std::string& split, int max_per_category, Json& skipped, int& limited) {
   const std::map<std::string, std::string> recognised = RecognisedEntries(per_query);
   std::map<std::string, int> db_by_id;
   for (int i = 0; i < db.size(); ++i) db_by_id[db.label(i).id] = i;
-
-  // Pairs, in entry-id order (release entries are sorted by id).
   std::vector<Pair> pairs;
-  Json skipped = Json::array();
   std::map<std::string, int> per_category;
   for (const auto& e : release.entries()) {
     if (e.split != split) continue;
@@ -162,28 +179,12 @@ RegistrationEvalResult EvaluateRegistration(const Release& release, const Databa
       skipped.push_back({{"id", e.id}, {"reason", err.what()}});
       continue;
     }
-    if (options.max_pairs_per_category > 0 && per_category[l.category] >= options.max_pairs_per_category) {
-      continue;  // limited on purpose; counted below
-    }
+    if (max_per_category > 0 && per_category[l.category] >= max_per_category) continue;  // counted below
     Pair p;
     p.test = &e;
     p.test_label = l;
     auto it = recognised.find(e.id);
-    if (it != recognised.end() && db_by_id.count(it->second)) {
-      p.db_index = db_by_id[it->second];
-      p.source_choice = "recognised";
-    } else if (db.HasCategory(l.category)) {
-      // The true anchor's train entry of the first instance (by name) that has it.
-      for (int i : db.EntriesOf(l.category)) {
-        const EntryLabel& d = db.label(i);
-        if (d.anchor != l.anchor) continue;
-        if (p.db_index < 0 || d.instance < db.label(p.db_index).instance ||
-            (d.instance == db.label(p.db_index).instance && d.id < db.label(p.db_index).id)) {
-          p.db_index = i;
-        }
-      }
-      p.source_choice = "first_instance";
-    }
+    p.db_index = SourceFor(db, l, it != recognised.end() ? it->second : "", db_by_id, &p.source_choice);
     if (p.db_index < 0) {
       skipped.push_back({{"id", e.id}, {"reason", "no train entry of " + l.category + " / " + l.anchor}});
       continue;
@@ -191,11 +192,118 @@ RegistrationEvalResult EvaluateRegistration(const Release& release, const Databa
     ++per_category[l.category];
     pairs.push_back(std::move(p));
   }
-  int limited = 0;
-  if (options.max_pairs_per_category > 0) {
+  limited = 0;
+  if (max_per_category > 0) {
     for (const auto& e : release.entries()) limited += e.split == split;
     limited -= static_cast<int>(pairs.size() + skipped.size());
   }
+  return pairs;
+}
+
+// One registration: database entry's hang.ply onto the test entry's recon.ply, with the
+// anchor's truth when the test entry has it; the figure's meshes when asked for.
+PairOutcome RegisterPair(const Release& release, const Pair& p, const EntryLabel& d,
+                         const reg::RegistrationOptions& ro, bool wants_figure) {
+  PairOutcome o;
+  try {
+    const auto t0 = std::chrono::steady_clock::now();
+    const TriMesh source = ReadMesh(release.EntryPath(d.id, "hang.ply"));
+    const TriMesh target = ReadMesh(release.EntryPath(p.test->id, "recon.ply"));
+    std::optional<Vec3> truth = HungVertex(release, p.test->id, p.test_label.anchor_vertex);
+    o.read_seconds = Since(t0);
+    std::vector<reg::AnchorPair> anchors;
+    if (d.anchor_vertex >= 0) {
+      reg::AnchorPair a;
+      a.label = d.anchor;
+      a.source_vertex = d.anchor_vertex;
+      if (truth) a.has_truth = true, a.truth = *truth;
+      anchors.push_back(a);
+    }
+    o.has_truth = truth.has_value();
+    if (truth) o.truth = *truth;
+    reg::RegistrationResult rr;
+    o.ev = reg::RegisterAndEvaluate(source, target, anchors, ro, &rr);
+    o.ok = true;
+    if (wants_figure) {
+      RegistrationFigure f;
+      f.category = p.test_label.category;
+      f.caption = p.test_label.category + ": source " + d.id + " (" + d.instance + ", " + p.source_choice +
+                  ") -> target " + p.test->id + " recon";
+      f.source = source;
+      f.target = target;
+      f.rigid = rr.rigid;
+      f.nonrigid = rr.nonrigid;
+      if (!o.ev.anchors.empty() && o.has_truth) {
+        f.has_anchor = true;
+        f.anchor_truth = o.truth;
+        f.anchor_rigid = o.ev.anchors[0].rigid;
+        f.anchor_nonrigid = o.ev.anchors[0].nonrigid;
+      }
+      o.figure = std::move(f);
+    }
+  } catch (const NumericalError& err) {
+    o.failure = std::string("numerical: ") + err.what();
+  } catch (const Error& err) {
+    o.failure = err.what();
+  }
+  return o;
+}
+
+// One row of the table's "pairs".
+Json PairJson(const Pair& p, const EntryLabel& d, const PairOutcome& o) {
+  Json j{{"test", p.test->id},
+         {"category", p.test_label.category},
+         {"test_instance", p.test_label.instance},
+         {"anchor", p.test_label.anchor},
+         {"source", d.id},
+         {"source_instance", d.instance},
+         {"source_choice", p.source_choice},
+         {"ok", o.ok}};
+  if (!o.ok) {
+    j["failure"] = o.failure;
+    return j;
+  }
+  j["s_to_t_rigid"] = o.ev.s_to_t_rigid.mean;
+  j["t_to_s_rigid"] = o.ev.t_to_s_rigid.mean;
+  j["s_to_t_nonrigid"] = o.ev.s_to_t_nonrigid.mean;
+  j["t_to_s_nonrigid"] = o.ev.t_to_s_nonrigid.mean;
+  if (o.ev.anchors_with_truth > 0) {
+    j["anchor_error_cm"] = {{"rigid", 100 * o.ev.anchor_error_rigid}, {"nonrigid", 100 * o.ev.anchor_error_nonrigid}};
+    j["anchor_truth"] = V3(o.truth);
+    // Test entries are hung with a grasp offset, so their true anchor is not at the grip
+    // (origin) while a database anchor (offset 0) is: a transfer to the grip is off by this much.
+    j["anchor_truth_from_grasp_cm"] = 100 * o.truth.norm();
+  } else {
+    j["anchor_error_cm"] = nullptr;
+  }
+  j["registration"] = reg::ToJson(o.ev);
+  return j;
+}
+
+Json OptionsJson(const reg::RegistrationOptions& ro, int max_pairs_per_category) {
+  return Json{{"scale", ro.scale},
+              {"nonrigid", ro.nonrigid},
+              {"grid_cells", ro.grid.cells},
+              {"kappa", ro.kappa},
+              {"beta", ro.beta},
+              {"alpha", ro.alpha},
+              {"refined_fit", ro.refined_fit},
+              {"lm_max_iterations", ro.lm.max_iterations},
+              {"max_pairs_per_category", max_pairs_per_category},
+              {"meshes", "source = database entry's hang.ply, target = test entry's recon.ply, full resolution "
+                         "(no decimation)"}};
+}
+
+}  // namespace
+
+RegistrationEvalResult EvaluateRegistration(const Release& release, const Database& db, const Json& per_query,
+                                            const std::string& split, const RegistrationEvalOptions& options) {
+  options.Validate();
+  const auto t_all = std::chrono::steady_clock::now();
+  Json skipped = Json::array();
+  int limited = 0;
+  const std::vector<Pair> pairs =
+      ChoosePairs(release, db, per_query, split, options.max_pairs_per_category, skipped, limited);
 
   // One registration per pair; a figure for the first pair of each category.
   std::set<std::string> figure_for;
@@ -207,50 +315,7 @@ RegistrationEvalResult EvaluateRegistration(const Release& release, const Databa
   ro.grid.threads = 1;  // parallel over pairs instead
   std::vector<PairOutcome> out(pairs.size());
   ParallelFor(static_cast<int>(pairs.size()), options.threads, [&](int i) {
-    const Pair& p = pairs[i];
-    const EntryLabel& d = db.label(p.db_index);
-    PairOutcome& o = out[i];
-    try {
-      const auto t0 = std::chrono::steady_clock::now();
-      const TriMesh source = ReadMesh(release.EntryPath(d.id, "hang.ply"));
-      const TriMesh target = ReadMesh(release.EntryPath(p.test->id, "recon.ply"));
-      std::optional<Vec3> truth = HungVertex(release, p.test->id, p.test_label.anchor_vertex);
-      o.read_seconds = Since(t0);
-      std::vector<reg::AnchorPair> anchors;
-      if (d.anchor_vertex >= 0) {
-        reg::AnchorPair a;
-        a.label = d.anchor;
-        a.source_vertex = d.anchor_vertex;
-        if (truth) a.has_truth = true, a.truth = *truth;
-        anchors.push_back(a);
-      }
-      o.has_truth = truth.has_value();
-      if (truth) o.truth = *truth;
-      reg::RegistrationResult rr;
-      o.ev = reg::RegisterAndEvaluate(source, target, anchors, ro, &rr);
-      o.ok = true;
-      if (wants_figure[i]) {
-        RegistrationFigure f;
-        f.category = p.test_label.category;
-        f.caption = p.test_label.category + ": source " + d.id + " (" + d.instance + ", " + p.source_choice +
-                    ") -> target " + p.test->id + " recon";
-        f.source = source;
-        f.target = target;
-        f.rigid = rr.rigid;
-        f.nonrigid = rr.nonrigid;
-        if (!o.ev.anchors.empty() && o.has_truth) {
-          f.has_anchor = true;
-          f.anchor_truth = o.truth;
-          f.anchor_rigid = o.ev.anchors[0].rigid;
-          f.anchor_nonrigid = o.ev.anchors[0].nonrigid;
-        }
-        o.figure = std::move(f);
-      }
-    } catch (const NumericalError& err) {
-      o.failure = std::string("numerical: ") + err.what();
-    } catch (const Error& err) {
-      o.failure = err.what();
-    }
+    out[i] = RegisterPair(release, pairs[i], db.label(pairs[i].db_index), ro, wants_figure[i]);
   });
 
   RegistrationEvalResult result;
@@ -262,39 +327,13 @@ RegistrationEvalResult EvaluateRegistration(const Release& release, const Databa
   double read_seconds = 0;
   for (size_t i = 0; i < pairs.size(); ++i) {
     const Pair& p = pairs[i];
-    const EntryLabel& d = db.label(p.db_index);
     const PairOutcome& o = out[i];
     read_seconds += o.read_seconds;
-    Json j{{"test", p.test->id},
-           {"category", p.test_label.category},
-           {"test_instance", p.test_label.instance},
-           {"anchor", p.test_label.anchor},
-           {"source", d.id},
-           {"source_instance", d.instance},
-           {"source_choice", p.source_choice},
-           {"ok", o.ok}};
+    pj.push_back(PairJson(p, db.label(p.db_index), o));
     if (!o.ok) {
       ++failed;
-      j["failure"] = o.failure;
-      pj.push_back(j);
       continue;
     }
-    j["s_to_t_rigid"] = o.ev.s_to_t_rigid.mean;
-    j["t_to_s_rigid"] = o.ev.t_to_s_rigid.mean;
-    j["s_to_t_nonrigid"] = o.ev.s_to_t_nonrigid.mean;
-    j["t_to_s_nonrigid"] = o.ev.t_to_s_nonrigid.mean;
-    if (o.ev.anchors_with_truth > 0) {
-      j["anchor_error_cm"] = {{"rigid", 100 * o.ev.anchor_error_rigid},
-                              {"nonrigid", 100 * o.ev.anchor_error_nonrigid}};
-      j["anchor_truth"] = V3(o.truth);
-      // Test entries are hung with a grasp offset, so their true anchor is not at the grip
-      // (origin) while a database anchor (offset 0) is: a transfer to the grip is off by this much.
-      j["anchor_truth_from_grasp_cm"] = 100 * o.truth.norm();
-    } else {
-      j["anchor_error_cm"] = nullptr;
-    }
-    j["registration"] = reg::ToJson(o.ev);
-    pj.push_back(j);
     by_garment[p.test_label.category + " / " + p.test_label.instance].Add(o);
     by_category[p.test_label.category].Add(o);
     all.Add(o);
@@ -305,17 +344,6 @@ RegistrationEvalResult EvaluateRegistration(const Release& release, const Databa
   Json garments = Json::array(), categories = Json::array();
   for (const auto& [name, s] : by_garment) garments.push_back(s.ToJson(name));
   for (const auto& [name, s] : by_category) categories.push_back(s.ToJson(name));
-  Json opts{{"scale", ro.scale},
-            {"nonrigid", ro.nonrigid},
-            {"grid_cells", ro.grid.cells},
-            {"kappa", ro.kappa},
-            {"beta", ro.beta},
-            {"alpha", ro.alpha},
-            {"refined_fit", ro.refined_fit},
-            {"lm_max_iterations", ro.lm.max_iterations},
-            {"max_pairs_per_category", options.max_pairs_per_category},
-            {"meshes", "source = database entry's hang.ply, target = test entry's recon.ply, full resolution "
-                       "(no decimation)"}};
   result.table = Json{{"split", split},
                       {"protocol", "pose known: source = train entry of the true category and anchor (the entry "
                                    "recognition matched when right, else the first instance by name)"},
@@ -326,7 +354,7 @@ RegistrationEvalResult EvaluateRegistration(const Release& release, const Databa
                       {"failed", failed},
                       {"skipped", skipped},
                       {"limited_out", limited},
-                      {"options", opts},
+                      {"options", OptionsJson(ro, options.max_pairs_per_category)},
                       {"paper", PaperTable()},
                       {"timing", {{"wall_seconds", Since(t_all)}, {"read_seconds", read_seconds},
                                   {"threads", options.threads <= 0 ? HardwareThreads() : options.threads}}}};

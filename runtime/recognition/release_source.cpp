@@ -50,13 +50,8 @@ Code LoadEntryCode(const Release& release, const Release::EntryInfo& e) {
   } catch (const Error& err) {
     throw Error(std::string("corrupt feature file: ") + err.what());
   }
-  Code c;
-  c.layers = f.layers;
-  c.rings = f.rings;
-  c.sectors = f.sectors;
-  c.words = f.words;
-  c.Check(where);
-  return c;
+  f.Check(where);
+  return f;
 }
 
 std::vector<LabelledCode> LoadSplit(const Release& release, const std::string& split, LoadReport* report) {

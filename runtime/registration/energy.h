@@ -15,8 +15,8 @@
 #include <Eigen/Sparse>
 #include <functional>
 
+#include "common/closest_point.h"
 #include "common/mesh.h"
-#include "runtime/registration/closest_point.h"
 
 namespace drape::registration {
 

@@ -1,14 +1,15 @@
 // The non-rigid energy: analytic Jacobians vs central finite differences, every term
 // zero at the rest shape (the secant LM itself is tested in runtime/optim).
+#include "runtime/registration/energy.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdio>
 
+#include "common/closest_point.h"
 #include "common/error.h"
 #include "common/rng.h"
-#include "runtime/registration/closest_point.h"
-#include "runtime/registration/energy.h"
 #include "runtime/registration/test_meshes.h"
 
 namespace drape::registration {

@@ -9,8 +9,8 @@
 #include <cstdint>
 #include <vector>
 
+#include "common/closest_point.h"
 #include "common/mesh.h"
-#include "runtime/registration/closest_point.h"
 
 namespace drape::registration {
 

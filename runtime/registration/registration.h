@@ -10,13 +10,13 @@
 #include <string>
 #include <vector>
 
+#include "common/closest_point.h"
 #include "common/json.h"
 #include "common/mesh.h"
-#include "runtime/registration/closest_point.h"
+#include "runtime/optim/secant_lm.h"
 #include "runtime/registration/energy.h"
 #include "runtime/registration/grid.h"
 #include "runtime/registration/rigid.h"
-#include "runtime/optim/secant_lm.h"
 
 namespace drape::registration {
 

@@ -7,14 +7,14 @@
 #include <limits>
 #include <mutex>
 
+#include "common/closest_point.h"
 #include "common/error.h"
 #include "common/rng.h"
 #include "garments/io.h"
 #include "generator/recipe/jobs.h"
+#include "runtime/folding/table.h"
 #include "runtime/recognition/calibrate.h"
 #include "runtime/recognition/release_source.h"
-#include "runtime/folding/table.h"
-#include "runtime/registration/closest_point.h"
 
 namespace drape::unfolding {
 
@@ -257,8 +257,7 @@ struct TrialRun {
     const Feature f = ExtractFeature(fused.mesh.V, [&tsdf](const Vec3& p) { return tsdf.Sdf(p); }, recipe.feature);
     res.times.fusion += Since(t0);
     s.recon = fused.mesh;
-    rec::Code code;
-    code.layers = f.layers, code.rings = f.rings, code.sectors = f.sectors, code.words = f.words;
+    const rec::Code& code = f;
 
     t0 = Clock::now();
     rec::RecognizeOptions ro;
@@ -322,7 +321,7 @@ struct TrialRun {
       }
     }
     // Map onto the reconstruction: the closest point of the fused surface.
-    const registration::ExactClosestPoint onto(s.recon);
+    const ExactClosestPoint onto(s.recon);
     const Vec3 p_obj = onto.Query(s.registered.V.row(v).transpose()).point;
     res.times.registration += Since(t0);
     const hw::GripperPose hp = h.pose();
