@@ -161,7 +161,7 @@ ClothWorld::ClothWorld(std::shared_ptr<const ClothModel> model, const Points3& s
   stretch->m_kLST = btScalar(m.material.link_stiffness);
   stretch->m_kAST = stretch->m_kVST = 1;
   btSoftBody::Material* bend = sb->appendMaterial();
-  bend->m_kLST = btScalar(std::clamp(m.material.link_stiffness * m.material.bending, 1e-4, 1.0));
+  bend->m_kLST = btScalar(std::clamp(m.material.link_stiffness * m.material.bending, 1e-6, 1.0));
   bend->m_kAST = bend->m_kVST = 1;
   for (const auto& e : m.stretch_links) sb->appendLink(e[0], e[1], stretch);
   for (const auto& e : m.bend_links) sb->appendLink(e[0], e[1], bend);

@@ -23,10 +23,14 @@ void HangOptions::Validate() const {
   if (!(strain_limit > 0 && strain_limit <= 20)) bad(strain_limit, "strain_limit", "must be in (0, 20] × the material's stretch");
   if (!(accept_strain_max > 0)) bad(accept_strain_max, "accept_strain_max", "must be > 0");
   if (!(accept_strain_p99 > 0)) bad(accept_strain_p99, "accept_strain_p99", "must be > 0");
-  if (!(settle_distance > 0)) bad(settle_distance, "settle_distance", "must be > 0");
-  if (!(settle_window >= 4 * time_step)) bad(settle_window, "settle_window", "must be >= 4 time steps");
-  if (!(min_time >= 0)) bad(min_time, "min_time", "must be >= 0");
-  if (!(time_cap > min_time + settle_window)) bad(time_cap, "time_cap", "must exceed min_time + settle_window");
+  // Caps: a simulated hour or a metre of motion is a typo, not a setting (a hang
+  // settles in seconds; one simulated second costs ~1 CPU-s per 1,000 nodes).
+  if (!(settle_distance > 0 && settle_distance <= 1)) bad(settle_distance, "settle_distance", "must be in (0, 1] m");
+  if (!(settle_window >= 4 * time_step && settle_window <= 100))
+    bad(settle_window, "settle_window", "must be in [4 time steps, 100] s");
+  if (!(min_time >= 0 && min_time <= 3600)) bad(min_time, "min_time", "must be in [0, 3600] s");
+  if (!(time_cap > min_time + settle_window && time_cap <= 3600))
+    bad(time_cap, "time_cap", "must exceed min_time + settle_window and be at most 3600 s");
   if (!(jaw_width > 0 && jaw_width < 0.5)) bad(jaw_width, "jaw_width", "must be in (0, 0.5) m");
   if (!(jaw_opening > 0 && jaw_opening < 0.5)) bad(jaw_opening, "jaw_opening", "must be in (0, 0.5) m");
   if (!(jitter >= 0 && jitter < 0.01)) bad(jitter, "jitter", "must be in [0, 0.01) m");
@@ -191,6 +195,16 @@ void RecordMeasurement(const ClothMeasurement& m, HangStats& st) {
   st.strain_max = m.strain.max;
 }
 
+// Horizontal distance (x–z) from the grasp point (the origin) to the centre of area.
+double ComOffset(const TriMesh& hung) {
+  const Eigen::VectorXd area = FaceAreas(hung);
+  Vec3 com = Vec3::Zero();
+  for (int f = 0; f < hung.NumFaces(); ++f)
+    com += area[f] * (hung.V.row(hung.F(f, 0)) + hung.V.row(hung.F(f, 1)) + hung.V.row(hung.F(f, 2))).transpose() / 3;
+  com /= area.sum();
+  return std::hypot(com.x(), com.z());
+}
+
 // Why the hung mesh may not be published ("" = it may): never settled (or blew up),
 // intersects itself, or breaks a strain bound.
 std::string Verdict(const SettleReport& settle, double dt, const ClothMeasurement& m, const Material& material,
@@ -269,6 +283,7 @@ HangResult Hang(const Garment& garment, int anchor_vertex, const Vec3& grasp_off
   const ClothMeasurement m = MeasureCloth(result.mesh, garment.mesh.V);
   st.measure_seconds = Seconds(tm, Clock::now());
   RecordMeasurement(m, st);
+  st.com_offset = ComOffset(result.mesh);
   result.failure = Verdict(run.settle, dt, m, material, options);
   result.ok = result.failure.empty();
   st.wall_seconds = Seconds(wall0, Clock::now());

@@ -132,6 +132,10 @@ struct HangStats {
   double strain_p99 = 0;
   double strain_max = 0;
   double strain_limit = 0;      // the clamp used (strain_limit × stretch)
+  // m, horizontal distance from the grasp point to the hung mesh's centre of area: a
+  // gripper that carried no moment would hold it straight below (0); the held patch
+  // and the cloth's in-plane stiffness at the mesh's resolution move it sideways.
+  double com_offset = 0;
   // Collision handling over the accepted run.
   long ccd_collisions = 0;      // colliding pairs found by CCD, summed over steps
   int fail_safe_steps = 0;      // steps that needed rigid impact zones

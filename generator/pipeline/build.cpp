@@ -97,6 +97,7 @@ Json HangStatsJson(const HangStats& s) {
           {"strain_p99", s.strain_p99},
           {"strain_max", s.strain_max},
           {"strain_limit", s.strain_limit},
+          {"com_offset", s.com_offset},
           {"ccd_collisions", s.ccd_collisions},
           {"fail_safe_steps", s.fail_safe_steps},
           {"remaining_collisions", s.remaining_collisions},

@@ -74,7 +74,7 @@ std::string Fmt(double v, int digits) {
 std::string SimulationQuality(const std::vector<Release::EntryInfo>& entries) {
   int measured = 0, intersecting = 0;
   double min_dist = INFINITY, worst_max = 0, worst_p99 = 0, worst_max_rel = 0, worst_p99_rel = 0;
-  std::vector<double> medians_rel;
+  std::vector<double> medians_rel, com_offsets;
   std::map<std::string, const Json*> fits;
   for (const auto& e : entries) {
     if (e.failed) continue;
@@ -93,6 +93,7 @@ std::string SimulationQuality(const std::vector<Release::EntryInfo>& entries) {
       worst_p99_rel = std::max(worst_p99_rel, p99 / stretch);
       medians_rel.push_back(Num(r, "hang", "strain_median") / stretch);
     }
+    if (const double c = Num(r, "hang", "com_offset"); !std::isnan(c)) com_offsets.push_back(c);
     const std::string mat = Str(r, "material");
     if (!mat.empty() && r.contains("material_fit") && r["material_fit"].is_object()) fits[mat] = &r["material_fit"];
   }
@@ -110,6 +111,12 @@ std::string SimulationQuality(const std::vector<Release::EntryInfo>& entries) {
     std::sort(medians_rel.begin(), medians_rel.end());
     o << "- median edge strain / material stretch, median over entries: "
       << Fmt(medians_rel[medians_rel.size() / 2], 2) << "\n";
+  }
+  if (!com_offsets.empty()) {
+    std::sort(com_offsets.begin(), com_offsets.end());
+    o << "- centre of mass beside the grasp point (horizontal; 0 for a grip that carries no moment): median "
+      << Fmt(100 * com_offsets[com_offsets.size() / 2], 1) << " cm, max " << Fmt(100 * com_offsets.back(), 1)
+      << " cm\n";
   }
   if (!fits.empty()) {
     o << "\n| material | stretch % measured | reproduced | friction angle ° measured | reproduced | μ (sim) |\n"
