@@ -15,6 +15,7 @@
 #include "common/error.h"
 #include "common/field_error.h"
 #include "common/files.h"
+#include "common/yaml.h"
 #include "garments/io.h"
 #include "generator/recipe/keys.h"
 
@@ -744,15 +745,7 @@ SplitSpec EverythingInTrain(const Recipe& r) {
 
 Recipe ParseRecipe(const std::string& text, const std::string& file_label, const fs::path& base_dir,
                    const std::map<std::string, fs::path>* files) {
-  YAML::Node loaded;
-  try {
-    loaded = YAML::Load(text);
-  } catch (const YAML::Exception& e) {
-    std::ostringstream os;
-    os << file_label << ":" << e.mark.line + 1 << ":" << e.mark.column + 1 << ": YAML syntax error: " << e.msg;
-    throw Error(os.str());
-  }
-  const YAML::Node root = loaded;  // const: lookups must not insert keys
+  const YAML::Node root = LoadYaml(text, file_label);  // const: lookups must not insert keys
   Recipe r;
   r.file_label = file_label;
   r.text = text;

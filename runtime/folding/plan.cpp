@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "common/error.h"
+#include "common/yaml.h"
 #include "runtime/folding/keypoints.h"
 
 namespace drape::folding {
@@ -144,14 +145,7 @@ PlanPoint ParsePoint(const Reader& rd, const YAML::Node& n, const std::string& p
 
 FoldingPlan ParsePlan(const std::string& text, const std::string& file_label) {
   const Reader rd(file_label);
-  YAML::Node root;
-  try {
-    root = YAML::Load(text);
-  } catch (const YAML::Exception& e) {
-    std::ostringstream os;
-    os << file_label << ":" << e.mark.line + 1 << ":" << e.mark.column + 1 << ": YAML syntax error: " << e.msg;
-    throw Error(os.str());
-  }
+  const YAML::Node root = LoadYaml(text, file_label);
   FoldingPlan plan;
   plan.file_label = file_label;
   rd.Keys(root, "", {"plan", "description", "categories", "steps"}, {"plan", "categories", "steps"});
