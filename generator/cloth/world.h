@@ -47,7 +47,7 @@ namespace drape {
 struct ClothMaterial {
   double area_density = 0.2;    // kg/m² of ONE layer (node mass = density × area/3 per face)
   double link_stiffness = 0.5;  // Bullet structural link kLST, (0, 1]
-  double bending = 0.004;       // bending links' kLST relative to link_stiffness, (0, 1]
+  double bending = 0.02;        // bending links' kLST relative to link_stiffness, (0, 1]
                                 // (see generator/hang/material.h for why this low)
   // Strain limit: edges are clamped to at most (1 + max_strain)·L0 after every step
   // (collision.h step 1). ≤ 0: off. Hang sets it to a multiple of the measured stretch.

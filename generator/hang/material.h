@@ -22,11 +22,13 @@ struct Material {
   // stiffness of the bending springs (links across each interior edge, between the two
   // opposite vertices) as a fraction of the structural links' stiffness (Bullet link
   // kLST). Fabric's own bending rigidity (~1e-5–1e-4 N·m, a Peirce bending length of
-  // 1–4 cm) is below what a 2.5 cm mesh resolves, so these are kept as low as the
-  // simulation stays smooth with: at 0.08 a towel hung from a corner carried a moment
-  // of its weight × 7.3 cm at the grip (COM that far sideways), at 0.004 0.8 cm.
-  // The presets keep the fabrics' order (jersey < towel < twill < denim).
-  double bending_stiffness = 0.004;
+  // 1–4 cm) is below what a 2.5–5 cm mesh resolves, so these are set low, not measured:
+  // at 0.08 a towel hung from a corner carried its weight × 7.3 cm at the grip (its
+  // centre of mass that far sideways); at 0.02 it hangs within the held patch + 2 cm.
+  // Softer still (0.004) lays a towel carried by two corners on the table in a heap
+  // (coverage 0.29 instead of > 0.7). The presets keep the fabrics' order
+  // (jersey < towel < twill < denim).
+  double bending_stiffness = 0.02;
 
   // Friction coefficient μ = tan(friction_deg).
   double FrictionCoefficient() const;

@@ -59,11 +59,11 @@ TEST(RecipeKeys, ValidateErrorsArePlacedAtTheirKey) {
     return std::string();
   };
   EXPECT_EQ(error("simulation:\n  settle: {distance: 0.002, window: 0.001}\n"),
-            "r.yaml:5:37: simulation.settle.window: must be >= 4 time steps");
+            "r.yaml:5:37: simulation.settle.window: must be in [4 time steps, 100] s");
   EXPECT_EQ(error("sensing:\n  sensed:\n    camera: {fx: -1}\n"),
             "r.yaml:6:18: sensing.sensed.camera.fx: must be in (0, 1e5] px");
   EXPECT_EQ(error("simulation: {min_time: 20}\n"),
-            "r.yaml:4:13: simulation: time_cap: must exceed min_time + settle_window");
+            "r.yaml:4:13: simulation: time_cap: must exceed min_time + settle_window and be at most 3600 s");
   EXPECT_EQ(error("feature: {sectors: 65}\n"), "r.yaml:4:20: feature.sectors: must be in [1, 64]");
 }
 
