@@ -322,7 +322,7 @@ def main():
         if not (args.check and has_reason):
             print(f"{length:5d}  {f}:{first}  {name}{state}")
     found = {(r[1], r[3]) for r in rows}
-    if not args.paths:
+    if args.check and not args.paths:
         for f, name in sorted(pending - found):
             print(f"note: {f} {name} is no longer over {args.over} lines: remove it from function_lengths_pending.txt")
     print(f"{len(rows)} functions over {args.over} lines in {len(files)} files; {len(bad)} without a "
