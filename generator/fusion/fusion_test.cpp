@@ -117,7 +117,6 @@ TEST(Fusion, BoxSdfSign) {
   const Shape box = Shape::Box(Vec3(0, -0.45, 0.02), Vec3(0.12, 0.25, 0.08), rot);
   const Scene scene{{box}};
   const FusionResult r = Fuse(scene, 0);
-  const double h = FusionOptions().VoxelSize();
   Rng rng(5);
   int wrong = 0, n = 0;
   for (int i = 0; i < 3000; ++i) {
