@@ -85,6 +85,104 @@ const char* kRecognizeUsage =
     "  --kernel K        auto | generic | popcnt | avx512 (default auto)\n"
     "  --json            machine-readable output\n";
 
+// A release entry as the query: its stored feature (with --refuse also re-fused from its
+// kept sweep and compared), described in `query`, fusion/feature times from the build.
+Code EntryQuery(const Args& a, const Release& rel, const std::string& id, uint64_t seed, Json& query, Json& timing) {
+  const Release::EntryInfo* e = rel.Find(id);
+  if (!e) throw Error("--entry: release has no entry '" + id + "'");
+  if (e->failed) throw Error("--entry: entry " + id + " failed in the build (" + e->failure + ")");
+  const EntryLabel l = LabelFromEntry(*e);
+  Code q = LoadEntryCode(rel, *e);
+  query = {{"kind", "entry"},         {"id", id},
+           {"split", e->split},       {"true_category", l.category},
+           {"true_anchor", l.anchor}, {"instance", l.instance}};
+  if (e->split == "train") query["note"] = "a train entry is in the database: it matches itself at distance 0";
+  const StageTiming st = EntryStageTiming(rel.build_info(), id);
+  timing["fusion_seconds"] = st.fusion_seconds >= 0 ? Json(st.fusion_seconds) : Json(nullptr);
+  timing["feature_seconds"] = st.feature_seconds >= 0 ? Json(st.feature_seconds) : Json(nullptr);
+  timing["fusion_feature_source"] = st.source.empty() ? "not recorded by the build" : st.source;
+  if (a.Flag("--refuse")) {
+    bool has_sweep = false;
+    for (const auto& f : e->files) has_sweep |= f.path == "sweep/cameras.json";
+    if (!has_sweep)
+      throw Error("--refuse: entry " + id + " kept no sweep (the recipe's keep_frames is off for its split)");
+    const PipelineResult pr = FeatureFromSweep(rel, rel.EntryPath(id, "sweep"), seed);
+    timing["refused"] = {{"read_seconds", pr.timing.read_seconds},
+                         {"fusion_seconds", pr.timing.fusion_seconds},
+                         {"feature_seconds", pr.timing.feature_seconds}};
+    const Match m = DistanceReference(q, pr.code);
+    query["refused_vs_stored_feature"] = {{"distance", m.distance}, {"rotation", m.rotation}};
+  }
+  return q;
+}
+
+// A recorded sweep (--sweep) or a hung mesh (--mesh) fused and featurised in this run.
+Code FileQuery(const Args& a, const Release& rel, uint64_t seed, Json& query, Json& timing) {
+  const bool sweep = a.Get("--sweep").has_value();
+  const fs::path p = sweep ? *a.Get("--sweep") : *a.Get("--mesh");
+  const PipelineResult pr = sweep ? FeatureFromSweep(rel, p, seed) : FeatureFromMesh(rel, p, seed);
+  query = {{"kind", sweep ? "sweep" : "mesh"}, {"path", p.string()}, {"info", pr.info}};
+  timing["read_seconds"] = pr.timing.read_seconds;
+  if (!sweep) timing["sweep_seconds"] = pr.timing.sweep_seconds;
+  timing["fusion_seconds"] = pr.timing.fusion_seconds;
+  timing["feature_seconds"] = pr.timing.feature_seconds;
+  timing["fusion_feature_source"] = "measured in this run";
+  return pr.code;
+}
+
+// The human-readable answer: query, truth, category, anchor and where it is, top k, times.
+void PrintRecognition(const Json& query, const Json& timing, const Recognition& r, const Database& db,
+                      const std::optional<Vec3>& hung, bool have_w) {
+  const EntryLabel& bl = db.label(r.best.entry);
+  std::cout << "query     " << query["kind"].get<std::string>() << " "
+            << (query.contains("id") ? query["id"].get<std::string>() : query.value("path", "")) << "\n";
+  if (query.contains("true_category")) {
+    std::cout << "truth     " << query["true_category"].get<std::string>() << " / "
+              << query["true_anchor"].get<std::string>() << " (" << query["split"].get<std::string>() << ")\n";
+  }
+  std::cout << "category  " << r.category << " ("
+            << (r.category_source == "given" ? "given" : "unweighted nearest neighbour") << ")\n"
+            << "anchor    " << r.anchor << "  — entry " << r.best.id << " (" << r.best.instance << "), distance "
+            << r.best.distance << " bits, rotation " << r.best.rotation << " ("
+            << Fmt("%.1f", 360.0 * r.best.rotation / db.sectors()) << "°)"
+            << (r.weighted ? ", weighted " + Fmt("%.4g", r.best.score) : std::string(", unweighted")) << "\n";
+  if (hung) {
+    std::cout << "position  on the matched hung mesh (object frame): (" << Fmt("%.3f", (*hung)[0]) << ", "
+              << Fmt("%.3f", (*hung)[1]) << ", " << Fmt("%.3f", (*hung)[2]) << ") m, vertex " << bl.anchor_vertex
+              << "\n";
+  }
+  if (bl.anchor_uv) {
+    std::cout << "          on its flat pattern: uv (" << Fmt("%.3f", (*bl.anchor_uv)[0]) << ", "
+              << Fmt("%.3f", (*bl.anchor_uv)[1]) << ") m\n";
+  }
+  std::cout << "top " << r.top.size() << ":\n";
+  for (size_t i = 0; i < r.top.size(); ++i) {
+    std::cout << "  " << i + 1 << ". " << r.top[i].anchor << "  (" << r.top[i].id << ", distance " << r.top[i].distance
+              << (r.weighted ? ", weighted " + Fmt("%.4g", r.top[i].score) : std::string()) << ")\n";
+  }
+  std::cout << "time      load database " << Fmt("%.3f", timing["load_database_seconds"].get<double>()) << " s ("
+            << db.size() << " entries, once)";
+  auto show = [&](const char* name, const char* key) {
+    if (timing.contains(key) && !timing[key].is_null())
+      std::cout << ", " << name << " " << Fmt("%.3f", timing[key].get<double>()) << " s";
+    else if (timing.contains(key))
+      std::cout << ", " << name << " n/a";
+  };
+  show("sweep", "sweep_seconds");
+  show("fusion", "fusion_seconds");
+  show("feature", "feature_seconds");
+  std::cout << ", matching " << Fmt("%.6f", r.match_seconds) << " s\n";
+  if (timing.contains("fusion_feature_source")) {
+    std::cout << "          (fusion/feature: " << timing["fusion_feature_source"].get<std::string>() << ")\n";
+  }
+  if (timing.contains("refused")) {
+    std::cout << "re-fused  fusion " << Fmt("%.3f", timing["refused"]["fusion_seconds"].get<double>()) << " s, feature "
+              << Fmt("%.3f", timing["refused"]["feature_seconds"].get<double>())
+              << " s; re-extracted vs stored feature: " << query["refused_vs_stored_feature"]["distance"] << " bits\n";
+  }
+  if (!have_w) std::cout << "note      no weights (run `drape calibrate`): unweighted distance only\n";
+}
+
 int RunRecognize(const std::vector<std::string>& argv) {
   Args a(argv, {"--json", "--unweighted", "--refuse"},
          {"--entry", "--sweep", "--mesh", "--weights", "--category", "--instance", "--top-k", "--kernel", "--seed"});
@@ -106,46 +204,11 @@ int RunRecognize(const std::vector<std::string>& argv) {
   const fs::path wpath = ResolveWeights(a, rel, &w, &have_w);
   Recognizer rec(db, have_w ? &w : nullptr);
 
-  Code q;
   Json query{{"kind", ""}};
   Json timing{{"load_database_seconds", load_s}};
   const uint64_t seed = a.GetSeed("--seed").value_or(0);
-  if (auto id = a.Get("--entry")) {
-    const Release::EntryInfo* e = rel.Find(*id);
-    if (!e) throw Error("--entry: release has no entry '" + *id + "'");
-    if (e->failed) throw Error("--entry: entry " + *id + " failed in the build (" + e->failure + ")");
-    const EntryLabel l = LabelFromEntry(*e);
-    q = LoadEntryCode(rel, *e);
-    query = {{"kind", "entry"}, {"id", *id}, {"split", e->split}, {"true_category", l.category},
-             {"true_anchor", l.anchor}, {"instance", l.instance}};
-    if (e->split == "train") query["note"] = "a train entry is in the database: it matches itself at distance 0";
-    const StageTiming st = EntryStageTiming(rel.build_info(), *id);
-    timing["fusion_seconds"] = st.fusion_seconds >= 0 ? Json(st.fusion_seconds) : Json(nullptr);
-    timing["feature_seconds"] = st.feature_seconds >= 0 ? Json(st.feature_seconds) : Json(nullptr);
-    timing["fusion_feature_source"] = st.source.empty() ? "not recorded by the build" : st.source;
-    if (a.Flag("--refuse")) {
-      bool has_sweep = false;
-      for (const auto& f : e->files) has_sweep |= f.path == "sweep/cameras.json";
-      if (!has_sweep) throw Error("--refuse: entry " + *id + " kept no sweep (the recipe's keep_frames is off for its split)");
-      const PipelineResult pr = FeatureFromSweep(rel, rel.EntryPath(*id, "sweep"), seed);
-      timing["refused"] = {{"read_seconds", pr.timing.read_seconds},
-                           {"fusion_seconds", pr.timing.fusion_seconds},
-                           {"feature_seconds", pr.timing.feature_seconds}};
-      const Match m = DistanceReference(q, pr.code);
-      query["refused_vs_stored_feature"] = {{"distance", m.distance}, {"rotation", m.rotation}};
-    }
-  } else {
-    const bool sweep = a.Get("--sweep").has_value();
-    const fs::path p = sweep ? *a.Get("--sweep") : *a.Get("--mesh");
-    const PipelineResult pr = sweep ? FeatureFromSweep(rel, p, seed) : FeatureFromMesh(rel, p, seed);
-    q = pr.code;
-    query = {{"kind", sweep ? "sweep" : "mesh"}, {"path", p.string()}, {"info", pr.info}};
-    timing["read_seconds"] = pr.timing.read_seconds;
-    if (!sweep) timing["sweep_seconds"] = pr.timing.sweep_seconds;
-    timing["fusion_seconds"] = pr.timing.fusion_seconds;
-    timing["feature_seconds"] = pr.timing.feature_seconds;
-    timing["fusion_feature_source"] = "measured in this run";
-  }
+  const auto id = a.Get("--entry");
+  const Code q = id ? EntryQuery(a, rel, *id, seed, query, timing) : FileQuery(a, rel, seed, query, timing);
 
   RecognizeOptions o;
   o.top_k = static_cast<int>(a.GetInt("--top-k").value_or(5));
@@ -172,49 +235,7 @@ int RunRecognize(const std::vector<std::string>& argv) {
     std::cout << out.dump(2) << "\n";
     return 0;
   }
-  std::cout << "query     " << query["kind"].get<std::string>() << " "
-            << (query.contains("id") ? query["id"].get<std::string>() : query.value("path", "")) << "\n";
-  if (query.contains("true_category")) {
-    std::cout << "truth     " << query["true_category"].get<std::string>() << " / "
-              << query["true_anchor"].get<std::string>() << " (" << query["split"].get<std::string>() << ")\n";
-  }
-  std::cout << "category  " << r.category << " (" << (r.category_source == "given" ? "given" : "unweighted nearest neighbour")
-            << ")\n"
-            << "anchor    " << r.anchor << "  — entry " << r.best.id << " (" << r.best.instance << "), distance "
-            << r.best.distance << " bits, rotation " << r.best.rotation << " ("
-            << Fmt("%.1f", 360.0 * r.best.rotation / db.sectors()) << "°)"
-            << (r.weighted ? ", weighted " + Fmt("%.4g", r.best.score) : std::string(", unweighted")) << "\n";
-  if (hung) {
-    std::cout << "position  on the matched hung mesh (object frame): (" << Fmt("%.3f", (*hung)[0]) << ", "
-              << Fmt("%.3f", (*hung)[1]) << ", " << Fmt("%.3f", (*hung)[2]) << ") m, vertex " << bl.anchor_vertex << "\n";
-  }
-  if (bl.anchor_uv) {
-    std::cout << "          on its flat pattern: uv (" << Fmt("%.3f", (*bl.anchor_uv)[0]) << ", "
-              << Fmt("%.3f", (*bl.anchor_uv)[1]) << ") m\n";
-  }
-  std::cout << "top " << r.top.size() << ":\n";
-  for (size_t i = 0; i < r.top.size(); ++i) {
-    std::cout << "  " << i + 1 << ". " << r.top[i].anchor << "  (" << r.top[i].id << ", distance " << r.top[i].distance
-              << (r.weighted ? ", weighted " + Fmt("%.4g", r.top[i].score) : std::string()) << ")\n";
-  }
-  std::cout << "time      load database " << Fmt("%.3f", load_s) << " s (" << db.size() << " entries, once)";
-  auto show = [&](const char* name, const char* key) {
-    if (timing.contains(key) && !timing[key].is_null()) std::cout << ", " << name << " " << Fmt("%.3f", timing[key].get<double>()) << " s";
-    else if (timing.contains(key)) std::cout << ", " << name << " n/a";
-  };
-  show("sweep", "sweep_seconds");
-  show("fusion", "fusion_seconds");
-  show("feature", "feature_seconds");
-  std::cout << ", matching " << Fmt("%.6f", r.match_seconds) << " s\n";
-  if (timing.contains("fusion_feature_source")) {
-    std::cout << "          (fusion/feature: " << timing["fusion_feature_source"].get<std::string>() << ")\n";
-  }
-  if (timing.contains("refused")) {
-    std::cout << "re-fused  fusion " << Fmt("%.3f", timing["refused"]["fusion_seconds"].get<double>()) << " s, feature "
-              << Fmt("%.3f", timing["refused"]["feature_seconds"].get<double>()) << " s; re-extracted vs stored feature: "
-              << query["refused_vs_stored_feature"]["distance"] << " bits\n";
-  }
-  if (!have_w) std::cout << "note      no weights (run `drape calibrate`): unweighted distance only\n";
+  PrintRecognition(query, timing, r, db, hung, have_w);
   return 0;
 }
 

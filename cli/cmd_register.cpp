@@ -37,16 +37,7 @@ const char* kUsage =
     "  --iterations N      maximum Levenberg-Marquardt iterations (default 60)\n"
     "  --paper-query       use the paper's 8-point grid query for ICP and fitting\n";
 
-int Run(const std::vector<std::string>& argv) {
-  Args args(argv, {"--rigid-only", "--json", "--no-scale", "--paper-query"},
-            {"-o", "--output", "--anchors", "--grid-cells", "--kappa", "--beta", "--alpha", "--iterations"});
-  if (args.help()) {
-    std::cout << kUsage;
-    return 0;
-  }
-  args.RequirePositional(2, 2, "SOURCE and TARGET meshes");
-  const fs::path source_path = args.positional()[0], target_path = args.positional()[1];
-
+registration::RegistrationOptions OptionsFrom(const Args& args) {
   registration::RegistrationOptions opt;
   opt.nonrigid = !args.Flag("--rigid-only");
   opt.scale = !args.Flag("--no-scale");
@@ -57,8 +48,11 @@ int Run(const std::vector<std::string>& argv) {
   if (auto v = args.GetDouble("--alpha")) opt.alpha = *v;
   if (auto v = args.GetInt("--iterations")) opt.lm.max_iterations = static_cast<int>(*v);
   opt.Validate();
+  return opt;
+}
 
-  // Anchors: explicit sidecar, else SOURCE's own sidecar if there is one.
+// SOURCE with its anchors: the explicit sidecar, else SOURCE's own if there is one.
+Garment LoadSource(const Args& args, const fs::path& source_path) {
   fs::path anchors_path = args.Get("--anchors", "");
   if (anchors_path.empty() && fs::exists(AnchorsPath(source_path))) anchors_path = AnchorsPath(source_path);
   Garment garment;
@@ -67,6 +61,48 @@ int Run(const std::vector<std::string>& argv) {
   } else {
     garment.mesh = ReadMesh(source_path);
   }
+  return garment;
+}
+
+void PrintRegistration(const registration::RegistrationEvaluation& ev, const registration::RegistrationOptions& opt,
+                       const fs::path& source_path, const TriMesh& source, const fs::path& target_path,
+                       const TriMesh& target, const std::string& out) {
+  const registration::RegistrationReport& r = ev.report;
+  std::printf("source %s: %d vertices, %d faces; target %s: %d vertices, %d faces\n", source_path.c_str(),
+              source.NumVertices(), source.NumFaces(), target_path.c_str(), target.NumVertices(), target.NumFaces());
+  std::printf("scale %.4f; grid %dx%dx%d (h = %.4f m); ICP %d iterations (%s), RMS %.4f -> %.4f m\n", r.scaling.scale,
+              r.grid.nx, r.grid.ny, r.grid.nz, r.grid.spacing, r.icp.iterations,
+              r.icp.converged ? "converged" : "not converged", r.icp.rms_before, r.icp.rms_after);
+  if (opt.nonrigid)
+    std::printf(
+        "non-rigid: %d LM iterations (%d accepted, %d fresh Jacobians, %d secant updates, stop: %s)\n"
+        "  E_fit %.3e -> %.3e; kappa E_area %.3e, beta E_angle %.3e, alpha E_hinge %.3e\n",
+        r.lm.iterations, r.lm.accepted, r.lm.fresh_jacobians, r.lm.secant_updates, r.lm.termination.c_str(),
+        r.energy_before.fit, r.energy_after.fit, r.energy_after.area, r.energy_after.angle, r.energy_after.hinge);
+  std::printf("error (m)      S->T      T->S\n");
+  std::printf("  R        %8.5f  %8.5f\n", ev.s_to_t_rigid.mean, ev.t_to_s_rigid.mean);
+  if (opt.nonrigid) std::printf("  R+N      %8.5f  %8.5f\n", ev.s_to_t_nonrigid.mean, ev.t_to_s_nonrigid.mean);
+  for (const auto& a : ev.anchors) {
+    const Vec3 p = opt.nonrigid ? a.nonrigid : a.rigid;
+    std::printf("anchor %-16s vertex %6d -> (%.4f, %.4f, %.4f)\n", a.label.c_str(), a.source_vertex, p.x(), p.y(),
+                p.z());
+  }
+  for (const auto& w : r.warnings) std::printf("warning: %s\n", w.c_str());
+  std::printf("time %.2f s (grid %.2f, ICP %.2f, non-rigid %.2f)%s%s\n", ev.seconds, r.grid_seconds, r.icp_seconds,
+              r.nonrigid_seconds, out.empty() ? "" : "; wrote ", out.c_str());
+}
+
+int Run(const std::vector<std::string>& argv) {
+  Args args(argv, {"--rigid-only", "--json", "--no-scale", "--paper-query"},
+            {"-o", "--output", "--anchors", "--grid-cells", "--kappa", "--beta", "--alpha", "--iterations"});
+  if (args.help()) {
+    std::cout << kUsage;
+    return 0;
+  }
+  args.RequirePositional(2, 2, "SOURCE and TARGET meshes");
+  const fs::path source_path = args.positional()[0], target_path = args.positional()[1];
+  const registration::RegistrationOptions opt = OptionsFrom(args);
+  const Garment garment = LoadSource(args, source_path);
   const TriMesh target = ReadMesh(target_path);
 
   std::vector<registration::AnchorPair> pairs;
@@ -96,30 +132,7 @@ int Run(const std::vector<std::string>& argv) {
     std::cout << j.dump(2) << "\n";
     return 0;
   }
-  const registration::RegistrationReport& r = ev.report;
-  std::printf("source %s: %d vertices, %d faces; target %s: %d vertices, %d faces\n", source_path.c_str(),
-              garment.mesh.NumVertices(), garment.mesh.NumFaces(), target_path.c_str(), target.NumVertices(),
-              target.NumFaces());
-  std::printf("scale %.4f; grid %dx%dx%d (h = %.4f m); ICP %d iterations (%s), RMS %.4f -> %.4f m\n",
-              r.scaling.scale, r.grid.nx, r.grid.ny, r.grid.nz, r.grid.spacing, r.icp.iterations,
-              r.icp.converged ? "converged" : "not converged", r.icp.rms_before, r.icp.rms_after);
-  if (opt.nonrigid)
-    std::printf("non-rigid: %d LM iterations (%d accepted, %d fresh Jacobians, %d secant updates, stop: %s)\n"
-                "  E_fit %.3e -> %.3e; kappa E_area %.3e, beta E_angle %.3e, alpha E_hinge %.3e\n",
-                r.lm.iterations, r.lm.accepted, r.lm.fresh_jacobians, r.lm.secant_updates, r.lm.termination.c_str(),
-                r.energy_before.fit, r.energy_after.fit, r.energy_after.area, r.energy_after.angle,
-                r.energy_after.hinge);
-  std::printf("error (m)      S->T      T->S\n");
-  std::printf("  R        %8.5f  %8.5f\n", ev.s_to_t_rigid.mean, ev.t_to_s_rigid.mean);
-  if (opt.nonrigid) std::printf("  R+N      %8.5f  %8.5f\n", ev.s_to_t_nonrigid.mean, ev.t_to_s_nonrigid.mean);
-  for (const auto& a : ev.anchors) {
-    const Vec3 p = opt.nonrigid ? a.nonrigid : a.rigid;
-    std::printf("anchor %-16s vertex %6d -> (%.4f, %.4f, %.4f)\n", a.label.c_str(), a.source_vertex, p.x(), p.y(),
-                p.z());
-  }
-  for (const auto& w : r.warnings) std::printf("warning: %s\n", w.c_str());
-  std::printf("time %.2f s (grid %.2f, ICP %.2f, non-rigid %.2f)%s%s\n", ev.seconds, r.grid_seconds, r.icp_seconds,
-              r.nonrigid_seconds, out.empty() ? "" : "; wrote ", out.c_str());
+  PrintRegistration(ev, opt, source_path, garment.mesh, target_path, target, out);
   return 0;
 }
 

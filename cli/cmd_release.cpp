@@ -67,14 +67,9 @@ std::string CountsLine(const Json& j) {
   return s.empty() ? "-" : s;
 }
 
-int RunInfo(const std::vector<std::string>& argv) {
-  Args args(argv, {"--json"}, {});
-  if (args.help()) {
-    std::cout << "usage: drape info RELEASE [--json]\n";
-    return 0;
-  }
-  args.RequirePositional(1, 1, "RELEASE");
-  const Release r = Release::Open(args.positional()[0]);
+// drape info's facts: counts by split, category and anchor, failures, bytes by file kind,
+// build and recipe.
+Json InfoJson(const Release& r) {
   const Json& ds = r.dataset();
   std::map<std::string, int> splits, cats, anchors;
   std::map<std::string, uint64_t> sizes;  // by file kind
@@ -132,20 +127,23 @@ int RunInfo(const std::vector<std::string>& argv) {
   for (const auto& [k, n] : splits)
     if (!out["splits"].contains(k)) out["splits"][k] = n;
   if (ds.contains("shard")) out["shard"] = ds["shard"];
-  if (args.Flag("--json")) {
-    std::cout << out.dump(2) << "\n";
-    return 0;
-  }
+  return out;
+}
+
+void PrintInfo(const Release& r, const Json& out) {
+  const Json& ds = r.dataset();
+  const Json build = r.build_info();
   std::cout << out["name"].get<std::string>() << " " << out["version"].get<std::string>() << "  (" << r.dir().string()
             << ")\n";
   std::cout << "digest       " << r.digest() << "\n";
-  std::cout << "entries      " << r.entries().size() << " (" << failures.size() << " failed)\n";
+  std::cout << "entries      " << r.entries().size() << " (" << out["failures"].size() << " failed)\n";
   std::cout << "splits       " << CountsLine(out["splits"]) << "\n";
   std::cout << "categories   " << CountsLine(out["categories"]) << "\n";
   std::cout << "anchors      " << CountsLine(out["anchors"]) << "\n";
-  std::cout << "size         " << Bytes(total);
+  std::cout << "size         " << Bytes(out["bytes"].get<uint64_t>());
   std::string by;
-  for (const auto& [k, s] : sizes) by += (by.empty() ? "" : ", ") + k + " " + Bytes(s);
+  for (const auto& [k, s] : out["bytes_by_file"].items())
+    by += (by.empty() ? "" : ", ") + k + " " + Bytes(s.get<uint64_t>());
   std::cout << " (" << by << ")\n";
   if (build.contains("wall_seconds")) {
     char buf[64];
@@ -157,8 +155,24 @@ int RunInfo(const std::vector<std::string>& argv) {
   std::cout << "recipe       sha256 " << out["recipe_sha256"].get<std::string>() << "\n";
   std::cout << "code         " << out["code_version"].get<std::string>() << "\n";
   if (ds.contains("shard")) std::cout << "shard        " << ds["shard"].dump() << "\n";
-  for (const auto& f : failures)
+  for (const auto& f : out["failures"])
     std::cout << "failed       " << f["id"].get<std::string>() << ": " << f["failure"].get<std::string>() << "\n";
+}
+
+int RunInfo(const std::vector<std::string>& argv) {
+  Args args(argv, {"--json"}, {});
+  if (args.help()) {
+    std::cout << "usage: drape info RELEASE [--json]\n";
+    return 0;
+  }
+  args.RequirePositional(1, 1, "RELEASE");
+  const Release r = Release::Open(args.positional()[0]);
+  const Json out = InfoJson(r);
+  if (args.Flag("--json")) {
+    std::cout << out.dump(2) << "\n";
+    return 0;
+  }
+  PrintInfo(r, out);
   return 0;
 }
 

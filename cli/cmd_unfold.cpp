@@ -55,6 +55,95 @@ struct Variant {
   bool ir = true, nonrigid = true, weighted = true;
 };
 
+// --category, checked before anything expensive: a known category with a desired pair.
+std::vector<std::string> RequestedCategories(const Args& a) {
+  std::vector<std::string> categories;
+  if (auto c = a.Get("--category")) {
+    bool known = false;
+    for (const auto& t : Templates()) known |= t.category == *c;
+    if (!known) throw Error("--category: unknown category '" + *c + "'");
+    if (DesiredPairsFor(*c).empty())
+      throw Error("--category: '" + *c +
+                  "' has no desired anchor pair to unfold by (long_sleeve_shirt, pants, shorts, towel have)");
+    categories.push_back(*c);
+  }
+  return categories;
+}
+
+// --weights, else the release's calibration; empty when only unweighted runs need none.
+fs::path WeightsPath(const Args& a, const fs::path& dir, bool unweighted_only) {
+  fs::path wpath = a.Get("--weights", "");
+  if (wpath.empty()) {
+    const Release probe = Release::Open(dir);
+    wpath = recognition::DefaultWeightsDir(probe) / "weights.json";
+    if (!fs::exists(wpath)) {
+      if (!unweighted_only)
+        throw Error(dir.string() + ": the release has no learned weights (run `drape calibrate " + dir.string() +
+                    "` first, or pass --unweighted)");
+      wpath.clear();
+    }
+  }
+  return wpath;
+}
+
+// Every test category with a desired pair unless one was asked for; each must have
+// database garments, weights (unless unweighted only) and a test instance.
+void CheckCategories(const ReleaseModel& model, const fs::path& dir, bool unweighted_only,
+                     std::vector<std::string>& categories) {
+  if (categories.empty()) {
+    for (const std::string& c : model.TestCategories())
+      if (!DesiredPairsFor(c).empty()) categories.push_back(c);
+    if (categories.empty()) throw Error(dir.string() + ": no test garment of a category with a desired anchor pair");
+  }
+  for (const std::string& c : categories) {
+    if (!model.database().HasCategory(c))
+      throw Error(dir.string() + ": the release's database has no '" + c + "' garments");
+    if (model.weights() && !unweighted_only && !model.weights()->per_category.count(c))
+      throw Error(dir.string() + ": the weights have no '" + c + "' category (calibrate the release again)");
+    model.TestInstance(c);  // throws if the test split has none
+  }
+}
+
+// OUT/<variant>/<category>/trial_<k>/trace.json and, unless --no-figures, its pictures.
+void WriteTrialTrace(const TrialResult& t, const Variant& v, const std::string& c, int k, const ReleaseModel& model,
+                     const LoopOptions& o, bool figures, const fs::path& out) {
+  std::string vdir = v.name == "full" ? "" : v.name;
+  for (char& ch : vdir)
+    if (ch == ' ') ch = '_';
+  const fs::path td = out / vdir / c / ("trial_" + std::to_string(k + 1));
+  fs::create_directories(td);
+  Json trace = t.ToJson();
+  trace["variant"] = v.name;
+  if (figures) trace["figures"] = WriteTrialFigures(t, model.TestInstance(c).garment, o.sensing_height, td);
+  WriteFileAtomic(td / "trace.json", trace.dump(2) + "\n");
+}
+
+// One variant's trials on one category (seeds derived from the run's seed, the category
+// and the trial), summarised as a table row.
+TableRow RunTrials(const ReleaseModel& model, const Variant& v, const std::string& c, const LoopOptions& lo, int trials,
+                   uint64_t seed, const std::optional<fs::path>& out, bool figures) {
+  const bool tty = isatty(fileno(stderr));
+  std::vector<TrialResult> results;
+  for (int k = 0; k < trials; ++k) {
+    LoopOptions o = lo;
+    o.ir_refinement = v.ir, o.nonrigid = v.nonrigid, o.weighted = v.weighted;
+    const uint64_t ts = DeriveSeed(seed, c + "/trial/" + std::to_string(k));
+    auto say = [&](const std::string& s) {
+      std::cerr << (tty ? "\r\033[K" : "") << "[" << v.name << " " << c << " " << k + 1 << "/" << trials << "] " << s
+                << (tty ? "" : "\n") << std::flush;
+    };
+    TrialResult t = RunTrial(model, c, o, ts, say);
+    char line[256];
+    std::snprintf(line, sizeof line, "%s, %d regrasps, f %.2f, %.0f s%s%s", t.unfolded ? "unfolded" : "not unfolded",
+                  t.regrasps, t.final_f, t.seconds, t.failure.empty() ? "" : ": ", t.failure.c_str());
+    say(line);
+    if (tty) std::cerr << "\n";
+    if (out) WriteTrialTrace(t, v, c, k, model, o, figures, *out);
+    results.push_back(std::move(t));
+  }
+  return Summarise(c, v.name, results);
+}
+
 int RunUnfold(const std::vector<std::string>& argv) {
   Args a(argv, {"--no-ir", "--rigid", "--unweighted", "--ablations", "--no-figures", "--category-known"},
          {"--category", "--trials", "--seed", "-o", "--weights", "--frames", "--max-regrasps"});
@@ -68,40 +157,11 @@ int RunUnfold(const std::vector<std::string>& argv) {
   if (trials < 1) throw Error("--trials: must be >= 1");
   const uint64_t seed = static_cast<uint64_t>(a.GetInt("--seed").value_or(1));
 
-  // Category checks before anything expensive.
-  std::vector<std::string> categories;
-  if (auto c = a.Get("--category")) {
-    bool known = false;
-    for (const auto& t : Templates()) known |= t.category == *c;
-    if (!known) throw Error("--category: unknown category '" + *c + "'");
-    if (DesiredPairsFor(*c).empty())
-      throw Error("--category: '" + *c + "' has no desired anchor pair to unfold by (long_sleeve_shirt, pants, shorts, towel have)");
-    categories.push_back(*c);
-  }
+  std::vector<std::string> categories = RequestedCategories(a);
   const bool unweighted_only = a.Flag("--unweighted") && !a.Flag("--ablations");
-  fs::path wpath = a.Get("--weights", "");
-  if (wpath.empty()) {
-    const Release probe = Release::Open(dir);
-    wpath = recognition::DefaultWeightsDir(probe) / "weights.json";
-    if (!fs::exists(wpath)) {
-      if (!unweighted_only)
-        throw Error(dir.string() + ": the release has no learned weights (run `drape calibrate " + dir.string() +
-                    "` first, or pass --unweighted)");
-      wpath.clear();
-    }
-  }
+  const fs::path wpath = WeightsPath(a, dir, unweighted_only);
   const ReleaseModel model(dir, wpath);
-  if (categories.empty()) {
-    for (const std::string& c : model.TestCategories())
-      if (!DesiredPairsFor(c).empty()) categories.push_back(c);
-    if (categories.empty()) throw Error(dir.string() + ": no test garment of a category with a desired anchor pair");
-  }
-  for (const std::string& c : categories) {
-    if (!model.database().HasCategory(c)) throw Error(dir.string() + ": the release's database has no '" + c + "' garments");
-    if (model.weights() && !unweighted_only && !model.weights()->per_category.count(c))
-      throw Error(dir.string() + ": the weights have no '" + c + "' category (calibrate the release again)");
-    model.TestInstance(c);  // throws if the test split has none
-  }
+  CheckCategories(model, dir, unweighted_only, categories);
 
   LoopOptions lo;
   lo.capture.frames = static_cast<int>(a.GetInt("--frames").value_or(550));
@@ -110,46 +170,16 @@ int RunUnfold(const std::vector<std::string>& argv) {
   std::vector<Variant> variants;
   variants.push_back({"full", !a.Flag("--no-ir"), !a.Flag("--rigid"), !a.Flag("--unweighted")});
   if (a.Flag("--ablations")) {
-    variants = {{"full"}, {"no IR refinement", false, true, true}, {"rigid-only registration", true, false, true},
+    variants = {{"full"},
+                {"no IR refinement", false, true, true},
+                {"rigid-only registration", true, false, true},
                 {"unweighted recognition", true, true, false}};
   }
   const std::optional<fs::path> out = a.Get("-o") ? std::optional<fs::path>(*a.Get("-o")) : std::nullopt;
-  const bool tty = isatty(fileno(stderr));
   std::vector<TableRow> rows;
-  for (const Variant& v : variants) {
-    for (const std::string& c : categories) {
-      std::vector<TrialResult> results;
-      for (int k = 0; k < trials; ++k) {
-        LoopOptions o = lo;
-        o.ir_refinement = v.ir, o.nonrigid = v.nonrigid, o.weighted = v.weighted;
-        const uint64_t ts = DeriveSeed(seed, c + "/trial/" + std::to_string(k));
-        auto say = [&](const std::string& s) {
-          std::cerr << (tty ? "\r\033[K" : "") << "[" << v.name << " " << c << " " << k + 1 << "/" << trials << "] " << s
-                    << (tty ? "" : "\n") << std::flush;
-        };
-        TrialResult t = RunTrial(model, c, o, ts, say);
-        char line[256];
-        std::snprintf(line, sizeof line, "%s, %d regrasps, f %.2f, %.0f s%s%s", t.unfolded ? "unfolded" : "not unfolded",
-                      t.regrasps, t.final_f, t.seconds, t.failure.empty() ? "" : ": ", t.failure.c_str());
-        say(line);
-        if (tty) std::cerr << "\n";
-        if (out) {
-          std::string vdir = v.name == "full" ? "" : v.name;
-          for (char& ch : vdir)
-            if (ch == ' ') ch = '_';
-          const fs::path td = *out / vdir / c / ("trial_" + std::to_string(k + 1));
-          fs::create_directories(td);
-          Json trace = t.ToJson();
-          trace["variant"] = v.name;
-          if (!a.Flag("--no-figures"))
-            trace["figures"] = WriteTrialFigures(t, model.TestInstance(c).garment, o.sensing_height, td);
-          WriteFileAtomic(td / "trace.json", trace.dump(2) + "\n");
-        }
-        results.push_back(std::move(t));
-      }
-      rows.push_back(Summarise(c, v.name, results));
-    }
-  }
+  for (const Variant& v : variants)
+    for (const std::string& c : categories)
+      rows.push_back(RunTrials(model, v, c, lo, trials, seed, out, !a.Flag("--no-figures")));
   const std::string md = ReportMarkdown(rows);
   std::cout << md;
   if (out) {
@@ -157,10 +187,15 @@ int RunUnfold(const std::vector<std::string>& argv) {
     rj["release"] = dir.string();
     rj["digest"] = model.release().digest();
     rj["weights"] = wpath.empty() ? Json(nullptr) : Json(wpath.string());
-    rj["options"] = {{"trials", trials}, {"seed", seed}, {"frames", lo.capture.frames},
-                     {"max_regrasps", lo.max_regrasps}, {"sigma_length_m", lo.objective.sigma_length},
-                     {"xi", lo.objective.xi}, {"success_distance_m", lo.success_distance},
-                     {"log_sigma_samples", lo.refine.sigma_samples}, {"ir_sample_spacing_m", lo.refine.sample_spacing}};
+    rj["options"] = {{"trials", trials},
+                     {"seed", seed},
+                     {"frames", lo.capture.frames},
+                     {"max_regrasps", lo.max_regrasps},
+                     {"sigma_length_m", lo.objective.sigma_length},
+                     {"xi", lo.objective.xi},
+                     {"success_distance_m", lo.success_distance},
+                     {"log_sigma_samples", lo.refine.sigma_samples},
+                     {"ir_sample_spacing_m", lo.refine.sample_spacing}};
     WriteFileAtomic(*out / "report.json", rj.dump(2) + "\n");
     WriteFileAtomic(*out / "report.md", "# Unfolding\n\n" + md);
     std::cout << "report: " << (*out / "report.md").string() << "\n";

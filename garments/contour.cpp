@@ -308,6 +308,184 @@ CDT Smooth(const CDT& start, const Boundary& b, int iterations, double h) {
   return cdt;
 }
 
+// Constrained Delaunay triangulation of the outline, refined to the edge length and
+// Lloyd-smoothed (then refined again: smoothing can leave a few triangles below the
+// angle bound).
+CDT TriangulateOutline(const Boundary& boundary, const ContourOptions& options, const Criteria& criteria) {
+  CDT cdt;
+  std::vector<VH> bv;
+  bv.reserve(boundary.p.size());
+  for (const Vec2& p : boundary.p) bv.push_back(cdt.insert(Point(p.x(), p.y())));
+  for (size_t i = 0; i < bv.size(); ++i) cdt.insert_constraint(bv[i], bv[(i + 1) % bv.size()]);
+  CGAL::refine_Delaunay_mesh_2(cdt, criteria);
+  MarkDomain(cdt);
+  if (options.lloyd_iterations > 0) {
+    cdt = Smooth(cdt, boundary, options.lloyd_iterations, options.edge_length);
+    CGAL::refine_Delaunay_mesh_2(cdt, criteria);
+    MarkDomain(cdt);
+  }
+  return cdt;
+}
+
+// An interior edge joining two stitched vertices would exist on both layers at the
+// same place (non-manifold): split it and refine again until there is none. Returns the
+// rounds taken; `cls` is the final boundary classification.
+int SplitSeamChords(CDT& cdt, const Boundary& boundary, const Criteria& criteria, double h,
+                    std::map<VH, VertexClass>& cls) {
+  for (int rounds = 0;; ++rounds) {
+    cls = ClassifyBoundary(cdt, boundary);
+    std::vector<Point> splits;
+    for (auto e = cdt.finite_edges_begin(); e != cdt.finite_edges_end(); ++e) {
+      if (cdt.is_constrained(*e)) continue;
+      FH f = e->first, g = f->neighbor(e->second);
+      if (!f->is_in_domain() && (cdt.is_infinite(g) || !g->is_in_domain())) continue;
+      VH u = f->vertex(CDT::cw(e->second)), v = f->vertex(CDT::ccw(e->second));
+      auto iu = cls.find(u), iv = cls.find(v);
+      if (iu != cls.end() && iv != cls.end() && iu->second.seam && iv->second.seam)
+        splits.push_back(CGAL::midpoint(u->point(), v->point()));
+    }
+    if (splits.empty()) return rounds;
+    if (rounds >= 40) {
+      std::ostringstream os;
+      os << "the outline is too narrow near " << Fmt(ToVec(splits.front())) << " for edge_length " << h
+         << " m (front and back would touch there): use a smaller edge_length or widen the outline";
+      throw Error(os.str());
+    }
+    for (const Point& p : splits) cdt.insert(p);
+    // Refinement first (quality), but in a sharp spike it keeps adding boundary points
+    // that make new chords: after a few rounds only the splitting points are inserted.
+    if (rounds < 3) CGAL::refine_Delaunay_mesh_2(cdt, criteria);
+    MarkDomain(cdt);
+  }
+}
+
+// The two layers' connectivity: the front numbered by first appearance in the face list
+// (so that importers which renumber that way, e.g. assimp's OBJ reader, keep the order),
+// the back its mirror with reversed winding, stitched (seam) vertices shared.
+struct Layers {
+  std::vector<VH> front_vertices;
+  std::vector<std::array<int, 3>> front_faces, back_faces;
+  std::vector<char> seam;       // per front vertex
+  std::vector<int> back_index;  // per front vertex: its back copy, -1 on the seam
+  int num_vertices = 0;
+};
+
+Layers NumberLayers(const CDT& cdt, const std::map<VH, VertexClass>& cls) {
+  Layers l;
+  std::map<VH, int> front_index;
+  for (auto f = cdt.finite_faces_begin(); f != cdt.finite_faces_end(); ++f) {
+    if (!f->is_in_domain()) continue;
+    std::array<int, 3> tri;
+    for (int k = 0; k < 3; ++k) {
+      VH v = f->vertex(k);
+      auto [it, inserted] = front_index.emplace(v, static_cast<int>(l.front_vertices.size()));
+      if (inserted) l.front_vertices.push_back(v);
+      tri[k] = it->second;
+    }
+    l.front_faces.push_back(tri);
+  }
+  DRAPE_CHECK(!l.front_faces.empty(), "empty triangulation");
+  const int nf = static_cast<int>(l.front_vertices.size());
+  l.seam.assign(nf, 0);
+  for (int i = 0; i < nf; ++i) {
+    auto it = cls.find(l.front_vertices[i]);
+    l.seam[i] = it != cls.end() && it->second.seam;
+  }
+  l.back_index.assign(nf, -1);
+  int next = nf;
+  for (const auto& t : l.front_faces) {
+    std::array<int, 3> b;
+    const std::array<int, 3> rev = {t[0], t[2], t[1]};
+    for (int k = 0; k < 3; ++k) {
+      const int v = rev[k];
+      if (l.seam[v]) {
+        b[k] = v;
+      } else {
+        if (l.back_index[v] < 0) l.back_index[v] = next++;
+        b[k] = l.back_index[v];
+      }
+    }
+    l.back_faces.push_back(b);
+  }
+  l.num_vertices = next;
+  return l;
+}
+
+// Vertices on the pattern (uv) and in 3D: the front layer at +gap/2, the back at -gap/2,
+// stitched vertices at 0; front faces first.
+void FillTwoLayers(const Layers& l, double layer_gap, Garment& g) {
+  const int nv = l.num_vertices, nf = static_cast<int>(l.front_vertices.size());
+  g.mesh.V.resize(nv, 3);
+  g.uv.resize(nv, 2);
+  g.layer.assign(nv, 0);
+  const double half = 0.5 * layer_gap;
+  for (int i = 0; i < nf; ++i) {
+    const Vec2 p = ToVec(l.front_vertices[i]->point());
+    g.uv.row(i) = p;
+    g.mesh.V.row(i) = Vec3(p.x(), p.y(), l.seam[i] ? 0.0 : half);
+    if (l.back_index[i] >= 0) {
+      g.uv.row(l.back_index[i]) = p;
+      g.mesh.V.row(l.back_index[i]) = Vec3(p.x(), p.y(), -half);
+      g.layer[l.back_index[i]] = 1;
+    }
+  }
+  g.mesh.F.resize(static_cast<int>(l.front_faces.size() + l.back_faces.size()), 3);
+  int r = 0;
+  for (const auto& t : l.front_faces) g.mesh.F.row(r++) << t[0], t[1], t[2];
+  for (const auto& t : l.back_faces) g.mesh.F.row(r++) << t[0], t[1], t[2];
+}
+
+// Anchors: nearest front-layer vertex on the pattern (lowest index on ties).
+void PlaceAnchors(const std::vector<AnchorSpec>& anchors, Garment& g) {
+  const int nv = g.mesh.NumVertices();
+  for (const AnchorSpec& spec : anchors) {
+    int best = -1;
+    double best_d = std::numeric_limits<double>::infinity();
+    for (int i = 0; i < nv; ++i) {
+      if (g.layer[i] != 0) continue;
+      const double d = (Vec2(g.uv.row(i)) - spec.uv).squaredNorm();
+      if (d < best_d) best_d = d, best = i;
+    }
+    Anchor a;
+    a.label = spec.label;
+    a.uv = spec.uv;
+    a.vertex = best;
+    a.position = g.mesh.V.row(best);
+    g.anchors.push_back(a);
+  }
+}
+
+MeshStats ContourMeshStats(const Contour& contour, const Layers& l, const Garment& g, int rounds, double h) {
+  const int nf = static_cast<int>(l.front_vertices.size());
+  MeshStats s;
+  s.vertices = l.num_vertices;
+  s.faces = g.mesh.NumFaces();
+  s.front_vertices = nf;
+  s.seam_vertices = static_cast<int>(std::count(l.seam.begin(), l.seam.end(), 1));
+  s.refine_rounds = rounds;
+  // Openings = runs of equal non-empty tags around the contour.
+  const size_t n = contour.edge_tag.size();
+  for (size_t i = 0; i < n; ++i)
+    if (!contour.edge_tag[i].empty() && contour.edge_tag[(i + n - 1) % n].empty()) ++s.openings;
+  // Pattern edge lengths and angles of the front triangulation.
+  TriMesh flat;
+  flat.V.resize(nf, 3);
+  for (int i = 0; i < nf; ++i) flat.V.row(i) = Vec3(g.uv(i, 0), g.uv(i, 1), 0.0);
+  flat.F = g.mesh.F.topRows(static_cast<int>(l.front_faces.size()));
+  const MeshReport rep = InspectMesh(flat);
+  s.edge_min = rep.edge_min;
+  s.edge_mean = rep.edge_mean;
+  s.edge_max = rep.edge_max;
+  s.ratio_min = rep.edge_min / h;
+  s.ratio_p05 = rep.edge_p05 / h;
+  s.ratio_p95 = rep.edge_p95 / h;
+  s.ratio_max = rep.edge_max / h;
+  s.min_angle_deg = rep.min_angle_deg;
+  s.area = rep.area;
+  s.boundary_loops = InspectMesh(g.mesh).boundary_loops;
+  return s;
+}
+
 }  // namespace
 
 void ContourOptions::Validate() const {
@@ -324,176 +502,29 @@ void ContourOptions::Validate() const {
 }
 
 void MaskOptions::Validate() const {
-  if (!(metres_per_pixel > 0 && std::isfinite(metres_per_pixel)))
-    throw Error("metres_per_pixel must be > 0");
+  if (!(metres_per_pixel > 0 && std::isfinite(metres_per_pixel))) throw Error("metres_per_pixel must be > 0");
   if (!(simplify_px >= 0)) throw Error("simplify_px must be >= 0");
 }
 
 Garment GarmentFromContour(const Contour& contour_in, const std::vector<AnchorSpec>& anchors,
-                           const ContourOptions& options, const std::string& category,
-                           const std::string& instance, MeshStats* stats_out) {
+                           const ContourOptions& options, const std::string& category, const std::string& instance,
+                           MeshStats* stats_out) {
   options.Validate();
   const Contour contour = CheckedContour(contour_in);
   const double h = options.edge_length;
   const Boundary boundary = Resample(contour, h);
-
-  // Constrained Delaunay triangulation of the outline.
-  CDT cdt;
-  std::vector<VH> bv;
-  bv.reserve(boundary.p.size());
-  for (const Vec2& p : boundary.p) bv.push_back(cdt.insert(Point(p.x(), p.y())));
-  for (size_t i = 0; i < bv.size(); ++i) cdt.insert_constraint(bv[i], bv[(i + 1) % bv.size()]);
   const Criteria criteria(options.angle_bound, options.size_factor * h);
-  CGAL::refine_Delaunay_mesh_2(cdt, criteria);
-  MarkDomain(cdt);
-  if (options.lloyd_iterations > 0) {
-    cdt = Smooth(cdt, boundary, options.lloyd_iterations, h);
-    // Smoothing can leave a few triangles below the angle bound: refine once more.
-    CGAL::refine_Delaunay_mesh_2(cdt, criteria);
-    MarkDomain(cdt);
-  }
-
-  // An interior edge joining two stitched vertices would exist on both layers at the
-  // same place (non-manifold): split it and refine again until there is none.
+  CDT cdt = TriangulateOutline(boundary, options, criteria);
   std::map<VH, VertexClass> cls;
-  int rounds = 0;
-  for (;; ++rounds) {
-    cls = ClassifyBoundary(cdt, boundary);
-    std::vector<Point> splits;
-    for (auto e = cdt.finite_edges_begin(); e != cdt.finite_edges_end(); ++e) {
-      if (cdt.is_constrained(*e)) continue;
-      FH f = e->first, g = f->neighbor(e->second);
-      if (!f->is_in_domain() && (cdt.is_infinite(g) || !g->is_in_domain())) continue;
-      VH u = f->vertex(CDT::cw(e->second)), v = f->vertex(CDT::ccw(e->second));
-      auto iu = cls.find(u), iv = cls.find(v);
-      if (iu != cls.end() && iv != cls.end() && iu->second.seam && iv->second.seam)
-        splits.push_back(CGAL::midpoint(u->point(), v->point()));
-    }
-    if (splits.empty()) break;
-    if (rounds >= 40) {
-      std::ostringstream os;
-      os << "the outline is too narrow near " << Fmt(ToVec(splits.front())) << " for edge_length " << h
-         << " m (front and back would touch there): use a smaller edge_length or widen the outline";
-      throw Error(os.str());
-    }
-    for (const Point& p : splits) cdt.insert(p);
-    // Refinement first (quality), but in a sharp spike it keeps adding boundary points
-    // that make new chords: after a few rounds only the splitting points are inserted.
-    if (rounds < 3) CGAL::refine_Delaunay_mesh_2(cdt, criteria);
-    MarkDomain(cdt);
-  }
-
-  // Front layer: vertices numbered by first appearance in the face list (so that
-  // importers which renumber that way, e.g. assimp's OBJ reader, keep the order).
-  std::map<VH, int> front_index;
-  std::vector<VH> front_vertices;
-  std::vector<std::array<int, 3>> front_faces;
-  for (auto f = cdt.finite_faces_begin(); f != cdt.finite_faces_end(); ++f) {
-    if (!f->is_in_domain()) continue;
-    std::array<int, 3> tri;
-    for (int k = 0; k < 3; ++k) {
-      VH v = f->vertex(k);
-      auto [it, inserted] = front_index.emplace(v, static_cast<int>(front_vertices.size()));
-      if (inserted) front_vertices.push_back(v);
-      tri[k] = it->second;
-    }
-    front_faces.push_back(tri);
-  }
-  DRAPE_CHECK(!front_faces.empty(), "empty triangulation");
-  const int nf = static_cast<int>(front_vertices.size());
-  std::vector<char> seam(nf, 0);
-  for (int i = 0; i < nf; ++i) {
-    auto it = cls.find(front_vertices[i]);
-    seam[i] = it != cls.end() && it->second.seam;
-  }
-  // Back layer: mirror of the front with reversed winding; stitched vertices shared.
-  std::vector<int> back_index(nf, -1);
-  std::vector<std::array<int, 3>> back_faces;
-  int next = nf;
-  for (const auto& t : front_faces) {
-    std::array<int, 3> b;
-    const std::array<int, 3> rev = {t[0], t[2], t[1]};
-    for (int k = 0; k < 3; ++k) {
-      const int v = rev[k];
-      if (seam[v]) {
-        b[k] = v;
-      } else {
-        if (back_index[v] < 0) back_index[v] = next++;
-        b[k] = back_index[v];
-      }
-    }
-    back_faces.push_back(b);
-  }
+  const int rounds = SplitSeamChords(cdt, boundary, criteria, h, cls);
+  const Layers layers = NumberLayers(cdt, cls);
 
   Garment g;
   g.category = category;
   g.instance = instance;
-  const int nv = next;
-  g.mesh.V.resize(nv, 3);
-  g.uv.resize(nv, 2);
-  g.layer.assign(nv, 0);
-  const double half = 0.5 * options.layer_gap;
-  for (int i = 0; i < nf; ++i) {
-    const Vec2 p = ToVec(front_vertices[i]->point());
-    g.uv.row(i) = p;
-    g.mesh.V.row(i) = Vec3(p.x(), p.y(), seam[i] ? 0.0 : half);
-    if (back_index[i] >= 0) {
-      g.uv.row(back_index[i]) = p;
-      g.mesh.V.row(back_index[i]) = Vec3(p.x(), p.y(), -half);
-      g.layer[back_index[i]] = 1;
-    }
-  }
-  g.mesh.F.resize(static_cast<int>(front_faces.size() + back_faces.size()), 3);
-  int r = 0;
-  for (const auto& t : front_faces) g.mesh.F.row(r++) << t[0], t[1], t[2];
-  for (const auto& t : back_faces) g.mesh.F.row(r++) << t[0], t[1], t[2];
-
-  // Anchors: nearest front-layer vertex on the pattern (lowest index on ties).
-  for (const AnchorSpec& spec : anchors) {
-    int best = -1;
-    double best_d = std::numeric_limits<double>::infinity();
-    for (int i = 0; i < nv; ++i) {
-      if (g.layer[i] != 0) continue;
-      const double d = (Vec2(g.uv.row(i)) - spec.uv).squaredNorm();
-      if (d < best_d) best_d = d, best = i;
-    }
-    Anchor a;
-    a.label = spec.label;
-    a.uv = spec.uv;
-    a.vertex = best;
-    a.position = g.mesh.V.row(best);
-    g.anchors.push_back(a);
-  }
-
-  if (stats_out) {
-    MeshStats& s = *stats_out;
-    s = MeshStats{};
-    s.vertices = nv;
-    s.faces = g.mesh.NumFaces();
-    s.front_vertices = nf;
-    s.seam_vertices = static_cast<int>(std::count(seam.begin(), seam.end(), 1));
-    s.refine_rounds = rounds;
-    // Openings = runs of equal non-empty tags around the contour.
-    const size_t n = contour.edge_tag.size();
-    for (size_t i = 0; i < n; ++i)
-      if (!contour.edge_tag[i].empty() && contour.edge_tag[(i + n - 1) % n].empty()) ++s.openings;
-    // Pattern edge lengths and angles of the front triangulation.
-    TriMesh flat;
-    flat.V.resize(nf, 3);
-    for (int i = 0; i < nf; ++i) flat.V.row(i) = Vec3(g.uv(i, 0), g.uv(i, 1), 0.0);
-    flat.F = g.mesh.F.topRows(static_cast<int>(front_faces.size()));
-    const MeshReport rep = InspectMesh(flat);
-    s.edge_min = rep.edge_min;
-    s.edge_mean = rep.edge_mean;
-    s.edge_max = rep.edge_max;
-    s.ratio_min = rep.edge_min / h;
-    s.ratio_p05 = rep.edge_p05 / h;
-    s.ratio_p95 = rep.edge_p95 / h;
-    s.ratio_max = rep.edge_max / h;
-    s.min_angle_deg = rep.min_angle_deg;
-    s.area = rep.area;
-    s.boundary_loops = InspectMesh(g.mesh).boundary_loops;
-  }
+  FillTwoLayers(layers, options.layer_gap, g);
+  PlaceAnchors(anchors, g);
+  if (stats_out) *stats_out = ContourMeshStats(contour, layers, g, rounds, h);
   return g;
 }
 

@@ -26,27 +26,25 @@ double Percentile(std::vector<double> v, double q) {
   return v[k];
 }
 
-}  // namespace
-
-MeshReport InspectMesh(const TriMesh& mesh) {
-  MeshReport r;
-  r.vertices = mesh.NumVertices();
-  r.faces = mesh.NumFaces();
-  for (int i = 0; i < r.vertices; ++i)
-    if (!mesh.V.row(i).allFinite()) r.nonfinite_vertices.push_back(i);
-  // Only faces with valid indices take part in the topology below.
+// The faces whose indices are valid (the others listed in r.bad_index_faces): only they
+// take part in the topology. *good_faces maps back to the input's face numbers.
+TriMesh ValidFaces(const TriMesh& mesh, MeshReport& r, std::vector<int>* good_faces) {
   TriMesh good;
   good.V = mesh.V;
-  std::vector<int> good_faces;
   for (int f = 0; f < r.faces; ++f) {
     bool ok = true;
     for (int k = 0; k < 3; ++k) ok &= mesh.F(f, k) >= 0 && mesh.F(f, k) < r.vertices;
-    if (ok) good_faces.push_back(f);
+    if (ok)
+      good_faces->push_back(f);
     else r.bad_index_faces.push_back(f);
   }
-  good.F.resize(static_cast<int>(good_faces.size()), 3);
-  for (size_t i = 0; i < good_faces.size(); ++i) good.F.row(static_cast<int>(i)) = mesh.F.row(good_faces[i]);
+  good.F.resize(static_cast<int>(good_faces->size()), 3);
+  for (size_t i = 0; i < good_faces->size(); ++i) good.F.row(static_cast<int>(i)) = mesh.F.row((*good_faces)[i]);
+  return good;
+}
 
+// Area, degenerate faces, the smallest angle, unreferenced vertices.
+void InspectFaces(const TriMesh& good, const std::vector<int>& good_faces, MeshReport& r) {
   std::vector<char> used(r.vertices, 0);
   double min_angle = 180;
   for (int f = 0; f < good.NumFaces(); ++f) {
@@ -71,9 +69,11 @@ MeshReport InspectMesh(const TriMesh& mesh) {
   }
   r.min_angle_deg = good.NumFaces() ? min_angle : 0;
   r.unreferenced_vertices = static_cast<int>(std::count(used.begin(), used.end(), 0));
-  r.components = good.NumFaces() ? ConnectedComponents(good) : 0;
+}
 
-  // Directed edge counts for orientation; undirected topology for manifoldness.
+// Directed edge counts for orientation; undirected topology for manifoldness, boundary
+// edges and loops (union-find over boundary edges) and edge lengths.
+void InspectEdges(const TriMesh& good, MeshReport& r) {
   std::map<std::array<int, 2>, int> directed;
   for (int f = 0; f < good.NumFaces(); ++f)
     for (int k = 0; k < 3; ++k) ++directed[{good.F(f, k), good.F(f, (k + 1) % 3)}];
@@ -112,6 +112,21 @@ MeshReport InspectMesh(const TriMesh& mesh) {
     r.edge_p05 = Percentile(lengths, 0.05);
     r.edge_p95 = Percentile(lengths, 0.95);
   }
+}
+
+}  // namespace
+
+MeshReport InspectMesh(const TriMesh& mesh) {
+  MeshReport r;
+  r.vertices = mesh.NumVertices();
+  r.faces = mesh.NumFaces();
+  for (int i = 0; i < r.vertices; ++i)
+    if (!mesh.V.row(i).allFinite()) r.nonfinite_vertices.push_back(i);
+  std::vector<int> good_faces;
+  const TriMesh good = ValidFaces(mesh, r, &good_faces);
+  InspectFaces(good, good_faces, r);
+  r.components = good.NumFaces() ? ConnectedComponents(good) : 0;
+  InspectEdges(good, r);
   if (r.vertices > 0 && r.nonfinite_vertices.empty()) {
     r.bounds_min = mesh.V.colwise().minCoeff().transpose();
     r.bounds_max = mesh.V.colwise().maxCoeff().transpose();

@@ -680,10 +680,11 @@ double Tsdf::Weight(const Vec3& p) const {
   return m.blocks[bi]->weight[LocalOffset(l.x(), l.y(), l.z())];
 }
 
-Points3 Tsdf::SurfacePoints() const {
-  const Impl& m = *impl_;
-  m.EnsureComplete();
-  const float fmu = float(m.mu);
+namespace {
+
+// Tsdf::SurfacePoints' scan: the field's zero crossings along voxel edges, block by block.
+class SurfaceScan {
+ public:
   // A block's values: allocated (its completed values), unobserved interior (-μ), or
   // elsewhere +μ; active = allocated or interior.
   struct BlockValues {
@@ -691,41 +692,31 @@ Points3 Tsdf::SurfacePoints() const {
     float constant = 0;
     bool active = false;
   };
-  auto block_values = [&](const Eigen::Vector3i& b) -> BlockValues {
-    const int bi = m.FindBlock(b);
-    if (bi >= 0) return {m.completed[bi].data(), 0.f, true};
-    const int ci = m.CarveIndex(b);
-    const bool in = ci >= 0 && m.inside[ci];
-    return {nullptr, in ? -fmu : fmu, in};
-  };
-  std::vector<Vec3> pts;
-  auto edge = [&](const Eigen::Vector3i& a, float va, int axis, float vb) {
-    if ((va < 0) == (vb < 0)) return;
-    Vec3 p = a.cast<double>();
-    p[axis] += double(va) / (double(va) - double(vb));
-    pts.push_back(p * m.h);
-  };
-  constexpr int kStride[3] = {64, 8, 1};  // LocalOffset steps along x, y, z
+
+  explicit SurfaceScan(const Tsdf::Impl& m) : m_(m), fmu_(float(m.mu)) {}
+
+  BlockValues Values(const Eigen::Vector3i& b) const {
+    const int bi = m_.FindBlock(b);
+    if (bi >= 0) return {m_.completed[bi].data(), 0.f, true};
+    const int ci = m_.CarveIndex(b);
+    const bool in = ci >= 0 && m_.inside[ci];
+    return {nullptr, in ? -fmu_ : fmu_, in};
+  }
+
   // Each edge (a, a + e) belongs to a's block if that is active, else to the other end's.
-  auto block_edges = [&](const Eigen::Vector3i& b, const BlockValues& self) {
+  void Block(const Eigen::Vector3i& b, const BlockValues& self) {
+    constexpr int kStride[3] = {64, 8, 1};  // LocalOffset steps along x, y, z
     const Eigen::Vector3i base = b * kBlockDim;
     BlockValues high[3];
     bool low_free[3];
     for (int axis = 0; axis < 3; ++axis) {
       Eigen::Vector3i nb = b;
       nb[axis] += 1;
-      high[axis] = block_values(nb);
+      high[axis] = Values(nb);
       nb[axis] -= 2;
-      low_free[axis] = !block_values(nb).active;
+      low_free[axis] = !Values(nb).active;
     }
-    // A block of one sign (free space, deep inside, interior blocks) can only cross at
-    // its faces.
-    bool uniform = true;
-    if (self.values) {
-      int negative = 0;
-      for (int o = 0; o < kBlockVoxels; ++o) negative += self.values[o] < 0;
-      uniform = negative == 0 || negative == kBlockVoxels;
-    }
+    const bool uniform = Uniform(self);
     for (int o = 0; o < kBlockVoxels; ++o) {
       const int l[3] = {o >> 6, (o >> 3) & 7, o & 7};
       const bool face = l[0] == 0 || l[1] == 0 || l[2] == 0 || l[0] == kBlockDim - 1 || l[1] == kBlockDim - 1 ||
@@ -737,21 +728,50 @@ Points3 Tsdf::SurfacePoints() const {
         if (uniform && !is_high && !is_low) continue;
         const Eigen::Vector3i a = base + Eigen::Vector3i(l[0], l[1], l[2]);
         if (!is_high) {
-          if (self.values) edge(a, v, axis, self.values[o + kStride[axis]]);
+          if (self.values) Edge(a, v, axis, self.values[o + kStride[axis]]);
         } else {
           const BlockValues& n = high[axis];
-          edge(a, v, axis, n.values ? n.values[o - (kBlockDim - 1) * kStride[axis]] : n.constant);
+          Edge(a, v, axis, n.values ? n.values[o - (kBlockDim - 1) * kStride[axis]] : n.constant);
         }
         if (is_low) {
           Eigen::Vector3i p = a;
           p[axis] -= 1;
-          edge(p, fmu, axis, v);
+          Edge(p, fmu_, axis, v);
         }
       }
     }
-  };
+  }
+
+  std::vector<Vec3> points;
+
+ private:
+  // A block of one sign (free space, deep inside, interior blocks) can only cross at
+  // its faces.
+  static bool Uniform(const BlockValues& self) {
+    if (!self.values) return true;
+    int negative = 0;
+    for (int o = 0; o < kBlockVoxels; ++o) negative += self.values[o] < 0;
+    return negative == 0 || negative == kBlockVoxels;
+  }
+  void Edge(const Eigen::Vector3i& a, float va, int axis, float vb) {
+    if ((va < 0) == (vb < 0)) return;
+    Vec3 p = a.cast<double>();
+    p[axis] += double(va) / (double(va) - double(vb));
+    points.push_back(p * m_.h);
+  }
+
+  const Tsdf::Impl& m_;
+  const float fmu_;
+};
+
+}  // namespace
+
+Points3 Tsdf::SurfacePoints() const {
+  const Impl& m = *impl_;
+  m.EnsureComplete();
+  SurfaceScan scan(m);
   for (size_t bi = 0; bi < m.blocks.size(); ++bi) {
-    block_edges(m.blocks[bi]->coord, {m.completed[bi].data(), 0.f, true});
+    scan.Block(m.blocks[bi]->coord, {m.completed[bi].data(), 0.f, true});
   }
   for (int bx = 0; bx < m.carve_dims.x(); ++bx)
     for (int by = 0; by < m.carve_dims.y(); ++by)
@@ -759,8 +779,9 @@ Points3 Tsdf::SurfacePoints() const {
         const size_t ci = (size_t(bx) * m.carve_dims.y() + by) * m.carve_dims.z() + bz;
         if (!m.inside[ci]) continue;
         const Eigen::Vector3i b = m.carve_lo + Eigen::Vector3i(bx, by, bz);
-        if (m.FindBlock(b) < 0) block_edges(b, {nullptr, -fmu, true});
+        if (m.FindBlock(b) < 0) scan.Block(b, {nullptr, -float(m.mu), true});
       }
+  const std::vector<Vec3>& pts = scan.points;
   Points3 P(pts.size(), 3);
   for (size_t i = 0; i < pts.size(); ++i) P.row(i) = pts[i].transpose();
   return P;

@@ -323,11 +323,152 @@ Json FinalMessage(const BuildReport& report, const std::exception_ptr& error) {
           {"wall_seconds", report.wall_seconds}};
 }
 
+// Rank 0 serving jobs to the worker ranks: hands out job indices, commits the entries
+// that come back, and keeps the progress line (Coordinate below starts and finishes).
+class JobServer {
+ public:
+  JobServer(const BuildOptions& options, int size, Clock::time_point t0, std::ostream& log, ProgressMode mode,
+            BuildStart& start, std::string expected, BuildReport& report, std::exception_ptr& error)
+      : options_(options),
+        workers_(size - 1),
+        t0_(t0),
+        log_(log),
+        mode_(mode),
+        start_(start),
+        expected_(std::move(expected)),
+        report_(report),
+        error_(error),
+        running_(size, -1),
+        started_(size),
+        active_(size - 1),
+        progress_line_(log, mode, options.progress_interval) {}
+
+  // Until every worker has been told to stop.
+  void Serve() {
+    auto last_tick = Clock::now() - std::chrono::seconds(1);
+    while (active_ > 0) {
+      int flag = 0;
+      MPI_Status st;
+      MPI_Iprobe(MPI_ANY_SOURCE, MPI_ANY_TAG, MPI_COMM_WORLD, &flag, &st);
+      NoteStop();
+      if (!flag) {
+        if (Seconds(last_tick, Clock::now()) >= 0.5) {
+          Progress(false);
+          last_tick = Clock::now();
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(2));
+        continue;
+      }
+      const int w = st.MPI_SOURCE;
+      if (st.MPI_TAG == kReady) {
+        OnReady(w);
+      } else if (st.MPI_TAG == kResult) {
+        OnResult(w);
+      } else {
+        Abort("unexpected message tag " + std::to_string(st.MPI_TAG) + " from rank " + std::to_string(w));
+      }
+    }
+    Progress(true);
+  }
+
+ private:
+  bool Stopping() const { return error_ || report_.aborted || (options_.stop && options_.stop->load()); }
+  void FailBuild(const std::string& why) {
+    if (!report_.aborted) report_.error = why;
+    report_.aborted = true;
+  }
+  int InFlight() const {
+    int in_flight = 0;
+    for (int j : running_) in_flight += j >= 0;
+    return in_flight;
+  }
+  // The next job for worker w, or stop.
+  void HandOut(int w) {
+    if (!Stopping() && next_ < start_.todo.size()) {
+      const int32_t j = start_.todo[next_++];
+      MPI_Send(&j, 1, MPI_INT32_T, w, kJob, MPI_COMM_WORLD);
+      running_[w] = j;
+      started_[w] = Clock::now();
+    } else {
+      MPI_Send(nullptr, 0, MPI_BYTE, w, kStop, MPI_COMM_WORLD);
+      running_[w] = -1;
+      --active_;
+    }
+  }
+  void NoteStop() {
+    if (mode_ == ProgressMode::kQuiet || error_ || stop_noted_ || !options_.stop || !options_.stop->load()) return;
+    stop_noted_ = true;
+    log_ << (mode_ == ProgressMode::kTty ? "\n" : "") << "drape build: interrupted; letting " << InFlight()
+         << " running job(s) finish and commit (--resume continues)\n";
+  }
+  void Progress(bool over) {
+    if (error_) return;
+    const int remaining = static_cast<int>(start_.todo.size()) - finished_;
+    const double eta = finished_ ? busy_seconds_ / finished_ * remaining / std::max(1, workers_) : NAN;
+    progress_line_.Print(report_.already_done + finished_, report_.shard_jobs, report_.failed,
+                         Seconds(t0_, Clock::now()), eta, over,
+                         ", " + std::to_string(InFlight()) + "/" + std::to_string(workers_) + " ranks busy");
+  }
+  // A worker is ready: it must have read the same recipe with the same binary.
+  void OnReady(int w) {
+    const std::string fingerprint = RecvBytes(w, kReady);
+    if (!error_ && fingerprint != expected_)
+      FailBuild("MPI rank " + std::to_string(w) + " differs from rank 0 (" + fingerprint + " vs " + expected_ +
+                "): every rank must read the same recipe with the same drape binary");
+    HandOut(w);
+  }
+  // A worker's result: commit its entry (or fail the build), then its next job.
+  void OnResult(int w) {
+    const std::string frame = RecvBytes(w, kResult);
+    const int job_index = running_[w];
+    if (frame.size() < 9 || job_index < 0) Abort("malformed result from rank " + std::to_string(w));
+    ByteReader header(std::string_view(frame).substr(1, 8), "result");
+    if (static_cast<int>(header.U64("job")) != job_index)
+      Abort("rank " + std::to_string(w) + " returned a job it was not given");
+    const Job& job = start_.jobs[job_index];
+    std::string err;
+    std::optional<Entry> entry = ResultEntry(frame, job, w, options_.keep_going, &err);
+    if (entry) {
+      try {
+        start_.writer->Commit(*entry);
+      } catch (const std::exception& ex) {
+        entry.reset();
+        err = std::string("committing ") + job.key + ": " + ex.what();
+      }
+    }
+    if (!entry) {
+      FailBuild(job.key + ": " + err);
+    } else {
+      ++finished_;
+      busy_seconds_ += Seconds(started_[w], Clock::now());
+      CountEntry(*entry, job, report_);
+    }
+    HandOut(w);
+  }
+
+  const BuildOptions& options_;
+  const int workers_;
+  const Clock::time_point t0_;
+  std::ostream& log_;
+  const ProgressMode mode_;
+  BuildStart& start_;
+  const std::string expected_;
+  BuildReport& report_;
+  std::exception_ptr& error_;
+  std::vector<int> running_;  // job index each worker is computing
+  std::vector<Clock::time_point> started_;
+  int active_;  // workers not yet told to stop
+  size_t next_ = 0;
+  int finished_ = 0;
+  double busy_seconds_ = 0;
+  ProgressLine progress_line_;
+  bool stop_noted_ = false;
+};
+
 // Rank 0: opens the release, serves jobs, commits entries, finalizes, tells every
 // worker the outcome. An exception is stored in `error` (rethrown by the caller
 // after MPI_Finalize) so that the workers are always released.
-MpiBuildOutcome Coordinate(const Recipe& recipe, const BuildOptions& options, int size,
-                           std::exception_ptr& error) {
+MpiBuildOutcome Coordinate(const Recipe& recipe, const BuildOptions& options, int size, std::exception_ptr& error) {
   const auto t0 = Clock::now();
   std::ostream& log = options.log ? *options.log : std::cerr;
   MpiBuildOutcome out;
@@ -353,118 +494,19 @@ MpiBuildOutcome Coordinate(const Recipe& recipe, const BuildOptions& options, in
     error = std::current_exception();
     start.todo.clear();
   }
-  const std::vector<Job>& jobs = start.jobs;
-  const std::vector<int>& todo = start.todo;
-  std::unique_ptr<ReleaseWriter>& writer = start.writer;
-
-  std::vector<int> running(size, -1);  // job index each worker is computing
-  std::vector<Clock::time_point> started(size);
-  int active = workers;  // workers not yet told to stop
-  size_t next = 0;
-  int finished = 0;
-  double busy_seconds = 0;
-  auto stopping = [&] { return error || report.aborted || (options.stop && options.stop->load()); };
-  auto fail_build = [&](const std::string& why) {
-    if (!report.aborted) report.error = why;
-    report.aborted = true;
-  };
-  auto hand_out = [&](int w) {
-    if (!stopping() && next < todo.size()) {
-      const int32_t j = todo[next++];
-      MPI_Send(&j, 1, MPI_INT32_T, w, kJob, MPI_COMM_WORLD);
-      running[w] = j;
-      started[w] = Clock::now();
-    } else {
-      MPI_Send(nullptr, 0, MPI_BYTE, w, kStop, MPI_COMM_WORLD);
-      running[w] = -1;
-      --active;
-    }
-  };
-
-  ProgressLine progress_line(log, mode, options.progress_interval);
-  bool stop_noted = false;
-  auto note_stop = [&] {
-    if (mode == ProgressMode::kQuiet || error || stop_noted || !options.stop || !options.stop->load()) return;
-    stop_noted = true;
-    int in_flight = 0;
-    for (int j : running) in_flight += j >= 0;
-    log << (mode == ProgressMode::kTty ? "\n" : "") << "drape build: interrupted; letting " << in_flight
-        << " running job(s) finish and commit (--resume continues)\n";
-  };
-  auto progress = [&](bool over) {
-    if (error) return;
-    int in_flight = 0;
-    for (int j : running) in_flight += j >= 0;
-    const int remaining = static_cast<int>(todo.size()) - finished;
-    const double eta = finished ? busy_seconds / finished * remaining / std::max(1, workers) : NAN;
-    progress_line.Print(report.already_done + finished, report.shard_jobs, report.failed, Seconds(t0, Clock::now()),
-                        eta, over, ", " + std::to_string(in_flight) + "/" + std::to_string(workers) + " ranks busy");
-  };
-
-  auto last_tick = Clock::now() - std::chrono::seconds(1);
-  while (active > 0) {
-    int flag = 0;
-    MPI_Status st;
-    MPI_Iprobe(MPI_ANY_SOURCE, MPI_ANY_TAG, MPI_COMM_WORLD, &flag, &st);
-    note_stop();
-    if (!flag) {
-      if (Seconds(last_tick, Clock::now()) >= 0.5) {
-        progress(false);
-        last_tick = Clock::now();
-      }
-      std::this_thread::sleep_for(std::chrono::milliseconds(2));
-      continue;
-    }
-    const int w = st.MPI_SOURCE;
-    if (st.MPI_TAG == kReady) {
-      const std::string fingerprint = RecvBytes(w, kReady);
-      if (!error && fingerprint != expected)
-        fail_build("MPI rank " + std::to_string(w) + " differs from rank 0 (" + fingerprint + " vs " + expected +
-                   "): every rank must read the same recipe with the same drape binary");
-      hand_out(w);
-    } else if (st.MPI_TAG == kResult) {
-      const std::string frame = RecvBytes(w, kResult);
-      const int job_index = running[w];
-      if (frame.size() < 9 || job_index < 0) Abort("malformed result from rank " + std::to_string(w));
-      ByteReader header(std::string_view(frame).substr(1, 8), "result");
-      if (static_cast<int>(header.U64("job")) != job_index)
-        Abort("rank " + std::to_string(w) + " returned a job it was not given");
-      const Job& job = jobs[job_index];
-      std::string err;
-      std::optional<Entry> entry = ResultEntry(frame, job, w, options.keep_going, &err);
-      if (entry) {
-        try {
-          writer->Commit(*entry);
-        } catch (const std::exception& ex) {
-          entry.reset();
-          err = std::string("committing ") + job.key + ": " + ex.what();
-        }
-      }
-      if (!entry) {
-        fail_build(job.key + ": " + err);
-      } else {
-        ++finished;
-        busy_seconds += Seconds(started[w], Clock::now());
-        CountEntry(*entry, job, report);
-      }
-      hand_out(w);
-    } else {
-      Abort("unexpected message tag " + std::to_string(st.MPI_TAG) + " from rank " + std::to_string(w));
-    }
-  }
-  progress(true);
+  JobServer(options, size, t0, log, mode, start, expected, report, error).Serve();
 
   if (!error) {
     try {
-      writer->SetBuildInfo("threads", 1);
-      writer->SetBuildInfo("mpi_ranks", size);
-      writer->SetBuildInfo("mpi_workers", workers);
-      FinishBuild(*writer, report, mode, log);
+      start.writer->SetBuildInfo("threads", 1);
+      start.writer->SetBuildInfo("mpi_ranks", size);
+      start.writer->SetBuildInfo("mpi_workers", workers);
+      FinishBuild(*start.writer, report, mode, log);
     } catch (...) {
       error = std::current_exception();
     }
   }
-  writer.reset();  // releases the lock before the workers are let go
+  start.writer.reset();  // releases the lock before the workers are let go
   report.wall_seconds = Seconds(t0, Clock::now());
 
   const std::string bytes = FinalMessage(report, error).dump();

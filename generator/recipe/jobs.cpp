@@ -67,6 +67,57 @@ std::vector<int> ShardJobs(int num_jobs, int k, int n) {
   return out;
 }
 
+namespace {
+
+// The selector's anchors (else the garment's); with max_anchors a seeded sample, kept in
+// the garment's label order.
+std::vector<std::string> SelectedAnchors(const Recipe& recipe, const std::string& split, const SplitSelector& sel,
+                                         const GarmentSpec& g, const std::string& iname) {
+  std::vector<std::string> anchors = sel.anchors.empty() ? g.anchor_labels : sel.anchors;
+  if (sel.max_anchors > 0 && sel.max_anchors < static_cast<int>(anchors.size())) {
+    Rng rng(DeriveSeed(recipe.seed, "select/" + split + "/" + iname));
+    std::vector<int> idx(anchors.size());
+    for (size_t i = 0; i < idx.size(); ++i) idx[i] = static_cast<int>(i);
+    for (size_t i = idx.size() - 1; i > 0; --i) std::swap(idx[i], idx[rng.Below(i + 1)]);
+    idx.resize(sel.max_anchors);
+    std::sort(idx.begin(), idx.end());
+    std::vector<std::string> picked;
+    for (int i : idx) picked.push_back(anchors[i]);
+    anchors = picked;
+  }
+  return anchors;
+}
+
+// The material with its seeded relative jitter (stretch, friction, density, bending).
+Material JitteredMaterial(const Recipe& recipe, const Perturbation& pt, const std::string& iname,
+                          const std::string& mname, double jitter[4]) {
+  Material m = recipe.materials.at(mname);
+  if (pt.material_jitter > 0) {
+    Rng rng(DeriveSeed(recipe.seed, iname + "/" + mname + "/material_jitter"));
+    for (int k = 0; k < 4; ++k) jitter[k] = rng.Uniform(-pt.material_jitter, pt.material_jitter);
+    m.stretch_percent *= 1 + jitter[0];
+    m.friction_deg *= 1 + jitter[1];
+    m.area_density *= 1 + jitter[2];
+    m.bending_stiffness *= 1 + jitter[3];
+  }
+  return m;
+}
+
+// Ids: zero-padded index (at least 5 digits) + slug of the key; keys must be unique.
+void AssignIds(std::vector<Job>& jobs) {
+  int width = 5;
+  for (size_t n = jobs.size(); n >= 100000; n /= 10) ++width;
+  std::set<std::string> keys;
+  for (auto& j : jobs) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%0*d", width, j.index);
+    j.id = std::string(buf) + "-" + Slug(j.key);
+    DRAPE_CHECK(keys.insert(j.key).second, "duplicate job key " + j.key);
+  }
+}
+
+}  // namespace
+
 std::vector<Job> ExpandJobs(const Recipe& recipe) {
   std::vector<Job> jobs;
   for (const auto& split : recipe.splits) {
@@ -78,40 +129,21 @@ std::vector<Job> ExpandJobs(const Recipe& recipe) {
       const auto& materials = sel.materials.empty() ? g->materials : sel.materials;
       for (int inst : sel.instances) {
         const std::string iname = g->name + "/i" + std::to_string(inst);
-        std::vector<std::string> anchors = sel.anchors.empty() ? g->anchor_labels : sel.anchors;
-        if (sel.max_anchors > 0 && sel.max_anchors < static_cast<int>(anchors.size())) {
-          // A seeded sample, kept in the garment's label order.
-          Rng rng(DeriveSeed(recipe.seed, "select/" + split.name + "/" + iname));
-          std::vector<int> idx(anchors.size());
-          for (size_t i = 0; i < idx.size(); ++i) idx[i] = static_cast<int>(i);
-          for (size_t i = idx.size() - 1; i > 0; --i) std::swap(idx[i], idx[rng.Below(i + 1)]);
-          idx.resize(sel.max_anchors);
-          std::sort(idx.begin(), idx.end());
-          std::vector<std::string> picked;
-          for (int i : idx) picked.push_back(anchors[i]);
-          anchors = picked;
-        }
+        const std::vector<std::string> anchors = SelectedAnchors(recipe, split.name, sel, *g, iname);
         double size_scale = 1.0;
         if (pt.size_scale_max != pt.size_scale_min || pt.size_scale_min != 1.0) {
           Rng rng(DeriveSeed(recipe.seed, iname + "/size_scale"));
           size_scale = rng.Uniform(pt.size_scale_min, pt.size_scale_max);
         }
         for (const auto& mname : materials) {
-          Material m = recipe.materials.at(mname);
           double jitter[4] = {0, 0, 0, 0};
-          if (pt.material_jitter > 0) {
-            Rng rng(DeriveSeed(recipe.seed, iname + "/" + mname + "/material_jitter"));
-            for (double& j : jitter) j = rng.Uniform(-pt.material_jitter, pt.material_jitter);
-            m.stretch_percent *= 1 + jitter[0];
-            m.friction_deg *= 1 + jitter[1];
-            m.area_density *= 1 + jitter[2];
-            m.bending_stiffness *= 1 + jitter[3];
-          }
+          const Material m = JitteredMaterial(recipe, pt, iname, mname, jitter);
           for (const auto& anchor : anchors) {
             for (int rep = 0; rep < split.repeats; ++rep) {
               Job j;
               j.index = static_cast<int>(jobs.size());
-              const std::string base = iname + "/" + mname + "/" + anchor + (split.repeats > 1 ? "/p" + std::to_string(rep) : "");
+              const std::string base =
+                  iname + "/" + mname + "/" + anchor + (split.repeats > 1 ? "/p" + std::to_string(rep) : "");
               const bool ladder = split.name.rfind("test_", 0) == 0;
               j.key = ladder ? split.name + "/" + base : base;
               j.split = split.name;
@@ -142,16 +174,7 @@ std::vector<Job> ExpandJobs(const Recipe& recipe) {
       }
     }
   }
-  // Ids: zero-padded index (at least 5 digits) + slug of the key.
-  int width = 5;
-  for (size_t n = jobs.size(); n >= 100000; n /= 10) ++width;
-  std::set<std::string> keys;
-  for (auto& j : jobs) {
-    char buf[32];
-    std::snprintf(buf, sizeof buf, "%0*d", width, j.index);
-    j.id = std::string(buf) + "-" + Slug(j.key);
-    DRAPE_CHECK(keys.insert(j.key).second, "duplicate job key " + j.key);
-  }
+  AssignIds(jobs);
   return jobs;
 }
 

@@ -15,6 +15,7 @@
 #include "common/error.h"
 #include "common/field_error.h"
 #include "common/files.h"
+#include "common/yaml.h"
 #include "garments/io.h"
 #include "generator/recipe/keys.h"
 
@@ -91,12 +92,7 @@ class Parser {
     Fail(n.Mark(), path, what);
   }
 
-  static std::string Describe(const YAML::Node& n) {
-    if (!n.IsDefined() || n.IsNull()) return "nothing";
-    if (n.IsMap()) return "a mapping";
-    if (n.IsSequence()) return "a list";
-    return "'" + n.Scalar() + "'";
-  }
+  static std::string Describe(const YAML::Node& n) { return DescribeYaml(n); }
 
   void RequireMap(const YAML::Node& n, const std::string& path) const {
     if (!n.IsMap()) Fail(n, path, "expected a mapping, got " + Describe(n));
@@ -136,15 +132,10 @@ class Parser {
     return Number(n, Sub(path, key));
   }
   double Number(const YAML::Node& n, const std::string& p) const {
-    if (!n.IsScalar()) Fail(n, p, "expected a number, got " + Describe(n));
-    double v;
-    try {
-      v = n.as<double>();
-    } catch (const YAML::Exception&) {
-      Fail(n, p, "expected a number, got " + Describe(n));
-    }
-    if (!std::isfinite(v)) Fail(n, p, "must be finite");
-    return v;
+    const std::optional<double> v = YamlNumber(n);
+    if (!v) Fail(n, p, "expected a number, got " + Describe(n));
+    if (!std::isfinite(*v)) Fail(n, p, "must be finite");
+    return *v;
   }
 
   void Read(const YAML::Node& map, const std::string& key, const std::string& path, double& out) const {
@@ -744,15 +735,7 @@ SplitSpec EverythingInTrain(const Recipe& r) {
 
 Recipe ParseRecipe(const std::string& text, const std::string& file_label, const fs::path& base_dir,
                    const std::map<std::string, fs::path>* files) {
-  YAML::Node loaded;
-  try {
-    loaded = YAML::Load(text);
-  } catch (const YAML::Exception& e) {
-    std::ostringstream os;
-    os << file_label << ":" << e.mark.line + 1 << ":" << e.mark.column + 1 << ": YAML syntax error: " << e.msg;
-    throw Error(os.str());
-  }
-  const YAML::Node root = loaded;  // const: lookups must not insert keys
+  const YAML::Node root = LoadYaml(text, file_label);  // const: lookups must not insert keys
   Recipe r;
   r.file_label = file_label;
   r.text = text;

@@ -127,6 +127,146 @@ void BindText(sqlite3_stmt* st, int i, const std::string& s) {
 
 }  // namespace
 
+namespace {
+
+// The entries table's columns beyond the fixed ones: one per record leaf (flattened path,
+// in first-seen order over entries sorted by id) and one BLOB per blob file.
+struct CatalogColumns {
+  std::vector<std::string> rec_paths;                          // flattened path
+  std::map<std::string, std::string> col_of, type_of;          // path → column, column → type
+  std::set<std::string> big_ints;                              // columns stored as decimal text
+  std::vector<std::pair<std::string, std::string>> blob_cols;  // file, column
+};
+
+CatalogColumns PlanColumns(const std::vector<Release::EntryInfo>& entries, const std::vector<std::string>& blob_files) {
+  CatalogColumns c;
+  const std::vector<std::string> fixed = {"id",      "key",          "split",       "failed",
+                                          "failure", "entry_digest", "record_json", "files_json"};
+  std::set<std::string> used(fixed.begin(), fixed.end());
+  for (const auto& e : entries) {
+    std::vector<std::pair<std::string, const Json*>> leaves;
+    Flatten(e.record, "", &leaves);
+    for (const auto& [p, v] : leaves) {
+      if (!c.col_of.count(p)) {
+        std::string col = Sanitize(p);
+        if (used.count(col)) col = "record_" + col;
+        for (int k = 2; used.count(col); ++k) col = Sanitize(p) + "_" + std::to_string(k);
+        used.insert(col);
+        c.col_of[p] = col;
+        c.rec_paths.push_back(p);
+      }
+      const std::string& col = c.col_of[p];
+      if (!c.type_of.count(col) && !v->is_null()) c.type_of[col] = TypeOf(*v);
+      if (v->is_number_unsigned() && v->get<uint64_t>() > static_cast<uint64_t>(INT64_MAX)) c.big_ints.insert(col);
+    }
+  }
+  for (const auto& b : blob_files) {
+    std::string col = Sanitize(fs::path(b).stem().string());
+    for (int k = 2; used.count(col); ++k) col = Sanitize(fs::path(b).stem().string()) + "_" + std::to_string(k);
+    used.insert(col);
+    c.blob_cols.emplace_back(b, col);
+  }
+  return c;
+}
+
+void CreateTables(Db& db, const CatalogColumns& cols) {
+  std::string create =
+      "CREATE TABLE entries (id TEXT PRIMARY KEY, key TEXT NOT NULL UNIQUE, split TEXT NOT NULL, "
+      "failed INTEGER NOT NULL, failure TEXT NOT NULL, entry_digest TEXT NOT NULL";
+  for (const auto& p : cols.rec_paths) {
+    const std::string& c = cols.col_of.at(p);
+    create += ", " + Quote(c) + " " +
+              (cols.type_of.count(c) && !cols.big_ints.count(c) ? cols.type_of.at(c) : std::string("TEXT"));
+  }
+  create += ", record_json TEXT NOT NULL, files_json TEXT NOT NULL";
+  for (const auto& [f, c] : cols.blob_cols) create += ", " + Quote(c) + " BLOB";
+  create += ")";
+  db.Exec(create);
+  db.Exec("CREATE TABLE files (id TEXT NOT NULL, path TEXT NOT NULL, sha256 TEXT NOT NULL, "
+          "size INTEGER NOT NULL, PRIMARY KEY (id, path))");
+  db.Exec("CREATE TABLE jobs (position INTEGER PRIMARY KEY, key TEXT NOT NULL UNIQUE, id TEXT)");
+  db.Exec("CREATE TABLE meta (key TEXT PRIMARY KEY, value TEXT NOT NULL)");
+}
+
+// One entries row (fixed columns, record leaves, record and files JSON, blobs read from
+// the entry folder) and its files rows.
+void InsertEntry(Db& db, Stmt& se, Stmt& sf, const Release::EntryInfo& e, const CatalogColumns& cols,
+                 const fs::path& release_dir) {
+  int i = 1;
+  BindText(se.st, i++, e.id);
+  BindText(se.st, i++, e.key);
+  BindText(se.st, i++, e.split);
+  sqlite3_bind_int(se.st, i++, e.failed ? 1 : 0);
+  BindText(se.st, i++, e.failure);
+  BindText(se.st, i++, e.entry_digest);
+  std::vector<std::pair<std::string, const Json*>> leaves;
+  Flatten(e.record, "", &leaves);
+  std::map<std::string, const Json*> by_path(leaves.begin(), leaves.end());
+  for (const auto& p : cols.rec_paths) {
+    auto it = by_path.find(p);
+    if (it == by_path.end())
+      sqlite3_bind_null(se.st, i++);
+    else
+      Bind(se.st, i++, *it->second, cols.big_ints.count(cols.col_of.at(p)) > 0);
+  }
+  BindText(se.st, i++, e.record.dump());
+  Json files = Json::array();
+  for (const auto& f : e.files) files.push_back({{"path", f.path}, {"sha256", f.sha256}, {"size", f.size}});
+  BindText(se.st, i++, files.dump());
+  for (const auto& [fname, col] : cols.blob_cols) {
+    bool have = false;
+    for (const auto& f : e.files) have = have || f.path == fname;
+    if (!have) {
+      sqlite3_bind_null(se.st, i++);
+      continue;
+    }
+    const std::string bytes = ReadFile(release_dir / "entries" / e.id / fname);
+    sqlite3_bind_blob(se.st, i++, bytes.data(), static_cast<int>(bytes.size()), SQLITE_TRANSIENT);
+  }
+  db.Step(se.st);
+  for (const auto& f : e.files) {
+    BindText(sf.st, 1, e.id);
+    BindText(sf.st, 2, f.path);
+    BindText(sf.st, 3, f.sha256);
+    sqlite3_bind_int64(sf.st, 4, static_cast<int64_t>(f.size));
+    db.Step(sf.st);
+  }
+}
+
+// The jobs table: every job key in order, with its entry id (NULL for another shard's).
+void InsertJobs(Db& db, const std::vector<std::string>& job_keys, const std::map<std::string, std::string>& id_of_key) {
+  Stmt sj{db.Prepare("INSERT INTO jobs VALUES (?,?,?)")};
+  for (size_t k = 0; k < job_keys.size(); ++k) {
+    sqlite3_bind_int64(sj.st, 1, static_cast<int64_t>(k));
+    BindText(sj.st, 2, job_keys[k]);
+    auto it = id_of_key.find(job_keys[k]);
+    if (it == id_of_key.end())
+      sqlite3_bind_null(sj.st, 3);
+    else
+      BindText(sj.st, 3, it->second);
+    db.Step(sj.st);
+  }
+}
+
+// The meta table: only content-defining facts, no code version, no times (they vary
+// between builds).
+void InsertMeta(Db& db, const Json& dataset_meta) {
+  Stmt sm{db.Prepare("INSERT INTO meta VALUES (?,?)")};
+  const Json m{{"name", dataset_meta.value("name", "")},
+               {"version", dataset_meta.value("version", "")},
+               {"seed", dataset_meta.value("seed", Json()).dump()},
+               {"recipe_sha256", dataset_meta["recipe"].value("sha256", "")},
+               {"digest", dataset_meta.value("digest", "")},
+               {"digest_algorithm", dataset_meta.value("digest_algorithm", "")}};
+  for (auto it = m.begin(); it != m.end(); ++it) {
+    BindText(sm.st, 1, it.key());
+    BindText(sm.st, 2, it.value().get<std::string>());
+    db.Step(sm.st);
+  }
+}
+
+}  // namespace
+
 void WriteCatalog(const fs::path& path, const fs::path& release_dir, const Json& dataset_meta,
                   const std::vector<Release::EntryInfo>& entries, const std::vector<std::string>& job_keys,
                   const std::vector<std::string>& blob_files) {
@@ -134,130 +274,24 @@ void WriteCatalog(const fs::path& path, const fs::path& release_dir, const Json&
   // No rollback journal and no WAL: the file is built once, beside its final name.
   db.Exec("PRAGMA journal_mode=OFF; PRAGMA synchronous=OFF; PRAGMA page_size=4096;");
   db.Exec("BEGIN");
-
-  const std::vector<std::string> fixed = {"id", "key", "split", "failed", "failure", "entry_digest",
-                                          "record_json", "files_json"};
-  std::set<std::string> used(fixed.begin(), fixed.end());
-  // Record columns in first-seen order over entries sorted by id.
-  std::vector<std::string> rec_paths;                 // flattened path
-  std::map<std::string, std::string> col_of, type_of; // path → column, column type
-  std::set<std::string> big_ints;                     // columns stored as decimal text
-  for (const auto& e : entries) {
-    std::vector<std::pair<std::string, const Json*>> leaves;
-    Flatten(e.record, "", &leaves);
-    for (const auto& [p, v] : leaves) {
-      if (!col_of.count(p)) {
-        std::string c = Sanitize(p);
-        if (used.count(c)) c = "record_" + c;
-        for (int k = 2; used.count(c); ++k) c = Sanitize(p) + "_" + std::to_string(k);
-        used.insert(c);
-        col_of[p] = c;
-        rec_paths.push_back(p);
-      }
-      if (!type_of.count(col_of[p]) && !v->is_null()) type_of[col_of[p]] = TypeOf(*v);
-      if (v->is_number_unsigned() && v->get<uint64_t>() > static_cast<uint64_t>(INT64_MAX))
-        big_ints.insert(col_of[p]);
-    }
-  }
-  std::vector<std::pair<std::string, std::string>> blob_cols;  // file, column
-  for (const auto& b : blob_files) {
-    std::string c = Sanitize(fs::path(b).stem().string());
-    for (int k = 2; used.count(c); ++k) c = Sanitize(fs::path(b).stem().string()) + "_" + std::to_string(k);
-    used.insert(c);
-    blob_cols.emplace_back(b, c);
-  }
-
-  std::string create =
-      "CREATE TABLE entries (id TEXT PRIMARY KEY, key TEXT NOT NULL UNIQUE, split TEXT NOT NULL, "
-      "failed INTEGER NOT NULL, failure TEXT NOT NULL, entry_digest TEXT NOT NULL";
-  for (const auto& p : rec_paths) {
-    const std::string& c = col_of[p];
-    create += ", " + Quote(c) + " " + (type_of.count(c) && !big_ints.count(c) ? type_of[c] : std::string("TEXT"));
-  }
-  create += ", record_json TEXT NOT NULL, files_json TEXT NOT NULL";
-  for (const auto& [f, c] : blob_cols) create += ", " + Quote(c) + " BLOB";
-  create += ")";
-  db.Exec(create);
-  db.Exec("CREATE TABLE files (id TEXT NOT NULL, path TEXT NOT NULL, sha256 TEXT NOT NULL, "
-          "size INTEGER NOT NULL, PRIMARY KEY (id, path))");
-  db.Exec("CREATE TABLE jobs (position INTEGER PRIMARY KEY, key TEXT NOT NULL UNIQUE, id TEXT)");
-  db.Exec("CREATE TABLE meta (key TEXT PRIMARY KEY, value TEXT NOT NULL)");
+  const CatalogColumns cols = PlanColumns(entries, blob_files);
+  CreateTables(db, cols);
 
   std::string ins = "INSERT INTO entries VALUES (?,?,?,?,?,?";
-  for (size_t i = 0; i < rec_paths.size() + 2 + blob_cols.size(); ++i) ins += ",?";
+  for (size_t i = 0; i < cols.rec_paths.size() + 2 + cols.blob_cols.size(); ++i) ins += ",?";
   ins += ")";
   Stmt se{db.Prepare(ins)};
   Stmt sf{db.Prepare("INSERT INTO files VALUES (?,?,?,?)")};
   std::map<std::string, std::string> id_of_key;
   for (const auto& e : entries) {
     id_of_key[e.key] = e.id;
-    int i = 1;
-    BindText(se.st, i++, e.id);
-    BindText(se.st, i++, e.key);
-    BindText(se.st, i++, e.split);
-    sqlite3_bind_int(se.st, i++, e.failed ? 1 : 0);
-    BindText(se.st, i++, e.failure);
-    BindText(se.st, i++, e.entry_digest);
-    std::vector<std::pair<std::string, const Json*>> leaves;
-    Flatten(e.record, "", &leaves);
-    std::map<std::string, const Json*> by_path(leaves.begin(), leaves.end());
-    for (const auto& p : rec_paths) {
-      auto it = by_path.find(p);
-      if (it == by_path.end()) sqlite3_bind_null(se.st, i++);
-      else Bind(se.st, i++, *it->second, big_ints.count(col_of[p]) > 0);
-    }
-    BindText(se.st, i++, e.record.dump());
-    Json files = Json::array();
-    for (const auto& f : e.files) files.push_back({{"path", f.path}, {"sha256", f.sha256}, {"size", f.size}});
-    BindText(se.st, i++, files.dump());
-    for (const auto& [fname, col] : blob_cols) {
-      bool have = false;
-      for (const auto& f : e.files) have = have || f.path == fname;
-      if (!have) {
-        sqlite3_bind_null(se.st, i++);
-        continue;
-      }
-      const std::string bytes = ReadFile(release_dir / "entries" / e.id / fname);
-      sqlite3_bind_blob(se.st, i++, bytes.data(), static_cast<int>(bytes.size()), SQLITE_TRANSIENT);
-    }
-    db.Step(se.st);
-    for (const auto& f : e.files) {
-      BindText(sf.st, 1, e.id);
-      BindText(sf.st, 2, f.path);
-      BindText(sf.st, 3, f.sha256);
-      sqlite3_bind_int64(sf.st, 4, static_cast<int64_t>(f.size));
-      db.Step(sf.st);
-    }
+    InsertEntry(db, se, sf, e, cols, release_dir);
   }
-  {
-    Stmt sj{db.Prepare("INSERT INTO jobs VALUES (?,?,?)")};
-    for (size_t k = 0; k < job_keys.size(); ++k) {
-      sqlite3_bind_int64(sj.st, 1, static_cast<int64_t>(k));
-      BindText(sj.st, 2, job_keys[k]);
-      auto it = id_of_key.find(job_keys[k]);
-      if (it == id_of_key.end()) sqlite3_bind_null(sj.st, 3);
-      else BindText(sj.st, 3, it->second);
-      db.Step(sj.st);
-    }
-  }
-  {
-    // Only content-defining facts: no code version, no times (they vary between builds).
-    Stmt sm{db.Prepare("INSERT INTO meta VALUES (?,?)")};
-    const Json m{{"name", dataset_meta.value("name", "")},
-                 {"version", dataset_meta.value("version", "")},
-                 {"seed", dataset_meta.value("seed", Json()).dump()},
-                 {"recipe_sha256", dataset_meta["recipe"].value("sha256", "")},
-                 {"digest", dataset_meta.value("digest", "")},
-                 {"digest_algorithm", dataset_meta.value("digest_algorithm", "")}};
-    for (auto it = m.begin(); it != m.end(); ++it) {
-      BindText(sm.st, 1, it.key());
-      BindText(sm.st, 2, it.value().get<std::string>());
-      db.Step(sm.st);
-    }
-  }
+  InsertJobs(db, job_keys, id_of_key);
+  InsertMeta(db, dataset_meta);
   db.Exec("CREATE INDEX entries_split ON entries(split)");
-  if (std::find(rec_paths.begin(), rec_paths.end(), "category") != rec_paths.end())
-    db.Exec("CREATE INDEX entries_category ON entries(" + Quote(col_of["category"]) + ")");
+  if (std::find(cols.rec_paths.begin(), cols.rec_paths.end(), "category") != cols.rec_paths.end())
+    db.Exec("CREATE INDEX entries_category ON entries(" + Quote(cols.col_of.at("category")) + ")");
   db.Exec("COMMIT");
 }
 

@@ -601,6 +601,99 @@ std::unique_ptr<ReleaseWriter> ReleaseWriter::Open(const fs::path& dir_in, const
   }
 }
 
+namespace {
+
+// The identity fields where `have` differs from this build's, one line each after
+// `what`; empty when all agree.
+std::string IdentityDiff(const Json& identity, const Json& have, const std::string& what) {
+  std::string diffs;
+  for (auto it = identity.begin(); it != identity.end(); ++it) {
+    if (!have.contains(it.key()) || have[it.key()] != it.value()) {
+      diffs += "\n  " + it.key() + ": folder has " +
+               (have.contains(it.key()) ? have[it.key()].dump() : std::string("nothing")) + ", this build has " +
+               it.value().dump();
+    }
+  }
+  return diffs.empty() ? std::string() : what + diffs;
+}
+
+// IdentityJson's fields as a finished release's dataset.json records them.
+Json FinishedIdentity(const Json& ds, const std::string& where) {
+  Json have{{"name", ds.value("name", "")},
+            {"version", ds.value("version", "")},
+            {"seed", ds.value("seed", Json())},
+            {"recipe_sha256", ds.value("recipe", Json::object()).value("sha256", "")},
+            {"code_version", ds.value("code_version", "")},
+            {"jobs_sha256", ds.value("jobs", Json::object()).value("keys_sha256", "")},
+            {"shard_index", ds.value("shard", Json::object()).value("index", 0)},
+            {"shard_count", ds.value("shard", Json::object()).value("count", 1)}};
+  if (ds.contains("sources")) have["sources_sha256"] = SourcesSha(SourceSums(ds, where));
+  return have;
+}
+
+// A published reference (dataset.json + SHA256SUMS committed under datasets/) of this
+// very release: its digest, which the build must reproduce.
+std::string PublishedDigest(const fs::path& dir, const ReleaseMeta& meta) {
+  if (!DirHasOnly(dir, {"dataset.json", "SHA256SUMS", "README.md", kLockFile}))
+    throw Error(dir.string() + ": has SHA256SUMS but is neither a release nor a published reference");
+  const Json ds = Json::parse(ReadFile(dir / "dataset.json"));
+  if (ds.value("name", "") != meta.name || ds.value("version", "") != meta.version) {
+    throw Error(dir.string() + ": holds the published reference of " + ds.value("name", "") + " " +
+                ds.value("version", "") + ", not of " + meta.name + " " + meta.version);
+  }
+  return ds.value("digest", "");
+}
+
+// An entry's own checks: safe id, split and file paths, none given twice, none both a
+// file and a folder ("a" and "a/b"), entry.json reserved.
+void CheckEntryNames(const Entry& entry, const std::string& where) {
+  CheckSafeName(entry.id, "entry id");
+  CheckSafeName(entry.split, where + ": split");
+  std::set<std::string> paths;
+  for (const auto& f : entry.files) {
+    CheckSafeRelPath(f.path, where + ": file");
+    if (f.path == kEntryJson) throw Error(where + ": file name 'entry.json' is reserved");
+    if (!paths.insert(f.path).second) throw Error(where + ": file '" + f.path + "' given twice");
+  }
+  for (const auto& p : paths) {
+    auto it = paths.lower_bound(p + "/");
+    if (it != paths.end() && it->rfind(p + "/", 0) == 0)
+      throw Error(where + ": '" + p + "' is both a file and a folder");
+  }
+}
+
+// Writes the entry's files and entry.json into `staging` (which must not exist) and
+// makes them durable.
+void StageEntry(const Entry& entry, const fs::path& staging) {
+  Release::EntryInfo info;
+  info.id = entry.id;
+  info.key = entry.key;
+  info.split = entry.split;
+  info.failed = entry.failed;
+  info.failure = entry.failure;
+  info.record = entry.record.is_null() ? Json::object() : entry.record;
+  fs::create_directories(staging);
+  std::set<fs::path> dirs{staging};
+  for (const auto& f : entry.files) {
+    const fs::path p = staging / f.path;
+    if (p.parent_path() != staging && !dirs.count(p.parent_path())) {
+      fs::create_directories(p.parent_path());
+      for (fs::path q = p.parent_path(); q != staging; q = q.parent_path()) dirs.insert(q);
+    }
+    WriteFileNew(p, f.bytes);
+    info.files.push_back({f.path, Sha256Hex(f.bytes), f.bytes.size()});
+  }
+  std::sort(info.files.begin(), info.files.end(), [](auto& a, auto& b) { return a.path < b.path; });
+  info.entry_digest = EntryDigest(info.id, info.key, info.split, info.failed, info.failure, info.record, info.files);
+  WriteFileNew(staging / kEntryJson, EntryJson(info).dump(1) + "\n");
+  // One syncfs() per entry makes its files and folders durable before the rename (a
+  // per-file fsync costs ~15 ms each: seconds for a 300-frame sweep).
+  const UniqueFd fd(::open(staging.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC));
+  if (fd.valid()) ::syncfs(fd.get());
+}
+
+}  // namespace
+
 std::unique_ptr<ReleaseWriter> ReleaseWriter::OpenLocked(std::unique_ptr<Impl>& impl, const ReleaseMeta& meta,
                                                          bool resume, bool existed) {
   const fs::path dir = impl->dir;
@@ -609,25 +702,15 @@ std::unique_ptr<ReleaseWriter> ReleaseWriter::OpenLocked(std::unique_ptr<Impl>& 
 
   const Json identity = IdentityJson(meta);
   const fs::path meta_path = impl->build_dir() / "meta.json";
-  auto mismatch = [&](const Json& have, const std::string& what) {
-    std::string diffs;
-    for (auto it = identity.begin(); it != identity.end(); ++it) {
-      if (!have.contains(it.key()) || have[it.key()] != it.value()) {
-        diffs += "\n  " + it.key() + ": folder has " +
-                 (have.contains(it.key()) ? have[it.key()].dump() : std::string("nothing")) +
-                 ", this build has " + it.value().dump();
-      }
-    }
-    return diffs.empty() ? std::string() : what + diffs;
-  };
 
   Json build_meta;
   if (fs::exists(meta_path)) {
     // An unfinished build: resume only the very same one.
     build_meta = Json::parse(ReadFile(meta_path));
-    const std::string diff = mismatch(build_meta.value("identity", Json::object()),
-                                      dir.string() + " holds an unfinished build of different inputs; "
-                                      "delete the folder or build with the same recipe and code:");
+    const std::string diff = IdentityDiff(identity, build_meta.value("identity", Json::object()),
+                                          dir.string() +
+                                              " holds an unfinished build of different inputs; "
+                                              "delete the folder or build with the same recipe and code:");
     if (!diff.empty()) throw Error(diff);
     impl->published_digest = build_meta.value("published_digest", std::string());
   } else {
@@ -641,37 +724,20 @@ std::unique_ptr<ReleaseWriter> ReleaseWriter::OpenLocked(std::unique_ptr<Impl>& 
       } catch (const std::exception& e) {
         throw Error((dir / "dataset.json").string() + ": unreadable finished release: " + e.what());
       }
-      Json have{{"name", ds.value("name", "")},
-                {"version", ds.value("version", "")},
-                {"seed", ds.value("seed", Json())},
-                {"recipe_sha256", ds.value("recipe", Json::object()).value("sha256", "")},
-                {"code_version", ds.value("code_version", "")},
-                {"jobs_sha256", ds.value("jobs", Json::object()).value("keys_sha256", "")},
-                {"shard_index", ds.value("shard", Json::object()).value("index", 0)},
-                {"shard_count", ds.value("shard", Json::object()).value("count", 1)}};
-      if (ds.contains("sources")) have["sources_sha256"] = SourcesSha(SourceSums(ds, (dir / "dataset.json").string()));
-      const std::string diff = mismatch(
-          have, dir.string() + " already holds a finished release " + ds.value("name", "") + " " +
-                    ds.value("version", "") +
-                    " made from different inputs. A release version never changes content: bump the "
-                    "version in the recipe (TFDS: PATCH same records, MINOR added fields, MAJOR "
-                    "records/splits changed) or write elsewhere with -o. To check that this code "
-                    "reproduces it, use `drape verify --rebuild`. Differences:");
+      const std::string diff = IdentityDiff(
+          identity, FinishedIdentity(ds, (dir / "dataset.json").string()),
+          dir.string() + " already holds a finished release " + ds.value("name", "") + " " + ds.value("version", "") +
+              " made from different inputs. A release version never changes content: bump the "
+              "version in the recipe (TFDS: PATCH same records, MINOR added fields, MAJOR "
+              "records/splits changed) or write elsewhere with -o. To check that this code "
+              "reproduces it, use `drape verify --rebuild`. Differences:");
       if (!diff.empty()) throw Error(diff);
       // Same inputs: nothing to build. Leave the release (and its build.json) untouched.
       impl->already_finished = true;
       impl->LoadDone();
       return std::unique_ptr<ReleaseWriter>(new ReleaseWriter(std::move(impl)));
     } else if (has_sums) {
-      // A published reference (dataset.json + SHA256SUMS committed under datasets/).
-      if (!DirHasOnly(dir, {"dataset.json", "SHA256SUMS", "README.md", kLockFile}))
-        throw Error(dir.string() + ": has SHA256SUMS but is neither a release nor a published reference");
-      const Json ds = Json::parse(ReadFile(dir / "dataset.json"));
-      if (ds.value("name", "") != meta.name || ds.value("version", "") != meta.version) {
-        throw Error(dir.string() + ": holds the published reference of " + ds.value("name", "") + " " +
-                    ds.value("version", "") + ", not of " + meta.name + " " + meta.version);
-      }
-      impl->published_digest = ds.value("digest", "");
+      impl->published_digest = PublishedDigest(dir, meta);
     } else if (!DirHasOnly(dir, {kLockFile})) {
       throw Error(dir.string() + ": folder is not empty and is not a drape release; refusing to write into it");
     } else if (resume) {
@@ -704,20 +770,7 @@ std::set<std::string> ReleaseWriter::DoneKeys() const {
 void ReleaseWriter::Commit(const Entry& entry) {
   Impl& m = *impl_;
   const std::string where = "entry '" + entry.id + "' (job '" + entry.key + "')";
-  CheckSafeName(entry.id, "entry id");
-  CheckSafeName(entry.split, where + ": split");
-  std::set<std::string> paths;
-  for (const auto& f : entry.files) {
-    CheckSafeRelPath(f.path, where + ": file");
-    if (f.path == kEntryJson) throw Error(where + ": file name 'entry.json' is reserved");
-    if (!paths.insert(f.path).second) throw Error(where + ": file '" + f.path + "' given twice");
-  }
-  // A file path must not also be a folder of another file ("a" and "a/b").
-  for (const auto& p : paths) {
-    auto it = paths.lower_bound(p + "/");
-    if (it != paths.end() && it->rfind(p + "/", 0) == 0)
-      throw Error(where + ": '" + p + "' is both a file and a folder");
-  }
+  CheckEntryNames(entry, where);
   {
     std::lock_guard<std::mutex> g(m.mu);
     if (!m.expected.count(entry.key)) throw Error(where + ": job key is not one of this build's jobs");
@@ -732,36 +785,7 @@ void ReleaseWriter::Commit(const Entry& entry) {
       m.build_dir() / "staging" / (entry.id + "." + std::to_string(::getpid()) + "." + std::to_string(m.staging_seq++));
   const fs::path final_dir = m.dir / "entries" / entry.id;
   try {
-    Release::EntryInfo info;
-    info.id = entry.id;
-    info.key = entry.key;
-    info.split = entry.split;
-    info.failed = entry.failed;
-    info.failure = entry.failure;
-    info.record = entry.record.is_null() ? Json::object() : entry.record;
-    fs::create_directories(staging);
-    std::set<fs::path> dirs{staging};
-    for (const auto& f : entry.files) {
-      const fs::path p = staging / f.path;
-      if (p.parent_path() != staging && !dirs.count(p.parent_path())) {
-        fs::create_directories(p.parent_path());
-        for (fs::path q = p.parent_path(); q != staging; q = q.parent_path()) dirs.insert(q);
-      }
-      WriteFileNew(p, f.bytes);
-      info.files.push_back({f.path, Sha256Hex(f.bytes), f.bytes.size()});
-    }
-    std::sort(info.files.begin(), info.files.end(), [](auto& a, auto& b) { return a.path < b.path; });
-    info.entry_digest = EntryDigest(info.id, info.key, info.split, info.failed, info.failure, info.record, info.files);
-    WriteFileNew(staging / kEntryJson, EntryJson(info).dump(1) + "\n");
-    // One syncfs() per entry makes its files and folders durable before the rename (a
-    // per-file fsync costs ~15 ms each: seconds for a 300-frame sweep).
-    {
-      const int fd = ::open(staging.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-      if (fd >= 0) {
-        ::syncfs(fd);
-        ::close(fd);
-      }
-    }
+    StageEntry(entry, staging);
     // The rename is the commit point: entries/<id> is complete or absent.
     if (::rename(staging.c_str(), final_dir.c_str()) != 0) {
       throw Error(final_dir.string() + ": cannot move entry into place: " + std::strerror(errno));
@@ -785,37 +809,138 @@ void ReleaseWriter::Commit(const Entry& entry) {
   WriteAll(m.journal_fd, line, (m.build_dir() / "journal.jsonl").string());
 }
 
+namespace {
+
+// A finished release reported as it is.
+ReleaseWriter::Summary FinishedSummary(const fs::path& dir) {
+  const Release r = Release::Open(dir);
+  ReleaseWriter::Summary s;
+  s.digest = r.digest();
+  s.entries = static_cast<int>(r.entries().size());
+  for (const auto& e : r.entries()) {
+    s.failed += e.failed;
+    for (const auto& f : e.files) s.bytes += f.size;
+  }
+  s.counts = r.dataset().value("counts", Json::object());
+  s.wall_seconds = r.build_info().value("wall_seconds", 0.0);
+  return s;
+}
+
+void CheckAllCommitted(const fs::path& dir, const std::vector<std::string>& keys, const std::set<std::string>& done,
+                       const std::set<std::string>& in_progress) {
+  std::vector<std::string> missing;
+  for (const auto& k : keys) {
+    if (!done.count(k)) missing.push_back(k);
+  }
+  if (missing.empty() && in_progress.empty()) return;
+  std::string msg = dir.string() + ": cannot finalize: " + std::to_string(missing.size()) + " of " +
+                    std::to_string(keys.size()) + " jobs not committed";
+  for (size_t i = 0; i < missing.size() && i < 5; ++i) msg += (i ? ", " : " (") + missing[i];
+  if (!missing.empty()) msg += missing.size() > 5 ? ", …)" : ")";
+  throw Error(msg);
+}
+
+// dataset.json: the recipe, its jobs and sources, counts and the digest.
+Json DatasetJson(const ReleaseMeta& meta, const ReleaseWriter::Summary& s) {
+  Json dataset{{"name", meta.name},
+               {"version", meta.version},
+               {"description", meta.description},
+               {"license", meta.license},
+               {"seed", meta.seed},
+               {"code_version", meta.code_version},
+               {"recipe", {{"sha256", meta.recipe_sha256}, {"text", meta.recipe_text}}},
+               {"summary", meta.recipe_summary},
+               {"jobs", {{"count", meta.job_keys.size()}, {"keys_sha256", JobKeysSha(meta.job_keys)}}}};
+  if (meta.shard_count > 1) {
+    dataset["shard"] = {{"index", meta.shard_index},
+                        {"count", meta.shard_count},
+                        {"jobs", meta.shard_keys.empty() ? meta.job_keys.size() : meta.shard_keys.size()}};
+  }
+  if (!meta.sources.empty()) {
+    Json src = Json::object();
+    for (const auto& f : meta.sources) src[f.recipe_path] = {{"path", f.release_path}, {"sha256", f.sha256}};
+    dataset["sources"] = src;
+  }
+  dataset["format_version"] = kFormatVersion;
+  dataset["counts"] = s.counts;
+  dataset["catalog"] = {{"file", "catalog.sqlite"}, {"blobs", meta.catalog_blobs}};
+  dataset["digest"] = s.digest;
+  dataset["digest_algorithm"] = kDigestAlgorithm;
+  return dataset;
+}
+
+// The recipe's imported files, as hashed when the build started, copied into the release.
+void CopySources(const std::vector<SourceFile>& sources, const fs::path& dir) {
+  for (const auto& f : sources) {
+    const std::string bytes = drape::ReadFile(f.file);
+    if (Sha256Hex(bytes) != f.sha256)
+      throw Error(f.file.string() + ": changed while the release was being built (sha256 " + Sha256Hex(bytes) +
+                  ", was " + f.sha256 + "); build again");
+    WriteFileAtomic(dir / f.release_path, bytes);
+  }
+}
+
+// catalog.sqlite (written beside, then renamed into place), README.md, index.html and the
+// 3D viewer's files; returns the viewer files (outside entries/, so in SHA256SUMS but
+// not in the digest).
+std::vector<std::string> WriteCatalogAndGallery(const fs::path& dir, const fs::path& build_dir, const ReleaseMeta& meta,
+                                                const Json& dataset, const std::vector<Release::EntryInfo>& entries) {
+  const fs::path cat_tmp = build_dir / "catalog.sqlite.tmp";
+  fs::remove(cat_tmp);
+  WriteCatalog(cat_tmp, dir, dataset, entries, meta.job_keys, meta.catalog_blobs);
+  FsyncPath(cat_tmp);
+  fs::rename(cat_tmp, dir / "catalog.sqlite");
+
+  WriteFileAtomic(dir / "README.md", DatasetCard(dataset, entries));
+  WriteFileAtomic(dir / "index.html", Gallery(dataset, entries));
+  std::vector<std::string> viewer_files;
+  for (const auto& [path, bytes] : GalleryViewerFiles(dir, entries)) {
+    fs::create_directories((dir / path).parent_path());
+    WriteFileAtomic(dir / path, bytes);
+    viewer_files.push_back(path);
+  }
+  return viewer_files;
+}
+
+// SHA256SUMS's lines: every entry file, the top-level files, the copied sources; adds
+// their sizes to *bytes.
+std::map<std::string, std::string> ReleaseSums(const fs::path& dir, const std::vector<Release::EntryInfo>& entries,
+                                               const std::vector<std::string>& top_files,
+                                               const std::vector<SourceFile>& sources, uint64_t* bytes) {
+  std::map<std::string, std::string> sums;
+  for (const auto& e : entries) {
+    const std::string base = "entries/" + e.id + "/";
+    for (const auto& f : e.files) {
+      sums[base + f.path] = f.sha256;
+      *bytes += f.size;
+    }
+    sums[base + kEntryJson] = Sha256File(dir / "entries" / e.id / kEntryJson);
+    *bytes += fs::file_size(dir / "entries" / e.id / kEntryJson);
+  }
+  for (const auto& f : top_files) {
+    sums[f] = Sha256File(dir / f);
+    *bytes += fs::file_size(dir / f);
+  }
+  for (const auto& f : sources) {
+    sums[f.release_path] = f.sha256;
+    *bytes += fs::file_size(dir / f.release_path);
+  }
+  return sums;
+}
+
+}  // namespace
+
 ReleaseWriter::Summary ReleaseWriter::Finalize() {
   Impl& m = *impl_;
   std::lock_guard<std::mutex> g(m.mu);
   if (m.lock_fd < 0) throw Error(m.dir.string() + ": release already finalized");
   if (m.already_finished) {
     // Report the finished release as it is; rewrite nothing.
-    const Release r = Release::Open(m.dir);
-    Summary s;
-    s.digest = r.digest();
-    s.entries = static_cast<int>(r.entries().size());
-    for (const auto& e : r.entries()) {
-      s.failed += e.failed;
-      for (const auto& f : e.files) s.bytes += f.size;
-    }
-    s.counts = r.dataset().value("counts", Json::object());
-    s.wall_seconds = r.build_info().value("wall_seconds", 0.0);
+    Summary s = FinishedSummary(m.dir);
     m.DropLock();
     return s;
   }
-  std::vector<std::string> missing;
-  const auto& keys = m.meta.shard_keys.empty() ? m.meta.job_keys : m.meta.shard_keys;
-  for (const auto& k : keys) {
-    if (!m.done.count(k)) missing.push_back(k);
-  }
-  if (!missing.empty() || !m.in_progress.empty()) {
-    std::string msg = m.dir.string() + ": cannot finalize: " + std::to_string(missing.size()) + " of " +
-                      std::to_string(keys.size()) + " jobs not committed";
-    for (size_t i = 0; i < missing.size() && i < 5; ++i) msg += (i ? ", " : " (") + missing[i];
-    if (!missing.empty()) msg += missing.size() > 5 ? ", …)" : ")";
-    throw Error(msg);
-  }
+  CheckAllCommitted(m.dir, m.meta.shard_keys.empty() ? m.meta.job_keys : m.meta.shard_keys, m.done, m.in_progress);
 
   // Everything below is rebuilt from the entry folders: the same for any history.
   std::vector<Release::EntryInfo> entries = ScanEntries(m.dir);
@@ -831,55 +956,9 @@ ReleaseWriter::Summary ReleaseWriter::Finalize() {
   s.matches_published = m.published_digest.empty() || m.published_digest == s.digest;
 
   const ReleaseMeta& meta = m.meta;
-  Json dataset{{"name", meta.name},
-               {"version", meta.version},
-               {"description", meta.description},
-               {"license", meta.license},
-               {"seed", meta.seed},
-               {"code_version", meta.code_version},
-               {"recipe", {{"sha256", meta.recipe_sha256}, {"text", meta.recipe_text}}},
-               {"summary", meta.recipe_summary},
-               {"jobs", {{"count", meta.job_keys.size()}, {"keys_sha256", JobKeysSha(meta.job_keys)}}}};
-  if (meta.shard_count > 1) {
-    dataset["shard"] = {{"index", meta.shard_index}, {"count", meta.shard_count},
-                        {"jobs", meta.shard_keys.empty() ? meta.job_keys.size() : meta.shard_keys.size()}};
-  }
-  if (!meta.sources.empty()) {
-    Json src = Json::object();
-    for (const auto& f : meta.sources) src[f.recipe_path] = {{"path", f.release_path}, {"sha256", f.sha256}};
-    dataset["sources"] = src;
-  }
-  dataset["format_version"] = kFormatVersion;
-  dataset["counts"] = s.counts;
-  dataset["catalog"] = {{"file", "catalog.sqlite"}, {"blobs", meta.catalog_blobs}};
-  dataset["digest"] = s.digest;
-  dataset["digest_algorithm"] = kDigestAlgorithm;
-
-  // The recipe's imported files, as hashed when the build started.
-  for (const auto& f : meta.sources) {
-    const std::string bytes = drape::ReadFile(f.file);
-    if (Sha256Hex(bytes) != f.sha256)
-      throw Error(f.file.string() + ": changed while the release was being built (sha256 " + Sha256Hex(bytes) +
-                  ", was " + f.sha256 + "); build again");
-    WriteFileAtomic(m.dir / f.release_path, bytes);
-  }
-
-  // catalog.sqlite: written beside, then renamed into place.
-  const fs::path cat_tmp = m.build_dir() / "catalog.sqlite.tmp";
-  fs::remove(cat_tmp);
-  WriteCatalog(cat_tmp, m.dir, dataset, entries, meta.job_keys, meta.catalog_blobs);
-  FsyncPath(cat_tmp);
-  fs::rename(cat_tmp, m.dir / "catalog.sqlite");
-
-  WriteFileAtomic(m.dir / "README.md", DatasetCard(dataset, entries));
-  WriteFileAtomic(m.dir / "index.html", Gallery(dataset, entries));
-  // The 3D viewer's files: outside entries/, so in SHA256SUMS but not in the digest.
-  std::vector<std::string> top_files;
-  for (const auto& [path, bytes] : GalleryViewerFiles(m.dir, entries)) {
-    fs::create_directories((m.dir / path).parent_path());
-    WriteFileAtomic(m.dir / path, bytes);
-    top_files.push_back(path);
-  }
+  const Json dataset = DatasetJson(meta, s);
+  CopySources(meta.sources, m.dir);
+  std::vector<std::string> top_files = WriteCatalogAndGallery(m.dir, m.build_dir(), meta, dataset, entries);
 
   // build.json: timings only; not in SHA256SUMS.
   const double now = NowSeconds();
@@ -893,27 +972,9 @@ ReleaseWriter::Summary ReleaseWriter::Finalize() {
   WriteFileAtomic(m.dir / "build.json", build.dump(1) + "\n");
   WriteFileAtomic(m.dir / "dataset.json", dataset.dump(2) + "\n");
 
-  std::map<std::string, std::string> sums;
-  for (const auto& e : entries) {
-    const std::string base = "entries/" + e.id + "/";
-    for (const auto& f : e.files) {
-      sums[base + f.path] = f.sha256;
-      s.bytes += f.size;
-    }
-    sums[base + kEntryJson] = Sha256File(m.dir / "entries" / e.id / kEntryJson);
-    s.bytes += fs::file_size(m.dir / "entries" / e.id / kEntryJson);
-  }
   for (const char* f : {"catalog.sqlite", "README.md", "index.html", "dataset.json"}) top_files.push_back(f);
-  for (const auto& f : top_files) {
-    sums[f] = Sha256File(m.dir / f);
-    s.bytes += fs::file_size(m.dir / f);
-  }
-  for (const auto& f : meta.sources) {
-    sums[f.release_path] = f.sha256;
-    s.bytes += fs::file_size(m.dir / f.release_path);
-  }
   // SHA256SUMS last: its presence marks a finished release.
-  WriteFileAtomic(m.dir / "SHA256SUMS", FormatSums(sums));
+  WriteFileAtomic(m.dir / "SHA256SUMS", FormatSums(ReleaseSums(m.dir, entries, top_files, meta.sources, &s.bytes)));
   FsyncPath(m.dir);
   if (m.journal_fd >= 0) ::close(m.journal_fd);
   m.journal_fd = -1;

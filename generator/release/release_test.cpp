@@ -378,100 +378,110 @@ TEST_F(ReleaseTest, VerifyCatchesFlippedDeletedAndAddedFiles) {
 }
 
 // Damaged or foreign releases: each a drape::Error (or a verify problem) naming the
-// file, never a crash.
-TEST_F(ReleaseTest, BadReleasesAreClearErrorsNamingTheFile) {
-  const fs::path dir = root_ / "ok";
-  Build(dir);
-  auto copy = [&](const std::string& name) {
-    fs::copy(dir, root_ / name, fs::copy_options::recursive);
+// file, never a crash. Each case damages its own copy of one good release.
+class BadReleaseTest : public ReleaseTest {
+ protected:
+  void SetUp() override {
+    ReleaseTest::SetUp();
+    ok_ = root_ / "ok";
+    Build(ok_);
+  }
+  fs::path Copy(const std::string& name) const {
+    fs::copy(ok_, root_ / name, fs::copy_options::recursive);
     return root_ / name;
-  };
-  auto open_error = [](const fs::path& d) {
+  }
+  static std::string OpenError(const fs::path& d) {
     try {
       Release::Open(d);
     } catch (const Error& e) {
       return std::string(e.what());
     }
     return std::string();
-  };
-  auto problems = [](const VerifyReport& r) {
+  }
+  static std::string Problems(const VerifyReport& r) {
     std::string all;
     for (const auto& p : r.problems) all += p + "\n";
     return all;
-  };
-  EXPECT_EQ(Release::Open(dir).dataset().value("format_version", 0), 1);
+  }
+  fs::path ok_;  // the good release
+};
+
+TEST_F(BadReleaseTest, TruncatedCatalogAtEveryCut) {
+  EXPECT_EQ(Release::Open(ok_).dataset().value("format_version", 0), 1);
   // Truncated catalog.sqlite: every cut (header, first pages, half).
-  const std::string cat = Slurp(dir / "catalog.sqlite");
+  const std::string cat = Slurp(ok_ / "catalog.sqlite");
   for (size_t cut : {size_t{0}, size_t{50}, size_t{4096}, cat.size() / 2}) {
-    const fs::path d = copy("trunc" + std::to_string(cut));
+    const fs::path d = Copy("trunc" + std::to_string(cut));
     WriteFileAtomic(d / "catalog.sqlite", cat.substr(0, cut));
-    const std::string e = open_error(d);
+    const std::string e = OpenError(d);
     EXPECT_NE(e.find((d / "catalog.sqlite").string()), std::string::npos) << cut << ": " << e;
     EXPECT_EQ(Verify(d).changed, std::vector<std::string>{"catalog.sqlite"});
   }
-  {
-    const fs::path d = copy("no_entry");
-    fs::remove_all(d / "entries/e003");
-    EXPECT_NE(open_error(d).find((d / "entries/e003").string() + ": entry folder missing"), std::string::npos)
-        << open_error(d);
-    const VerifyReport r = Verify(d);
-    EXPECT_FALSE(r.ok());
-    EXPECT_NE(std::find(r.missing.begin(), r.missing.end(), "entries/e003/entry.json"), r.missing.end());
-  }
-  {
-    // The same job in two entry folders (a copied folder renamed, its id edited).
-    const fs::path d = copy("twice");
-    fs::copy(d / "entries/e004", d / "entries/e099", fs::copy_options::recursive);
-    Json j = Json::parse(Slurp(d / "entries/e099/entry.json"));
-    j["id"] = "e099";
-    WriteFileAtomic(d / "entries/e099/entry.json", j.dump());
-    const VerifyReport r = Verify(d);
-    EXPECT_NE(problems(r).find("entries/e099/entry.json: job '" + Key(4) + "' is also entry 'e004'"),
-              std::string::npos)
-        << problems(r);
-    // …and the same entry twice in the catalog.
-    sqlite3* db = nullptr;
-    ASSERT_EQ(sqlite3_open((d / "catalog.sqlite").c_str(), &db), SQLITE_OK);
-    ASSERT_EQ(sqlite3_exec(db,
-                           "CREATE TABLE e2 AS SELECT * FROM entries; DROP TABLE entries; "
-                           "CREATE TABLE entries AS SELECT * FROM e2 UNION ALL SELECT * FROM e2 WHERE id='e004';",
-                           nullptr, nullptr, nullptr),
-              SQLITE_OK);
-    sqlite3_close(db);
-    EXPECT_NE(open_error(d).find((d / "catalog.sqlite").string() + ": entry 'e004' is listed twice"),
-              std::string::npos)
-        << open_error(d);
-  }
-  {
-    // SHA256SUMS names a file that is not there; a line twice; a line leaving the folder.
-    const fs::path d = copy("sums");
-    const std::string sums = Slurp(d / "SHA256SUMS");
-    WriteFileAtomic(d / "SHA256SUMS", sums + std::string(64, 'a') + "  entries/e001/ghost.ply\n");
-    EXPECT_EQ(Verify(d).missing, std::vector<std::string>{"entries/e001/ghost.ply"});
-    WriteFileAtomic(d / "SHA256SUMS", sums + sums.substr(0, sums.find('\n') + 1));
-    EXPECT_NE(problems(Verify(d)).find("SHA256SUMS:" + std::to_string(std::count(sums.begin(), sums.end(), '\n') + 1) +
-                                       ": '"),
-              std::string::npos)
-        << problems(Verify(d));
-    EXPECT_NE(problems(Verify(d)).find("is listed twice"), std::string::npos);
-    WriteFileAtomic(d / "SHA256SUMS", std::string(64, 'a') + "  ../../etc/passwd\n");
-    EXPECT_NE(problems(Verify(d)).find("SHA256SUMS:1"), std::string::npos) << problems(Verify(d));
-  }
-  {
-    // Written by a newer drape.
-    const fs::path d = copy("newer");
-    Json ds = Json::parse(Slurp(d / "dataset.json"));
-    ds["format_version"] = 2;
-    WriteFileAtomic(d / "dataset.json", ds.dump(2));
-    const std::string e = open_error(d);
-    EXPECT_NE(e.find((d / "dataset.json").string() + ": release format 2 was written by a newer drape"),
-              std::string::npos)
-        << e;
-    EXPECT_NE(problems(Verify(d)).find("newer drape"), std::string::npos);
-    WriteFileAtomic(d / "dataset.json", "[1, 2]");
-    EXPECT_NE(open_error(d).find("dataset.json: expected a JSON object"), std::string::npos) << open_error(d);
-    EXPECT_NE(problems(Verify(d)).find("expected a JSON object"), std::string::npos);
-  }
+}
+
+TEST_F(BadReleaseTest, MissingEntryFolder) {
+  const fs::path d = Copy("no_entry");
+  fs::remove_all(d / "entries/e003");
+  EXPECT_NE(OpenError(d).find((d / "entries/e003").string() + ": entry folder missing"), std::string::npos)
+      << OpenError(d);
+  const VerifyReport r = Verify(d);
+  EXPECT_FALSE(r.ok());
+  EXPECT_NE(std::find(r.missing.begin(), r.missing.end(), "entries/e003/entry.json"), r.missing.end());
+}
+
+TEST_F(BadReleaseTest, JobInTwoEntriesAndEntryTwiceInTheCatalog) {
+  // The same job in two entry folders (a copied folder renamed, its id edited).
+  const fs::path d = Copy("twice");
+  fs::copy(d / "entries/e004", d / "entries/e099", fs::copy_options::recursive);
+  Json j = Json::parse(Slurp(d / "entries/e099/entry.json"));
+  j["id"] = "e099";
+  WriteFileAtomic(d / "entries/e099/entry.json", j.dump());
+  const VerifyReport r = Verify(d);
+  EXPECT_NE(Problems(r).find("entries/e099/entry.json: job '" + Key(4) + "' is also entry 'e004'"), std::string::npos)
+      << Problems(r);
+  // …and the same entry twice in the catalog.
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open((d / "catalog.sqlite").c_str(), &db), SQLITE_OK);
+  ASSERT_EQ(sqlite3_exec(db,
+                         "CREATE TABLE e2 AS SELECT * FROM entries; DROP TABLE entries; "
+                         "CREATE TABLE entries AS SELECT * FROM e2 UNION ALL SELECT * FROM e2 WHERE id='e004';",
+                         nullptr, nullptr, nullptr),
+            SQLITE_OK);
+  sqlite3_close(db);
+  EXPECT_NE(OpenError(d).find((d / "catalog.sqlite").string() + ": entry 'e004' is listed twice"), std::string::npos)
+      << OpenError(d);
+}
+
+TEST_F(BadReleaseTest, BadSha256SumsLines) {
+  // SHA256SUMS names a file that is not there; a line twice; a line leaving the folder.
+  const fs::path d = Copy("sums");
+  const std::string sums = Slurp(d / "SHA256SUMS");
+  WriteFileAtomic(d / "SHA256SUMS", sums + std::string(64, 'a') + "  entries/e001/ghost.ply\n");
+  EXPECT_EQ(Verify(d).missing, std::vector<std::string>{"entries/e001/ghost.ply"});
+  WriteFileAtomic(d / "SHA256SUMS", sums + sums.substr(0, sums.find('\n') + 1));
+  EXPECT_NE(
+      Problems(Verify(d)).find("SHA256SUMS:" + std::to_string(std::count(sums.begin(), sums.end(), '\n') + 1) + ": '"),
+      std::string::npos)
+      << Problems(Verify(d));
+  EXPECT_NE(Problems(Verify(d)).find("is listed twice"), std::string::npos);
+  WriteFileAtomic(d / "SHA256SUMS", std::string(64, 'a') + "  ../../etc/passwd\n");
+  EXPECT_NE(Problems(Verify(d)).find("SHA256SUMS:1"), std::string::npos) << Problems(Verify(d));
+}
+
+TEST_F(BadReleaseTest, NewerFormatOrNotAnObject) {
+  // Written by a newer drape.
+  const fs::path d = Copy("newer");
+  Json ds = Json::parse(Slurp(d / "dataset.json"));
+  ds["format_version"] = 2;
+  WriteFileAtomic(d / "dataset.json", ds.dump(2));
+  const std::string e = OpenError(d);
+  EXPECT_NE(e.find((d / "dataset.json").string() + ": release format 2 was written by a newer drape"),
+            std::string::npos)
+      << e;
+  EXPECT_NE(Problems(Verify(d)).find("newer drape"), std::string::npos);
+  WriteFileAtomic(d / "dataset.json", "[1, 2]");
+  EXPECT_NE(OpenError(d).find("dataset.json: expected a JSON object"), std::string::npos) << OpenError(d);
+  EXPECT_NE(Problems(Verify(d)).find("expected a JSON object"), std::string::npos);
 }
 
 // A disk that fills up mid-build (a 192 KiB tmpfs: ~6 entries of 4 KiB pages fit):

@@ -13,26 +13,14 @@ namespace drape {
 
 using namespace release_detail;
 
-VerifyReport Verify(const fs::path& dir) {
-  VerifyReport r;
-  if (!fs::is_directory(dir)) {
-    r.problems.push_back(dir.string() + ": no such folder");
-    return r;
-  }
-  if (!fs::exists(dir / "SHA256SUMS") || !fs::exists(dir / "dataset.json")) {
-    r.problems.push_back(fs::exists(dir / kBuildDir) ? "unfinished build (no SHA256SUMS yet)"
-                                                     : "not a finished release: SHA256SUMS or dataset.json missing");
-    return r;
-  }
-  std::map<std::string, std::string> sums;
-  try {
-    sums = ParseSums(ReadFile(dir / "SHA256SUMS"), (dir / "SHA256SUMS").string());
-  } catch (const Error& e) {
-    r.problems.push_back(e.what());
-    return r;
-  }
+namespace {
+
+// Hashes every file SHA256SUMS lists (missing and changed ones go into r) and lists the
+// files on disk it does not; returns path → sha256 of the listed files found.
+std::map<std::string, std::string> CheckListedFiles(const fs::path& dir, const std::map<std::string, std::string>& sums,
+                                                    VerifyReport& r) {
   // Files on disk (regular files and symlinks), relative with '/'.
-  std::map<std::string, std::string> actual;  // path → sha256 (of the listed ones)
+  std::map<std::string, std::string> actual;
   std::set<std::string> on_disk;
   for (auto it = fs::recursive_directory_iterator(dir); it != fs::recursive_directory_iterator(); ++it) {
     if (it->is_directory()) continue;
@@ -51,11 +39,55 @@ VerifyReport Verify(const fs::path& dir) {
   for (const auto& p : on_disk) {
     // Not release content: the sums themselves, build timings, the lock, and the
     // runtime's calibration artifacts (bound to the digest by their own record).
-    if (sums.count(p) || p == "SHA256SUMS" || p == "build.json" || p == kLockFile ||
-        p.rfind("calibration/", 0) == 0)
+    if (sums.count(p) || p == "SHA256SUMS" || p == "build.json" || p == kLockFile || p.rfind("calibration/", 0) == 0)
       continue;
     r.extra.push_back(p);
   }
+  return actual;
+}
+
+// The entries' file hashes as the files are on disk now (for the digest).
+void RehashEntryFiles(const fs::path& dir, const std::map<std::string, std::string>& sums,
+                      const std::map<std::string, std::string>& actual, std::vector<Release::EntryInfo>& entries,
+                      VerifyReport& r) {
+  for (auto& e : entries) {
+    for (auto& f : e.files) {
+      const std::string p = "entries/" + e.id + "/" + f.path;
+      auto it = actual.find(p);
+      if (it != actual.end()) {
+        f.sha256 = it->second;
+      } else if (fs::exists(dir / p)) {
+        f.sha256 = Sha256File(dir / p);
+        if (!sums.count(p)) r.problems.push_back(p + ": listed in entry.json but not in SHA256SUMS");
+      } else {
+        f.sha256 = "missing";
+        if (!sums.count(p)) r.missing.push_back(p);
+      }
+    }
+  }
+}
+
+}  // namespace
+
+VerifyReport Verify(const fs::path& dir) {
+  VerifyReport r;
+  if (!fs::is_directory(dir)) {
+    r.problems.push_back(dir.string() + ": no such folder");
+    return r;
+  }
+  if (!fs::exists(dir / "SHA256SUMS") || !fs::exists(dir / "dataset.json")) {
+    r.problems.push_back(fs::exists(dir / kBuildDir) ? "unfinished build (no SHA256SUMS yet)"
+                                                     : "not a finished release: SHA256SUMS or dataset.json missing");
+    return r;
+  }
+  std::map<std::string, std::string> sums;
+  try {
+    sums = ParseSums(ReadFile(dir / "SHA256SUMS"), (dir / "SHA256SUMS").string());
+  } catch (const Error& e) {
+    r.problems.push_back(e.what());
+    return r;
+  }
+  const std::map<std::string, std::string> actual = CheckListedFiles(dir, sums, r);
 
   // The digest from the entries as they are on disk now.
   Json ds;
@@ -79,21 +111,7 @@ VerifyReport Verify(const fs::path& dir) {
     r.problems.push_back(e.what());
     return r;
   }
-  for (auto& e : entries) {
-    for (auto& f : e.files) {
-      const std::string p = "entries/" + e.id + "/" + f.path;
-      auto it = actual.find(p);
-      if (it != actual.end()) {
-        f.sha256 = it->second;
-      } else if (fs::exists(dir / p)) {
-        f.sha256 = Sha256File(dir / p);
-        if (!sums.count(p)) r.problems.push_back(p + ": listed in entry.json but not in SHA256SUMS");
-      } else {
-        f.sha256 = "missing";
-        if (!sums.count(p)) r.missing.push_back(p);
-      }
-    }
-  }
+  RehashEntryFiles(dir, sums, actual, entries, r);
   std::map<std::string, std::string> sources;
   try {
     sources = SourceSums(ds, (dir / "dataset.json").string());
@@ -204,14 +222,10 @@ ReleaseDiff CompareReleases(const Release& a, const Release& b) {
   return d;
 }
 
-ReleaseWriter::Summary Merge(const std::vector<fs::path>& shard_dirs, const fs::path& out) {
-  if (shard_dirs.empty()) throw Error("merge: no shard folders given");
-  std::vector<Release> shards;
-  for (const auto& d : shard_dirs) {
-    if (fs::exists(out) && fs::exists(d) && fs::equivalent(out, d))
-      throw Error("merge: output " + out.string() + " is also a shard");
-    shards.push_back(Release::Open(d));
-  }
+namespace {
+
+// Shards must come from the same recipe, code, imported files, seed and job list.
+void CheckSameBuild(const std::vector<Release>& shards, const std::vector<fs::path>& shard_dirs) {
   const Json& first = shards[0].dataset();
   const std::string name0 = shard_dirs[0].string();
   for (size_t i = 1; i < shards.size(); ++i) {
@@ -232,15 +246,19 @@ ReleaseWriter::Summary Merge(const std::vector<fs::path>& shard_dirs, const fs::
     if (shards[i].job_keys() != shards[0].job_keys())
       throw Error("merge: " + who + " lists a different job set than " + name0);
   }
-  // Every job exactly once.
-  const std::vector<std::string> jobs = shards[0].job_keys();
+}
+
+// Every job in exactly one shard, every entry id in one.
+void CheckEveryJobOnce(const std::vector<Release>& shards, const std::vector<fs::path>& shard_dirs,
+                       const std::vector<std::string>& jobs) {
   const std::set<std::string> job_set(jobs.begin(), jobs.end());
   std::map<std::string, size_t> owner;  // key → shard
   std::map<std::string, size_t> id_owner;
   for (size_t i = 0; i < shards.size(); ++i) {
     for (const auto& e : shards[i].entries()) {
       if (!job_set.count(e.key))
-        throw Error("merge: " + shard_dirs[i].string() + " holds job '" + e.key + "', which is not in the recipe's job list");
+        throw Error("merge: " + shard_dirs[i].string() + " holds job '" + e.key +
+                    "', which is not in the recipe's job list");
       auto [it, fresh] = owner.emplace(e.key, i);
       if (!fresh)
         throw Error("merge: job '" + e.key + "' is in both " + shard_dirs[it->second].string() + " and " +
@@ -260,7 +278,11 @@ ReleaseWriter::Summary Merge(const std::vector<fs::path>& shard_dirs, const fs::
     for (size_t i = 0; i < missing.size() && i < 5; ++i) msg += (i ? ", '" : " '") + missing[i] + "'";
     throw Error(msg);
   }
+}
 
+// The whole release's meta from the first shard's dataset.json.
+ReleaseMeta MergedMeta(const Release& shard0, const std::vector<std::string>& jobs) {
+  const Json& first = shard0.dataset();
   ReleaseMeta meta;
   meta.name = first.value("name", "");
   meta.version = first.value("version", "");
@@ -278,8 +300,45 @@ ReleaseWriter::Summary Merge(const std::vector<fs::path>& shard_dirs, const fs::
 
   const Json sources = first.value("sources", Json::object());  // items() must not outlive it
   for (const auto& [written, v] : sources.items())
-    meta.sources.push_back({written, shards[0].SourceFiles().at(written), v.value("path", ""), v.value("sha256", "")});
-  auto writer = ReleaseWriter::Open(out, meta);
+    meta.sources.push_back({written, shard0.SourceFiles().at(written), v.value("path", ""), v.value("sha256", "")});
+  return meta;
+}
+
+// A shard's entry read back for committing, its files checked against their hashes.
+Entry ShardEntry(const Release& shard, const Release::EntryInfo& e, const Json& timing) {
+  Entry entry;
+  entry.id = e.id;
+  entry.key = e.key;
+  entry.split = e.split;
+  entry.failed = e.failed;
+  entry.failure = e.failure;
+  entry.record = e.record;
+  entry.timing = timing.value(e.id, Json::object());
+  for (const auto& f : e.files) {
+    std::string bytes = shard.ReadFile(e.id, f.path);
+    if (Sha256Hex(bytes) != f.sha256)
+      throw Error("merge: " + shard.EntryPath(e.id, f.path).string() +
+                  " does not match its catalog hash (corrupt shard; run drape verify on it)");
+    entry.files.push_back({f.path, std::move(bytes)});
+  }
+  return entry;
+}
+
+}  // namespace
+
+ReleaseWriter::Summary Merge(const std::vector<fs::path>& shard_dirs, const fs::path& out) {
+  if (shard_dirs.empty()) throw Error("merge: no shard folders given");
+  std::vector<Release> shards;
+  for (const auto& d : shard_dirs) {
+    if (fs::exists(out) && fs::exists(d) && fs::equivalent(out, d))
+      throw Error("merge: output " + out.string() + " is also a shard");
+    shards.push_back(Release::Open(d));
+  }
+  CheckSameBuild(shards, shard_dirs);
+  const std::vector<std::string> jobs = shards[0].job_keys();
+  CheckEveryJobOnce(shards, shard_dirs, jobs);
+
+  auto writer = ReleaseWriter::Open(out, MergedMeta(shards[0], jobs));
   const std::set<std::string> done = writer->DoneKeys();
   Json shard_info = Json::array();
   for (size_t i = 0; i < shards.size(); ++i) {
@@ -291,23 +350,7 @@ ReleaseWriter::Summary Merge(const std::vector<fs::path>& shard_dirs, const fs::
                           {"host", build.value("host", Json())}});
     const Json timing = build.value("entry_timing", Json::object());
     for (const auto& e : shards[i].entries()) {
-      if (done.count(e.key)) continue;
-      Entry entry;
-      entry.id = e.id;
-      entry.key = e.key;
-      entry.split = e.split;
-      entry.failed = e.failed;
-      entry.failure = e.failure;
-      entry.record = e.record;
-      entry.timing = timing.value(e.id, Json::object());
-      for (const auto& f : e.files) {
-        std::string bytes = shards[i].ReadFile(e.id, f.path);
-        if (Sha256Hex(bytes) != f.sha256)
-          throw Error("merge: " + shards[i].EntryPath(e.id, f.path).string() +
-                      " does not match its catalog hash (corrupt shard; run drape verify on it)");
-        entry.files.push_back({f.path, std::move(bytes)});
-      }
-      writer->Commit(entry);
+      if (!done.count(e.key)) writer->Commit(ShardEntry(shards[i], e, timing));
     }
   }
   writer->SetBuildInfo("merged_from", shard_info);

@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "common/error.h"
+#include "common/yaml.h"
 #include "runtime/folding/keypoints.h"
 
 namespace drape::folding {
@@ -17,12 +18,7 @@ namespace {
 
 const std::regex kNameRe("[A-Za-z0-9][A-Za-z0-9_-]*");
 
-std::string Describe(const YAML::Node& n) {
-  if (!n.IsDefined() || n.IsNull()) return "nothing";
-  if (n.IsMap()) return "a mapping";
-  if (n.IsSequence()) return "a list";
-  return "'" + n.Scalar() + "'";
-}
+std::string Describe(const YAML::Node& n) { return DescribeYaml(n); }
 
 // Located errors and typed reads over yaml-cpp nodes.
 class Reader {
@@ -65,13 +61,9 @@ class Reader {
     return s;
   }
   double Num(const YAML::Node& n, const std::string& path, double lo, double hi) const {
-    if (!n.IsScalar()) Fail(n, path, "expected a number, got " + Describe(n));
-    double v;
-    try {
-      v = n.as<double>();
-    } catch (const YAML::Exception&) {
-      Fail(n, path, "expected a number, got " + Describe(n));
-    }
+    const std::optional<double> parsed = YamlNumber(n);
+    if (!parsed) Fail(n, path, "expected a number, got " + Describe(n));
+    const double v = *parsed;
     if (!std::isfinite(v) || v < lo || v > hi) {
       std::ostringstream os;
       os << "out of range: " << n.Scalar() << " (allowed [" << lo << ", " << hi << "])";
@@ -144,14 +136,7 @@ PlanPoint ParsePoint(const Reader& rd, const YAML::Node& n, const std::string& p
 
 FoldingPlan ParsePlan(const std::string& text, const std::string& file_label) {
   const Reader rd(file_label);
-  YAML::Node root;
-  try {
-    root = YAML::Load(text);
-  } catch (const YAML::Exception& e) {
-    std::ostringstream os;
-    os << file_label << ":" << e.mark.line + 1 << ":" << e.mark.column + 1 << ": YAML syntax error: " << e.msg;
-    throw Error(os.str());
-  }
+  const YAML::Node root = LoadYaml(text, file_label);
   FoldingPlan plan;
   plan.file_label = file_label;
   rd.Keys(root, "", {"plan", "description", "categories", "steps"}, {"plan", "categories", "steps"});

@@ -70,149 +70,195 @@ void SecantLmOptions::Validate() const {
   if (max_residual_evaluations < 0) throw Error("SecantLmOptions.max_residual_evaluations must be >= 0");
 }
 
-SecantLmReport SolveSecantLm(const LeastSquaresProblem& problem, Eigen::VectorXd& x, const SecantLmOptions& options) {
-  options.Validate();
-  const int n = problem.NumParameters();
-  DRAPE_CHECK(x.size() == n, "parameter vector size");
-  SecantLmReport rep;
-  Eigen::SparseMatrix<double, Eigen::RowMajor> B;
-  Eigen::VectorXd r, r_new, x_new, h, g;
+namespace {
 
-  const bool numeric = options.finite_difference_step > 0;
-  const double delta = options.finite_difference_step;
-  auto eval = [&](const Eigen::VectorXd& at, Eigen::VectorXd& out) {
-    problem.Residuals(at, out);
-    ++rep.residual_evaluations;
-  };
-  auto t0 = Clock::now();
-  eval(x, r);
-  rep.residual_seconds += Since(t0);
-  if (!r.allFinite()) throw NumericalError("secant LM: non-finite initial residuals");
-  auto fresh = [&]() {
+// One run of the solver: the state its iterations share (Madsen's notation: B the
+// Jacobian approximation, g = Bᵀr, μ the damping, ν its growth on a rejected step).
+class SecantLmRun {
+ public:
+  SecantLmRun(const LeastSquaresProblem& problem, Eigen::VectorXd& x, const SecantLmOptions& options)
+      : problem_(problem),
+        o_(options),
+        n_(problem.NumParameters()),
+        numeric_(options.finite_difference_step > 0),
+        delta_(options.finite_difference_step),
+        x_(x) {}
+
+  SecantLmReport Solve();
+
+ private:
+  void Eval(const Eigen::VectorXd& at, Eigen::VectorXd& out) {
+    problem_.Residuals(at, out);
+    ++rep_.residual_evaluations;
+  }
+  void TimedEval(const Eigen::VectorXd& at, Eigen::VectorXd& out) {
+    const auto t0 = Clock::now();
+    Eval(at, out);
+    rep_.residual_seconds += Since(t0);
+  }
+  // A fresh B at x: the analytic Jacobian or forward differences.
+  void Fresh() {
     const auto t = Clock::now();
-    if (numeric)
-      DifferenceJacobian(eval, x, r, delta, B);
+    if (numeric_)
+      DifferenceJacobian([this](const Eigen::VectorXd& at, Eigen::VectorXd& out) { Eval(at, out); }, x_, r_, delta_,
+                         B_);
     else
-      problem.Jacobian(x, B);
-    rep.jacobian_seconds += Since(t);
-    ++rep.fresh_jacobians;
-  };
-  fresh();
-  int updates_since_fresh = 0;
-  double F = 0.5 * r.squaredNorm();
-  rep.initial_cost = F;
-  g = B.transpose() * r;
+      problem_.Jacobian(x_, B_);
+    rep_.jacobian_seconds += Since(t);
+    ++rep_.fresh_jacobians;
+  }
+  Eigen::VectorXd DampedStep();
+  void RefreshCoordinate(const Eigen::VectorXd& h);
+  double TryStep(const Eigen::VectorXd& h);
 
-  Eigen::SparseMatrix<double> I(n, n);
-  I.setIdentity();
-  Eigen::SparseMatrix<double> BtB = Eigen::SparseMatrix<double>(B.transpose()) * B;
-  double mu = options.tau * std::max(BtB.diagonal().maxCoeff(), 1e-300);
-  double nu = 2;
-  bool btb_valid = true;
-  int stall = 0;
-  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt;
-  bool analysed = false;
-  rep.termination = "max_iterations";
-  int coordinate = -1;  // Madsen's j (numeric mode)
-  Eigen::VectorXd x_j, r_j;
+  const LeastSquaresProblem& problem_;
+  const SecantLmOptions& o_;
+  const int n_;
+  const bool numeric_;
+  const double delta_;
+  Eigen::VectorXd& x_;
+  SecantLmReport rep_;
+  Eigen::SparseMatrix<double, Eigen::RowMajor> B_;
+  Eigen::VectorXd r_, g_;
+  double F_ = 0;  // ½‖r‖²
+  Eigen::SparseMatrix<double> I_, BtB_;
+  bool btb_valid_ = true;
+  double mu_ = 0, nu_ = 2;
+  int stall_ = 0;
+  int updates_since_fresh_ = 0;
+  int coordinate_ = -1;  // Madsen's j (numeric mode)
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt_;
+  bool analysed_ = false;
+};
 
-  for (int k = 0; k < options.max_iterations; ++k) {
-    if (g.lpNorm<Eigen::Infinity>() <= options.gradient_tolerance) {
-      rep.termination = "gradient";
+// The damped Gauss-Newton step h: (BᵀB + μI) h = −g.
+Eigen::VectorXd SecantLmRun::DampedStep() {
+  auto t0 = Clock::now();
+  if (!btb_valid_) BtB_ = Eigen::SparseMatrix<double>(B_.transpose()) * B_;
+  btb_valid_ = true;
+  const Eigen::SparseMatrix<double> A = BtB_ + mu_ * I_;
+  auto tp = Clock::now();
+  rep_.product_seconds += Since(t0);
+  // B keeps one pattern, so the ordering is computed once.
+  if (!analysed_) ldlt_.analyzePattern(A), analysed_ = true;
+  ldlt_.factorize(A);
+  rep_.factor_seconds += Since(tp);
+  if (ldlt_.info() != Eigen::Success) throw NumericalError("secant LM: factorisation failed");
+  Eigen::VectorXd h = ldlt_.solve(-g_);
+  rep_.solve_seconds += Since(t0);
+  if (!h.allFinite()) throw NumericalError("secant LM: non-finite step");
+  return h;
+}
+
+// Numeric secant mode: keep B good along every coordinate, refreshing column j unless h
+// already probes it.
+void SecantLmRun::RefreshCoordinate(const Eigen::VectorXd& h) {
+  coordinate_ = (coordinate_ + 1) % n_;
+  if (std::abs(h[coordinate_]) >= 0.8 * h.norm()) return;
+  Eigen::VectorXd x_j = x_, r_j;
+  x_j[coordinate_] += delta_;
+  TimedEval(x_j, r_j);
+  if (r_j.allFinite()) {
+    SchubertUpdate(B_, x_j - x_, r_j - r_);
+    ++rep_.secant_updates;
+    btb_valid_ = false;
+  }
+}
+
+// Evaluates x + h, updates B along h, takes the step if the gain ratio ρ is positive and
+// adapts μ; returns ρ.
+double SecantLmRun::TryStep(const Eigen::VectorXd& h) {
+  const Eigen::VectorXd x_new = x_ + h;
+  Eigen::VectorXd r_new;
+  TimedEval(x_new, r_new);
+  const double F_new = r_new.allFinite() ? 0.5 * r_new.squaredNorm() : HUGE_VAL;
+  // Predicted decrease L(0) − L(h) = ½ hᵀ(μh − g).
+  const double predicted = 0.5 * h.dot(mu_ * h - g_);
+  const double rho = predicted > 0 ? (F_ - F_new) / predicted : -1;
+  // The secant information along h is valid whether or not the step is taken.
+  if (o_.secant && r_new.allFinite()) {
+    SchubertUpdate(B_, h, r_new - r_);
+    ++rep_.secant_updates;
+    ++updates_since_fresh_;
+    btb_valid_ = false;
+  }
+  if (rho > 0) {
+    const double decrease = (F_ - F_new) / std::max(F_, 1e-300);
+    x_ = x_new;
+    r_ = r_new;
+    F_ = F_new;
+    ++rep_.accepted;
+    mu_ *= std::max(1.0 / 3, 1 - std::pow(2 * rho - 1, 3));
+    nu_ = 2;
+    stall_ = decrease < o_.relative_decrease ? stall_ + 1 : 0;
+  } else {
+    ++rep_.rejected;
+    mu_ *= nu_;
+    nu_ *= 2;
+  }
+  return rho;
+}
+
+SecantLmReport SecantLmRun::Solve() {
+  TimedEval(x_, r_);
+  if (!r_.allFinite()) throw NumericalError("secant LM: non-finite initial residuals");
+  Fresh();
+  F_ = 0.5 * r_.squaredNorm();
+  rep_.initial_cost = F_;
+  g_ = B_.transpose() * r_;
+  I_.resize(n_, n_);
+  I_.setIdentity();
+  BtB_ = Eigen::SparseMatrix<double>(B_.transpose()) * B_;
+  mu_ = o_.tau * std::max(BtB_.diagonal().maxCoeff(), 1e-300);
+  rep_.termination = "max_iterations";
+  for (int k = 0; k < o_.max_iterations; ++k) {
+    if (g_.lpNorm<Eigen::Infinity>() <= o_.gradient_tolerance) {
+      rep_.termination = "gradient";
       break;
     }
     // An iteration costs one evaluation, two with a coordinate refresh.
-    if (options.max_residual_evaluations > 0 &&
-        rep.residual_evaluations + (numeric ? 2 : 1) > options.max_residual_evaluations) {
-      rep.termination = "max_residual_evaluations";
+    if (o_.max_residual_evaluations > 0 &&
+        rep_.residual_evaluations + (numeric_ ? 2 : 1) > o_.max_residual_evaluations) {
+      rep_.termination = "max_residual_evaluations";
       break;
     }
-    t0 = Clock::now();
-    if (!btb_valid) BtB = Eigen::SparseMatrix<double>(B.transpose()) * B;
-    btb_valid = true;
-    const Eigen::SparseMatrix<double> A = BtB + mu * I;
-    auto tp = Clock::now();
-    rep.product_seconds += Since(t0);
-    // B keeps one pattern, so the ordering is computed once.
-    if (!analysed) ldlt.analyzePattern(A), analysed = true;
-    ldlt.factorize(A);
-    rep.factor_seconds += Since(tp);
-    if (ldlt.info() != Eigen::Success) throw NumericalError("secant LM: factorisation failed");
-    h = ldlt.solve(-g);
-    rep.solve_seconds += Since(t0);
-    if (!h.allFinite()) throw NumericalError("secant LM: non-finite step");
-    rep.iterations = k + 1;
-    if (h.norm() <= options.step_tolerance * (x.norm() + options.step_tolerance)) {
-      rep.termination = "step";
-      rep.cost.push_back(F);
+    const Eigen::VectorXd h = DampedStep();
+    rep_.iterations = k + 1;
+    if (h.norm() <= o_.step_tolerance * (x_.norm() + o_.step_tolerance)) {
+      rep_.termination = "step";
+      rep_.cost.push_back(F_);
       break;
     }
-    if (numeric && options.secant) {
-      // Keep B good along every coordinate: refresh column j unless h already probes it.
-      coordinate = (coordinate + 1) % n;
-      if (std::abs(h[coordinate]) < 0.8 * h.norm()) {
-        x_j = x;
-        x_j[coordinate] += delta;
-        t0 = Clock::now();
-        eval(x_j, r_j);
-        rep.residual_seconds += Since(t0);
-        if (r_j.allFinite()) {
-          SchubertUpdate(B, x_j - x, r_j - r);
-          ++rep.secant_updates;
-          btb_valid = false;
-        }
-      }
-    }
-    x_new = x + h;
-    t0 = Clock::now();
-    eval(x_new, r_new);
-    rep.residual_seconds += Since(t0);
-    const double F_new = r_new.allFinite() ? 0.5 * r_new.squaredNorm() : HUGE_VAL;
-    // Predicted decrease L(0) − L(h) = ½ hᵀ(μh − g).
-    const double predicted = 0.5 * h.dot(mu * h - g);
-    const double rho = predicted > 0 ? (F - F_new) / predicted : -1;
-    // The secant information along h is valid whether or not the step is taken.
-    const bool use_secant = options.secant && r_new.allFinite();
-    if (use_secant) {
-      SchubertUpdate(B, h, r_new - r);
-      ++rep.secant_updates;
-      ++updates_since_fresh;
-      btb_valid = false;
-    }
-    if (rho > 0) {
-      const double decrease = (F - F_new) / std::max(F, 1e-300);
-      x = x_new;
-      r = r_new;
-      F = F_new;
-      ++rep.accepted;
-      mu *= std::max(1.0 / 3, 1 - std::pow(2 * rho - 1, 3));
-      nu = 2;
-      stall = decrease < options.relative_decrease ? stall + 1 : 0;
-    } else {
-      ++rep.rejected;
-      mu *= nu;
-      nu *= 2;
-    }
-    rep.cost.push_back(F);
-    if (stall >= options.stall_iterations) {
-      rep.termination = "relative_decrease";
+    if (numeric_ && o_.secant) RefreshCoordinate(h);
+    const double rho = TryStep(h);
+    rep_.cost.push_back(F_);
+    if (stall_ >= o_.stall_iterations) {
+      rep_.termination = "relative_decrease";
       break;
     }
-    const bool stale = updates_since_fresh > 0;
+    const bool stale = updates_since_fresh_ > 0;
     // Numeric secant mode never refreshes in full (n evaluations): the coordinate
     // refresh keeps B current instead.
-    const bool refresh = options.secant ? (!numeric && (updates_since_fresh >= options.refresh_every || (rho <= 0 && stale)))
-                                         : rho > 0;
+    const bool refresh =
+        o_.secant ? (!numeric_ && (updates_since_fresh_ >= o_.refresh_every || (rho <= 0 && stale))) : rho > 0;
     if (refresh) {
-      fresh();
-      updates_since_fresh = 0;
-      btb_valid = false;
+      Fresh();
+      updates_since_fresh_ = 0;
+      btb_valid_ = false;
     }
-    g = B.transpose() * r;
+    g_ = B_.transpose() * r_;
   }
-  rep.final_cost = F;
-  rep.final_mu = mu;
-  return rep;
+  rep_.final_cost = F_;
+  rep_.final_mu = mu_;
+  return rep_;
+}
+
+}  // namespace
+
+SecantLmReport SolveSecantLm(const LeastSquaresProblem& problem, Eigen::VectorXd& x, const SecantLmOptions& options) {
+  options.Validate();
+  DRAPE_CHECK(x.size() == problem.NumParameters(), "parameter vector size");
+  return SecantLmRun(problem, x, options).Solve();
 }
 
 }  // namespace drape::optim

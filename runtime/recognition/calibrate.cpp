@@ -82,6 +82,106 @@ Sparse NegatedSparse(const std::vector<double>& x) {
   return s;
 }
 
+// A calibration query's database entries of its category, relevant (same anchor) or not,
+// with their XOR vectors in `frame`.
+QueryPairs PairsOf(const Database& db, const LabelledCode& lq, const std::string& cat, WeightFrame frame,
+                   std::vector<Match>& matches) {
+  PreparedQuery pq(lq.code);
+  db.matcher().MatchAll(pq, &matches);
+  QueryPairs p;
+  for (int i : db.EntriesOf(cat)) {
+    std::vector<double> x;
+    db.matcher().XorVector(i, pq, matches[i].rotation, frame, &x);
+    if (db.label(i).anchor == lq.label.anchor) {
+      p.relevant.push_back(i);
+      p.rel_x.push_back(std::move(x));
+    } else {
+      p.nonrelevant.push_back(i);
+      p.non_x.push_back(std::move(x));
+    }
+  }
+  return p;
+}
+
+// dlib's RankSVM learns f(x) = w·x with f(relevant) > f(nonrelevant). We want the
+// relevant entries at the SMALLER weighted distance w·(x̂ ⊕ q), so we hand it the
+// negated vectors −(x̂ ⊕ q): w·(−a) > w·(−b) ⇔ w·a < w·b, which is Eq. learn's
+// constraint. Non-negative w keeps w·(x̂ ⊕ q) a distance (and is the paper's
+// "weighted Hamming distance").
+dlib::ranking_pair<Sparse> RankingPair(const QueryPairs& p) {
+  dlib::ranking_pair<Sparse> rp;
+  for (const auto& x : p.rel_x) rp.relevant.push_back(NegatedSparse(x));
+  for (const auto& x : p.non_x) rp.nonrelevant.push_back(NegatedSparse(x));
+  // An all-zero XOR (identical features) is an empty sparse vector, which dlib accepts.
+  return rp;
+}
+
+// The RankSVM's weights (bits of them); *map its mean average precision on the samples.
+std::vector<double> TrainWeights(const std::vector<dlib::ranking_pair<Sparse>>& samples,
+                                 const CalibrateOptions& options, int bits, double* map) {
+  dlib::svm_rank_trainer<SparseKernel> trainer;
+  trainer.set_c(options.c);
+  trainer.set_epsilon(options.epsilon);
+  trainer.set_max_iterations(options.max_iterations);
+  trainer.set_learns_nonnegative_weights(options.nonnegative);
+  const auto df = trainer.train(samples);
+  std::vector<double> w(bits, 0.0);
+  for (const auto& [idx, val] : df.basis_vectors(0)) {
+    DRAPE_CHECK(idx < static_cast<unsigned long>(bits), "weight index");
+    w[idx] = val;
+  }
+  if (options.nonnegative) {
+    for (double& v : w) v = std::max(v, 0.0);  // OCA returns tiny negatives at the bound
+  }
+  const dlib::matrix<double, 1, 2> acc = dlib::test_ranking_function(df, samples);
+  *map = acc(1);
+  return w;
+}
+
+// One category's weights from its calibration queries (into out.weights) and its
+// statistics (into out.categories); queries without both kinds of entries are skipped.
+void CalibrateCategory(const Database& db, const std::string& cat, const std::vector<const LabelledCode*>& qs,
+                       const CalibrateOptions& options, CalibrationResult& out) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const int bits = db.layers() * db.rings() * db.sectors();
+  CategoryCalibration st;
+  st.category = cat;
+  std::vector<QueryPairs> pairs;
+  std::vector<dlib::ranking_pair<Sparse>> samples;
+  std::vector<Match> matches;
+  for (const LabelledCode* lq : qs) {
+    QueryPairs p = PairsOf(db, *lq, cat, options.frame, matches);
+    if (p.relevant.empty() || p.nonrelevant.empty()) {
+      ++st.skipped;
+      out.warnings.push_back(
+          "calibration query " + lq->label.id + " (" + cat + ", anchor '" + lq->label.anchor +
+          "'): " + (p.relevant.empty() ? "no database entry has this anchor" : "every database entry has this anchor") +
+          "; skipped");
+      continue;
+    }
+    samples.push_back(RankingPair(p));
+    st.pairs += static_cast<long long>(p.relevant.size()) * p.nonrelevant.size();
+    pairs.push_back(std::move(p));
+    ++st.queries;
+  }
+  if (samples.empty()) {
+    out.warnings.push_back("category '" + cat + "': no usable calibration query; it stays unweighted");
+    out.categories.push_back(st);
+    return;
+  }
+  std::vector<double> w = TrainWeights(samples, options, bits, &st.map_after);
+
+  long long good = 0, total = 0;
+  PairAccuracy(pairs, std::vector<double>(bits, 1.0), &good, &total, &st.top1_before);
+  st.accuracy_before = total ? double(good) / total : 0;
+  PairAccuracy(pairs, w, &good, &total, &st.top1_after);
+  st.accuracy_after = total ? double(good) / total : 0;
+  st.nonzero_fraction = double(std::count_if(w.begin(), w.end(), [](double v) { return v > 1e-9; })) / bits;
+  st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  out.weights.per_category[cat] = std::move(w);
+  out.categories.push_back(st);
+}
+
 }  // namespace
 
 CalibrationResult Calibrate(const Database& db, const std::vector<LabelledCode>& queries,
@@ -101,92 +201,16 @@ CalibrationResult Calibrate(const Database& db, const std::vector<LabelledCode>&
                              {"nonnegative", options.nonnegative},
                              {"solver", "dlib::svm_rank_trainer (OCA cutting plane), C scaled by 1/#pairs"},
                              {"frame", WeightFrameName(options.frame)}};
-  const int bits = db.layers() * db.rings() * db.sectors();
 
   std::map<std::string, std::vector<const LabelledCode*>> by_cat;
   for (const auto& q : queries) by_cat[q.label.category].push_back(&q);
-
-  std::vector<Match> matches;
   for (const auto& [cat, qs] : by_cat) {
-    const auto t0 = std::chrono::steady_clock::now();
     if (!db.HasCategory(cat)) {
       out.warnings.push_back("category '" + cat + "': " + std::to_string(qs.size()) +
                              " calibration queries but no database entries; skipped");
       continue;
     }
-    CategoryCalibration st;
-    st.category = cat;
-    std::vector<QueryPairs> pairs;
-    std::vector<dlib::ranking_pair<Sparse>> samples;
-    for (const LabelledCode* lq : qs) {
-      PreparedQuery pq(lq->code);
-      db.matcher().MatchAll(pq, &matches);
-      QueryPairs p;
-      for (int i : db.EntriesOf(cat)) {
-        std::vector<double> x;
-        db.matcher().XorVector(i, pq, matches[i].rotation, options.frame, &x);
-        if (db.label(i).anchor == lq->label.anchor) {
-          p.relevant.push_back(i);
-          p.rel_x.push_back(std::move(x));
-        } else {
-          p.nonrelevant.push_back(i);
-          p.non_x.push_back(std::move(x));
-        }
-      }
-      if (p.relevant.empty() || p.nonrelevant.empty()) {
-        ++st.skipped;
-        out.warnings.push_back("calibration query " + lq->label.id + " (" + cat + ", anchor '" +
-                               lq->label.anchor + "'): " +
-                               (p.relevant.empty() ? "no database entry has this anchor"
-                                                   : "every database entry has this anchor") +
-                               "; skipped");
-        continue;
-      }
-      // dlib's RankSVM learns f(x) = w·x with f(relevant) > f(nonrelevant). We want the
-      // relevant entries at the SMALLER weighted distance w·(x̂ ⊕ q), so we hand it the
-      // negated vectors −(x̂ ⊕ q): w·(−a) > w·(−b) ⇔ w·a < w·b, which is Eq. learn's
-      // constraint. Non-negative w keeps w·(x̂ ⊕ q) a distance (and is the paper's
-      // "weighted Hamming distance").
-      dlib::ranking_pair<Sparse> rp;
-      for (const auto& x : p.rel_x) rp.relevant.push_back(NegatedSparse(x));
-      for (const auto& x : p.non_x) rp.nonrelevant.push_back(NegatedSparse(x));
-      // An all-zero XOR (identical features) is an empty sparse vector, which dlib accepts.
-      samples.push_back(std::move(rp));
-      st.pairs += static_cast<long long>(p.relevant.size()) * p.nonrelevant.size();
-      pairs.push_back(std::move(p));
-      ++st.queries;
-    }
-    if (samples.empty()) {
-      out.warnings.push_back("category '" + cat + "': no usable calibration query; it stays unweighted");
-      out.categories.push_back(st);
-      continue;
-    }
-    dlib::svm_rank_trainer<SparseKernel> trainer;
-    trainer.set_c(options.c);
-    trainer.set_epsilon(options.epsilon);
-    trainer.set_max_iterations(options.max_iterations);
-    trainer.set_learns_nonnegative_weights(options.nonnegative);
-    const auto df = trainer.train(samples);
-    std::vector<double> w(bits, 0.0);
-    for (const auto& [idx, val] : df.basis_vectors(0)) {
-      DRAPE_CHECK(idx < static_cast<unsigned long>(bits), "weight index");
-      w[idx] = val;
-    }
-    if (options.nonnegative) {
-      for (double& v : w) v = std::max(v, 0.0);  // OCA returns tiny negatives at the bound
-    }
-    const dlib::matrix<double, 1, 2> acc = dlib::test_ranking_function(df, samples);
-    st.map_after = acc(1);
-
-    long long good = 0, total = 0;
-    PairAccuracy(pairs, std::vector<double>(bits, 1.0), &good, &total, &st.top1_before);
-    st.accuracy_before = total ? double(good) / total : 0;
-    PairAccuracy(pairs, w, &good, &total, &st.top1_after);
-    st.accuracy_after = total ? double(good) / total : 0;
-    st.nonzero_fraction = double(std::count_if(w.begin(), w.end(), [](double v) { return v > 1e-9; })) / bits;
-    st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    out.weights.per_category[cat] = std::move(w);
-    out.categories.push_back(st);
+    CalibrateCategory(db, cat, qs, options, out);
   }
   Json cats = Json::array();
   for (const auto& c : out.categories) cats.push_back(ToJson(c));

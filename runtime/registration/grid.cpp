@@ -49,18 +49,24 @@ ClosestPointGrid::ClosestPointGrid(const TriMesh& target, const GridOptions& opt
   stats_.nx = nx_, stats_.ny = ny_, stats_.nz = nz_, stats_.spacing = h_;
   nodes_.assign(n, Cell{{0, 0, 0}, std::numeric_limits<float>::infinity(), -1});
 
-  // Narrow band: every node within band*h of a triangle's bounding box gets the exact
-  // distance to that triangle if it beats what it has. A node closer than band*h to the
-  // surface thus ends with its exact closest point. Planes of constant k are
-  // independent, so they run in parallel with identical results.
-  auto t0 = std::chrono::steady_clock::now();
+  FillBand(options);
+  Sweep(options);
+  for (const Cell& c : nodes_) DRAPE_CHECK(c.tri >= 0, "grid node left without a closest point");
+}
+
+// Narrow band: every node within band*h of a triangle's bounding box gets the exact
+// distance to that triangle if it beats what it has. A node closer than band*h to the
+// surface thus ends with its exact closest point. Planes of constant k are
+// independent, so they run in parallel with identical results.
+void ClosestPointGrid::FillBand(const GridOptions& options) {
+  const auto t0 = std::chrono::steady_clock::now();
   const double band = options.band * h_;
-  const int F = target.NumFaces();
+  const int F = target_.NumFaces();
   std::vector<std::array<int, 6>> range(F);
   std::vector<std::vector<int>> by_plane(nz_);
   for (int f = 0; f < F; ++f) {
     Eigen::AlignedBox3d tb;
-    for (int c = 0; c < 3; ++c) tb.extend(Vec3(target.V.row(target.F(f, c))));
+    for (int c = 0; c < 3; ++c) tb.extend(Vec3(target_.V.row(target_.F(f, c))));
     const Vec3 lo = (tb.min() - Vec3::Constant(band) - origin_) / h_;
     const Vec3 hi = (tb.max() + Vec3::Constant(band) - origin_) / h_;
     const int dims[3] = {nx_, ny_, nz_};
@@ -90,53 +96,59 @@ ClosestPointGrid::ClosestPointGrid(const TriMesh& target, const GridOptions& opt
   });
   for (int64_t c : band_count) stats_.band_nodes += c;
   stats_.band_seconds = Seconds(t0);
+}
 
-  // Fast sweeping: Gauss–Seidel over the 8 diagonal orderings; each node tries the
-  // closest triangles of its upwind neighbours (exact distance to that triangle).
-  t0 = std::chrono::steady_clock::now();
+// Fast sweeping: Gauss–Seidel over the 8 diagonal orderings until a pass changes nothing.
+void ClosestPointGrid::Sweep(const GridOptions& options) {
+  const auto t0 = std::chrono::steady_clock::now();
   for (int pass = 0; pass < options.max_passes; ++pass) {
     int64_t updates = 0;
-    for (int order = 0; order < 8; ++order) {
-      const int di = (order & 1) ? -1 : 1, dj = (order & 2) ? -1 : 1, dk = (order & 4) ? -1 : 1;
-      const int i0 = di > 0 ? 0 : nx_ - 1, j0 = dj > 0 ? 0 : ny_ - 1, k0 = dk > 0 ? 0 : nz_ - 1;
-      for (int kk = 0, k = k0; kk < nz_; ++kk, k += dk)
-        for (int jj = 0, j = j0; jj < ny_; ++jj, j += dj)
-          for (int ii = 0, i = i0; ii < nx_; ++ii, i += di) {
-            Cell& cell = nodes_[Index(i, j, k)];
-            // The 7 upwind neighbours of the 2×2×2 block behind the node (Bridson's
-            // variant of Tsai's sweep; the 3 axis neighbours alone leave ~0.2 h errors
-            // near the medial axis).
-            int64_t nb[7];
-            double reach[7];
-            int nn = 0;
-            for (int c = 1; c < 8; ++c) {
-              const int ai = c & 1, aj = (c >> 1) & 1, ak = (c >> 2) & 1;
-              if ((ai && ii == 0) || (aj && jj == 0) || (ak && kk == 0)) continue;
-              reach[nn] = h_ * std::sqrt(double(ai + aj + ak));
-              nb[nn++] = Index(i - ai * di, j - aj * dj, k - ak * dk);
-            }
-            for (int t = 0; t < nn; ++t) {
-              const int64_t q = nb[t];
-              const Cell& o = nodes_[q];
-              if (o.tri < 0 || o.tri == cell.tri) continue;
-              // Lower bound on the distance to o's triangle: d(o) − |x − o|.
-              if (double(o.d) - reach[t] >= double(cell.d)) continue;
-              const ClosestPoint c = ClosestOnTriangle(target_, o.tri, NodePosition(i, j, k));
-              // Strict improvement beyond float rounding, so equidistant triangles (a
-              // shared edge or vertex) do not flip back and forth between passes.
-              if (c.distance < double(cell.d) * (1 - 1e-6)) {
-                cell = Cell{{float(c.point.x()), float(c.point.y()), float(c.point.z())}, float(c.distance), o.tri};
-                ++updates;
-              }
-            }
-          }
-    }
+    for (int order = 0; order < 8; ++order) updates += SweepOrder(order);
     stats_.passes = pass + 1;
     stats_.sweep_updates += updates;
     if (updates == 0) break;
   }
   stats_.sweep_seconds = Seconds(t0);
-  for (const Cell& c : nodes_) DRAPE_CHECK(c.tri >= 0, "grid node left without a closest point");
+}
+
+// Each node tries the closest triangles of its upwind neighbours (exact distance to that
+// triangle).
+int64_t ClosestPointGrid::SweepOrder(int order) {
+  int64_t updates = 0;
+  const int di = (order & 1) ? -1 : 1, dj = (order & 2) ? -1 : 1, dk = (order & 4) ? -1 : 1;
+  const int i0 = di > 0 ? 0 : nx_ - 1, j0 = dj > 0 ? 0 : ny_ - 1, k0 = dk > 0 ? 0 : nz_ - 1;
+  for (int kk = 0, k = k0; kk < nz_; ++kk, k += dk)
+    for (int jj = 0, j = j0; jj < ny_; ++jj, j += dj)
+      for (int ii = 0, i = i0; ii < nx_; ++ii, i += di) {
+        Cell& cell = nodes_[Index(i, j, k)];
+        // The 7 upwind neighbours of the 2×2×2 block behind the node (Bridson's
+        // variant of Tsai's sweep; the 3 axis neighbours alone leave ~0.2 h errors
+        // near the medial axis).
+        int64_t nb[7];
+        double reach[7];
+        int nn = 0;
+        for (int c = 1; c < 8; ++c) {
+          const int ai = c & 1, aj = (c >> 1) & 1, ak = (c >> 2) & 1;
+          if ((ai && ii == 0) || (aj && jj == 0) || (ak && kk == 0)) continue;
+          reach[nn] = h_ * std::sqrt(double(ai + aj + ak));
+          nb[nn++] = Index(i - ai * di, j - aj * dj, k - ak * dk);
+        }
+        for (int t = 0; t < nn; ++t) {
+          const int64_t q = nb[t];
+          const Cell& o = nodes_[q];
+          if (o.tri < 0 || o.tri == cell.tri) continue;
+          // Lower bound on the distance to o's triangle: d(o) − |x − o|.
+          if (double(o.d) - reach[t] >= double(cell.d)) continue;
+          const ClosestPoint c = ClosestOnTriangle(target_, o.tri, NodePosition(i, j, k));
+          // Strict improvement beyond float rounding, so equidistant triangles (a
+          // shared edge or vertex) do not flip back and forth between passes.
+          if (c.distance < double(cell.d) * (1 - 1e-6)) {
+            cell = Cell{{float(c.point.x()), float(c.point.y()), float(c.point.z())}, float(c.distance), o.tri};
+            ++updates;
+          }
+        }
+      }
+  return updates;
 }
 
 Vec3 ClosestPointGrid::NodePosition(int i, int j, int k) const {

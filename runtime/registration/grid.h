@@ -61,6 +61,10 @@ class ClosestPointGrid {
   };
   int64_t Index(int i, int j, int k) const { return (int64_t(k) * ny_ + j) * nx_ + i; }
   void CellCorners(const Vec3& p, int64_t corners[8]) const;
+  // The constructor's steps: the exact narrow band, then fast sweeping outwards.
+  void FillBand(const GridOptions& options);
+  void Sweep(const GridOptions& options);
+  int64_t SweepOrder(int order);  // one Gauss–Seidel pass in one diagonal order; updates
 
   TriMesh target_;
   Vec3 origin_ = Vec3::Zero();

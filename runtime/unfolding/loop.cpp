@@ -236,19 +236,20 @@ struct TrialRun {
     holder = 0;
   }
 
-  // Sweep → fusion → feature → recognition → registration → plan; fills `s`.
-  // Returns false (with res.failure) when no plan can be made.
-  bool SenseAndPlan(Step& s, int iteration, const rec::Database& db) {
+  // Sweep → fusion → feature → recognition; fills s.frames, s.recon, s.recognition.
+  bool SenseAndRecognise(Step& s, int iteration) {
     const Recipe& recipe = model.recipe();
     hw::Arm& h = world.arm(holder);
     auto t0 = Clock::now();
-    const Sweep sweep = world.camera().CaptureTurning(h, o.capture, DeriveSeed(seed, "sweep/" + std::to_string(iteration)));
+    const Sweep sweep =
+        world.camera().CaptureTurning(h, o.capture, DeriveSeed(seed, "sweep/" + std::to_string(iteration)));
     res.times.sensing += Since(t0);
     s.frames = static_cast<int>(sweep.frames.size());
     t0 = Clock::now();
     FusionOptions fo = recipe.fusion;
     fo.threads = 0;
-    const FusionResult fused = FuseFrames(sweep.frames, sweep.intrinsics, fo, DeriveSeed(seed, "fusion/" + std::to_string(iteration)));
+    const FusionResult fused =
+        FuseFrames(sweep.frames, sweep.intrinsics, fo, DeriveSeed(seed, "fusion/" + std::to_string(iteration)));
     if (fused.mesh.NumFaces() == 0) {
       res.failure = "fusion: the reconstruction is empty";
       return false;
@@ -265,13 +266,13 @@ struct TrialRun {
     ro.weighted = o.weighted;
     s.recognition = model.recognizer(o.weighted).Recognize(code, ro);
     res.times.recognition += Since(t0);
+    s.recognised_right = s.recognition.category == category && s.recognition.anchor == s.held_true_anchor;
+    return true;
+  }
+
+  // The next anchor by the objective f over the recognised category's desired pairs.
+  bool PlanNext(Step& s, const std::vector<DesiredPair>& pairs) {
     const rec::Recognition& r = s.recognition;
-    s.recognised_right = r.category == category && r.anchor == s.held_true_anchor;
-    const auto pairs = DesiredPairsFor(r.category);
-    if (pairs.empty()) {
-      res.failure = "recognised as '" + r.category + "', which has no desired anchor pair";
-      return false;
-    }
     const ScoreTable table(model.InstanceAnchors(r.best.instance), pairs, o.objective);
     const int current = table.IndexOf(r.anchor);
     DRAPE_CHECK(current >= 0, "recognised anchor not among its instance's anchors");
@@ -283,9 +284,32 @@ struct TrialRun {
     s.current_anchor = r.anchor;
     s.next_anchor = table.anchor(next.anchor).label;
     s.f = next.f;
+    return true;
+  }
 
-    // Registration: the matched database mesh, turned by the recognised rotation.
-    t0 = Clock::now();
+  // Score colouring of the registered mesh: each vertex's pattern point is unknown
+  // here, so colour by its distance to the desired anchors' registered vertices.
+  void ColourByScore(Step& s, const std::vector<DesiredPair>& pairs) const {
+    const std::string& instance = s.recognition.best.instance;
+    s.point_score.assign(s.registered.NumVertices(), 0.0);
+    for (const DesiredPair& d : pairs) {
+      for (const std::string& lab : {d.first, d.second}) {
+        const int av = model.AnchorVertex(instance, lab);
+        if (av < 0 || av >= s.registered.NumVertices()) continue;
+        const Vec3 c = s.registered.V.row(av);
+        const double sig = 1.0 / (2 * o.objective.sigma_length * o.objective.sigma_length);
+        for (int i = 0; i < s.registered.NumVertices(); ++i)
+          s.point_score[i] =
+              std::max(s.point_score[i], std::exp(-sig * (s.registered.V.row(i).transpose() - c).squaredNorm()));
+      }
+    }
+  }
+
+  // Registration of the matched database mesh (turned by the recognised rotation) onto
+  // the reconstruction; the next anchor's point predicted in the world frame.
+  bool RegisterAndPredict(Step& s, const rec::Database& db, const std::vector<DesiredPair>& pairs) {
+    const rec::Recognition& r = s.recognition;
+    const auto t0 = Clock::now();
     TriMesh src = model.HungMesh(r.best.entry);
     const double yaw = 2 * M_PI * r.best.rotation / db.sectors();
     const Eigen::Matrix3d R = Eigen::AngleAxisd(yaw, Vec3::UnitY()).toRotationMatrix();
@@ -307,26 +331,26 @@ struct TrialRun {
       res.failure = "the database has no vertex for anchor " + s.next_anchor + " of " + r.best.instance;
       return false;
     }
-    // Score colouring of the registered mesh: each vertex's pattern point is unknown
-    // here, so colour by its distance to the desired anchors' registered vertices.
-    s.point_score.assign(s.registered.NumVertices(), 0.0);
-    for (const DesiredPair& d : pairs) {
-      for (const std::string& lab : {d.first, d.second}) {
-        const int av = model.AnchorVertex(r.best.instance, lab);
-        if (av < 0 || av >= s.registered.NumVertices()) continue;
-        const Vec3 c = s.registered.V.row(av);
-        const double sig = 1.0 / (2 * o.objective.sigma_length * o.objective.sigma_length);
-        for (int i = 0; i < s.registered.NumVertices(); ++i)
-          s.point_score[i] = std::max(s.point_score[i], std::exp(-sig * (s.registered.V.row(i).transpose() - c).squaredNorm()));
-      }
-    }
+    ColourByScore(s, pairs);
     // Map onto the reconstruction: the closest point of the fused surface.
     const ExactClosestPoint onto(s.recon);
     const Vec3 p_obj = onto.Query(s.registered.V.row(v).transpose()).point;
     res.times.registration += Since(t0);
-    const hw::GripperPose hp = h.pose();
+    const hw::GripperPose hp = world.arm(holder).pose();
     s.predicted = Eigen::AngleAxisd(hp.wrist, Vec3::UnitY()).toRotationMatrix() * p_obj + hp.position;
     return true;
+  }
+
+  // Sweep → fusion → feature → recognition → plan → registration; fills `s`.
+  // Returns false (with res.failure) when no plan can be made.
+  bool SenseAndPlan(Step& s, int iteration, const rec::Database& db) {
+    if (!SenseAndRecognise(s, iteration)) return false;
+    const std::vector<DesiredPair> pairs = DesiredPairsFor(s.recognition.category);
+    if (pairs.empty()) {
+      res.failure = "recognised as '" + s.recognition.category + "', which has no desired anchor pair";
+      return false;
+    }
+    return PlanNext(s, pairs) && RegisterAndPredict(s, db, pairs);
   }
 
   // IR scan across the predicted point with the free gripper; returns the grasp pose.
