@@ -98,92 +98,87 @@ void WritePng(const fs::path& p, const cv::Mat& img) {
   WriteFileAtomic(p, std::string_view(reinterpret_cast<const char*>(buf.data()), buf.size()));
 }
 
-int Run(const std::vector<std::string>& argv) {
-  Args args(argv, {"--no-optimise"},
-            {"--plan", "--trials", "--seed", "-o", "--output", "--size", "--edge", "--material", "--category",
-             "--gripper", "--max-sims", "--fan", "--stiffness"});
-  if (args.help()) {
-    std::cout << kUsage;
-    return 0;
-  }
-  args.RequirePositional(1, 1, "a GARMENT (template name or mesh file)");
-  const auto plan_path = args.Get("--plan");
-  if (!plan_path) throw Error("--plan PLAN is required");
-  const FoldingPlan plan = LoadPlan(*plan_path);
-  const fs::path out = args.Get("-o", args.Get("--output", "fold-out"));
-  fs::create_directories(out);
-
+// The garment lying on the table, its material (link stiffness fitted to the measured
+// stretch unless --stiffness) and the table's friction.
+struct FoldInputs {
   FoldSetup setup;
-  setup.garment = LoadGarment(args.positional()[0], args);
-  const std::string category = setup.garment.category;
-  const std::string mname = args.Get("--material", DefaultMaterial(category));
-  const Material* material = FindMaterialPreset(mname);
-  if (!material) throw Error("--material: unknown material '" + mname + "'");
+  std::string material;
   MaterialFit fit;
+};
+
+FoldInputs SetUpFold(const Args& args) {
+  FoldInputs in;
+  FoldSetup& setup = in.setup;
+  setup.garment = LoadGarment(args.positional()[0], args);
+  in.material = args.Get("--material", DefaultMaterial(setup.garment.category));
+  const Material* material = FindMaterialPreset(in.material);
+  if (!material) throw Error("--material: unknown material '" + in.material + "'");
   if (auto k = args.GetDouble("--stiffness")) {
-    fit.stiffness = *k;
+    in.fit.stiffness = *k;
   } else {
     HangOptions ho;
     ho.fit_edge_length = args.GetDouble("--edge").value_or(0.04);
-    std::printf("fitting %s to its stretch (%.1f %%) ...\n", mname.c_str(), material->stretch_percent);
+    std::printf("fitting %s to its stretch (%.1f %%) ...\n", in.material.c_str(), material->stretch_percent);
     std::fflush(stdout);
-    fit = FitMaterial(*material, ho);
-    std::printf("  kLST %.3f (reproduces %.2f %%) in %.1f s\n", fit.stiffness, fit.reproduced_stretch_percent,
-                fit.wall_seconds);
+    in.fit = FitMaterial(*material, ho);
+    std::printf("  kLST %.3f (reproduces %.2f %%) in %.1f s\n", in.fit.stiffness, in.fit.reproduced_stretch_percent,
+                in.fit.wall_seconds);
   }
   setup.material.area_density = material->area_density;
-  setup.material.link_stiffness = fit.stiffness;
+  setup.material.link_stiffness = in.fit.stiffness;
   setup.material.bending = material->bending_stiffness;
   setup.material.max_strain = 2 * material->stretch_percent / 100;
   setup.friction = material->FrictionCoefficient();
+  return in;
+}
 
+PlanRunOptions RunOptionsFrom(const Args& args, const FoldSetup& setup) {
   PlanRunOptions ro;
   ro.sim.gripper = ParseGripperModel(args.Get("--gripper", "pinch"));
   ro.thickness = setup.cloth.collision.thickness;
   if (auto n = args.GetInt("--max-sims")) ro.optimise.lm.max_residual_evaluations = static_cast<int>(*n);
   if (args.Flag("--no-optimise")) ro.optimise.lm.max_iterations = 0;
   ro.Validate();
-  const FoldScene scene = MakeScene(setup);
-  const Faces& F = setup.garment.mesh.F;
-  std::printf("%s: %d vertices, %d faces; plan %s, %zu steps, gripper %s\n", setup.garment.instance.c_str(),
-              setup.garment.mesh.NumVertices(), setup.garment.mesh.NumFaces(), plan.name.c_str(), plan.steps.size(),
-              GripperModelName(ro.sim.gripper).c_str());
+  return ro;
+}
 
-  const PlanRun run = RunPlan(scene, LayFlat(setup.garment.mesh, setup.table), category, plan, ro);
+// One step's record: trajectories before and after, costs, the other gripper's result.
+Json StepJson(const StepRecord& s, const StepSim& alt, GripperModel other) {
+  const StepOptimum& r = s.result;
+  Json rel = Json::array();
+  for (const auto& k : s.relative) rel.push_back({{"k1", Vec(k.k1)}, {"k2", Vec(k.k2)}});
+  return {
+      {"name", s.name},
+      {"grasps", s.grasps},
+      {"fold_line",
+       {{"point", {s.line.point.x(), s.line.point.y()}}, {"direction", {s.line.direction.x(), s.line.direction.y()}}}},
+      {"initial", PathsJson(r.initial)},
+      {"optimised", PathsJson(r.optimised)},
+      {"optimised_relative", rel},
+      {"before", SimJson(r.before)},
+      {"after", SimJson(r.after)},
+      {"other_gripper", {{"model", GripperModelName(other)}, {"result", SimJson(alt)}}},
+      {"optimiser",
+       {{"simulations", r.simulations},
+        {"iterations", r.lm.iterations},
+        {"accepted", r.lm.accepted},
+        {"termination", r.lm.termination},
+        {"cost_squared_half", r.lm.cost},
+        {"wall_seconds", r.wall_seconds}}}};
+}
 
-  // Trajectories, costs, pictures per step.
+// Trajectories, costs and key-frame pictures per step: the JSON steps, report rows in md.
+Json ReportSteps(const FoldScene& scene, const PlanRun& run, const PlanRunOptions& ro, const Faces& F,
+                 const fs::path& out, std::ostringstream& md) {
   Json steps = Json::array();
-  std::vector<std::vector<RelativeTrajectory>> relative;
-  std::ostringstream md;
-  md << "# drape fold: " << setup.garment.instance << " with plan " << plan.name << "\n\n"
-     << "Mesh " << setup.garment.mesh.NumVertices() << " vertices / " << setup.garment.mesh.NumFaces()
-     << " faces; material " << mname << " (kLST " << fit.stiffness << ", mu " << setup.friction << "); gripper "
-     << GripperModelName(ro.sim.gripper) << ".\n\n"
-     << "| step | arms | D before (mm) | D after (mm) | C before | C after | l before (m) | l after (m) | simulations | "
-        "seconds |\n|---|---|---|---|---|---|---|---|---|---|\n";
   // The other gripper model on the optimised trajectories: the paper's sim/real gap.
   FoldSimOptions other = ro.sim;
   other.gripper = ro.sim.gripper == GripperModel::kPinch ? GripperModel::kPoint : GripperModel::kPinch;
   for (size_t i = 0; i < run.steps.size(); ++i) {
     const StepRecord& s = run.steps[i];
     const StepOptimum& r = s.result;
-    relative.push_back(s.relative);
     const StepSim alt = SimulateStep(scene, s.setup, r.optimised, other, ro.optimise.alpha);
-    Json rel = Json::array();
-    for (const auto& k : s.relative) rel.push_back({{"k1", Vec(k.k1)}, {"k2", Vec(k.k2)}});
-    steps.push_back({{"name", s.name},
-                     {"grasps", s.grasps},
-                     {"fold_line", {{"point", {s.line.point.x(), s.line.point.y()}},
-                                    {"direction", {s.line.direction.x(), s.line.direction.y()}}}},
-                     {"initial", PathsJson(r.initial)},
-                     {"optimised", PathsJson(r.optimised)},
-                     {"optimised_relative", rel},
-                     {"before", SimJson(r.before)},
-                     {"after", SimJson(r.after)},
-                     {"other_gripper", {{"model", GripperModelName(other.gripper)}, {"result", SimJson(alt)}}},
-                     {"optimiser", {{"simulations", r.simulations}, {"iterations", r.lm.iterations},
-                                    {"accepted", r.lm.accepted}, {"termination", r.lm.termination},
-                                    {"cost_squared_half", r.lm.cost}, {"wall_seconds", r.wall_seconds}}}});
+    steps.push_back(StepJson(s, alt, other.gripper));
     char row[512];
     std::snprintf(row, sizeof row, "| %s | %zu | %.1f | %.1f | %.3f | %.3f | %.3f | %.3f | %d | %.0f |\n", s.name.c_str(),
                   s.grasps.size(), 1e3 * r.before.dissimilarity, 1e3 * r.after.dissimilarity, r.before.cost,
@@ -203,11 +198,110 @@ int Run(const std::vector<std::string>& argv) {
     std::snprintf(name, sizeof name, "step%zu_%s.png", i + 1, s.name.c_str());
     WritePng(out / name, pic);
   }
-  Json doc = {{"garment", setup.garment.instance}, {"category", category},   {"plan", plan.name},
-              {"material", mname},                 {"gripper", GripperModelName(ro.sim.gripper)},
-              {"alpha", ro.optimise.alpha},        {"delta", ro.optimise.lm.finite_difference_step},
+  return steps;
+}
+
+Json TrialJson(int t, const TrialResult& tr) {
+  return {{"index", t},
+          {"success", tr.success},
+          {"failure", tr.failure},
+          {"friction_scale", tr.friction_scale},
+          {"stiffness_scale", tr.stiffness_scale},
+          {"density_scale", tr.density_scale},
+          {"offset", {tr.offset.x(), tr.offset.y()}},
+          {"yaw_deg", tr.yaw_deg},
+          {"final_dissimilarity", tr.final_dissimilarity},
+          {"diagonal", tr.diagonal},
+          {"inside_fraction", tr.inside_fraction},
+          {"sim_time", tr.sim_time},
+          {"wall_seconds", tr.wall_seconds}};
+}
+
+// Evaluation trials replaying the optimised relative trajectories under perturbation; a
+// failed trial's last step as a picture; the success table in md.
+Json RunTrials(const Args& args, const FoldSetup& setup, const FoldingPlan& plan, const PlanRunOptions& ro,
+               const PlanRun& run, const fs::path& out, std::ostringstream& md) {
+  std::vector<std::vector<RelativeTrajectory>> relative;
+  for (const StepRecord& s : run.steps) relative.push_back(s.relative);
+  TrialOptions to;
+  to.trials = static_cast<int>(args.GetInt("--trials").value_or(10));
+  to.seed = static_cast<uint64_t>(args.GetInt("--seed").value_or(1));
+  int success = 0;
+  double seconds = 0;
+  Json trials = Json::array();
+  for (int t = 0; t < to.trials; ++t) {
+    const TrialResult tr = RunTrial(setup, plan, ro, relative, to, t);
+    success += tr.success;
+    seconds += tr.sim_time;
+    trials.push_back(TrialJson(t, tr));
+    std::printf("trial %d: %s, D %.1f mm (%.1f %% of %.2f m), silhouette %.0f %% inside\n", t,
+                tr.success ? "success" : ("failed: " + tr.failure).c_str(), 1e3 * tr.final_dissimilarity,
+                100 * tr.final_dissimilarity / std::max(tr.diagonal, 1e-9), tr.diagonal, 100 * tr.inside_fraction);
+    std::fflush(stdout);
+    if (!tr.success && !tr.run.steps.empty()) {
+      cv::Mat pic = StepKeyFrames(tr.run.steps.back(), setup.garment.mesh.F);
+      WritePng(out / ("failure_trial" + std::to_string(t) + ".png"), pic);
+    }
+  }
+  if (to.trials > 0) {
+    char row[256];
+    md << "\n| garment | # folds | success | avg. simulated time (s) |\n|---|---|---|---|\n";
+    std::snprintf(row, sizeof row, "| %s | %zu | %d/%d | %.1f |\n", setup.garment.instance.c_str(), plan.steps.size(),
+                  success, to.trials, seconds / to.trials);
+    md << row << "| paper (average, real robot) | 2.3 | 9.3/10 | 97 |\n\n"
+       << "Success: D(ideal, final) <= " << to.d_fraction * 100 << " % of the flat garment's diagonal and >= "
+       << to.inside * 100 << " % of the final silhouette inside the ideal one grown by " << to.silhouette_tolerance * 100
+       << " cm.\n";
+    std::printf("success %d/%d\n", success, to.trials);
+  }
+  return trials;
+}
+
+int Run(const std::vector<std::string>& argv) {
+  Args args(argv, {"--no-optimise"},
+            {"--plan", "--trials", "--seed", "-o", "--output", "--size", "--edge", "--material", "--category",
+             "--gripper", "--max-sims", "--fan", "--stiffness"});
+  if (args.help()) {
+    std::cout << kUsage;
+    return 0;
+  }
+  args.RequirePositional(1, 1, "a GARMENT (template name or mesh file)");
+  const auto plan_path = args.Get("--plan");
+  if (!plan_path) throw Error("--plan PLAN is required");
+  const FoldingPlan plan = LoadPlan(*plan_path);
+  const fs::path out = args.Get("-o", args.Get("--output", "fold-out"));
+  fs::create_directories(out);
+
+  const FoldInputs in = SetUpFold(args);
+  const FoldSetup& setup = in.setup;
+  const std::string& category = setup.garment.category;
+  const PlanRunOptions ro = RunOptionsFrom(args, setup);
+  const FoldScene scene = MakeScene(setup);
+  std::printf("%s: %d vertices, %d faces; plan %s, %zu steps, gripper %s\n", setup.garment.instance.c_str(),
+              setup.garment.mesh.NumVertices(), setup.garment.mesh.NumFaces(), plan.name.c_str(), plan.steps.size(),
+              GripperModelName(ro.sim.gripper).c_str());
+
+  const PlanRun run = RunPlan(scene, LayFlat(setup.garment.mesh, setup.table), category, plan, ro);
+
+  std::ostringstream md;
+  md << "# drape fold: " << setup.garment.instance << " with plan " << plan.name << "\n\n"
+     << "Mesh " << setup.garment.mesh.NumVertices() << " vertices / " << setup.garment.mesh.NumFaces()
+     << " faces; material " << in.material << " (kLST " << in.fit.stiffness << ", mu " << setup.friction
+     << "); gripper " << GripperModelName(ro.sim.gripper) << ".\n\n"
+     << "| step | arms | D before (mm) | D after (mm) | C before | C after | l before (m) | l after (m) | simulations "
+        "| "
+        "seconds |\n|---|---|---|---|---|---|---|---|---|---|\n";
+  const Json steps = ReportSteps(scene, run, ro, setup.garment.mesh.F, out, md);
+  Json doc = {{"garment", setup.garment.instance},
+              {"category", category},
+              {"plan", plan.name},
+              {"material", in.material},
+              {"gripper", GripperModelName(ro.sim.gripper)},
+              {"alpha", ro.optimise.alpha},
+              {"delta", ro.optimise.lm.finite_difference_step},
               {"vertices", setup.garment.mesh.NumVertices()},
-              {"final_dissimilarity", run.final_dissimilarity}, {"steps", steps}};
+              {"final_dissimilarity", run.final_dissimilarity},
+              {"steps", steps}};
 
   // The solution-space fans (paper Fig. "solution_space") for one step.
   const std::string fan = args.Get("--fan", std::to_string(plan.steps.size()));
@@ -221,44 +315,7 @@ int Run(const std::vector<std::string>& argv) {
     md << "\nSolution-space fans for step " << k + 1 << " in fan.png.\n";
   }
 
-  // Evaluation trials.
-  TrialOptions to;
-  to.trials = static_cast<int>(args.GetInt("--trials").value_or(10));
-  to.seed = static_cast<uint64_t>(args.GetInt("--seed").value_or(1));
-  int success = 0;
-  double seconds = 0;
-  Json trials = Json::array();
-  for (int t = 0; t < to.trials; ++t) {
-    const TrialResult tr = RunTrial(setup, plan, ro, relative, to, t);
-    success += tr.success;
-    seconds += tr.sim_time;
-    trials.push_back({{"index", t}, {"success", tr.success}, {"failure", tr.failure},
-                      {"friction_scale", tr.friction_scale}, {"stiffness_scale", tr.stiffness_scale},
-                      {"density_scale", tr.density_scale}, {"offset", {tr.offset.x(), tr.offset.y()}},
-                      {"yaw_deg", tr.yaw_deg}, {"final_dissimilarity", tr.final_dissimilarity},
-                      {"diagonal", tr.diagonal}, {"inside_fraction", tr.inside_fraction},
-                      {"sim_time", tr.sim_time}, {"wall_seconds", tr.wall_seconds}});
-    std::printf("trial %d: %s, D %.1f mm (%.1f %% of %.2f m), silhouette %.0f %% inside\n", t,
-                tr.success ? "success" : ("failed: " + tr.failure).c_str(), 1e3 * tr.final_dissimilarity,
-                100 * tr.final_dissimilarity / std::max(tr.diagonal, 1e-9), tr.diagonal, 100 * tr.inside_fraction);
-    std::fflush(stdout);
-    if (!tr.success && !tr.run.steps.empty()) {
-      cv::Mat pic = StepKeyFrames(tr.run.steps.back(), F);
-      WritePng(out / ("failure_trial" + std::to_string(t) + ".png"), pic);
-    }
-  }
-  doc["trials"] = trials;
-  if (to.trials > 0) {
-    char row[256];
-    md << "\n| garment | # folds | success | avg. simulated time (s) |\n|---|---|---|---|\n";
-    std::snprintf(row, sizeof row, "| %s | %zu | %d/%d | %.1f |\n", setup.garment.instance.c_str(), plan.steps.size(),
-                  success, to.trials, seconds / to.trials);
-    md << row << "| paper (average, real robot) | 2.3 | 9.3/10 | 97 |\n\n"
-       << "Success: D(ideal, final) <= " << to.d_fraction * 100 << " % of the flat garment's diagonal and >= "
-       << to.inside * 100 << " % of the final silhouette inside the ideal one grown by " << to.silhouette_tolerance * 100
-       << " cm.\n";
-    std::printf("success %d/%d\n", success, to.trials);
-  }
+  doc["trials"] = RunTrials(args, setup, plan, ro, run, out, md);
   WriteFileAtomic(out / "trajectories.json", doc.dump(2) + "\n");
   WriteFileAtomic(out / "report.md", md.str());
   std::printf("wrote %s\n", out.string().c_str());

@@ -5,6 +5,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <optional>
 #include <sstream>
 #include <string>
 
@@ -21,6 +22,25 @@ inline YAML::Node LoadYaml(const std::string& text, const std::string& file_labe
     std::ostringstream os;
     os << file_label << ":" << e.mark.line + 1 << ":" << e.mark.column + 1 << ": YAML syntax error: " << e.msg;
     throw Error(os.str());
+  }
+}
+
+// How an error message names what a node holds: "nothing", "a mapping", "a list" or
+// the scalar in quotes.
+inline std::string DescribeYaml(const YAML::Node& n) {
+  if (!n.IsDefined() || n.IsNull()) return "nothing";
+  if (n.IsMap()) return "a mapping";
+  if (n.IsSequence()) return "a list";
+  return "'" + n.Scalar() + "'";
+}
+
+// A scalar read as a number (possibly not finite); nullopt for anything else.
+inline std::optional<double> YamlNumber(const YAML::Node& n) {
+  if (!n.IsScalar()) return std::nullopt;
+  try {
+    return n.as<double>();
+  } catch (const YAML::Exception&) {
+    return std::nullopt;
   }
 }
 

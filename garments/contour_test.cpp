@@ -7,6 +7,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "common/error.h"
+#include "common/testing.h"
 #include "garments/validate.h"
 
 namespace drape {
@@ -127,15 +128,6 @@ TEST(Contour, FromMaskTouchingTheBorder) {
   const Garment g = GarmentFromContour(c, {}, {}, "rect", "");
   ExpectSound(g, 0);
   EXPECT_NEAR(InspectMesh(g.mesh).bounds_max.x() - InspectMesh(g.mesh).bounds_min.x(), 199 * 0.005, 1e-9);
-}
-
-std::string ErrorOf(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
 }
 
 TEST(Contour, BadContoursAreNamed) {

@@ -8,6 +8,7 @@
 
 #include "common/error.h"
 #include "common/files.h"
+#include "common/testing.h"
 #include "garments/preview.h"
 #include "garments/templates.h"
 #include "garments/validate.h"
@@ -17,30 +18,13 @@ namespace fs = std::filesystem;
 namespace drape {
 namespace {
 
-fs::path TempDir(const std::string& name) {
-  fs::path d = fs::path(::testing::TempDir()) / ("drape_garments_io_" + name);
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
+fs::path TempDir(const std::string& name) { return FreshTempDir("drape_garments_io_" + name); }
 
 void Write(const fs::path& p, const std::string& text) {
   std::ofstream(p, std::ios::binary) << text;
 }
 
 double F32(double x) { return static_cast<double>(static_cast<float>(x)); }
-
-// Message of the drape::Error thrown by f ("" if none).
-std::string ErrorOf(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
-}
-
-#define EXPECT_CONTAINS(text, part) EXPECT_NE(std::string(text).find(part), std::string::npos) << (text)
 
 class RoundTrip : public ::testing::TestWithParam<std::string> {};
 

@@ -7,6 +7,7 @@
 
 #include "common/error.h"
 #include "common/files.h"
+#include "common/testing.h"
 #include "garments/io.h"
 #include "garments/templates.h"
 
@@ -16,12 +17,7 @@ namespace {
 namespace fs = std::filesystem;
 using Paths = std::vector<std::string>;
 
-fs::path TempDir(const std::string& name) {
-  fs::path d = fs::path(::testing::TempDir()) / ("drape_mesh_companions_" + name);
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
+fs::path TempDir(const std::string& name) { return FreshTempDir("drape_mesh_companions_" + name); }
 
 Garment Towel() {
   TemplateOptions o;

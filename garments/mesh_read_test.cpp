@@ -11,6 +11,7 @@
 
 #include "common/error.h"
 #include "common/files.h"
+#include "common/testing.h"
 #include "garments/io.h"
 #include "garments/templates.h"
 
@@ -21,23 +22,7 @@ namespace {
 
 const fs::path kTestdata = fs::path(DRAPE_SOURCE_DIR) / "garments" / "testdata";
 
-fs::path TempDir(const std::string& name) {
-  fs::path d = fs::path(::testing::TempDir()) / ("drape_mesh_read_" + name);
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
-
-std::string ErrorOf(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
-}
-
-#define EXPECT_CONTAINS(text, part) EXPECT_NE(std::string(text).find(part), std::string::npos) << (text)
+fs::path TempDir(const std::string& name) { return FreshTempDir("drape_mesh_read_" + name); }
 
 // Reference decoder for the one layout drape writes (float x, y, z; uchar-count int
 // triangles), independent of the reader under test.

@@ -20,6 +20,7 @@ constexpr double kTiny = 1e-30;          // m²: below this a segment has zero l
 constexpr double kAccdShrink = 0.1;      // ACCD's s: report when the gap falls below s × initial
 constexpr int kAccdMaxSteps = 2000;      // ACCD step cap; hitting it reports a collision
 constexpr double kMaxZoneAngle = 1.5;    // rad per step: keeps (1−t)I + tR invertible
+constexpr double kBroadSlack = 0.25;      // × thickness: how far x1 may move before a new CCD broad-phase search
 constexpr double kRigidTolerance = 1e-7; // m: kinematic nodes further off a rigid fit are non-rigid
 
 // ---------------------------------------------------------------------------------
@@ -83,6 +84,31 @@ void PairFriction(const Stencil& s, const Coeffs& c, const Vec3& n, double dn, d
   ShiftRelative(s, c, -rt * (std::min(lt, mu * dn) / lt), inv_mass, x1);
 }
 
+// True when the pair's two elements in configuration q are surely at least d (m)
+// apart, from their bounding boxes, then their bounding spheres (no closest-point
+// search); d is grown by a relative 1e-9 against rounding.
+bool ApartBeyond(bool vf, const Quad& q, double d) {
+  d *= 1 + 1e-9;
+  const int split = vf ? 1 : 2;  // q[0, split): first element, q[split, 4): second
+  Vec3 alo = q[0], ahi = q[0], blo = q[split], bhi = q[split];
+  for (int k = 1; k < 4; ++k) {
+    if (k == split) continue;
+    Vec3 &lo = k < split ? alo : blo, &hi = k < split ? ahi : bhi;
+    lo = lo.cwiseMin(q[k]);
+    hi = hi.cwiseMax(q[k]);
+  }
+  if ((blo - ahi).cwiseMax(alo - bhi).cwiseMax(0.0).squaredNorm() >= d * d) return true;
+  Vec3 ca = Vec3::Zero(), cb = Vec3::Zero();
+  for (int k = 0; k < 4; ++k) (k < split ? ca : cb) += q[k];
+  ca /= split;
+  cb /= 4 - split;
+  double ra2 = 0, rb2 = 0;
+  for (int k = 0; k < split; ++k) ra2 = std::max(ra2, (q[k] - ca).squaredNorm());
+  for (int k = split; k < 4; ++k) rb2 = std::max(rb2, (q[k] - cb).squaredNorm());
+  const double reach = d + std::sqrt(ra2) + std::sqrt(rb2);
+  return (ca - cb).squaredNorm() >= reach * reach;
+}
+
 // ---------------------------------------------------------------------------------
 // Additive CCD (Li, Kaufman & Jiang 2021, Algorithm 1) on the straight path q0 → q1.
 bool AdditiveCCD(bool vf, const Quad& q0, const Quad& q1, double min_separation, double* toi) {
@@ -96,6 +122,10 @@ bool AdditiveCCD(bool vf, const Quad& q0, const Quad& q1, double min_separation,
   // l_p bounds |relative displacement of the closest points| over the whole path.
   const double lp = vf ? p[0].norm() + std::max({p[1].norm(), p[2].norm(), p[3].norm()})
                        : std::max(p[0].norm(), p[1].norm()) + std::max(p[2].norm(), p[3].norm());
+  // The first test below (tl >= 1, i.e. lp <= 0.9·(d0 − ξ)) on a lower bound of d0,
+  // without the closest points: the same answer for the many candidates that are far
+  // apart for their motion.
+  if (ApartBeyond(vf, q0, min_separation + lp / (1 - kAccdShrink))) return false;
   const double d0 = std::sqrt(Closest(vf, q0, nullptr));
   if (!(d0 > 0)) {  // touching at the start (or NaN): conservative
     *toi = 0;
@@ -118,143 +148,6 @@ bool AdditiveCCD(bool vf, const Quad& q0, const Quad& q1, double min_separation,
   *toi = t;
   return true;
 }
-
-// ---------------------------------------------------------------------------------
-// Broad phase: swept, padded AABBs of vertices, edges and faces in a uniform grid.
-struct Aabb {
-  Vec3 lo, hi;
-  bool Overlaps(const Aabb& o) const { return (lo.array() <= o.hi.array()).all() && (o.lo.array() <= hi.array()).all(); }
-};
-
-class Grid {
- public:
-  explicit Grid(double cell) : inv_(1.0 / cell) {}
-  Eigen::Array3i Cell(const Vec3& p) const {
-    Eigen::Array3i c;
-    for (int a = 0; a < 3; ++a) {
-      const double v = std::floor(p[a] * inv_);
-      c[a] = static_cast<int>(std::clamp(v, -double(kHalf), double(kHalf - 1)));
-    }
-    return c;
-  }
-  static uint64_t Key(const Eigen::Array3i& c) {
-    return (uint64_t(c[0] + kHalf) << 42) | (uint64_t(c[1] + kHalf) << 21) | uint64_t(c[2] + kHalf);
-  }
-  static constexpr int kHalf = 1 << 20;
-
- private:
-  double inv_;
-};
-
-struct Candidates {
-  std::vector<std::array<int, 2>> vf;  // (vertex, face)
-  std::vector<std::array<int, 2>> ee;  // (edge, edge), first < second
-};
-
-bool FaceHas(const Faces& F, int f, int v) { return F(f, 0) == v || F(f, 1) == v || F(f, 2) == v; }
-bool EdgesShare(const std::array<int, 2>& a, const std::array<int, 2>& b) {
-  return a[0] == b[0] || a[0] == b[1] || a[1] == b[0] || a[1] == b[1];
-}
-
-class BroadPhase {
- public:
-  BroadPhase(const Faces& F, const std::vector<std::array<int, 2>>& E) : F_(F), E_(E) {}
-
-  // Candidate pairs whose boxes over x0 ∪ x1, each padded by `pad`, overlap; pairs
-  // that share a vertex are left out. Sorted.
-  Candidates Find(const Points3& x0, const Points3& x1, double pad, double cell) {
-    const int nv = static_cast<int>(x0.rows()), ne = static_cast<int>(E_.size()), nf = static_cast<int>(F_.rows());
-    vbox_.resize(nv);
-    for (int i = 0; i < nv; ++i) {
-      const Vec3 a = x0.row(i).transpose(), b = x1.row(i).transpose();
-      vbox_[i] = {a.cwiseMin(b).array() - pad, a.cwiseMax(b).array() + pad};
-    }
-    ebox_.resize(ne);
-    for (int e = 0; e < ne; ++e) ebox_[e] = Union(vbox_[E_[e][0]], vbox_[E_[e][1]]);
-    fbox_.resize(nf);
-    for (int f = 0; f < nf; ++f) fbox_[f] = Union(Union(vbox_[F_(f, 0)], vbox_[F_(f, 1)]), vbox_[F_(f, 2)]);
-    const Grid grid(cell);
-    entries_.clear();
-    std::vector<int> big[3];
-    Insert(grid, vbox_, 0, &big[0]);
-    Insert(grid, ebox_, 1, &big[1]);
-    Insert(grid, fbox_, 2, &big[2]);
-    std::sort(entries_.begin(), entries_.end());
-    Candidates out;
-    ScanCells(grid, &out);
-    AddBig(big, &out);
-    for (auto* list : {&out.vf, &out.ee}) {
-      std::sort(list->begin(), list->end());
-      list->erase(std::unique(list->begin(), list->end()), list->end());
-    }
-    return out;
-  }
-
- private:
-  static Aabb Union(const Aabb& a, const Aabb& b) { return {a.lo.cwiseMin(b.lo), a.hi.cwiseMax(b.hi)}; }
-
-  void Insert(const Grid& grid, const std::vector<Aabb>& boxes, int kind, std::vector<int>* big) {
-    for (int i = 0; i < static_cast<int>(boxes.size()); ++i) {
-      const Eigen::Array3i lo = grid.Cell(boxes[i].lo), hi = grid.Cell(boxes[i].hi);
-      const Eigen::Array3i span = hi - lo + 1;
-      if (int64_t(span[0]) * span[1] * span[2] > 64) {
-        big->push_back(i);
-        continue;
-      }
-      for (int x = lo[0]; x <= hi[0]; ++x)
-        for (int y = lo[1]; y <= hi[1]; ++y)
-          for (int z = lo[2]; z <= hi[2]; ++z)
-            entries_.push_back({Grid::Key(Eigen::Array3i(x, y, z)), (uint64_t(kind) << 32) | uint64_t(i)});
-    }
-  }
-
-  // A pair overlapping in several cells is emitted once: in the cell holding the
-  // lower corner of the boxes' intersection.
-  bool Owns(const Grid& grid, uint64_t key, const Aabb& a, const Aabb& b) const {
-    return Grid::Key(grid.Cell(a.lo.cwiseMax(b.lo))) == key;
-  }
-
-  void ScanCells(const Grid& grid, Candidates* out) {
-    std::vector<int> cell[3];
-    for (size_t b = 0; b < entries_.size();) {
-      size_t e = b;
-      const uint64_t key = entries_[b].first;
-      for (auto& c : cell) c.clear();
-      for (; e < entries_.size() && entries_[e].first == key; ++e)
-        cell[entries_[e].second >> 32].push_back(int(entries_[e].second & 0xffffffffu));
-      for (int v : cell[0])
-        for (int f : cell[2])
-          if (!FaceHas(F_, f, v) && vbox_[v].Overlaps(fbox_[f]) && Owns(grid, key, vbox_[v], fbox_[f]))
-            out->vf.push_back({v, f});
-      for (size_t i = 0; i < cell[1].size(); ++i)
-        for (size_t j = i + 1; j < cell[1].size(); ++j) {
-          const int a = cell[1][i], c = cell[1][j];
-          if (!EdgesShare(E_[a], E_[c]) && ebox_[a].Overlaps(ebox_[c]) && Owns(grid, key, ebox_[a], ebox_[c]))
-            out->ee.push_back({std::min(a, c), std::max(a, c)});
-        }
-      b = e;
-    }
-  }
-
-  // Elements spanning many cells are tested against everything (rare: huge motions).
-  void AddBig(const std::vector<int> big[3], Candidates* out) {
-    for (int v : big[0])
-      for (int f = 0; f < int(fbox_.size()); ++f)
-        if (!FaceHas(F_, f, v) && vbox_[v].Overlaps(fbox_[f])) out->vf.push_back({v, f});
-    for (int f : big[2])
-      for (int v = 0; v < int(vbox_.size()); ++v)
-        if (!FaceHas(F_, f, v) && vbox_[v].Overlaps(fbox_[f])) out->vf.push_back({v, f});
-    for (int a : big[1])
-      for (int c = 0; c < int(ebox_.size()); ++c)
-        if (c != a && !EdgesShare(E_[a], E_[c]) && ebox_[a].Overlaps(ebox_[c]))
-          out->ee.push_back({std::min(a, c), std::max(a, c)});
-  }
-
-  const Faces& F_;
-  const std::vector<std::array<int, 2>>& E_;
-  std::vector<Aabb> vbox_, ebox_, fbox_;
-  std::vector<std::pair<uint64_t, uint64_t>> entries_;  // (cell key, kind << 32 | index)
-};
 
 std::vector<std::array<int, 2>> MeshEdges(const Faces& F, const Points3& x) {
   TriMesh m;
@@ -465,11 +358,14 @@ double MinimumNonAdjacentDistance(const Faces& F, const Points3& x) {
   if (F.rows() == 0 || x.rows() == 0) return std::numeric_limits<double>::infinity();
   const double cell = std::max(MeanEdgeLength(E, x), 1e-6);
   const Vec3 extent = x.colwise().maxCoeff() - x.colwise().minCoeff();
-  BroadPhase broad(F, E);
+  BroadPhase broad(F, E, x);
+  std::vector<Aabb> boxes;
+  CandidatePairs cand;
   // Grow the search radius r until some pair lies within it: every pair closer than
   // r has overlapping boxes when each is padded by r/2.
   for (double r = 0.25 * cell;; r *= 4) {
-    const Candidates cand = broad.Find(x, x, 0.5 * r, std::max(cell, r));
+    SweptVertexBoxes(x, x, 0.5 * r, &boxes);
+    broad.Find(boxes, &cand);
     double best = std::numeric_limits<double>::infinity();
     for (const auto& [v, f] : cand.vf)
       best = std::min(best, PointTriangleDistanceSquared(x.row(v), x.row(F(f, 0)), x.row(F(f, 1)), x.row(F(f, 2))));
@@ -537,30 +433,36 @@ struct ApplyContext {
   const std::vector<int>& adj_start;             // vertex → neighbours (CSR)
   const std::vector<int>& adj;
   double dt;
-  double cell;
   CollisionReport& rep;
-  BroadPhase broad;
-  Candidates cand;
+  BroadPhase& broad;
+  CandidatePairs near = {};  // repulsion's pairs: within thickness somewhere on x0 → x1
+  CandidatePairs cand;
   Points3 box_ref;  // the x1 the candidates were found for
   bool have_cand = false;
+  // Detect's results per candidate for the x1 in detect_ref (toi < 0: no hit; NaN:
+  // not known), reused for pairs none of whose nodes moved since.
+  std::vector<double> cand_toi = {};
+  Points3 detect_ref = {};
+  std::vector<char> dirty = {};
 
   Stencil VF(int v, int f) const { return {{v, F(f, 0), F(f, 1), F(f, 2)}, true}; }
   Stencil EE(int a, int b) const { return {{E[a][0], E[a][1], E[b][0], E[b][1]}, false}; }
 
-  // Candidates padded by thickness/2 on x0 ∪ box_ref; still valid for CCD (pad ξ/2)
-  // while every node's x1 stays within its box grown by (thickness − ξ)/2.
-  const Candidates& Fresh() {
+  // Pairs that could come within min_separation on the paths x0 → box_ref: all the
+  // CCD needs, and still all while every node's x1 stays within kBroadSlack·thickness
+  // of box_ref (small corrections do not force a new search).
+  const CandidatePairs& Fresh() {
     const auto t0 = ThreadCpuSeconds();
+    const double slack = kBroadSlack * opt.thickness;
     bool valid = have_cand;
-    const double m = 0.5 * (opt.thickness - opt.min_separation);
-    for (int i = 0; valid && i < x1.rows(); ++i) {
-      const Vec3 a = x0.row(i).transpose(), b = box_ref.row(i).transpose(), p = x1.row(i).transpose();
-      valid = ((p.array() >= a.cwiseMin(b).array() - m) && (p.array() <= a.cwiseMax(b).array() + m)).all();
-    }
+    for (int i = 0; valid && i < x1.rows(); ++i) valid = (x1.row(i) - box_ref.row(i)).squaredNorm() <= slack * slack;
     if (!valid) {
-      cand = broad.Find(x0, x1, 0.5 * opt.thickness, cell);
+      broad.FindClose(x0, x1, opt.min_separation, slack, &cand);
+      ++rep.broad_builds;
+      rep.broad_candidates += static_cast<long long>(cand.vf.size() + cand.ee.size());
       box_ref = x1;
       have_cand = true;
+      cand_toi.assign(cand.vf.size() + cand.ee.size(), std::numeric_limits<double>::quiet_NaN());
     }
     rep.broad_seconds += Since(t0);
     return cand;
@@ -659,9 +561,10 @@ std::vector<int> StrainViolations(const ApplyContext& cx, double* max_strain = n
 // ---- proximity repulsion (Bridson §7.2) -------------------------------------------
 bool RepelPair(ApplyContext& cx, const Stencil& s) {
   const Quad q0 = Gather(s, cx.x0), q1 = Gather(s, cx.x1);
+  double h = cx.opt.thickness;
+  if (ApartBeyond(s.vf, q1, h) && ApartBeyond(s.vf, q0, h)) return false;  // far (cheap test)
   Coeffs c0, c1;
   const double d0 = std::sqrt(Closest(s.vf, q0, &c0)), d1 = std::sqrt(Closest(s.vf, q1, &c1));
-  double h = cx.opt.thickness;
   if (std::min(d0, d1) >= h || !(d0 > 0)) return false;  // far, or touching at x0 (the CCD's job)
   // Pairs closer than thickness in the flat garment (seams, small triangles) keep their rest distance.
   h = std::min(h, std::sqrt(Closest(s.vf, Gather(s, cx.rest), nullptr)));
@@ -687,15 +590,30 @@ bool RepelPair(ApplyContext& cx, const Stencil& s) {
   return true;
 }
 
+// Gauss–Seidel sweeps; a sweep after the first visits only the pairs with a node moved
+// in the sweep before (any other pair sees what it saw then and does nothing again).
 void Repel(ApplyContext& cx) {
-  const Candidates& cand = cx.Fresh();
-  const auto t0 = ThreadCpuSeconds();
+  auto t0 = ThreadCpuSeconds();
+  cx.broad.FindClose(cx.x0, cx.x1, cx.opt.thickness, 0, &cx.near);
+  ++cx.rep.broad_builds;
+  cx.rep.broad_candidates += static_cast<long long>(cx.near.vf.size() + cx.near.ee.size());
+  cx.rep.broad_seconds += Since(t0);
+  t0 = ThreadCpuSeconds();
+  const CandidatePairs& cand = cx.near;
+  const int n = static_cast<int>(cx.x1.rows());
+  std::vector<char> moved_node(n, 1);
+  Points3 before;
   for (int it = 0; it < cx.opt.proximity_iterations; ++it) {
+    before = cx.x1;
     int moved = 0;
-    for (const auto& [v, f] : cand.vf) moved += RepelPair(cx, cx.VF(v, f));
-    for (const auto& [a, b] : cand.ee) moved += RepelPair(cx, cx.EE(a, b));
+    auto visit = [&](const Stencil& s) {
+      if (moved_node[s.n[0]] || moved_node[s.n[1]] || moved_node[s.n[2]] || moved_node[s.n[3]]) moved += RepelPair(cx, s);
+    };
+    for (const auto& [v, f] : cand.vf) visit(cx.VF(v, f));
+    for (const auto& [a, b] : cand.ee) visit(cx.EE(a, b));
     cx.rep.proximity_pairs += moved;
     if (moved == 0) break;
+    for (int i = 0; i < n; ++i) moved_node[i] = cx.x1.row(i) != before.row(i);
   }
   cx.rep.proximity_seconds += Since(t0);
 }
@@ -894,16 +812,31 @@ void BoxImpulse(ApplyContext& cx, const BoxHit& hit, const std::vector<BoxCollid
 // ---- continuous collision detection and impulses (Bridson §7.3) -------------------------
 // Colliding pairs on x0 → x1; pairs whose nodes all lie in one rigid zone are skipped.
 std::vector<Hit> Detect(ApplyContext& cx, const std::vector<int>* zone_of) {
-  const Candidates& cand = cx.Fresh();
+  const CandidatePairs& cand = cx.Fresh();
   const auto t0 = ThreadCpuSeconds();
+  const int n = static_cast<int>(cx.x1.rows());
+  const bool have_ref = cx.detect_ref.rows() == n;
+  cx.dirty.resize(n);
+  for (int i = 0; i < n; ++i) cx.dirty[i] = !have_ref || cx.x1.row(i) != cx.detect_ref.row(i);
+  cx.detect_ref = cx.x1;
   std::vector<Hit> hits;
+  size_t k = 0;  // candidate index: VF pairs, then EE pairs
   auto test = [&](const Stencil& s) {
+    double& cached = cx.cand_toi[k++];
     if (zone_of) {
       const int z = (*zone_of)[s.n[0]];
-      if (z >= 0 && (*zone_of)[s.n[1]] == z && (*zone_of)[s.n[2]] == z && (*zone_of)[s.n[3]] == z) return;
+      if (z >= 0 && (*zone_of)[s.n[1]] == z && (*zone_of)[s.n[2]] == z && (*zone_of)[s.n[3]] == z) {
+        cached = std::numeric_limits<double>::quiet_NaN();  // not tested: unknown next time
+        return;
+      }
     }
-    double toi = 0;
-    if (AdditiveCCD(s.vf, Gather(s, cx.x0), Gather(s, cx.x1), cx.opt.min_separation, &toi)) hits.push_back({s, toi});
+    // x0 is fixed for the call: a pair none of whose nodes moved has the same answer.
+    if (std::isnan(cached) || cx.dirty[s.n[0]] || cx.dirty[s.n[1]] || cx.dirty[s.n[2]] || cx.dirty[s.n[3]]) {
+      double toi = 0;
+      ++cx.rep.ccd_tests;
+      cached = AdditiveCCD(s.vf, Gather(s, cx.x0), Gather(s, cx.x1), cx.opt.min_separation, &toi) ? toi : -1.0;
+    }
+    if (cached >= 0) hits.push_back({s, cached});
   };
   for (const auto& [v, f] : cand.vf) test(cx.VF(v, f));
   for (const auto& [a, b] : cand.ee) test(cx.EE(a, b));
@@ -1089,7 +1022,7 @@ CollisionHandler::CollisionHandler(const Faces& F, const Points3& rest, const Co
   rest_lengths_.resize(static_cast<Eigen::Index>(edges_.size()));
   for (size_t e = 0; e < edges_.size(); ++e)
     rest_lengths_[Eigen::Index(e)] = (rest.row(edges_[e][0]) - rest.row(edges_[e][1])).norm();
-  mean_edge_length_ = MeanEdgeLength(edges_, rest);
+  broad_ = BroadPhase(F_, edges_, rest);
   adjacency_start_.assign(num_vertices_ + 1, 0);
   for (const auto& e : edges_) ++adjacency_start_[e[0] + 1], ++adjacency_start_[e[1] + 1];
   std::partial_sum(adjacency_start_.begin(), adjacency_start_.end(), adjacency_start_.begin());
@@ -1112,9 +1045,13 @@ CollisionReport CollisionHandler::Apply(const Points3& x0, Points3& x1, const Ei
   for (const BoxCollider& box : colliders) box.Validate();
 
   CollisionReport rep;
-  const double cell = std::max(mean_edge_length_, 2 * options_.thickness);
+  {  // a tree over where the cloth is now, refitted within the call
+    const auto t0 = ThreadCpuSeconds();
+    broad_.Relayout(x0);
+    rep.broad_seconds += Since(t0);
+  }
   ApplyContext cx{F_,  edges_, rest_, options_, x0,   x1,   inv_mass, rest_lengths_, adjacency_start_,
-                  adjacency_, dt, cell, rep, BroadPhase(F_, edges_), {}, {}};
+                  adjacency_, dt, rep, broad_, {}, {}, {}};
   LimitStrain(cx, inv_mass);
   Repel(cx);
   HandleColliders(cx, colliders);

@@ -59,6 +59,7 @@
 #include <vector>
 
 #include "common/mesh.h"
+#include "generator/cloth/broad_phase.h"
 
 namespace drape {
 
@@ -125,6 +126,9 @@ struct CollisionReport {
   int strain_merges = 0;        // edges beyond the bound merged into impact zones (step 6)
   int strain_violations = 0;    // edges of the returned x1 beyond the bound (0 unless x0 was, or non-rigid kinematics)
   double max_strain = 0;        // largest edge strain (l − L0)/L0 of the returned x1
+  int broad_builds = 0;         // broad-phase candidate searches run (work counter)
+  long long broad_candidates = 0;  // candidate pairs found (summed over searches)
+  long long ccd_tests = 0;      // pair CCD tests run (summed over passes)
   double broad_seconds = 0, strain_seconds = 0, proximity_seconds = 0, collider_seconds = 0,
          ccd_seconds = 0, zone_seconds = 0;  // s, thread CPU time, timing only
 };
@@ -156,7 +160,7 @@ class CollisionHandler {
   std::vector<std::array<int, 2>> edges_;  // unique, sorted
   std::vector<int> adjacency_start_, adjacency_;  // vertex → neighbouring vertices (CSR)
   Eigen::VectorXd rest_lengths_;           // m, per edge
-  double mean_edge_length_ = 0;            // m: broad-phase cell size
+  BroadPhase broad_;                       // tree over the faces, refitted per query
 };
 
 // Smallest distance (m) between mesh elements that share no vertex, over VF and EE

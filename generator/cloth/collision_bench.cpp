@@ -58,7 +58,7 @@ void BM_CollisionStep(benchmark::State& state) {
   for (int i = 0; i < state.range(0); ++i) sim.Step(dt);
   double broad = 0, strain = 0, prox = 0, ccd = 0, zone = 0, collider = 0;
   double steps = 0, fail_safe = 0, ccd_pairs = 0, prox_pairs = 0, zones = 0, remaining = 0, total = 0;
-  double strain_max = 0, violations = 0;
+  double strain_max = 0, violations = 0, builds = 0, candidates = 0, ccd_tests = 0, passes = 0;
   for (auto _ : state) {
     const double t0 = ThreadCpuSeconds();
     const CollisionReport r = sim.Step(dt);
@@ -77,6 +77,10 @@ void BM_CollisionStep(benchmark::State& state) {
     prox_pairs += r.proximity_pairs;
     zones += r.impact_zones;
     remaining += r.remaining_collisions;
+    builds += r.broad_builds;
+    candidates += double(r.broad_candidates);
+    ccd_tests += double(r.ccd_tests);
+    passes += r.ccd_passes + r.zone_iterations;
   }
   state.counters["nodes"] = static_cast<double>(sim.x.rows());
   state.counters["apply_cpu_ms"] = 1e3 * total / steps;
@@ -92,6 +96,10 @@ void BM_CollisionStep(benchmark::State& state) {
   state.counters["prox_pairs"] = prox_pairs / steps;
   state.counters["zones"] = zones / steps;
   state.counters["remaining"] = remaining;
+  state.counters["broad_builds"] = builds / steps;
+  state.counters["cand_per_build"] = builds > 0 ? candidates / builds : 0;
+  state.counters["ccd_tests"] = ccd_tests / steps;
+  state.counters["passes"] = passes / steps;
   state.counters["min_dist_mm"] = 1e3 * MinimumNonAdjacentDistance(sim.garment.mesh.F, sim.x);
 }
 BENCHMARK(BM_CollisionStep)->Arg(0)->Arg(720)->Iterations(240)->Unit(benchmark::kMillisecond);

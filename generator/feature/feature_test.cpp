@@ -129,12 +129,7 @@ TEST(Feature, RotatedGarmentMatchesAtItsRotation) {
 // with the garment, so the match is close but not exact.
 TEST(Feature, FusedGarmentRotatedMatchesWithinAFewBits) {
   const Scene garment = Garment();
-  Intrinsics K;
-  K.width = 320;
-  K.height = 240;
-  K.fx = K.fy = 262.5;
-  K.cx = 159.5;
-  K.cy = 119.5;
+  const Intrinsics K = synthetic::SmallCamera();
   synthetic::TurntableOptions t;
   t.frames = 40;
   FeatureOptions o;

@@ -17,17 +17,7 @@ namespace {
 using synthetic::Scene;
 using synthetic::Shape;
 
-// A smaller camera than the Kinect keeps the tests fast; the focal length is halved
-// with the resolution so a pixel spans ~4.6 mm at 1.2 m (≈ 1.8 voxels at 384/m).
-Intrinsics SmallCamera() {
-  Intrinsics K;
-  K.width = 320;
-  K.height = 240;
-  K.fx = K.fy = 262.5;
-  K.cx = 159.5;
-  K.cy = 119.5;
-  return K;
-}
+using synthetic::SmallCamera;
 
 double SignedVolume(const TriMesh& m) {
   double v = 0;
@@ -127,7 +117,6 @@ TEST(Fusion, BoxSdfSign) {
   const Shape box = Shape::Box(Vec3(0, -0.45, 0.02), Vec3(0.12, 0.25, 0.08), rot);
   const Scene scene{{box}};
   const FusionResult r = Fuse(scene, 0);
-  const double h = FusionOptions().VoxelSize();
   Rng rng(5);
   int wrong = 0, n = 0;
   for (int i = 0; i < 3000; ++i) {
@@ -160,6 +149,17 @@ TEST(Fusion, ThinTwoLayerInteriorReadsInside) {
   EXPECT_GT(r.tsdf->Sdf(Vec3(0, -0.45, -0.02)), 0);
 }
 
+// Prints the sphere's accuracy and checks it against the bounds both sphere tests share.
+void ExpectSphereAccuracy(const char* label, const Accuracy& a) {
+  std::printf("sphere %s: recon->truth mean %.3f p95 %.3f mm, truth->recon mean %.3f p95 %.3f mm\n", label,
+              a.recon_to_truth_mean * 1e3, a.recon_to_truth_p95 * 1e3, a.truth_to_recon_mean * 1e3,
+              a.truth_to_recon_p95 * 1e3);
+  EXPECT_LT(a.recon_to_truth_mean, 0.0015);
+  EXPECT_LT(a.recon_to_truth_p95, 0.008);
+  EXPECT_LT(a.truth_to_recon_mean, 0.001);
+  EXPECT_LT(a.truth_to_recon_p95, 0.003);
+}
+
 TEST(Fusion, SphereMeshAccuracyNoiseFree) {
   const FusionResult r = Fuse(Scene{{kSphere}}, 0);
   ASSERT_GT(r.mesh.NumFaces(), 1000);
@@ -167,17 +167,10 @@ TEST(Fusion, SphereMeshAccuracyNoiseFree) {
   EXPECT_GT(SignedVolume(r.mesh), 0) << "faces must be counter-clockwise seen from outside";
   const double true_volume = 4.0 / 3 * M_PI * std::pow(kSphere.half.x(), 3);
   EXPECT_NEAR(SignedVolume(r.mesh), true_volume, 0.02 * true_volume);
-  const Accuracy a = MeasureAccuracy(r.mesh, synthetic::MeshShape(kSphere, 6));
-  std::printf("sphere noise-free: recon->truth mean %.3f p95 %.3f mm, truth->recon mean %.3f p95 %.3f mm\n",
-              a.recon_to_truth_mean * 1e3, a.recon_to_truth_p95 * 1e3, a.truth_to_recon_mean * 1e3,
-              a.truth_to_recon_p95 * 1e3);
   // Measured 1.1 / 6.5 / 0.57 / 2.2 mm: the p95 comes from the bottom cap, which the
   // camera (at the gripper's height, above) never sees; carving bounds it only at
   // block resolution (2 cm) and where a share of the views sees free space below.
-  EXPECT_LT(a.recon_to_truth_mean, 0.0015);
-  EXPECT_LT(a.recon_to_truth_p95, 0.008);
-  EXPECT_LT(a.truth_to_recon_mean, 0.001);
-  EXPECT_LT(a.truth_to_recon_p95, 0.003);
+  ExpectSphereAccuracy("noise-free", MeasureAccuracy(r.mesh, synthetic::MeshShape(kSphere, 6)));
 }
 
 // Faces that repeat a vertex (collapsed marching-cubes quads): assimp rejects them.
@@ -191,16 +184,9 @@ int RepeatedVertexFaces(const TriMesh& m) {
 TEST(Fusion, SphereMeshAccuracyNoisy) {
   const FusionResult r = Fuse(Scene{{kSphere}}, 0.002);
   EXPECT_EQ(RepeatedVertexFaces(r.mesh), 0);
-  const Accuracy a = MeasureAccuracy(r.mesh, synthetic::MeshShape(kSphere, 6));
-  std::printf("sphere sigma=2mm: recon->truth mean %.3f p95 %.3f mm, truth->recon mean %.3f p95 %.3f mm\n",
-              a.recon_to_truth_mean * 1e3, a.recon_to_truth_p95 * 1e3, a.truth_to_recon_mean * 1e3,
-              a.truth_to_recon_p95 * 1e3);
   // Measured 1.1 / 6.0 / 0.60 / 2.2 mm: 60 frames average the noise down to the
   // noise-free figures (same cap limitation).
-  EXPECT_LT(a.recon_to_truth_mean, 0.0015);
-  EXPECT_LT(a.recon_to_truth_p95, 0.008);
-  EXPECT_LT(a.truth_to_recon_mean, 0.001);
-  EXPECT_LT(a.truth_to_recon_p95, 0.003);
+  ExpectSphereAccuracy("sigma=2mm", MeasureAccuracy(r.mesh, synthetic::MeshShape(kSphere, 6)));
 }
 
 TEST(Fusion, SegmentationDropsGripperAndDistractor) {
@@ -402,12 +388,7 @@ TEST(Fusion, FastPathMatchesReferenceOnKinectSweeps) {
   const Shape sleeve = Shape::Cylinder(Vec3(0.3, -0.3, 0.02), 0.05, 0.2,
                                        Eigen::AngleAxisd(0.5, Vec3::UnitZ()).toRotationMatrix());
   TriMesh truth = synthetic::MeshShape(slab);
-  const TriMesh s2 = synthetic::MeshShape(sleeve);
-  const int nv = truth.NumVertices(), nf = truth.NumFaces();
-  truth.V.conservativeResize(nv + s2.NumVertices(), 3);
-  truth.F.conservativeResize(nf + s2.NumFaces(), 3);
-  truth.V.bottomRows(s2.NumVertices()) = s2.V;
-  truth.F.bottomRows(s2.NumFaces()) = s2.F.array() + nv;
+  synthetic::AppendMesh(truth, synthetic::MeshShape(sleeve));
   SweepOptions so;
   so.frames = 12;
   const Sweep sweep = SimulateSweep(truth, so, 9);

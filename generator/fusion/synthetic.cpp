@@ -153,6 +153,24 @@ std::vector<DepthFrame> RenderTurntable(const Scene& scene, const Intrinsics& K,
   return frames;
 }
 
+void AppendMesh(TriMesh& to, const TriMesh& m) {
+  const int nv = to.NumVertices(), nf = to.NumFaces();
+  to.V.conservativeResize(nv + m.NumVertices(), 3);
+  to.F.conservativeResize(nf + m.NumFaces(), 3);
+  to.V.bottomRows(m.NumVertices()) = m.V;
+  to.F.bottomRows(m.NumFaces()) = m.F.array() + nv;
+}
+
+Intrinsics SmallCamera() {
+  Intrinsics K;
+  K.width = 320;
+  K.height = 240;
+  K.fx = K.fy = 262.5;
+  K.cx = 159.5;
+  K.cy = 119.5;
+  return K;
+}
+
 TriMesh MeshShape(const Shape& shape, int subdivisions) {
   TriMesh m;
   std::vector<Vec3> V;

@@ -56,6 +56,13 @@ struct TurntableOptions {
 std::vector<DepthFrame> RenderTurntable(const Scene& scene, const Intrinsics& K,
                                         const TurntableOptions& options);
 
+// Appends m's vertices and faces (renumbered) to `to`: one mesh of several shapes.
+void AppendMesh(TriMesh& to, const TriMesh& m);
+
+// A smaller camera than the Kinect that keeps tests fast: 320×240, the focal length
+// halved with the resolution (a pixel spans ~4.6 mm at 1.2 m, ≈ 1.8 voxels at 384/m).
+Intrinsics SmallCamera();
+
 // Triangle meshes of shapes (outward counter-clockwise faces). Sphere: icosphere
 // with `subdivisions` levels; box: 12 triangles; cylinder: `subdivisions`·16 sides.
 TriMesh MeshShape(const Shape& shape, int subdivisions = 5);

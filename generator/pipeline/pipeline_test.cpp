@@ -19,8 +19,8 @@ namespace fs = std::filesystem;
 namespace drape {
 namespace {
 
-const char* kTiny = R"(
-name: tiny
+// The small, fast settings every recipe here shares (after its name).
+const std::string kFastSettings = R"(
 version: 0.0.1
 seed: 5
 simulation: {time_cap: 8}
@@ -29,7 +29,9 @@ sensing:
   sensed: {frames: 8}
 fusion: {voxels_per_metre: 80}
 feature: {layers: 8, rings: 8, sectors: 8}
-garments:
+)";
+
+const std::string kTiny = "name: tiny" + kFastSettings + R"(garments:
   - template: towel
     instances: 2
     edge_length: 0.05
@@ -137,17 +139,7 @@ TEST(Build, TinyRecipeEndToEndIsDeterministicAcrossThreadsAndResume) {
 
 // A recipe importing meshes/cloth.EXT (+ its anchors sidecar).
 std::string ImportedRecipe(const std::string& ext) {
-  return R"(
-name: imported
-version: 0.0.1
-seed: 5
-simulation: {time_cap: 8}
-sensing:
-  database: {frames: 8, noise: false}
-  sensed: {frames: 8}
-fusion: {voxels_per_metre: 80}
-feature: {layers: 8, rings: 8, sectors: 8}
-garments:
+  return "name: imported" + kFastSettings + R"(garments:
   - file: meshes/cloth.)" +
          ext + R"(
     anchors_file: meshes/cloth.anchors.json

@@ -92,12 +92,7 @@ class Parser {
     Fail(n.Mark(), path, what);
   }
 
-  static std::string Describe(const YAML::Node& n) {
-    if (!n.IsDefined() || n.IsNull()) return "nothing";
-    if (n.IsMap()) return "a mapping";
-    if (n.IsSequence()) return "a list";
-    return "'" + n.Scalar() + "'";
-  }
+  static std::string Describe(const YAML::Node& n) { return DescribeYaml(n); }
 
   void RequireMap(const YAML::Node& n, const std::string& path) const {
     if (!n.IsMap()) Fail(n, path, "expected a mapping, got " + Describe(n));
@@ -137,15 +132,10 @@ class Parser {
     return Number(n, Sub(path, key));
   }
   double Number(const YAML::Node& n, const std::string& p) const {
-    if (!n.IsScalar()) Fail(n, p, "expected a number, got " + Describe(n));
-    double v;
-    try {
-      v = n.as<double>();
-    } catch (const YAML::Exception&) {
-      Fail(n, p, "expected a number, got " + Describe(n));
-    }
-    if (!std::isfinite(v)) Fail(n, p, "must be finite");
-    return v;
+    const std::optional<double> v = YamlNumber(n);
+    if (!v) Fail(n, p, "expected a number, got " + Describe(n));
+    if (!std::isfinite(*v)) Fail(n, p, "must be finite");
+    return *v;
   }
 
   void Read(const YAML::Node& map, const std::string& key, const std::string& path, double& out) const {

@@ -8,6 +8,7 @@
 #include <cmath>
 
 #include "common/error.h"
+#include "runtime/folding/run.h"
 
 namespace drape::folding {
 namespace {
@@ -93,6 +94,22 @@ TEST(Bezier, RejectsNonFiniteControlPoints) {
   CubicBezier c = InitialTrajectory(Vec3(0, 0, 0), Vec3(1, 0, 0));
   c.P[1].x() = NAN;
   EXPECT_THROW(BezierLength(c), NumericalError);
+}
+
+// A trajectory relative to its fold (u: along the fold on the table, v: up, w = u × v,
+// lengths over |P3 − P0|), as trials replay it from other grasp and target points.
+TEST(Bezier, RelativeTrajectoryIsInTheFoldFrameAndRoundTrips) {
+  const CubicBezier c{{Vec3(0.1, 0.0, 0.2), Vec3(0.15, 0.1, 0.25), Vec3(0.3, 0.12, 0.3), Vec3(0.4, 0.0, 0.35)}};
+  const RelativeTrajectory r = ToRelative(c);
+  const double s = std::hypot(0.3, 0.15);
+  const Vec3 u = Vec3(0.3, 0, 0.15) / s, v = Vec3::UnitY(), w = u.cross(v);
+  for (int k = 1; k <= 2; ++k) {
+    const Vec3 d = c.P[k] - c.P[0];
+    const Vec3 want = Vec3(d.dot(u), d.dot(v), d.dot(w)) / s;
+    EXPECT_NEAR(((k == 1 ? r.k1 : r.k2) - want).norm(), 0, 1e-12) << "k" << k;
+  }
+  const CubicBezier back = FromRelative(r, c.P[0], c.P[3]);
+  for (int k = 0; k < 4; ++k) EXPECT_NEAR((back.P[k] - c.P[k]).norm(), 0, 1e-12) << "P" << k;
 }
 
 }  // namespace

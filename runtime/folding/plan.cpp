@@ -18,12 +18,7 @@ namespace {
 
 const std::regex kNameRe("[A-Za-z0-9][A-Za-z0-9_-]*");
 
-std::string Describe(const YAML::Node& n) {
-  if (!n.IsDefined() || n.IsNull()) return "nothing";
-  if (n.IsMap()) return "a mapping";
-  if (n.IsSequence()) return "a list";
-  return "'" + n.Scalar() + "'";
-}
+std::string Describe(const YAML::Node& n) { return DescribeYaml(n); }
 
 // Located errors and typed reads over yaml-cpp nodes.
 class Reader {
@@ -66,13 +61,9 @@ class Reader {
     return s;
   }
   double Num(const YAML::Node& n, const std::string& path, double lo, double hi) const {
-    if (!n.IsScalar()) Fail(n, path, "expected a number, got " + Describe(n));
-    double v;
-    try {
-      v = n.as<double>();
-    } catch (const YAML::Exception&) {
-      Fail(n, path, "expected a number, got " + Describe(n));
-    }
+    const std::optional<double> parsed = YamlNumber(n);
+    if (!parsed) Fail(n, path, "expected a number, got " + Describe(n));
+    const double v = *parsed;
     if (!std::isfinite(v) || v < lo || v > hi) {
       std::ostringstream os;
       os << "out of range: " << n.Scalar() << " (allowed [" << lo << ", " << hi << "])";

@@ -31,7 +31,9 @@ FoldFrame Frame(const Vec3& p0, const Vec3& p3) {
 
 RelativeTrajectory ToRelative(const CubicBezier& c) {
   const FoldFrame f = Frame(c.P[0], c.P[3]);
-  auto rel = [&](const Vec3& p) {
+  // -> Vec3: without it the lambda returns an Eigen expression that refers to a Vec3
+  // temporary dying with the lambda (k2 came out as garbage, ~1e-309).
+  auto rel = [&](const Vec3& p) -> Vec3 {
     const Vec3 d = p - c.P[0];
     return Vec3(d.dot(f.u), d.dot(f.v), d.dot(f.w)) / f.s;
   };

@@ -7,25 +7,12 @@
 #include "common/error.h"
 #include "common/files.h"
 #include "common/rng.h"
+#include "runtime/recognition/test_features.h"
 
 namespace drape::recognition {
 namespace {
 
 namespace fs = std::filesystem;
-
-Code RandomCode(Rng& rng) {
-  Code c = ZeroFeature(4, 4, 8);
-  for (int b = 0; b < c.NumBits(); ++b) c.Set(b, rng.Uniform() < 0.5);
-  return c;
-}
-
-Code Flip(Code c, Rng& rng, int n) {
-  for (int i = 0; i < n; ++i) {
-    const int b = static_cast<int>(rng.Below(c.NumBits()));
-    c.Set(b, !c.Get(b));
-  }
-  return c;
-}
 
 LabelledCode L(const std::string& id, const std::string& cat, const std::string& inst, const std::string& anchor,
                Code c) {
@@ -45,14 +32,14 @@ LabelledCode L(const std::string& id, const std::string& cat, const std::string&
 TEST(RecognitionEvaluate, CountsTheTableAndWritesTheReport) {
   Rng rng(9);
   std::map<std::string, Code> proto;
-  for (const char* k : {"pants/a", "pants/b", "shorts/a", "shorts/c"}) proto[k] = RandomCode(rng);
+  for (const char* k : {"pants/a", "pants/b", "shorts/a", "shorts/c"}) proto[k] = RandomCode(rng, 4, 4, 8);
   std::vector<LabelledCode> train = {
-      L("p1a", "pants", "pants-1", "a", Flip(proto["pants/a"], rng, 2)),
-      L("p1b", "pants", "pants-1", "b", Flip(proto["pants/b"], rng, 2)),
-      L("p2a", "pants", "pants-2", "a", Flip(proto["pants/a"], rng, 2)),
-      L("p2b", "pants", "pants-2", "b", Flip(proto["pants/b"], rng, 2)),
-      L("s1a", "shorts", "shorts-1", "a", Flip(proto["shorts/a"], rng, 2)),
-      L("s1c", "shorts", "shorts-1", "c", Flip(proto["shorts/c"], rng, 2)),
+      L("p1a", "pants", "pants-1", "a", FlipBits(proto["pants/a"], rng, 2)),
+      L("p1b", "pants", "pants-1", "b", FlipBits(proto["pants/b"], rng, 2)),
+      L("p2a", "pants", "pants-2", "a", FlipBits(proto["pants/a"], rng, 2)),
+      L("p2b", "pants", "pants-2", "b", FlipBits(proto["pants/b"], rng, 2)),
+      L("s1a", "shorts", "shorts-1", "a", FlipBits(proto["shorts/a"], rng, 2)),
+      L("s1c", "shorts", "shorts-1", "c", FlipBits(proto["shorts/c"], rng, 2)),
   };
   Database db(train);
   std::vector<EvalQuery> qs;
@@ -64,11 +51,11 @@ TEST(RecognitionEvaluate, CountsTheTableAndWritesTheReport) {
     q.timing_source = "test";
     qs.push_back(std::move(q));
   };
-  add(L("q1", "pants", "pants-q", "a", Rotate(Flip(proto["pants/a"], rng, 1), 3)), 0.2);
-  add(L("q2", "pants", "pants-q", "b", Flip(proto["pants/b"], rng, 1)), 0.2);
+  add(L("q1", "pants", "pants-q", "a", Rotate(FlipBits(proto["pants/a"], rng, 1), 3)), 0.2);
+  add(L("q2", "pants", "pants-q", "b", FlipBits(proto["pants/b"], rng, 1)), 0.2);
   add(L("q3", "pants", "pants-q", "a", train[1].code), 0.2);  // looks exactly like pants-1 "b"
-  add(L("q4", "shorts", "shorts-q", "c", Flip(proto["shorts/c"], rng, 1)), -1);
-  add(L("q5", "towel", "towel-q", "corner", RandomCode(rng)), -1);
+  add(L("q4", "shorts", "shorts-q", "c", FlipBits(proto["shorts/c"], rng, 1)), -1);
+  add(L("q5", "towel", "towel-q", "corner", RandomCode(rng, 4, 4, 8)), -1);
   AnchorUvMap uvs = {{{"pants-q", "a"}, Vec2(0, 0)}, {{"pants-q", "b"}, Vec2(0.3, 0.4)}};
 
   const EvalResult res = Evaluate(db, nullptr, qs, uvs, {});
@@ -131,9 +118,9 @@ TEST(RecognitionEvaluate, SymmetryTwinsSwapWholeSideTokens) {
 // one matched to an unrelated anchor is wrong both ways.
 TEST(RecognitionEvaluate, TwinCreditedAccuracy) {
   Rng rng(11);
-  std::vector<LabelledCode> train = {L("l", "shorts", "s-1", "left_leg", RandomCode(rng)),
-                                     L("r", "shorts", "s-1", "right_leg", RandomCode(rng)),
-                                     L("w", "shorts", "s-1", "waist", RandomCode(rng))};
+  std::vector<LabelledCode> train = {L("l", "shorts", "s-1", "left_leg", RandomCode(rng, 4, 4, 8)),
+                                     L("r", "shorts", "s-1", "right_leg", RandomCode(rng, 4, 4, 8)),
+                                     L("w", "shorts", "s-1", "waist", RandomCode(rng, 4, 4, 8))};
   Database db(train);
   std::vector<EvalQuery> qs(2);
   qs[0].query = L("q0", "shorts", "s-q", "left_leg", train[1].code);  // looks like right_leg

@@ -7,23 +7,10 @@
 #include "common/error.h"
 #include "common/rng.h"
 #include "runtime/recognition/recognizer.h"
+#include "runtime/recognition/test_features.h"
 
 namespace drape::recognition {
 namespace {
-
-Code RandomCode(Rng& rng, int l, int r, int s, double p = 0.5) {
-  Code c = ZeroFeature(l, r, s);
-  for (int b = 0; b < c.NumBits(); ++b) c.Set(b, rng.Uniform() < p);
-  return c;
-}
-
-Code FlipBits(Code c, Rng& rng, int flips) {
-  for (int i = 0; i < flips; ++i) {
-    const int b = static_cast<int>(rng.Below(c.NumBits()));
-    c.Set(b, !c.Get(b));
-  }
-  return c;
-}
 
 std::vector<Kernel> AvailableKernels() {
   std::vector<Kernel> ks;

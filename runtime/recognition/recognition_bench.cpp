@@ -206,15 +206,11 @@ const std::vector<DepthFrame>& PaperSweep(Intrinsics* K) {
     using synthetic::Shape;
     const Eigen::Matrix3d tilt = Eigen::AngleAxisd(0.5, Vec3::UnitZ()).toRotationMatrix();
     TriMesh garment;
-    for (const TriMesh& m : {synthetic::MeshShape(Shape::Box(Vec3(0, -0.4, 0), Vec3(0.25, 0.35, 0.05))),
-                             synthetic::MeshShape(Shape::Cylinder(Vec3(0.33, -0.25, 0), 0.06, 0.2, tilt)),
-                             synthetic::MeshShape(Shape::Cylinder(Vec3(-0.3, -0.3, 0.02), 0.05, 0.22, tilt.transpose()))}) {
-      const int nv = garment.NumVertices(), nf = garment.NumFaces();
-      garment.V.conservativeResize(nv + m.NumVertices(), 3);
-      garment.F.conservativeResize(nf + m.NumFaces(), 3);
-      garment.V.bottomRows(m.NumVertices()) = m.V;
-      garment.F.bottomRows(m.NumFaces()) = m.F.array() + nv;
-    }
+    for (const TriMesh& m :
+         {synthetic::MeshShape(Shape::Box(Vec3(0, -0.4, 0), Vec3(0.25, 0.35, 0.05))),
+          synthetic::MeshShape(Shape::Cylinder(Vec3(0.33, -0.25, 0), 0.06, 0.2, tilt)),
+          synthetic::MeshShape(Shape::Cylinder(Vec3(-0.3, -0.3, 0.02), 0.05, 0.22, tilt.transpose()))})
+      synthetic::AppendMesh(garment, m);
     SweepOptions so;
     so.frames = 300;
     so.threads = 0;

@@ -12,10 +12,11 @@
 
 #include "common/error.h"
 #include "common/rng.h"
-#include "generator/feature/feature.h"
 #include "garments/io.h"
+#include "generator/feature/feature.h"
 #include "runtime/recognition/evaluate.h"
 #include "runtime/recognition/release_source.h"
+#include "runtime/recognition/test_features.h"
 
 namespace drape::recognition {
 namespace {
@@ -52,17 +53,6 @@ TriMesh Moved(const TriMesh& m, double degrees_about_y, const Vec3& t) {
   return o;
 }
 
-Feature SomeFeature(uint64_t seed) {
-  Rng rng(seed);
-  Feature f;
-  f.layers = 8;
-  f.rings = 8;
-  f.sectors = 16;
-  f.words.assign(16, 0);
-  for (auto& w : f.words) w = rng.NextU64();
-  return f;
-}
-
 constexpr int kAnchorVertex = 3;  // on the top row
 
 fs::path BuildRelease(const fs::path& dir) {
@@ -96,7 +86,7 @@ fs::path BuildRelease(const fs::path& dir) {
                     {"anchor", {{"label", "top"}, {"vertex", kAnchorVertex}, {"uv", {0.0, 0.0}}}}};
     e.files.push_back({"hang.ply", EncodeMesh(specs[i].hang)});
     e.files.push_back({"recon.ply", EncodeMesh(specs[i].recon)});
-    e.files.push_back({"feature.bin", EncodeFeature(SomeFeature(i + 1))});
+    e.files.push_back({"feature.bin", EncodeFeature(RandomFeature(uint64_t(i + 1)))});
     w->Commit(e);
   }
   w->Finalize();

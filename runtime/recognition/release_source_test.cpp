@@ -11,29 +11,12 @@
 #include "common/files.h"
 #include "common/rng.h"
 #include "generator/feature/feature.h"
+#include "runtime/recognition/test_features.h"
 
 namespace drape::recognition {
 namespace {
 
 namespace fs = std::filesystem;
-
-Feature RandomFeature(Rng& rng) {
-  Feature f;
-  f.layers = 8;
-  f.rings = 8;
-  f.sectors = 16;
-  f.words.assign(16, 0);
-  for (auto& w : f.words) w = rng.NextU64();
-  return f;
-}
-
-Feature Flip(Feature f, Rng& rng, int n) {
-  for (int i = 0; i < n; ++i) {
-    const int b = static_cast<int>(rng.Below(f.NumBits()));
-    f.words[b / 64] ^= uint64_t{1} << (b % 64);
-  }
-  return f;
-}
 
 // Binary PLY with 3 float vertices, vertex i at (i, -i, 0.5 i) / 10.
 std::string TinyPly() {
@@ -66,11 +49,11 @@ std::vector<Spec> MakeSpecs(uint64_t seed, bool with_train = true) {
       const std::string an = "a" + std::to_string(a);
       const Feature& p = proto[cat + "/" + an];
       if (with_train) {
-        specs.push_back({"train", cat, cat + "-1", an, Flip(p, rng, 6)});
-        if (cat == "shirt") specs.push_back({"train", cat, cat + "-2", an, Flip(p, rng, 6)});
+        specs.push_back({"train", cat, cat + "-1", an, FlipBits(p, rng, 6)});
+        if (cat == "shirt") specs.push_back({"train", cat, cat + "-2", an, FlipBits(p, rng, 6)});
       }
-      if (!(cat == "shirt" && a == 3)) specs.push_back({"calibration", cat, cat + "-c", an, Flip(p, rng, 12)});
-      specs.push_back({"test", cat, cat + "-t", an, Rotate(Flip(p, rng, 12), a + 1)});
+      if (!(cat == "shirt" && a == 3)) specs.push_back({"calibration", cat, cat + "-c", an, FlipBits(p, rng, 12)});
+      specs.push_back({"test", cat, cat + "-t", an, Rotate(FlipBits(p, rng, 12), a + 1)});
     }
   }
   return specs;

@@ -1,0 +1,271 @@
+#include "generator/cloth/broad_phase.h"
+
+#include <algorithm>
+#include <limits>
+#include <string>
+
+#include "common/error.h"
+
+namespace drape {
+namespace {
+
+bool FaceHas(const Faces& F, int f, int v) { return F(f, 0) == v || F(f, 1) == v || F(f, 2) == v; }
+bool EdgesShare(const std::array<int, 2>& a, const std::array<int, 2>& b) {
+  return a[0] == b[0] || a[0] == b[1] || a[1] == b[0] || a[1] == b[1];
+}
+
+// Lexicographic order of pairs with entries in [0, n): two stable counting passes
+// (by second, then by first), O(size + n).
+void SortPairs(std::vector<std::array<int, 2>>& v, int n, std::vector<std::array<int, 2>>& tmp,
+               std::vector<int>& count) {
+  tmp.resize(v.size());
+  for (int key : {1, 0}) {
+    count.assign(static_cast<size_t>(n) + 1, 0);
+    for (const auto& p : v) ++count[p[key] + 1];
+    for (int i = 0; i < n; ++i) count[i + 1] += count[i];
+    for (const auto& p : v) tmp[count[p[key]]++] = p;
+    v.swap(tmp);
+  }
+}
+
+}  // namespace
+
+void SweptVertexBoxes(const Points3& x0, const Points3& x1, double pad, std::vector<Aabb>* boxes) {
+  boxes->resize(static_cast<size_t>(x0.rows()));
+  for (Eigen::Index i = 0; i < x0.rows(); ++i) {
+    Aabb& b = (*boxes)[i];
+    for (int a = 0; a < 3; ++a) {
+      const double p = x0(i, a), q = x1(i, a);
+      b.lo[a] = std::min(p, q) - pad;
+      b.hi[a] = std::max(p, q) + pad;
+    }
+  }
+}
+
+Vec3 MedianDisplacement(const Points3& x0, const Points3& x1) {
+  Vec3 out = Vec3::Zero();
+  const Eigen::Index n = x0.rows();
+  if (n == 0) return out;
+  std::vector<double> d(static_cast<size_t>(n));
+  for (int k = 0; k < 3; ++k) {
+    for (Eigen::Index i = 0; i < n; ++i) d[i] = x1(i, k) - x0(i, k);
+    std::nth_element(d.begin(), d.begin() + n / 2, d.end());
+    out[k] = d[n / 2];
+  }
+  return out;
+}
+
+// Translating every path by the same t·s changes no pairwise distance at any t, so the
+// boxes may leave out the motion most nodes share (a falling garment's boxes then hold
+// its deformation, not its fall).
+void PathBoxes(const Points3& x0, const Points3& x1, double dist, double slack, std::vector<Aabb>* boxes) {
+  const Vec3 s = MedianDisplacement(x0, x1);
+  const double pad = 0.5 * dist + slack;
+  boxes->resize(static_cast<size_t>(x0.rows()));
+  for (Eigen::Index i = 0; i < x0.rows(); ++i) {
+    Aabb& b = (*boxes)[i];
+    for (int a = 0; a < 3; ++a) {
+      const double p = x0(i, a), q = x1(i, a) - s[a];
+      b.lo[a] = std::min(p, q) - pad;
+      b.hi[a] = std::max(p, q) + pad;
+    }
+  }
+}
+
+BroadPhase::BroadPhase(const Faces& F, const std::vector<std::array<int, 2>>& E, const Points3& layout)
+    : F_(F), E_(E), num_vertices_(static_cast<int>(layout.rows())) {
+  const int nf = static_cast<int>(F.rows()), ne = static_cast<int>(E.size());
+  // Owners: the lowest-index face holding each vertex and each edge.
+  std::vector<int> vowner(num_vertices_, -1), eowner(ne, -1);
+  for (int f = nf - 1; f >= 0; --f)
+    for (int k = 0; k < 3; ++k) {
+      const int a = F(f, k), b = F(f, (k + 1) % 3);
+      if (a < 0 || a >= num_vertices_) throw Error("broad phase: face " + std::to_string(f) + " has an index out of range");
+      vowner[a] = f;
+      const std::array<int, 2> key{std::min(a, b), std::max(a, b)};
+      const auto it = std::lower_bound(E.begin(), E.end(), key);
+      if (it != E.end() && *it == key) eowner[it - E.begin()] = f;
+    }
+  for (int e = 0; e < ne; ++e)
+    if (eowner[e] < 0)
+      throw Error("broad phase: edge " + std::to_string(e) + " (" + std::to_string(E[e][0]) + ", " +
+                  std::to_string(E[e][1]) + ") is no side of a face (edges must be sorted and unique)");
+  auto csr = [nf](const std::vector<int>& owner, std::vector<int>& start, std::vector<int>& items) {
+    start.assign(static_cast<size_t>(nf) + 1, 0);
+    for (int o : owner)
+      if (o >= 0) ++start[o + 1];
+    for (int f = 0; f < nf; ++f) start[f + 1] += start[f];
+    items.resize(start[nf]);
+    std::vector<int> fill(start.begin(), start.end() - 1);
+    for (int i = 0; i < static_cast<int>(owner.size()); ++i)
+      if (owner[i] >= 0) items[fill[owner[i]]++] = i;
+  };
+  csr(vowner, owned_start_v_, owned_v_);
+  csr(eowner, owned_start_e_, owned_e_);
+  for (int v = 0; v < num_vertices_; ++v)
+    if (vowner[v] < 0) orphan_vertices_.push_back(v);
+  Relayout(layout);
+}
+
+void BroadPhase::Relayout(const Points3& layout) {
+  const int nf = static_cast<int>(F_.rows());
+  if (layout.rows() != num_vertices_)
+    throw Error("broad phase: a layout of " + std::to_string(layout.rows()) + " positions for " +
+                std::to_string(num_vertices_) + " vertices");
+  nodes_.clear();
+  if (nf == 0) return;
+  const Faces& F = F_;
+  std::vector<Vec3> centroid(nf);
+  for (int f = 0; f < nf; ++f)
+    centroid[f] = (layout.row(F(f, 0)) + layout.row(F(f, 1)) + layout.row(F(f, 2))).transpose() / 3.0;
+  std::vector<int> faces(nf);
+  for (int f = 0; f < nf; ++f) faces[f] = f;
+  nodes_.reserve(2 * static_cast<size_t>(nf));
+  Build(faces, 0, nf, centroid);
+}
+
+// Top-down median split along the centroids' widest axis (ties by face index, so the
+// tree depends on the input only).
+int BroadPhase::Build(std::vector<int>& faces, int begin, int end, const std::vector<Vec3>& centroid) {
+  const int id = static_cast<int>(nodes_.size());
+  nodes_.emplace_back();
+  if (end - begin == 1) {
+    nodes_[id].right = faces[begin];
+    return id;
+  }
+  Vec3 lo = centroid[faces[begin]], hi = lo;
+  for (int i = begin; i < end; ++i) {
+    lo = lo.cwiseMin(centroid[faces[i]]);
+    hi = hi.cwiseMax(centroid[faces[i]]);
+  }
+  int axis = 0;
+  (hi - lo).maxCoeff(&axis);
+  const int mid = begin + (end - begin) / 2;
+  std::nth_element(faces.begin() + begin, faces.begin() + mid, faces.begin() + end, [&](int a, int b) {
+    const double ca = centroid[a][axis], cb = centroid[b][axis];
+    return ca < cb || (ca == cb && a < b);
+  });
+  const int left = Build(faces, begin, mid, centroid);
+  const int right = Build(faces, mid, end, centroid);
+  nodes_[id].left = left;
+  nodes_[id].right = right;
+  nodes_[id].faces = end - begin;
+  return id;
+}
+
+void BroadPhase::LeafPair(int fa, int fb) {
+  for (int side = 0; side < 2; ++side) {
+    const int owner = side ? fb : fa, f = side ? fa : fb;
+    for (int k = owned_start_v_[owner]; k < owned_start_v_[owner + 1]; ++k) {
+      const int v = owned_v_[k];
+      if (!FaceHas(F_, f, v) && vbox_[v].Overlaps(fbox_[f])) raw_vf_.push_back({v, f});
+    }
+  }
+  for (int i = owned_start_e_[fa]; i < owned_start_e_[fa + 1]; ++i) {
+    const int a = owned_e_[i];
+    for (int j = owned_start_e_[fb]; j < owned_start_e_[fb + 1]; ++j) {
+      const int b = owned_e_[j];
+      if (!EdgesShare(E_[a], E_[b]) && ebox_[a].Overlaps(ebox_[b]))
+        raw_ee_.push_back({std::min(a, b), std::max(a, b)});
+    }
+  }
+}
+
+void BroadPhase::QueryVertex(int v) {
+  if (nodes_.empty()) return;
+  std::vector<int> stack{0};
+  while (!stack.empty()) {
+    const Node& n = nodes_[stack.back()];
+    stack.pop_back();
+    if (!n.box.Overlaps(vbox_[v])) continue;
+    if (n.left < 0) {
+      if (!FaceHas(F_, n.right, v) && fbox_[n.right].Overlaps(vbox_[v]))
+        raw_vf_.push_back({v, n.right});
+    } else {
+      stack.push_back(n.left);
+      stack.push_back(n.right);
+    }
+  }
+}
+
+void BroadPhase::Find(const std::vector<Aabb>& vbox, CandidatePairs* out) {
+  if (static_cast<int>(vbox.size()) != num_vertices_)
+    throw Error("broad phase: " + std::to_string(vbox.size()) + " vertex boxes for " + std::to_string(num_vertices_) +
+                " vertices");
+  const int nf = static_cast<int>(F_.rows()), ne = static_cast<int>(E_.size());
+  vbox_ = vbox;
+  ebox_.resize(ne);
+  for (int e = 0; e < ne; ++e) ebox_[e] = Aabb::Union(vbox_[E_[e][0]], vbox_[E_[e][1]]);
+  fbox_.resize(nf);
+  for (int f = 0; f < nf; ++f) fbox_[f] = Aabb::Union(Aabb::Union(vbox_[F_(f, 0)], vbox_[F_(f, 1)]), vbox_[F_(f, 2)]);
+  // Refit: children come after their parent.
+  for (int i = static_cast<int>(nodes_.size()) - 1; i >= 0; --i) {
+    Node& n = nodes_[i];
+    n.box = n.left < 0 ? fbox_[n.right] : Aabb::Union(nodes_[n.left].box, nodes_[n.right].box);
+  }
+  raw_vf_.clear();
+  raw_ee_.clear();
+  // Self-traversal: (a, a) means "pairs inside subtree a".
+  stack_.clear();
+  if (!nodes_.empty()) stack_.push_back({0, 0});
+  while (!stack_.empty()) {
+    const auto [a, b] = stack_.back();
+    stack_.pop_back();
+    const Node &na = nodes_[a], &nb = nodes_[b];
+    if (a == b) {
+      if (na.left >= 0) {
+        stack_.push_back({na.left, na.left});
+        stack_.push_back({na.right, na.right});
+        stack_.push_back({na.left, na.right});
+      }
+      continue;
+    }
+    if (!na.box.Overlaps(nb.box)) continue;
+    if (na.left < 0 && nb.left < 0) {
+      LeafPair(na.right, nb.right);
+    } else if (nb.left < 0 || (na.left >= 0 && na.faces >= nb.faces)) {  // split the larger subtree
+      stack_.push_back({na.left, b});
+      stack_.push_back({na.right, b});
+    } else {
+      stack_.push_back({a, nb.left});
+      stack_.push_back({a, nb.right});
+    }
+  }
+  for (int v : orphan_vertices_) QueryVertex(v);
+  out->vf.swap(raw_vf_);
+  out->ee.swap(raw_ee_);
+  SortPairs(out->vf, std::max(num_vertices_, nf), tmp_, count_);
+  SortPairs(out->ee, ne, tmp_, count_);
+}
+
+void BroadPhase::FindClose(const Points3& x0, const Points3& x1, double dist, double slack, CandidatePairs* out) {
+  if (x0.rows() != num_vertices_ || x1.rows() != num_vertices_)
+    throw Error("broad phase: FindClose expects " + std::to_string(num_vertices_) + " positions");
+  PathBoxes(x0, x1, dist, slack, &path_boxes_);
+  Find(path_boxes_, out);
+}
+
+CandidatePairs BruteForceClose(const Faces& F, const std::vector<std::array<int, 2>>& E, const Points3& x0,
+                               const Points3& x1, double dist, double slack) {
+  std::vector<Aabb> boxes;
+  PathBoxes(x0, x1, dist, slack, &boxes);
+  return BruteForceCandidates(F, E, boxes);
+}
+
+CandidatePairs BruteForceCandidates(const Faces& F, const std::vector<std::array<int, 2>>& E,
+                                    const std::vector<Aabb>& vbox) {
+  CandidatePairs out;
+  std::vector<Aabb> fbox(F.rows()), ebox(E.size());
+  for (int f = 0; f < F.rows(); ++f)
+    fbox[f] = Aabb::Union(Aabb::Union(vbox[F(f, 0)], vbox[F(f, 1)]), vbox[F(f, 2)]);
+  for (size_t e = 0; e < E.size(); ++e) ebox[e] = Aabb::Union(vbox[E[e][0]], vbox[E[e][1]]);
+  for (int v = 0; v < static_cast<int>(vbox.size()); ++v)
+    for (int f = 0; f < F.rows(); ++f)
+      if (!FaceHas(F, f, v) && vbox[v].Overlaps(fbox[f])) out.vf.push_back({v, f});
+  for (int a = 0; a < static_cast<int>(E.size()); ++a)
+    for (int b = a + 1; b < static_cast<int>(E.size()); ++b)
+      if (!EdgesShare(E[a], E[b]) && ebox[a].Overlaps(ebox[b])) out.ee.push_back({a, b});
+  return out;
+}
+
+}  // namespace drape

@@ -1,0 +1,98 @@
+// Broad phase for cloth self-collision: the vertex–face (VF) and edge–edge (EE) pairs
+// of one triangle mesh whose axis-aligned boxes overlap, pairs that share a vertex left
+// out. A bounding-volume hierarchy over the faces is built once from a layout (the rest
+// shape: cloth neighbourhoods stay neighbourhoods however it drapes) and refitted,
+// not rebuilt, for every query.
+//
+// Each vertex and each edge is owned by its lowest-index face, and a vertex's (edge's)
+// box lies inside the box of every face holding it, so every overlapping pair shows up
+// in exactly one overlapping pair of face leaves: (owner, face) for VF, (owner, owner)
+// for EE. No pair is emitted twice and nothing needs deduplicating; the lists are put
+// in lexicographic order by a counting sort, so the result (and every computation that
+// walks it) does not depend on the tree's shape.
+#pragma once
+
+#include <array>
+#include <vector>
+
+#include "common/mesh.h"
+
+namespace drape {
+
+struct Aabb {
+  Vec3 lo, hi;
+  bool Overlaps(const Aabb& o) const {
+    return lo[0] <= o.hi[0] && o.lo[0] <= hi[0] && lo[1] <= o.hi[1] && o.lo[1] <= hi[1] && lo[2] <= o.hi[2] &&
+           o.lo[2] <= hi[2];
+  }
+  static Aabb Union(const Aabb& a, const Aabb& b) { return {a.lo.cwiseMin(b.lo), a.hi.cwiseMax(b.hi)}; }
+};
+
+struct CandidatePairs {
+  std::vector<std::array<int, 2>> vf;  // (vertex, face), sorted
+  std::vector<std::array<int, 2>> ee;  // (edge, edge), first < second, sorted
+};
+
+// Per-vertex boxes of the straight paths x0 → x1, each grown by pad (m) on every side.
+void SweptVertexBoxes(const Points3& x0, const Points3& x1, double pad, std::vector<Aabb>* boxes);
+
+// Per-axis median of x1 − x0: the motion most nodes share.
+Vec3 MedianDisplacement(const Points3& x0, const Points3& x1);
+// FindClose's boxes: paths x0 → x1 − MedianDisplacement, grown by dist/2 + slack.
+void PathBoxes(const Points3& x0, const Points3& x1, double dist, double slack, std::vector<Aabb>* boxes);
+
+class BroadPhase {
+ public:
+  // E: the mesh's edges (every one a side of some face of F); layout: positions the
+  // tree is built from (any positions work; near ones make a tighter tree).
+  BroadPhase(const Faces& F, const std::vector<std::array<int, 2>>& E, const Points3& layout);
+  BroadPhase() = default;  // no mesh
+
+  // Builds the tree anew from positions x (the refit tree of a layout far from x,
+  // e.g. the flat rest shape of a crumpled garment, has boxes that overlap more).
+  void Relayout(const Points3& x);
+
+  // Every VF pair (v, f) with v not in f and every EE pair (a, b) with no shared vertex
+  // whose boxes overlap (a face's or an edge's box: the union of its vertices' boxes).
+  // vbox: one box per vertex (vertices in no face are tested too).
+  void Find(const std::vector<Aabb>& vbox, CandidatePairs* out);
+
+  // Every VF and EE pair (sharing no vertex) that could come within `dist` (m) of each
+  // other at some t ∈ [0, 1] on the straight paths x0 → y1, for every y1 with
+  // |y1_i − x1_i| ≤ slack (m) at each node: a superset, for corrections of x1 that stay
+  // within slack: Find on the boxes of the paths with their common motion taken out
+  // (PathBoxes).
+  void FindClose(const Points3& x0, const Points3& x1, double dist, double slack, CandidatePairs* out);
+
+ private:
+  struct Node {
+    Aabb box;
+    int left = -1, right = -1;  // children; leaves: left = -1, right = the face
+    int faces = 1;              // faces below
+  };
+  int Build(std::vector<int>& faces, int begin, int end, const std::vector<Vec3>& centroid);
+  void LeafPair(int fa, int fb);
+  void QueryVertex(int v);
+
+  Faces F_;
+  std::vector<std::array<int, 2>> E_;
+  int num_vertices_ = 0;
+  std::vector<Node> nodes_;                              // nodes_[0]: the root; children after parents
+  std::vector<int> owned_start_v_, owned_v_;             // face → vertices it owns (CSR)
+  std::vector<int> owned_start_e_, owned_e_;             // face → edges it owns (CSR)
+  std::vector<int> orphan_vertices_;                     // vertices in no face
+  // Per-query scratch (kept to avoid reallocations).
+  std::vector<Aabb> vbox_, ebox_, fbox_;
+  std::vector<Aabb> path_boxes_;
+  std::vector<std::array<int, 2>> stack_, raw_vf_, raw_ee_, tmp_;
+  std::vector<int> count_;
+};
+
+// The same pairs as Find (FindClose) by testing every VF and EE pair (O(n²)): the
+// references for tests.
+CandidatePairs BruteForceCandidates(const Faces& F, const std::vector<std::array<int, 2>>& E,
+                                    const std::vector<Aabb>& vbox);
+CandidatePairs BruteForceClose(const Faces& F, const std::vector<std::array<int, 2>>& E, const Points3& x0,
+                               const Points3& x1, double dist, double slack);
+
+}  // namespace drape

@@ -1,0 +1,179 @@
+#include "generator/cloth/broad_phase.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <string>
+
+#include "common/error.h"
+#include "common/rng.h"
+#include "generator/cloth/collision.h"
+#include "generator/cloth/rectangle.h"
+
+namespace drape {
+namespace {
+
+Vec3 RandomVec(Rng& rng, double scale) { return Vec3(rng.Uniform(-1, 1), rng.Uniform(-1, 1), rng.Uniform(-1, 1)) * scale; }
+
+// Swept boxes of random paths: most nodes move a little, some a lot (up to the
+// garment's size), a few not at all; pad random per call.
+std::vector<Aabb> RandomSweptBoxes(Rng& rng, const Points3& rest, double scale) {
+  Points3 x0 = rest, x1 = rest;
+  for (int i = 0; i < rest.rows(); ++i) {
+    x0.row(i) += RandomVec(rng, 0.2 * scale).transpose();
+    const double u = rng.Uniform();
+    const double step = u < 0.1 ? 0.0 : u < 0.95 ? 0.5 * scale : 20 * scale;
+    x1.row(i) = x0.row(i) + RandomVec(rng, step).transpose();
+  }
+  std::vector<Aabb> boxes;
+  SweptVertexBoxes(x0, x1, rng.Uniform(0, 0.3) * scale, &boxes);
+  return boxes;
+}
+
+void ExpectSame(const CandidatePairs& got, const CandidatePairs& want, const std::string& what) {
+  EXPECT_EQ(got.vf, want.vf) << what << ": VF pairs differ (" << got.vf.size() << " vs " << want.vf.size() << ")";
+  EXPECT_EQ(got.ee, want.ee) << what << ": EE pairs differ (" << got.ee.size() << " vs " << want.ee.size() << ")";
+}
+
+// A two-layer garment (stitched sides, layers a gap apart) under random motions,
+// queried repeatedly through one refitted tree.
+TEST(BroadPhase, MatchesBruteForceOnAGarment) {
+  const Garment g = MakeRectangleGarment(0.3, 0.2, 0.03, /*two_layers=*/true, 0.01);
+  const auto E = UniqueEdges(g.mesh);
+  BroadPhase broad(g.mesh.F, E, g.mesh.V);
+  size_t total = 0;
+  for (uint64_t seed = 1; seed <= 6; ++seed) {
+    Rng rng(DeriveSeed(seed, "broad_phase/garment"));
+    const std::vector<Aabb> boxes = RandomSweptBoxes(rng, g.mesh.V, 0.03);
+    CandidatePairs got;
+    broad.Find(boxes, &got);
+    const CandidatePairs want = BruteForceCandidates(g.mesh.F, E, boxes);
+    ExpectSame(got, want, "seed " + std::to_string(seed));
+    total += want.vf.size() + want.ee.size();
+  }
+  EXPECT_GT(total, 1000u);  // the boxes overlap a lot: the comparison is not vacuous
+}
+
+// Random triangles over random vertices (some in no face), with a tree built from an
+// unrelated layout: the answer must not depend on the tree's quality.
+TEST(BroadPhase, MatchesBruteForceOnATriangleSoup) {
+  for (uint64_t seed = 1; seed <= 5; ++seed) {
+    Rng rng(DeriveSeed(seed, "broad_phase/soup"));
+    const int nv = 60 + static_cast<int>(rng.Below(60)), nf = 40 + static_cast<int>(rng.Below(80));
+    TriMesh m;
+    m.V.resize(nv, 3);
+    for (int i = 0; i < nv; ++i) m.V.row(i) = RandomVec(rng, 1.0).transpose();
+    m.F.resize(nf, 3);
+    for (int f = 0; f < nf; ++f) {
+      int a = 0, b = 0, c = 0;
+      while (a == b || b == c || a == c) {  // the last 10 vertices stay in no face
+        a = static_cast<int>(rng.Below(nv - 10));
+        b = static_cast<int>(rng.Below(nv - 10));
+        c = static_cast<int>(rng.Below(nv - 10));
+      }
+      m.F.row(f) = Eigen::RowVector3i(a, b, c);
+    }
+    const auto E = UniqueEdges(m);
+    Points3 layout(nv, 3);
+    for (int i = 0; i < nv; ++i) layout.row(i) = RandomVec(rng, 1.0).transpose();
+    BroadPhase broad(m.F, E, layout);
+    for (int query = 0; query < 3; ++query) {
+      const std::vector<Aabb> boxes = RandomSweptBoxes(rng, m.V, 0.1);
+      CandidatePairs got;
+      broad.Find(boxes, &got);
+      ExpectSame(got, BruteForceCandidates(m.F, E, boxes),
+                 "seed " + std::to_string(seed) + " query " + std::to_string(query));
+    }
+  }
+}
+
+// Random paths on the garment: most nodes share a large common motion (a fall), on
+// top of small and a few large own motions.
+void RandomPaths(Rng& rng, const Points3& rest, double scale, Points3* x0, Points3* x1) {
+  *x0 = rest;
+  *x1 = rest;
+  const Vec3 common = RandomVec(rng, 3 * scale);
+  for (int i = 0; i < rest.rows(); ++i) {
+    x0->row(i) += RandomVec(rng, 0.2 * scale).transpose();
+    const double u = rng.Uniform();
+    const Vec3 own = RandomVec(rng, u < 0.9 ? 0.3 * scale : 3 * scale);
+    x1->row(i) = x0->row(i) + (u < 0.05 ? Vec3::Zero() : Vec3(common + own)).transpose();
+  }
+}
+
+bool Contains(const std::vector<std::array<int, 2>>& sorted, std::array<int, 2> p) {
+  return std::binary_search(sorted.begin(), sorted.end(), p);
+}
+
+TEST(BroadPhase, FindCloseMatchesBruteForce) {
+  const Garment g = MakeRectangleGarment(0.3, 0.2, 0.03, /*two_layers=*/true, 0.01);
+  const auto E = UniqueEdges(g.mesh);
+  BroadPhase broad(g.mesh.F, E, g.mesh.V);
+  for (uint64_t seed = 1; seed <= 6; ++seed) {
+    Rng rng(DeriveSeed(seed, "broad_phase/close"));
+    Points3 x0, x1;
+    RandomPaths(rng, g.mesh.V, 0.03, &x0, &x1);
+    const double dist = rng.Uniform(0.001, 0.02), slack = rng.Uniform(0, 0.005);
+    CandidatePairs got;
+    broad.FindClose(x0, x1, dist, slack, &got);
+    ExpectSame(got, BruteForceClose(g.mesh.F, E, x0, x1, dist, slack), "seed " + std::to_string(seed));
+  }
+}
+
+// The culls are conservative: every pair that comes within dist on a path x0 → y1
+// with y1 within slack of x1 (distances sampled densely along the path) is kept.
+TEST(BroadPhase, FindCloseKeepsEveryPairThatComesClose) {
+  const Garment g = MakeRectangleGarment(0.2, 0.15, 0.03, /*two_layers=*/true, 0.01);
+  const auto E = UniqueEdges(g.mesh);
+  const Faces& F = g.mesh.F;
+  BroadPhase broad(F, E, g.mesh.V);
+  size_t close_pairs = 0;
+  for (uint64_t seed = 1; seed <= 4; ++seed) {
+    Rng rng(DeriveSeed(seed, "broad_phase/conservative"));
+    Points3 x0, x1;
+    RandomPaths(rng, g.mesh.V, 0.03, &x0, &x1);
+    const double dist = 0.01, slack = 0.003;
+    CandidatePairs got;
+    broad.FindClose(x0, x1, dist, slack, &got);
+    Points3 y1 = x1;  // an end within slack of x1
+    for (int i = 0; i < y1.rows(); ++i) {
+      const Vec3 d = RandomVec(rng, 1.0);
+      y1.row(i) += (slack * rng.Uniform() * d / std::max(d.norm(), 1e-12)).transpose();
+    }
+    for (int step = 0; step <= 32; ++step) {
+      const Points3 x = x0 + (step / 32.0) * (y1 - x0);
+      auto P = [&](int i) { return Vec3(x.row(i).transpose()); };
+      for (int v = 0; v < x.rows(); ++v)
+        for (int f = 0; f < F.rows(); ++f) {
+          if (F(f, 0) == v || F(f, 1) == v || F(f, 2) == v) continue;
+          if (PointTriangleDistanceSquared(P(v), P(F(f, 0)), P(F(f, 1)), P(F(f, 2))) >= dist * dist) continue;
+          ++close_pairs;
+          EXPECT_TRUE(Contains(got.vf, {v, f})) << "seed " << seed << " VF " << v << " " << f;
+        }
+      for (int a = 0; a < static_cast<int>(E.size()); ++a)
+        for (int b = a + 1; b < static_cast<int>(E.size()); ++b) {
+          if (E[a][0] == E[b][0] || E[a][0] == E[b][1] || E[a][1] == E[b][0] || E[a][1] == E[b][1]) continue;
+          if (SegmentSegmentDistanceSquared(P(E[a][0]), P(E[a][1]), P(E[b][0]), P(E[b][1])) >= dist * dist) continue;
+          ++close_pairs;
+          EXPECT_TRUE(Contains(got.ee, {a, b})) << "seed " << seed << " EE " << a << " " << b;
+        }
+    }
+  }
+  EXPECT_GT(close_pairs, 100u);  // not vacuous
+}
+
+TEST(BroadPhase, RejectsEdgesThatAreNoSideOfAFace) {
+  TriMesh m;
+  m.V = Points3::Zero(4, 3);
+  m.F.resize(1, 3);
+  m.F << 0, 1, 2;
+  std::vector<std::array<int, 2>> E = UniqueEdges(m);
+  E.push_back({2, 3});
+  EXPECT_THROW(BroadPhase(m.F, E, m.V), Error);
+  BroadPhase broad(m.F, UniqueEdges(m), m.V);
+  CandidatePairs out;
+  EXPECT_THROW(broad.Find(std::vector<Aabb>(3), &out), Error);  // one box per vertex
+}
+
+}  // namespace
+}  // namespace drape
