@@ -562,7 +562,6 @@ std::vector<int> StrainViolations(const ApplyContext& cx, double* max_strain = n
 bool RepelPair(ApplyContext& cx, const Stencil& s) {
   const Quad q0 = Gather(s, cx.x0), q1 = Gather(s, cx.x1);
   double h = cx.opt.thickness;
-  if (ApartBeyond(s.vf, q1, h) && ApartBeyond(s.vf, q0, h)) return false;  // far (cheap test)
   Coeffs c0, c1;
   const double d0 = std::sqrt(Closest(s.vf, q0, &c0)), d1 = std::sqrt(Closest(s.vf, q1, &c1));
   if (std::min(d0, d1) >= h || !(d0 > 0)) return false;  // far, or touching at x0 (the CCD's job)
