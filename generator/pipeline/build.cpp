@@ -196,6 +196,69 @@ std::string EntryPreview(const Job& job, const HangResult& hung, const Anchor& a
   return RenderEntryPreview(hung.mesh, anchor_hung, depth_png, fused.mesh, job.key + " (" + job.split + ")");
 }
 
+// Times each stage of an entry into its timing record (seconds by stage name).
+struct StageClock {
+  Json& timing;
+  template <class Fn>
+  void operator()(const char* name, Fn&& fn) {
+    const auto t0 = Clock::now();
+    fn();
+    timing[name] = Seconds(t0, Clock::now());
+  }
+};
+
+// The stages after the hang: sweep the hung mesh (turned by job.turn), fuse, measure,
+// extract the feature, encode the files and the preview into e. Returns why the entry
+// failed, or "" when it did not.
+std::string SenseHung(const Recipe& recipe, const SensingSpec& sensing, const Job& job, const Anchor& anchor,
+                      HangResult& hung, StageClock& stage, Entry& e) {
+  Json& rec = e.record;
+  Sweep sweep;
+  stage("sweep", [&] {
+    if (job.turn != 0) {
+      // Turned about the gripper: row vectors, so V·Rᵀ.
+      hung.mesh.V = hung.mesh.V * Eigen::AngleAxisd(job.turn, Vec3::UnitY()).toRotationMatrix().transpose();
+    }
+    SweepOptions so = sensing.sweep;
+    so.threads = 1;  // jobs run in parallel; one thread each
+    sweep = SimulateSweep(hung.mesh, so, DeriveSeed(job.seed, "sweep"));
+  });
+  rec["sweep"] = SweepRecord(sweep, sensing.sweep);
+
+  FusionResult fused;
+  stage("fusion", [&] {
+    FusionOptions fo = recipe.fusion;
+    fo.threads = 1;
+    if (job.pose_noise_degrees > 0) fo.pose_noise_degrees = job.pose_noise_degrees;
+    fused = FuseFrames(sweep.frames, sweep.intrinsics, fo, DeriveSeed(job.seed, "fusion"));
+  });
+  if (fused.mesh.NumFaces() == 0) return "fusion: the fused surface is empty (garment not in view?)";
+  Accuracy acc;
+  stage("accuracy", [&] { acc = MeasureAccuracy(fused.mesh, hung.mesh); });
+  rec["fusion"] = FusionRecord(acc, fused, recipe.fusion);
+
+  Feature feature;
+  stage("feature", [&] {
+    const Tsdf& tsdf = *fused.tsdf;
+    feature = ExtractFeature(fused.mesh.V, [&tsdf](const Vec3& p) { return tsdf.Sdf(p); }, recipe.feature);
+  });
+  rec["feature"] = {{"layers", feature.layers},
+                    {"rings", feature.rings},
+                    {"sectors", feature.sectors},
+                    {"ones", feature.PopCount()}};
+
+  stage("encode", [&] {
+    e.files.push_back({"hang.ply", EncodeMesh(hung.mesh)});
+    e.files.push_back({"recon.ply", EncodeMesh(fused.mesh)});
+    e.files.push_back({"sdf.vdb", fused.tsdf->EncodeVdb()});
+    e.files.push_back({"feature.bin", EncodeFeature(feature)});
+    if (sensing.keep_frames)
+      for (auto& [path, bytes] : EncodeSweep(sweep)) e.files.push_back({path, std::move(bytes)});
+  });
+  stage("preview", [&] { e.files.push_back({"preview.png", EntryPreview(job, hung, anchor, sweep, fused)}); });
+  return "";
+}
+
 }  // namespace
 
 Entry BuildEntry(const Recipe& recipe, const Job& job, JobCache& cache) {
@@ -207,11 +270,7 @@ Entry BuildEntry(const Recipe& recipe, const Job& job, JobCache& cache) {
   e.key = job.key;
   e.split = job.split;
   Json timing = Json::object();
-  auto stage = [&](const char* name, auto&& fn) {
-    const auto t0 = Clock::now();
-    fn();
-    timing[name] = Seconds(t0, Clock::now());
-  };
+  StageClock stage{timing};
 
   std::shared_ptr<const Garment> garment;
   stage("garment", [&] { garment = InstanceGarment(recipe, job, cache); });
@@ -244,49 +303,7 @@ Entry BuildEntry(const Recipe& recipe, const Job& job, JobCache& cache) {
     timing["hang_measure"] = hung.stats.measure_seconds;
     if (!hung.ok) return fail("hang: " + hung.failure);
 
-    Sweep sweep;
-    stage("sweep", [&] {
-      if (job.turn != 0) {
-        // Turned about the gripper: row vectors, so V·Rᵀ.
-        hung.mesh.V = hung.mesh.V * Eigen::AngleAxisd(job.turn, Vec3::UnitY()).toRotationMatrix().transpose();
-      }
-      SweepOptions so = sensing.sweep;
-      so.threads = 1;  // jobs run in parallel; one thread each
-      sweep = SimulateSweep(hung.mesh, so, DeriveSeed(job.seed, "sweep"));
-    });
-    rec["sweep"] = SweepRecord(sweep, sensing.sweep);
-
-    FusionResult fused;
-    stage("fusion", [&] {
-      FusionOptions fo = recipe.fusion;
-      fo.threads = 1;
-      if (job.pose_noise_degrees > 0) fo.pose_noise_degrees = job.pose_noise_degrees;
-      fused = FuseFrames(sweep.frames, sweep.intrinsics, fo, DeriveSeed(job.seed, "fusion"));
-    });
-    if (fused.mesh.NumFaces() == 0) return fail("fusion: the fused surface is empty (garment not in view?)");
-    Accuracy acc;
-    stage("accuracy", [&] { acc = MeasureAccuracy(fused.mesh, hung.mesh); });
-    rec["fusion"] = FusionRecord(acc, fused, recipe.fusion);
-
-    Feature feature;
-    stage("feature", [&] {
-      const Tsdf& tsdf = *fused.tsdf;
-      feature = ExtractFeature(fused.mesh.V, [&tsdf](const Vec3& p) { return tsdf.Sdf(p); }, recipe.feature);
-    });
-    rec["feature"] = {{"layers", feature.layers},
-                      {"rings", feature.rings},
-                      {"sectors", feature.sectors},
-                      {"ones", feature.PopCount()}};
-
-    stage("encode", [&] {
-      e.files.push_back({"hang.ply", EncodeMesh(hung.mesh)});
-      e.files.push_back({"recon.ply", EncodeMesh(fused.mesh)});
-      e.files.push_back({"sdf.vdb", fused.tsdf->EncodeVdb()});
-      e.files.push_back({"feature.bin", EncodeFeature(feature)});
-      if (sensing.keep_frames)
-        for (auto& [path, bytes] : EncodeSweep(sweep)) e.files.push_back({path, std::move(bytes)});
-    });
-    stage("preview", [&] { e.files.push_back({"preview.png", EntryPreview(job, hung, *anchor, sweep, fused)}); });
+    if (std::string why = SenseHung(recipe, sensing, job, *anchor, hung, stage, e); !why.empty()) return fail(why);
   } catch (const NumericalError& err) {
     return fail(std::string("numerical: ") + err.what());
   }
@@ -485,6 +502,42 @@ void LogBuildStart(std::ostream& log, const Recipe& recipe, const BuildOptions& 
   log << ", " << todo << " to run on ";
 }
 
+namespace {
+
+// What the job threads share with the thread that prints progress (under mu).
+struct JobsState {
+  std::mutex mu;
+  std::condition_variable cv;
+  std::atomic<bool> abort{false};
+  int finished = 0, running = 0;
+  double busy_seconds = 0;  // summed job wall time, for the ETA
+  bool over = false;        // every job handed out has returned
+};
+
+// Prints progress (and the interrupt note) until every job handed out has returned.
+void WatchJobs(JobsState& st, std::ostream& log, ProgressMode mode, const BuildOptions& options,
+               const BuildReport& report, int n_todo, int threads, Clock::time_point t0) {
+  std::unique_lock<std::mutex> lock(st.mu);
+  ProgressLine progress(log, mode, options.progress_interval);
+  bool stop_noted = false;
+  for (;;) {
+    const bool last = st.over;
+    const int remaining = n_todo - st.finished;
+    const double eta = st.finished ? st.busy_seconds / st.finished * remaining / threads : NAN;
+    if (options.stop && options.stop->load() && !stop_noted && mode != ProgressMode::kQuiet) {
+      stop_noted = true;
+      log << (mode == ProgressMode::kTty ? "\n" : "") << "drape build: interrupted; letting " << st.running
+          << " running job(s) finish and commit (Ctrl-C again quits at once; --resume continues)\n";
+    }
+    progress.Print(report.already_done + st.finished, report.shard_jobs, report.failed, Seconds(t0, Clock::now()), eta,
+                   last);
+    if (last) break;
+    st.cv.wait_for(lock, std::chrono::milliseconds(500));
+  }
+}
+
+}  // namespace
+
 BuildReport RunBuild(const Recipe& recipe, const BuildOptions& options) {
   const auto t0 = Clock::now();
   std::ostream& log = options.log ? *options.log : std::cerr;
@@ -503,21 +556,16 @@ BuildReport RunBuild(const Recipe& recipe, const BuildOptions& options) {
   }
 
   JobCache cache;
-  std::mutex mu;
-  std::condition_variable cv;
-  std::atomic<bool> abort{false};
-  int finished = 0, running = 0;
-  double busy_seconds = 0;  // summed job wall time, for the ETA
-  bool over = false;        // every job handed out has returned
+  JobsState st;
 
-  auto stopping = [&] { return abort.load() || (options.stop && options.stop->load()); };
+  auto stopping = [&] { return st.abort.load() || (options.stop && options.stop->load()); };
   // One job: build, commit, count. An error stops handing out jobs (unless keep_going).
   auto run_job = [&](int k) {
     if (stopping()) return;
     const Job& job = jobs[todo[k]];
     {
-      std::lock_guard<std::mutex> lock(mu);
-      ++running;
+      std::lock_guard<std::mutex> lock(st.mu);
+      ++st.running;
     }
     const auto tj = Clock::now();
     std::string error;
@@ -530,45 +578,27 @@ BuildReport RunBuild(const Recipe& recipe, const BuildOptions& options) {
         error = std::string("committing ") + job.key + ": " + ex.what();
       }
     }
-    std::lock_guard<std::mutex> lock(mu);
-    --running;
+    std::lock_guard<std::mutex> lock(st.mu);
+    --st.running;
     if (!entry) {
-      if (!abort.exchange(true)) report.error = job.key + ": " + error;
+      if (!st.abort.exchange(true)) report.error = job.key + ": " + error;
       report.aborted = true;
     } else {
-      ++finished;
-      busy_seconds += Seconds(tj, Clock::now());
+      ++st.finished;
+      st.busy_seconds += Seconds(tj, Clock::now());
       CountEntry(*entry, job, report);
     }
-    cv.notify_all();
+    st.cv.notify_all();
   };
   // The jobs run on common/parallel's pool; this thread only watches and prints.
   std::thread jobs_thread([&] {
     ParallelFor(static_cast<int>(todo.size()), threads, run_job);
-    std::lock_guard<std::mutex> lock(mu);
-    over = true;
-    cv.notify_all();
+    std::lock_guard<std::mutex> lock(st.mu);
+    st.over = true;
+    st.cv.notify_all();
   });
 
-  {
-    std::unique_lock<std::mutex> lock(mu);
-    ProgressLine progress(log, mode, options.progress_interval);
-    bool stop_noted = false;
-    for (;;) {
-      const bool last = over;
-      const int remaining = static_cast<int>(todo.size()) - finished;
-      const double eta = finished ? busy_seconds / finished * remaining / threads : NAN;
-      if (options.stop && options.stop->load() && !stop_noted && mode != ProgressMode::kQuiet) {
-        stop_noted = true;
-        log << (mode == ProgressMode::kTty ? "\n" : "") << "drape build: interrupted; letting " << running
-            << " running job(s) finish and commit (Ctrl-C again quits at once; --resume continues)\n";
-      }
-      progress.Print(report.already_done + finished, report.shard_jobs, report.failed, Seconds(t0, Clock::now()), eta,
-                     last);
-      if (last) break;
-      cv.wait_for(lock, std::chrono::milliseconds(500));
-    }
-  }
+  WatchJobs(st, log, mode, options, report, static_cast<int>(todo.size()), threads, t0);
   jobs_thread.join();
 
   writer->SetBuildInfo("threads", threads);
