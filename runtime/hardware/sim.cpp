@@ -365,29 +365,10 @@ Eigen::Isometry3d JawFrame(const GripperPose& p) {
   T.translation() = p.position;
   return T;
 }
-}  // namespace
 
-PlaceFlatReport SimWorld::PlaceFlat(const PlaceFlatOptions& po) {
-  po.Validate();
-  Impl& w = *impl_;
-  if (w.state != ClothState::kHeldByTwo) throw Error("place flat: both grippers must hold the garment");
-  const auto t0 = Clock::now();
-  PlaceFlatReport rep;
-  ClothMaterial cm;
-  cm.area_density = w.material.area_density;
-  cm.link_stiffness = w.fit.stiffness;
-  cm.bending = std::clamp(w.material.bending_stiffness, 1e-3, 1.0);
-  ClothOptions co;
-  co.time_step = w.o.hang.time_step;
-  co.solver_iterations = w.o.hang.solver_iterations;
-  co.damping = w.o.hang.damping;
-  ClothWorld cw(MakeClothModel(w.garment.mesh, w.garment.layer, cm, co), w.mesh.V);
-  BoxCollider table;
-  table.pose.translation() = w.o.table.center();
-  table.half_extents = w.o.table.sizes() / 2;
-  table.friction = w.material.FrictionCoefficient();
-  cw.AddCollider(table);
-  // Pads: 1.5 mean edges at least, so a coarse mesh has nodes between them.
+// The cloth-world jaw for laying flat. Pads: 1.5 mean edges at least, so a coarse mesh
+// has nodes between them.
+Jaw PlaceJaw(const SimWorld::Impl& w, const PlaceFlatOptions& po) {
   double edge = 0;
   const auto edges = UniqueEdges(w.garment.mesh);
   for (const auto& e : edges) edge += (w.garment.mesh.V.row(e[0]) - w.garment.mesh.V.row(e[1])).norm();
@@ -396,16 +377,12 @@ PlaceFlatReport SimWorld::PlaceFlat(const PlaceFlatOptions& po) {
   jaw.opening = w.o.jaw_opening;
   jaw.pad_length = std::max({po.min_pad, w.o.finger_depth, 1.5 * edge});
   jaw.pad_width = std::max({po.min_pad, w.o.finger_width, 1.5 * edge});
-  int g[2];
-  for (int k = 0; k < 2; ++k) {
-    g[k] = cw.AddGripper(jaw, JawFrame(w.arms[k].pose));
-    rep.held_nodes[k] = cw.Close(g[k]).nodes;
-  }
-  if (rep.held_nodes[0] == 0 || rep.held_nodes[1] == 0) {
-    rep.failure = "a gripper holds no cloth node in the cloth world";
-    return rep;
-  }
-  // Spread above the near edge of the table, then lower while carrying across it.
+  return jaw;
+}
+
+// The grippers' paths (g: their ids in cw): spread above the near edge of the table, then
+// lower while carrying across it. Returns the time (s) at which both paths end.
+double SetPlacePaths(ClothWorld& cw, const SimWorld::Impl& w, const PlaceFlatOptions& po, const int g[2]) {
   const Vec3 a = w.arms[0].pose.position, b = w.arms[1].pose.position;
   const Vec3 mid = 0.5 * (a + b);
   double hang = 0;
@@ -429,6 +406,42 @@ PlaceFlatReport SimWorld::PlaceFlat(const PlaceFlatOptions& po) {
     path.poses = {JawFrame(w.arms[k].pose), key(k, Vec3(x0, top + hang + 0.05, z0)), key(k, Vec3(x0, top + 0.03, z1))};
     cw.SetPath(g[k], path);
   }
+  return T2;
+}
+}  // namespace
+
+PlaceFlatReport SimWorld::PlaceFlat(const PlaceFlatOptions& po) {
+  po.Validate();
+  Impl& w = *impl_;
+  if (w.state != ClothState::kHeldByTwo) throw Error("place flat: both grippers must hold the garment");
+  const auto t0 = Clock::now();
+  PlaceFlatReport rep;
+  ClothMaterial cm;
+  cm.area_density = w.material.area_density;
+  cm.link_stiffness = w.fit.stiffness;
+  cm.bending = std::clamp(w.material.bending_stiffness, 1e-3, 1.0);
+  ClothOptions co;
+  co.time_step = w.o.hang.time_step;
+  co.solver_iterations = w.o.hang.solver_iterations;
+  co.damping = w.o.hang.damping;
+  ClothWorld cw(MakeClothModel(w.garment.mesh, w.garment.layer, cm, co), w.mesh.V);
+  BoxCollider table;
+  table.pose.translation() = w.o.table.center();
+  table.half_extents = w.o.table.sizes() / 2;
+  table.friction = w.material.FrictionCoefficient();
+  cw.AddCollider(table);
+  const Jaw jaw = PlaceJaw(w, po);
+  int g[2];
+  for (int k = 0; k < 2; ++k) {
+    g[k] = cw.AddGripper(jaw, JawFrame(w.arms[k].pose));
+    rep.held_nodes[k] = cw.Close(g[k]).nodes;
+  }
+  if (rep.held_nodes[0] == 0 || rep.held_nodes[1] == 0) {
+    rep.failure = "a gripper holds no cloth node in the cloth world";
+    return rep;
+  }
+  // Spread above the near edge of the table, then lower while carrying across it.
+  const double T2 = SetPlacePaths(cw, w, po, g);
   while (cw.time() < T2) {
     cw.Step();
     const std::string h = cw.Health();
