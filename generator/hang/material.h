@@ -23,7 +23,7 @@ struct Material {
   // opposite vertices) as a fraction of the structural links' stiffness (Bullet link
   // kLST). Fabric's own bending rigidity (~1e-5–1e-4 N·m, a Peirce bending length of
   // 1–4 cm) is below what a 2.5–5 cm mesh resolves, so these are set low, not measured:
-  // at 0.08 a towel hung from a corner carried its weight × 7.3 cm at the grip (its
+  // at 0.08 a towel hung from a corner carried its weight × 7.8 cm at the grip (its
   // centre of mass that far sideways); at 0.02 it hangs within the held patch + 2 cm.
   // Softer still (0.004) lays a towel carried by two corners on the table in a heap
   // (coverage 0.29 instead of > 0.7). The presets keep the fabrics' order
