@@ -37,6 +37,14 @@ Points3 FaceCentroids(const TriMesh& mesh) {
 
 double SurfaceArea(const TriMesh& mesh) { return FaceAreas(mesh).sum(); }
 
+Vec3 CentreOfArea(const TriMesh& mesh) {
+  const Eigen::VectorXd area = FaceAreas(mesh);
+  Vec3 c = Vec3::Zero();
+  for (int f = 0; f < mesh.NumFaces(); ++f)
+    c += area[f] * (mesh.V.row(mesh.F(f, 0)) + mesh.V.row(mesh.F(f, 1)) + mesh.V.row(mesh.F(f, 2))).transpose() / 3;
+  return c / area.sum();
+}
+
 Eigen::AlignedBox3d Bounds(const TriMesh& mesh) {
   Eigen::AlignedBox3d box;
   for (int i = 0; i < mesh.NumVertices(); ++i) box.extend(Vec3(mesh.V.row(i)));

@@ -32,6 +32,8 @@ Points3 FaceNormals(const TriMesh& mesh);
 // Per-face barycentres, #F×3.
 Points3 FaceCentroids(const TriMesh& mesh);
 double SurfaceArea(const TriMesh& mesh);
+// Area-weighted centre of the surface (uniform density: its centre of mass), m.
+Vec3 CentreOfArea(const TriMesh& mesh);
 Eigen::AlignedBox3d Bounds(const TriMesh& mesh);
 
 // Undirected edges, each once as {min, max}, sorted.

@@ -24,6 +24,11 @@ TEST(Mesh, AreasAndNormalsOfTetrahedron) {
   const Points3 n = FaceNormals(m);
   EXPECT_NEAR(n(0, 2), -1.0, 1e-15);  // base faces down (outward)
   EXPECT_NEAR(SurfaceArea(m), 1.5 + std::sqrt(3.0) / 2, 1e-12);
+  // Centre of area: Σ a_f g_f / Σ a_f, here by hand (three right triangles of area 1/2
+  // with barycentres (1/3,1/3,0), (1/3,0,1/3), (0,1/3,1/3); the slanted one √3/2 at (1/3,1/3,1/3)).
+  const double w = std::sqrt(3.0) / 2;
+  const double c = (0.5 * (2.0 / 3) + w / 3) / (1.5 + w);
+  EXPECT_TRUE(CentreOfArea(m).isApprox(Vec3(c, c, c), 1e-14)) << CentreOfArea(m).transpose();
 }
 
 TEST(Mesh, TopologyOfClosedAndOpenMeshes) {

@@ -104,11 +104,7 @@ Jaw HangJaw(const TriMesh& start, const HangOptions& o) {
 // turned about z so that its centre of area is straight below the grasp point, grasp
 // point at the origin.
 Points3 StartPose(const TriMesh& mesh, const Vec3& grasp) {
-  const Eigen::VectorXd area = FaceAreas(mesh);
-  Vec3 com = Vec3::Zero();
-  for (int f = 0; f < mesh.NumFaces(); ++f)
-    com += area[f] * (mesh.V.row(mesh.F(f, 0)) + mesh.V.row(mesh.F(f, 1)) + mesh.V.row(mesh.F(f, 2))).transpose() / 3;
-  com /= area.sum();
+  const Vec3 com = CentreOfArea(mesh);
   const Vec2 d(com.x() - grasp.x(), com.y() - grasp.y());
   const double angle = d.norm() > 1e-9 ? std::atan2(d.x(), -d.y()) : 0.0;  // rotate d onto −y
   const Eigen::Matrix3d R = Eigen::AngleAxisd(angle, Vec3::UnitZ()).toRotationMatrix();
@@ -197,11 +193,7 @@ void RecordMeasurement(const ClothMeasurement& m, HangStats& st) {
 
 // Horizontal distance (x–z) from the grasp point (the origin) to the centre of area.
 double ComOffset(const TriMesh& hung) {
-  const Eigen::VectorXd area = FaceAreas(hung);
-  Vec3 com = Vec3::Zero();
-  for (int f = 0; f < hung.NumFaces(); ++f)
-    com += area[f] * (hung.V.row(hung.F(f, 0)) + hung.V.row(hung.F(f, 1)) + hung.V.row(hung.F(f, 2))).transpose() / 3;
-  com /= area.sum();
+  const Vec3 com = CentreOfArea(hung);
   return std::hypot(com.x(), com.z());
 }
 
