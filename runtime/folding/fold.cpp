@@ -175,6 +175,9 @@ optim::SecantLmOptions OptimiseOptions::DefaultLm() {
   lm.relative_decrease = 0.01;       // "improvement in C² sufficiently small": < 1 % ...
   lm.stall_iterations = 2;           // ... twice in a row
   lm.tau = 1e-3;
+  // Trust radius = δ: B is a secant over δ, and the one-residual Gauss-Newton step
+  // (length C/‖∇C‖, aiming at C = 0, which no fold reaches) was 0.2–0.5 m on the towel.
+  lm.max_step = 0.1;
   return lm;
 }
 
@@ -206,14 +209,16 @@ namespace {
 // gives NaN (the optimiser rejects that step).
 class FoldCostProblem : public optim::LeastSquaresProblem {
  public:
-  FoldCostProblem(const FoldScene& scene, const StepSetup& setup, const FoldSimOptions& sim, const OptimiseOptions& o)
-      : scene_(scene), setup_(setup), sim_(sim), o_(o) {}
+  FoldCostProblem(const FoldScene& scene, const StepSetup& setup, const FoldSimOptions& sim, const OptimiseOptions& o,
+                  std::vector<double>* trace)
+      : scene_(scene), setup_(setup), sim_(sim), o_(o), trace_(trace) {}
   int NumResiduals() const override { return 1; }
   int NumParameters() const override { return static_cast<int>(6 * setup_.p0.size()); }
   void Residuals(const Eigen::VectorXd& x, Eigen::VectorXd& r) const override {
     const StepSim s = SimulateStep(scene_, setup_, UnstackKnots(x, setup_.p0, setup_.p3), sim_, o_.alpha);
     r.resize(1);
     r[0] = s.ok ? s.cost : std::numeric_limits<double>::quiet_NaN();
+    trace_->push_back(r[0]);
   }
 
  private:
@@ -221,6 +226,7 @@ class FoldCostProblem : public optim::LeastSquaresProblem {
   const StepSetup& setup_;
   const FoldSimOptions& sim_;
   const OptimiseOptions& o_;
+  std::vector<double>* trace_;
 };
 }  // namespace
 
@@ -239,7 +245,7 @@ StepOptimum OptimiseStep(const FoldScene& scene, const StepSetup& setup, const F
     out.wall_seconds = Since(t0);
     return out;
   }
-  out.lm = optim::SolveSecantLm(FoldCostProblem(scene, setup, sim, o), x, o.lm);
+  out.lm = optim::SolveSecantLm(FoldCostProblem(scene, setup, sim, o, &out.evaluated), x, o.lm);
   out.simulations = out.lm.residual_evaluations;
   out.optimised = UnstackKnots(x, setup.p0, setup.p3);
   out.after = SimulateStep(scene, setup, out.optimised, sim, o.alpha, true);

@@ -100,6 +100,8 @@ TEST(Fold, OptimisationNeverEndsWorse) {
   ASSERT_TRUE(r.after.ok);
   EXPECT_LE(r.after.cost, r.before.cost + 1e-12);
   EXPECT_LE(r.simulations, 9);
+  ASSERT_EQ(r.evaluated.size(), static_cast<size_t>(r.simulations));
+  EXPECT_DOUBLE_EQ(r.evaluated.front(), r.before.cost);  // the optimiser starts at h = 1/3
   EXPECT_NEAR(std::sqrt(2 * r.lm.final_cost), r.after.cost, 1e-9);  // deterministic simulations
 }
 
