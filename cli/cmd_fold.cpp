@@ -325,8 +325,25 @@ int Run(const std::vector<std::string>& argv) {
     std::vector<std::vector<FanTrajectory>> fans;
     for (const char* kind : {"symmetric", "early", "late"})
       fans.push_back(SolutionFan(scene, run.steps[k].setup, ro.sim, kind));
-    WritePng(out / "fan.png", FanFigure(fans, {"symmetric", "first knot varies", "second knot varies"}));
-    md << "\nSolution-space fans for step " << k + 1 << " in fan.png.\n";
+    const std::vector<std::string> kinds = {"symmetric", "first knot varies", "second knot varies"};
+    WritePng(out / "fan.png", FanFigure(fans, kinds));
+    // The numbers behind the picture: D per knot height h (× span) of the varied knots.
+    md << "\nSolution-space fans for step " << k + 1 << " (fan.png), D (mm) per knot height h:\n\n| h |";
+    for (const auto& kind : kinds) md << " " << kind << " |";
+    md << "\n|---|---|---|---|\n";
+    Json fan_json = Json::array();
+    for (size_t t = 0; t < fans[0].size(); ++t) {
+      const double h = fans[0][t].h;
+      char row[128];
+      std::snprintf(row, sizeof row, "| %.3f | %.1f | %.1f | %.1f |\n", h, 1e3 * fans[0][t].dissimilarity,
+                    1e3 * fans[1][t].dissimilarity, 1e3 * fans[2][t].dissimilarity);
+      md << row;
+      fan_json.push_back({{"h", h},
+                          {"symmetric", fans[0][t].dissimilarity},
+                          {"first_knot", fans[1][t].dissimilarity},
+                          {"second_knot", fans[2][t].dissimilarity}});
+    }
+    doc["fan"] = {{"step", k + 1}, {"trajectories", fan_json}};
   }
 
   doc["trials"] = RunTrials(args, setup, plan, ro, run, out, md);
