@@ -122,6 +122,7 @@ void BroadPhase::Relayout(const Points3& layout) {
   for (int f = 0; f < nf; ++f) faces[f] = f;
   nodes_.reserve(2 * static_cast<size_t>(nf));
   Build(faces, 0, nf, centroid);
+  leaf_faces_ = std::move(faces);
 }
 
 // Top-down median split along the centroids' widest axis (ties by face index, so the
@@ -129,8 +130,9 @@ void BroadPhase::Relayout(const Points3& layout) {
 int BroadPhase::Build(std::vector<int>& faces, int begin, int end, const std::vector<Vec3>& centroid) {
   const int id = static_cast<int>(nodes_.size());
   nodes_.emplace_back();
-  if (end - begin == 1) {
-    nodes_[id].right = faces[begin];
+  if (end - begin <= kLeafFaces) {
+    nodes_[id].right = begin;
+    nodes_[id].faces = end - begin;
     return id;
   }
   Vec3 lo = centroid[faces[begin]], hi = lo;
@@ -151,6 +153,15 @@ int BroadPhase::Build(std::vector<int>& faces, int begin, int end, const std::ve
   nodes_[id].right = right;
   nodes_[id].faces = end - begin;
   return id;
+}
+
+// Every overlapping pair of faces from two leaves (a == b: every pair inside the leaf).
+void BroadPhase::LeavesPair(const Node& a, const Node& b) {
+  const int* fa = leaf_faces_.data() + a.right;
+  const int* fb = leaf_faces_.data() + b.right;
+  for (int i = 0; i < a.faces; ++i)
+    for (int j = &a == &b ? i + 1 : 0; j < b.faces; ++j)
+      if (fbox_[fa[i]].Overlaps(fbox_[fb[j]])) LeafPair(fa[i], fb[j]);
 }
 
 void BroadPhase::LeafPair(int fa, int fb) {
@@ -179,8 +190,10 @@ void BroadPhase::QueryVertex(int v) {
     stack.pop_back();
     if (!n.box.Overlaps(vbox_[v])) continue;
     if (n.left < 0) {
-      if (!FaceHas(F_, n.right, v) && fbox_[n.right].Overlaps(vbox_[v]))
-        raw_vf_.push_back({v, n.right});
+      for (int k = n.right; k < n.right + n.faces; ++k) {
+        const int f = leaf_faces_[k];
+        if (!FaceHas(F_, f, v) && fbox_[f].Overlaps(vbox_[v])) raw_vf_.push_back({v, f});
+      }
     } else {
       stack.push_back(n.left);
       stack.push_back(n.right);
@@ -201,7 +214,12 @@ void BroadPhase::Find(const std::vector<Aabb>& vbox, CandidatePairs* out) {
   // Refit: children come after their parent.
   for (int i = static_cast<int>(nodes_.size()) - 1; i >= 0; --i) {
     Node& n = nodes_[i];
-    n.box = n.left < 0 ? fbox_[n.right] : Aabb::Union(nodes_[n.left].box, nodes_[n.right].box);
+    if (n.left >= 0) {
+      n.box = Aabb::Union(nodes_[n.left].box, nodes_[n.right].box);
+      continue;
+    }
+    n.box = fbox_[leaf_faces_[n.right]];
+    for (int k = n.right + 1; k < n.right + n.faces; ++k) n.box = Aabb::Union(n.box, fbox_[leaf_faces_[k]]);
   }
   raw_vf_.clear();
   raw_ee_.clear();
@@ -217,12 +235,14 @@ void BroadPhase::Find(const std::vector<Aabb>& vbox, CandidatePairs* out) {
         stack_.push_back({na.left, na.left});
         stack_.push_back({na.right, na.right});
         stack_.push_back({na.left, na.right});
+      } else {
+        LeavesPair(na, na);
       }
       continue;
     }
     if (!na.box.Overlaps(nb.box)) continue;
     if (na.left < 0 && nb.left < 0) {
-      LeafPair(na.right, nb.right);
+      LeavesPair(na, nb);
     } else if (nb.left < 0 || (na.left >= 0 && na.faces >= nb.faces)) {  // split the larger subtree
       stack_.push_back({na.left, b});
       stack_.push_back({na.right, b});

@@ -65,12 +65,15 @@ class BroadPhase {
   void FindClose(const Points3& x0, const Points3& x1, double dist, double slack, CandidatePairs* out);
 
  private:
+  // Leaves hold up to kLeafFaces faces: fewer nodes to refit and visit, the same pairs.
+  static constexpr int kLeafFaces = 4;
   struct Node {
     Aabb box;
-    int left = -1, right = -1;  // children; leaves: left = -1, right = the face
+    int left = -1, right = -1;  // children; leaves: left = -1, right = first index in leaf_faces_
     int faces = 1;              // faces below
   };
   int Build(std::vector<int>& faces, int begin, int end, const std::vector<Vec3>& centroid);
+  void LeavesPair(const Node& a, const Node& b);
   void LeafPair(int fa, int fb);
   void QueryVertex(int v);
 
@@ -78,6 +81,7 @@ class BroadPhase {
   std::vector<std::array<int, 2>> E_;
   int num_vertices_ = 0;
   std::vector<Node> nodes_;                              // nodes_[0]: the root; children after parents
+  std::vector<int> leaf_faces_;                          // the faces of every leaf, leaf after leaf
   std::vector<int> owned_start_v_, owned_v_;             // face → vertices it owns (CSR)
   std::vector<int> owned_start_e_, owned_e_;             // face → edges it owns (CSR)
   std::vector<int> orphan_vertices_;                     // vertices in no face

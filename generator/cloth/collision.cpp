@@ -435,6 +435,7 @@ struct ApplyContext {
   double dt;
   CollisionReport& rep;
   BroadPhase& broad;
+  CollisionHandler::StrainOrder& strain_order;
   CandidatePairs near = {};  // repulsion's pairs: within thickness somewhere on x0 → x1
   CandidatePairs cand;
   Points3 box_ref;  // the x1 the candidates were found for
@@ -509,13 +510,23 @@ void LimitStrain(ApplyContext& cx, const Eigen::VectorXd& w) {
   const auto t0 = ThreadCpuSeconds();
   const StrainBounds b(cx.opt);
   if (!b.active) return;
-  const std::vector<int> level = HopLevels(cx.adj_start, cx.adj, w);
-  // Edges ordered by their hop level (stable: by index within a level).
-  const int ne = static_cast<int>(cx.E.size());
-  std::vector<int> order(ne);
-  std::iota(order.begin(), order.end(), 0);
-  auto edge_level = [&](int e) { return std::min(level[cx.E[e][0]], level[cx.E[e][1]]); };
-  std::stable_sort(order.begin(), order.end(), [&](int a, int c) { return edge_level(a) < edge_level(c); });
+  CollisionHandler::StrainOrder& so = cx.strain_order;
+  std::vector<int> fixed;
+  for (int i = 0; i < static_cast<int>(w.size()); ++i)
+    if (w[i] == 0) fixed.push_back(i);
+  if (!so.valid || fixed != so.fixed) {
+    so.fixed = std::move(fixed);
+    so.level = HopLevels(cx.adj_start, cx.adj, w);
+    // Edges ordered by their hop level (stable: by index within a level).
+    const int ne = static_cast<int>(cx.E.size());
+    so.order.resize(ne);
+    std::iota(so.order.begin(), so.order.end(), 0);
+    auto edge_level = [&](int e) { return std::min(so.level[cx.E[e][0]], so.level[cx.E[e][1]]); };
+    std::stable_sort(so.order.begin(), so.order.end(), [&](int a, int c) { return edge_level(a) < edge_level(c); });
+    so.valid = true;
+  }
+  const std::vector<int>& level = so.level;
+  const std::vector<int>& order = so.order;
   for (int it = 0; it < cx.opt.strain_iterations; ++it) {
     double worst = 0;  // largest relative violation corrected in this sweep
     for (const int e : order) {
@@ -1050,7 +1061,7 @@ CollisionReport CollisionHandler::Apply(const Points3& x0, Points3& x1, const Ei
     rep.broad_seconds += Since(t0);
   }
   ApplyContext cx{F_,  edges_, rest_, options_, x0,   x1,   inv_mass, rest_lengths_, adjacency_start_,
-                  adjacency_, dt, rep, broad_, {}, {}, {}};
+                  adjacency_, dt, rep, broad_, strain_order_, {}, {}, {}};
   LimitStrain(cx, inv_mass);
   Repel(cx);
   HandleColliders(cx, colliders);

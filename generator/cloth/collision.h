@@ -135,6 +135,14 @@ struct CollisionReport {
 
 class CollisionHandler {
  public:
+  // The strain clamp's sweep order depends only on which nodes are fixed (w == 0): kept
+  // from one call to the next while that set is the same (the held nodes, step after step).
+  struct StrainOrder {
+    std::vector<int> fixed;         // nodes with w == 0, ascending
+    std::vector<int> level, order;  // hop level per node; edges by level
+    bool valid = false;
+  };
+
   // Topology and rest lengths fixed at construction (rest: the flat garment, metres).
   CollisionHandler(const Faces& F, const Points3& rest, const CollisionOptions& options);
 
@@ -161,6 +169,7 @@ class CollisionHandler {
   std::vector<int> adjacency_start_, adjacency_;  // vertex → neighbouring vertices (CSR)
   Eigen::VectorXd rest_lengths_;           // m, per edge
   BroadPhase broad_;                       // tree over the faces, refitted per query
+  StrainOrder strain_order_;
 };
 
 // Smallest distance (m) between mesh elements that share no vertex, over VF and EE
