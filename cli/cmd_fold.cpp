@@ -270,6 +270,36 @@ Json RunTrials(const Args& args, const FoldSetup& setup, const FoldingPlan& plan
   return trials;
 }
 
+// The three 13-trajectory fans of step `fan` (1-based): fan.png, the D per knot height
+// in md, and the same as JSON.
+Json WriteFans(const FoldScene& scene, const PlanRun& run, const PlanRunOptions& ro, const std::string& fan,
+               const fs::path& out, std::ostringstream& md) {
+  const int k = std::stoi(fan) - 1;
+  if (k < 0 || k >= static_cast<int>(run.steps.size())) throw Error("--fan: no step " + fan);
+  std::vector<std::vector<FanTrajectory>> fans;
+  for (const char* kind : {"symmetric", "early", "late"})
+    fans.push_back(SolutionFan(scene, run.steps[k].setup, ro.sim, kind));
+  const std::vector<std::string> kinds = {"symmetric", "first knot varies", "second knot varies"};
+  WritePng(out / "fan.png", FanFigure(fans, kinds));
+  // The numbers behind the picture: D per knot height h (× span) of the varied knots.
+  md << "\nSolution-space fans for step " << k + 1 << " (fan.png), D (mm) per knot height h:\n\n| h |";
+  for (const auto& kind : kinds) md << " " << kind << " |";
+  md << "\n|---|---|---|---|\n";
+  Json fan_json = Json::array();
+  for (size_t t = 0; t < fans[0].size(); ++t) {
+    const double h = fans[0][t].h;
+    char row[128];
+    std::snprintf(row, sizeof row, "| %.3f | %.1f | %.1f | %.1f |\n", h, 1e3 * fans[0][t].dissimilarity,
+                  1e3 * fans[1][t].dissimilarity, 1e3 * fans[2][t].dissimilarity);
+    md << row;
+    fan_json.push_back({{"h", h},
+                        {"symmetric", fans[0][t].dissimilarity},
+                        {"first_knot", fans[1][t].dissimilarity},
+                        {"second_knot", fans[2][t].dissimilarity}});
+  }
+  return {{"step", k + 1}, {"trajectories", fan_json}};
+}
+
 int Run(const std::vector<std::string>& argv) {
   Args args(argv, {"--no-optimise"},
             {"--plan", "--trials", "--seed", "-o", "--output", "--size", "--edge", "--material", "--category",
@@ -319,32 +349,7 @@ int Run(const std::vector<std::string>& argv) {
 
   // The solution-space fans (paper Fig. "solution_space") for one step.
   const std::string fan = args.Get("--fan", std::to_string(plan.steps.size()));
-  if (fan != "none") {
-    const int k = std::stoi(fan) - 1;
-    if (k < 0 || k >= static_cast<int>(run.steps.size())) throw Error("--fan: no step " + fan);
-    std::vector<std::vector<FanTrajectory>> fans;
-    for (const char* kind : {"symmetric", "early", "late"})
-      fans.push_back(SolutionFan(scene, run.steps[k].setup, ro.sim, kind));
-    const std::vector<std::string> kinds = {"symmetric", "first knot varies", "second knot varies"};
-    WritePng(out / "fan.png", FanFigure(fans, kinds));
-    // The numbers behind the picture: D per knot height h (× span) of the varied knots.
-    md << "\nSolution-space fans for step " << k + 1 << " (fan.png), D (mm) per knot height h:\n\n| h |";
-    for (const auto& kind : kinds) md << " " << kind << " |";
-    md << "\n|---|---|---|---|\n";
-    Json fan_json = Json::array();
-    for (size_t t = 0; t < fans[0].size(); ++t) {
-      const double h = fans[0][t].h;
-      char row[128];
-      std::snprintf(row, sizeof row, "| %.3f | %.1f | %.1f | %.1f |\n", h, 1e3 * fans[0][t].dissimilarity,
-                    1e3 * fans[1][t].dissimilarity, 1e3 * fans[2][t].dissimilarity);
-      md << row;
-      fan_json.push_back({{"h", h},
-                          {"symmetric", fans[0][t].dissimilarity},
-                          {"first_knot", fans[1][t].dissimilarity},
-                          {"second_knot", fans[2][t].dissimilarity}});
-    }
-    doc["fan"] = {{"step", k + 1}, {"trajectories", fan_json}};
-  }
+  if (fan != "none") doc["fan"] = WriteFans(scene, run, ro, fan, out, md);
 
   doc["trials"] = RunTrials(args, setup, plan, ro, run, out, md);
   WriteFileAtomic(out / "trajectories.json", doc.dump(2) + "\n");
