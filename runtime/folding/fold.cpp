@@ -219,7 +219,12 @@ class FoldCostProblem : public optim::LeastSquaresProblem {
     r.resize(1);
     r[0] = s.ok ? s.cost : std::numeric_limits<double>::quiet_NaN();
     trace_->push_back(r[0]);
+    if (s.ok && s.cost < best_cost) best_cost = s.cost, best_x = x;
   }
+  // The best point simulated (steps and difference probes alike): every evaluation is
+  // an exact, deterministic C, so a probe better than the optimiser's end point is kept.
+  mutable double best_cost = std::numeric_limits<double>::infinity();
+  mutable Eigen::VectorXd best_x;
 
  private:
   const FoldScene& scene_;
@@ -245,8 +250,10 @@ StepOptimum OptimiseStep(const FoldScene& scene, const StepSetup& setup, const F
     out.wall_seconds = Since(t0);
     return out;
   }
-  out.lm = optim::SolveSecantLm(FoldCostProblem(scene, setup, sim, o, &out.evaluated), x, o.lm);
+  const FoldCostProblem problem(scene, setup, sim, o, &out.evaluated);
+  out.lm = optim::SolveSecantLm(problem, x, o.lm);
   out.simulations = out.lm.residual_evaluations;
+  if (problem.best_cost < std::sqrt(2 * out.lm.final_cost)) x = problem.best_x;
   out.optimised = UnstackKnots(x, setup.p0, setup.p3);
   out.after = SimulateStep(scene, setup, out.optimised, sim, o.alpha, true);
   out.wall_seconds = Since(t0);
