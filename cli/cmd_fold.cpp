@@ -30,7 +30,7 @@ const char* kUsage =
     "Usage: drape fold GARMENT --plan PLAN [--trials N] [--seed S] [-o DIR]\n"
     "                  [--size S|M|L] [--edge M] [--material NAME] [--category C]\n"
     "                  [--gripper pinch|point] [--max-sims N] [--fan STEP|none] [--no-optimise]\n"
-    "                  [--stiffness K]\n"
+    "                  [--stiffness K] [--friction MU]\n"
     "\n"
     "Folds a garment lying flat on a table in simulation, step by step as PLAN says\n"
     "(runtime/folding/plans/*.yaml), optimising each step's cubic Bezier trajectories by\n"
@@ -53,10 +53,12 @@ const char* kUsage =
     "  --fan STEP|none    the solution-space fans for this step (1-based; default the last)\n"
     "  --no-optimise      keep the initial h = 1/3 trajectories (for comparison)\n"
     "  --stiffness K      Bullet link stiffness kLST instead of fitting it to the material's stretch\n"
+    "  --friction MU      table friction coefficient instead of fitting it to the friction angle\n"
     "\n"
-    "Material: link stiffness fitted to the measured stretch (generator/hang FitMaterial) unless\n"
-    "--stiffness; table friction mu = tan(friction angle) (a flat body starts to slide on a slope\n"
-    "at tan(angle) = mu); strain limit 2 x the measured stretch.\n";
+    "Material: link stiffness fitted to the measured stretch and table friction fitted to the\n"
+    "measured friction angle (a square of the cloth starts to slide on a table tilted by it;\n"
+    "generator/hang FitMaterial) unless --stiffness / --friction; strain limit 2 x the measured\n"
+    "stretch.\n";
 
 Garment LoadGarment(const std::string& what, const Args& args) {
   if (FindTemplate(what)) {
@@ -113,22 +115,30 @@ FoldInputs SetUpFold(const Args& args) {
   in.material = args.Get("--material", DefaultMaterial(setup.garment.category));
   const Material* material = FindMaterialPreset(in.material);
   if (!material) throw Error("--material: unknown material '" + in.material + "'");
-  if (auto k = args.GetDouble("--stiffness")) {
-    in.fit.stiffness = *k;
-  } else {
-    HangOptions ho;
-    ho.fit_edge_length = args.GetDouble("--edge").value_or(0.04);
-    std::printf("fitting %s to its stretch (%.1f %%) ...\n", in.material.c_str(), material->stretch_percent);
+  // FitMaterial fits the link stiffness to the measured stretch and the table friction to
+  // the measured friction angle (a square on a tilted table); skipped only when both are
+  // given on the command line.
+  const auto k = args.GetDouble("--stiffness");
+  const auto mu = args.GetDouble("--friction");
+  if (mu && !(*mu >= 0 && *mu < 5)) throw Error("--friction: must be in [0, 5), got " + std::to_string(*mu));
+  HangOptions ho;
+  ho.fit_edge_length = args.GetDouble("--edge").value_or(0.04);
+  if (!(k && mu)) {
+    std::printf("fitting %s to its stretch (%.1f %%) and friction angle (%.1f deg) ...\n", in.material.c_str(),
+                material->stretch_percent, material->friction_deg);
     std::fflush(stdout);
     in.fit = FitMaterial(*material, ho);
-    std::printf("  kLST %.3f (reproduces %.2f %%) in %.1f s\n", in.fit.stiffness, in.fit.reproduced_stretch_percent,
+    std::printf("  kLST %.3f (reproduces %.2f %%), mu %.3f (slides at %.2f deg) in %.1f s\n", in.fit.stiffness,
+                in.fit.reproduced_stretch_percent, in.fit.friction, in.fit.reproduced_friction_deg,
                 in.fit.wall_seconds);
+    std::fflush(stdout);
   }
-  setup.material.area_density = material->area_density;
-  setup.material.link_stiffness = in.fit.stiffness;
-  setup.material.bending = material->bending_stiffness;
-  setup.material.max_strain = 2 * material->stretch_percent / 100;
-  setup.friction = material->FrictionCoefficient();
+  if (k) in.fit.stiffness = *k;
+  if (mu) in.fit.friction = *mu;
+  // The material and solver options the fit was made with (and the hangs use).
+  setup.material = ClothMaterialFor(*material, in.fit, ho);
+  setup.cloth = ClothOptionsFor(ho, ho.time_step);
+  setup.friction = in.fit.friction;
   return in;
 }
 
@@ -162,6 +172,9 @@ Json StepJson(const StepRecord& s, const StepSim& alt, GripperModel other) {
        {{"simulations", r.simulations},
         {"iterations", r.lm.iterations},
         {"accepted", r.lm.accepted},
+        {"rejected", r.lm.rejected},
+        {"shortened", r.lm.shortened},
+        {"evaluated_costs", r.evaluated},
         {"termination", r.lm.termination},
         {"cost_squared_half", r.lm.cost},
         {"wall_seconds", r.wall_seconds}}}};
@@ -257,10 +270,40 @@ Json RunTrials(const Args& args, const FoldSetup& setup, const FoldingPlan& plan
   return trials;
 }
 
+// The three 13-trajectory fans of step `fan` (1-based): fan.png, the D per knot height
+// in md, and the same as JSON.
+Json WriteFans(const FoldScene& scene, const PlanRun& run, const PlanRunOptions& ro, const std::string& fan,
+               const fs::path& out, std::ostringstream& md) {
+  const int k = std::stoi(fan) - 1;
+  if (k < 0 || k >= static_cast<int>(run.steps.size())) throw Error("--fan: no step " + fan);
+  std::vector<std::vector<FanTrajectory>> fans;
+  for (const char* kind : {"symmetric", "early", "late"})
+    fans.push_back(SolutionFan(scene, run.steps[k].setup, ro.sim, kind));
+  const std::vector<std::string> kinds = {"symmetric", "first knot varies", "second knot varies"};
+  WritePng(out / "fan.png", FanFigure(fans, kinds));
+  // The numbers behind the picture: D per knot height h (× span) of the varied knots.
+  md << "\nSolution-space fans for step " << k + 1 << " (fan.png), D (mm) per knot height h:\n\n| h |";
+  for (const auto& kind : kinds) md << " " << kind << " |";
+  md << "\n|---|---|---|---|\n";
+  Json fan_json = Json::array();
+  for (size_t t = 0; t < fans[0].size(); ++t) {
+    const double h = fans[0][t].h;
+    char row[128];
+    std::snprintf(row, sizeof row, "| %.3f | %.1f | %.1f | %.1f |\n", h, 1e3 * fans[0][t].dissimilarity,
+                  1e3 * fans[1][t].dissimilarity, 1e3 * fans[2][t].dissimilarity);
+    md << row;
+    fan_json.push_back({{"h", h},
+                        {"symmetric", fans[0][t].dissimilarity},
+                        {"first_knot", fans[1][t].dissimilarity},
+                        {"second_knot", fans[2][t].dissimilarity}});
+  }
+  return {{"step", k + 1}, {"trajectories", fan_json}};
+}
+
 int Run(const std::vector<std::string>& argv) {
   Args args(argv, {"--no-optimise"},
             {"--plan", "--trials", "--seed", "-o", "--output", "--size", "--edge", "--material", "--category",
-             "--gripper", "--max-sims", "--fan", "--stiffness"});
+             "--gripper", "--max-sims", "--fan", "--stiffness", "--friction"});
   if (args.help()) {
     std::cout << kUsage;
     return 0;
@@ -280,6 +323,7 @@ int Run(const std::vector<std::string>& argv) {
   std::printf("%s: %d vertices, %d faces; plan %s, %zu steps, gripper %s\n", setup.garment.instance.c_str(),
               setup.garment.mesh.NumVertices(), setup.garment.mesh.NumFaces(), plan.name.c_str(), plan.steps.size(),
               GripperModelName(ro.sim.gripper).c_str());
+  std::fflush(stdout);
 
   const PlanRun run = RunPlan(scene, LayFlat(setup.garment.mesh, setup.table), category, plan, ro);
 
@@ -305,15 +349,7 @@ int Run(const std::vector<std::string>& argv) {
 
   // The solution-space fans (paper Fig. "solution_space") for one step.
   const std::string fan = args.Get("--fan", std::to_string(plan.steps.size()));
-  if (fan != "none") {
-    const int k = std::stoi(fan) - 1;
-    if (k < 0 || k >= static_cast<int>(run.steps.size())) throw Error("--fan: no step " + fan);
-    std::vector<std::vector<FanTrajectory>> fans;
-    for (const char* kind : {"symmetric", "early", "late"})
-      fans.push_back(SolutionFan(scene, run.steps[k].setup, ro.sim, kind));
-    WritePng(out / "fan.png", FanFigure(fans, {"symmetric", "first knot varies", "second knot varies"}));
-    md << "\nSolution-space fans for step " << k + 1 << " in fan.png.\n";
-  }
+  if (fan != "none") doc["fan"] = WriteFans(scene, run, ro, fan, out, md);
 
   doc["trials"] = RunTrials(args, setup, plan, ro, run, out, md);
   WriteFileAtomic(out / "trajectories.json", doc.dump(2) + "\n");

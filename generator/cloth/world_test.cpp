@@ -46,6 +46,52 @@ bool SameBytes(const Points3& a, const Points3& b) {
   return a.rows() == b.rows() && std::memcmp(a.data(), b.data(), sizeof(double) * a.size()) == 0;
 }
 
+// Contact and strain handling must not pump energy into a swinging cloth: a strip
+// released horizontally from one corner swings down; its total energy (kinetic +
+// potential) should only fall (Bullet's damping, inelastic clamps). The
+// strain clamp's lead weighting moves a stretched edge's centre towards the grip
+// (momentum is not conserved), which shortens a swinging strip like a child pumping
+// a swing: at strain_lead_weight 0.3 a pants hang of the paper recipe gained energy
+// every step until it blew up (27 m/s). Measured gains: 0.3: 2.5 %, 0.6: 0.64 %,
+// 0.8: 0.07 %, 1: 0.09 % of the drop energy; the default (0.6) is held under 1 %.
+double MaxEnergyGain(double lead_weight) {
+  const Garment g = MakeRectangleGarment(0.6, 0.1, 0.025, false);
+  ClothMaterial mat;
+  mat.area_density = 0.18;
+  mat.link_stiffness = 0.25;
+  mat.bending = 0.0075;
+  mat.max_strain = 0.05;
+  ClothOptions o;
+  o.collision.strain_lead_weight = lead_weight;
+  auto model = MakeClothModel(g.mesh, g.layer, mat, o);
+  ClothWorld w(model, g.mesh.V);
+  const Vec3 corner = g.mesh.V.row(g.anchors[0].vertex).transpose();  // top_left
+  Jaw jaw;
+  jaw.pad_length = jaw.pad_width = 0.03;
+  EXPECT_FALSE(w.Close(w.AddGripper(jaw, PinchPose(corner))).miss);
+  auto energy = [&] {
+    const ClothState s = w.State();
+    double e = 0;
+    for (int i = 0; i < s.x.rows(); ++i) e += model->mass[i] * (0.5 * s.v.row(i).squaredNorm() + 9.81 * s.x(i, 1));
+    return e;
+  };
+  const double e0 = energy();
+  double e_min = e0, gain = 0;
+  for (int step = 0; step < 360; ++step) {  // 1.5 s: the strip swings down and back
+    w.Step();
+    const double e = energy();
+    gain = std::max(gain, e - e_min);
+    e_min = std::min(e_min, e);
+  }
+  return gain / (model->total_mass * 9.81 * 0.6);  // relative to the strip's drop
+}
+
+TEST(ClothWorld, CollisionPassPumpsUnderOnePercentEnergyIntoASwingingStrip) {
+  const double gain = MaxEnergyGain(CollisionOptions{}.strain_lead_weight);
+  EXPECT_GT(MaxEnergyGain(0.3), 0.02);  // the pumping this guards against (measured 0.025)
+  EXPECT_LT(gain, 0.01);
+}
+
 TEST(GripperPath, InterpolatesPositionLinearlyAndOrientationBySlerp) {
   GripperPath path;
   Eigen::Isometry3d a = Eigen::Isometry3d::Identity(), b = Eigen::Isometry3d::Identity();
@@ -199,7 +245,10 @@ void ExpectHungWithinStrainBound(const Vec3& grip, const char* what) {
   EXPECT_GT(m.min_distance, 0) << what;
   EXPECT_LE(m.strain.max, limit + co.strain_tolerance) << what;
   EXPECT_GT(m.strain.max, 0.5 * limit) << what;  // the grip really loads the cloth
-  EXPECT_LT(Centroid(w.positions()).y(), grip.y() - 0.03) << what;  // hanging below the grip
+  // Hanging below the grip. Held at the middle of its stitched bottom edge the 30 cm
+  // cloth does not fall flat against itself: it settles folded over, its centroid
+  // 2.6 cm below the grip at strain_lead_weight 0.6 (more than 3 cm at 0.3).
+  EXPECT_LT(Centroid(w.positions()).y(), grip.y() - 0.02) << what;
   std::cout << what << ": strain max " << m.strain.max << " p99 " << m.strain.p99 << " (limit " << limit
             << "), min distance " << m.min_distance << " m, CCD collisions " << w.timings().ccd_collisions
             << ", fail-safe steps " << fail_safe << ", edges merged for strain " << merges << "\n";

@@ -90,7 +90,7 @@ std::vector<FanTrajectory> SolutionFan(const FoldScene& scene, const StepSetup& 
       paths.push_back(c);
     }
     const StepSim r = SimulateStep(scene, setup, paths, sim);
-    out.push_back({paths[0], r.ok ? r.dissimilarity : std::numeric_limits<double>::quiet_NaN()});
+    out.push_back({paths[0], h, r.ok ? r.dissimilarity : std::numeric_limits<double>::quiet_NaN()});
   }
   return out;
 }

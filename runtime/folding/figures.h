@@ -23,6 +23,7 @@ cv::Mat StepKeyFrames(const StepRecord& step, const Faces& F, int tile = 240);
 // second varies).
 struct FanTrajectory {
   CubicBezier path;
+  double h = 0;              // the varied knots' height, × span
   double dissimilarity = 0;  // m; NaN when the simulation failed
 };
 std::vector<FanTrajectory> SolutionFan(const FoldScene& scene, const StepSetup& setup, const FoldSimOptions& sim,

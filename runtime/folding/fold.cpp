@@ -175,6 +175,9 @@ optim::SecantLmOptions OptimiseOptions::DefaultLm() {
   lm.relative_decrease = 0.01;       // "improvement in C² sufficiently small": < 1 % ...
   lm.stall_iterations = 2;           // ... twice in a row
   lm.tau = 1e-3;
+  // Trust radius = δ: B is a secant over δ, and the one-residual Gauss-Newton step
+  // (length C/‖∇C‖, aiming at C = 0, which no fold reaches) was 0.2–0.5 m on the towel.
+  lm.max_step = 0.1;
   return lm;
 }
 
@@ -206,21 +209,29 @@ namespace {
 // gives NaN (the optimiser rejects that step).
 class FoldCostProblem : public optim::LeastSquaresProblem {
  public:
-  FoldCostProblem(const FoldScene& scene, const StepSetup& setup, const FoldSimOptions& sim, const OptimiseOptions& o)
-      : scene_(scene), setup_(setup), sim_(sim), o_(o) {}
+  FoldCostProblem(const FoldScene& scene, const StepSetup& setup, const FoldSimOptions& sim, const OptimiseOptions& o,
+                  std::vector<double>* trace)
+      : scene_(scene), setup_(setup), sim_(sim), o_(o), trace_(trace) {}
   int NumResiduals() const override { return 1; }
   int NumParameters() const override { return static_cast<int>(6 * setup_.p0.size()); }
   void Residuals(const Eigen::VectorXd& x, Eigen::VectorXd& r) const override {
     const StepSim s = SimulateStep(scene_, setup_, UnstackKnots(x, setup_.p0, setup_.p3), sim_, o_.alpha);
     r.resize(1);
     r[0] = s.ok ? s.cost : std::numeric_limits<double>::quiet_NaN();
+    trace_->push_back(r[0]);
+    if (s.ok && s.cost < best_cost) best_cost = s.cost, best_x = x;
   }
+  // The best point simulated (steps and difference probes alike): every evaluation is
+  // an exact, deterministic C, so a probe better than the optimiser's end point is kept.
+  mutable double best_cost = std::numeric_limits<double>::infinity();
+  mutable Eigen::VectorXd best_x;
 
  private:
   const FoldScene& scene_;
   const StepSetup& setup_;
   const FoldSimOptions& sim_;
   const OptimiseOptions& o_;
+  std::vector<double>* trace_;
 };
 }  // namespace
 
@@ -239,8 +250,10 @@ StepOptimum OptimiseStep(const FoldScene& scene, const StepSetup& setup, const F
     out.wall_seconds = Since(t0);
     return out;
   }
-  out.lm = optim::SolveSecantLm(FoldCostProblem(scene, setup, sim, o), x, o.lm);
+  const FoldCostProblem problem(scene, setup, sim, o, &out.evaluated);
+  out.lm = optim::SolveSecantLm(problem, x, o.lm);
   out.simulations = out.lm.residual_evaluations;
+  if (problem.best_cost < std::sqrt(2 * out.lm.final_cost)) x = problem.best_x;
   out.optimised = UnstackKnots(x, setup.p0, setup.p3);
   out.after = SimulateStep(scene, setup, out.optimised, sim, o.alpha, true);
   out.wall_seconds = Since(t0);

@@ -91,7 +91,8 @@ struct OptimiseOptions {
   double h = 1.0 / 3;             // paper's initial knot height factor
   double length_tolerance = 1e-4; // relative, De Casteljau length
   optim::SecantLmOptions lm = DefaultLm();
-  static optim::SecantLmOptions DefaultLm();  // δ = 0.1, ≤ 40 simulations, stop on < 1 % gains
+  // δ = 0.1 m, ≤ 40 simulations, stop on < 1 % gains, steps ≤ 0.1 m (trust radius).
+  static optim::SecantLmOptions DefaultLm();
   void Validate() const;
 };
 
@@ -100,6 +101,7 @@ struct StepOptimum {
   StepSim before, after;          // simulations of the initial and optimised trajectories
   optim::SecantLmReport lm;
   int simulations = 0;            // inside the optimiser (before/after not counted)
+  std::vector<double> evaluated;  // C of each of those simulations in order (NaN = failed)
   double wall_seconds = 0;
 };
 

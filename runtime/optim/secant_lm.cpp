@@ -68,6 +68,7 @@ void SecantLmOptions::Validate() const {
   if (!(finite_difference_step >= 0 && std::isfinite(finite_difference_step)))
     throw Error("SecantLmOptions.finite_difference_step must be >= 0 and finite");
   if (max_residual_evaluations < 0) throw Error("SecantLmOptions.max_residual_evaluations must be >= 0");
+  if (!(max_step >= 0 && std::isfinite(max_step))) throw Error("SecantLmOptions.max_step must be >= 0 and finite");
 }
 
 namespace {
@@ -109,7 +110,7 @@ class SecantLmRun {
   }
   Eigen::VectorXd DampedStep();
   void RefreshCoordinate(const Eigen::VectorXd& h);
-  double TryStep(const Eigen::VectorXd& h);
+  double TryStep(const Eigen::VectorXd& h, bool shortened);
 
   const LeastSquaresProblem& problem_;
   const SecantLmOptions& o_;
@@ -124,6 +125,7 @@ class SecantLmRun {
   Eigen::SparseMatrix<double> I_, BtB_;
   bool btb_valid_ = true;
   double mu_ = 0, nu_ = 2;
+  double radius_ = 0;  // current cap on ‖h‖ (max_step > 0)
   int stall_ = 0;
   int updates_since_fresh_ = 0;
   int coordinate_ = -1;  // Madsen's j (numeric mode)
@@ -167,13 +169,15 @@ void SecantLmRun::RefreshCoordinate(const Eigen::VectorXd& h) {
 
 // Evaluates x + h, updates B along h, takes the step if the gain ratio ρ is positive and
 // adapts μ; returns ρ.
-double SecantLmRun::TryStep(const Eigen::VectorXd& h) {
+double SecantLmRun::TryStep(const Eigen::VectorXd& h, bool shortened) {
   const Eigen::VectorXd x_new = x_ + h;
   Eigen::VectorXd r_new;
   TimedEval(x_new, r_new);
   const double F_new = r_new.allFinite() ? 0.5 * r_new.squaredNorm() : HUGE_VAL;
-  // Predicted decrease L(0) − L(h) = ½ hᵀ(μh − g).
-  const double predicted = 0.5 * h.dot(mu_ * h - g_);
+  // Predicted decrease L(0) − L(h) = ½ hᵀ(μh − g) for the damped step itself; a step
+  // shortened to max_step: −gᵀh − ½‖Bh‖² (the same model, evaluated directly).
+  const double predicted =
+      shortened ? -g_.dot(h) - 0.5 * (B_ * h).squaredNorm() : 0.5 * h.dot(mu_ * h - g_);
   const double rho = predicted > 0 ? (F_ - F_new) / predicted : -1;
   // The secant information along h is valid whether or not the step is taken.
   if (o_.secant && r_new.allFinite()) {
@@ -210,6 +214,7 @@ SecantLmReport SecantLmRun::Solve() {
   I_.setIdentity();
   BtB_ = Eigen::SparseMatrix<double>(B_.transpose()) * B_;
   mu_ = o_.tau * std::max(BtB_.diagonal().maxCoeff(), 1e-300);
+  radius_ = o_.max_step;
   rep_.termination = "max_iterations";
   for (int k = 0; k < o_.max_iterations; ++k) {
     if (g_.lpNorm<Eigen::Infinity>() <= o_.gradient_tolerance) {
@@ -222,7 +227,9 @@ SecantLmReport SecantLmRun::Solve() {
       rep_.termination = "max_residual_evaluations";
       break;
     }
-    const Eigen::VectorXd h = DampedStep();
+    Eigen::VectorXd h = DampedStep();
+    const bool shortened = radius_ > 0 && h.norm() > radius_;
+    if (shortened) h *= radius_ / h.norm(), ++rep_.shortened;
     rep_.iterations = k + 1;
     if (h.norm() <= o_.step_tolerance * (x_.norm() + o_.step_tolerance)) {
       rep_.termination = "step";
@@ -230,7 +237,10 @@ SecantLmReport SecantLmRun::Solve() {
       break;
     }
     if (numeric_ && o_.secant) RefreshCoordinate(h);
-    const double rho = TryStep(h);
+    const double rho = TryStep(h, shortened);
+    // The trust radius: back to max_step after a success, half the failed step after a
+    // failure (for one residual μ only rescales the step, and slowly).
+    if (o_.max_step > 0) radius_ = rho > 0 ? o_.max_step : 0.5 * std::min(radius_, h.norm());
     rep_.cost.push_back(F_);
     if (stall_ >= o_.stall_iterations) {
       rep_.termination = "relative_decrease";

@@ -54,6 +54,14 @@ struct SecantLmOptions {
   // > 0: no analytic Jacobian; forward differences with this step (in x's units) and
   // Madsen's coordinate refresh, as described above (refresh_every is then unused).
   double finite_difference_step = 0;
+  // > 0: a trust radius on the secant model, in x's units: a longer step is shortened
+  // to it along its direction; after a rejected step the radius is half that step's
+  // length, after an accepted one max_step again. Folding's single residual C > 0
+  // cannot reach 0, yet the Gauss-Newton step of one residual aims at C = 0: its length
+  // C/‖∇C‖ extrapolates a model fitted over δ far beyond δ, and μ (which for one
+  // residual only rescales the step along −∇C) grows too slowly to fix that within a
+  // budget of simulations. 0 = no cap (registration).
+  double max_step = 0;
   // > 0: stop before an iteration that could exceed this many residual evaluations
   // (the initial one and the difference columns included); 0 = no cap.
   int max_residual_evaluations = 0;
@@ -63,6 +71,7 @@ struct SecantLmOptions {
 struct SecantLmReport {
   int iterations = 0;
   int accepted = 0, rejected = 0;
+  int shortened = 0;  // steps cut to max_step
   int fresh_jacobians = 0, secant_updates = 0;
   double initial_cost = 0, final_cost = 0;  // ½‖r‖²
   double final_mu = 0;

@@ -146,5 +146,36 @@ TEST(SecantLm, StopsAtTheEvaluationBudget) {
   EXPECT_LT(rep.final_cost, rep.initial_cost);
 }
 
+// max_step: no step longer than the cap, and still to the bowl's minimum. From far away
+// the uncapped Gauss-Newton step of the single residual aims at C = 0 and overshoots.
+TEST(SecantLm, MaxStepCapsEveryStep) {
+  struct Recorder : Bowl {
+    void Residuals(const Eigen::VectorXd& x, Eigen::VectorXd& r) const override {
+      Bowl::Residuals(x, r);
+      xs.push_back(x);
+    }
+    mutable std::vector<Eigen::VectorXd> xs;
+  } bowl;
+  Eigen::VectorXd x = Eigen::VectorXd::Constant(6, 2.0);
+  SecantLmOptions o;
+  o.finite_difference_step = 0.1;
+  o.max_iterations = 200;
+  o.step_tolerance = 1e-4;
+  o.max_step = 0.25;
+  const SecantLmReport rep = SolveSecantLm(bowl, x, o);
+  EXPECT_GT(rep.shortened, 0);
+  // Evaluations: x0, then x0 + δe_j (B0), then steps from accepted points and
+  // coordinate probes (δ): every evaluated point is within max_step or δ of an earlier one.
+  for (size_t i = 1; i < bowl.xs.size(); ++i) {
+    double nearest = HUGE_VAL;
+    for (size_t j = 0; j < i; ++j) nearest = std::min(nearest, (bowl.xs[i] - bowl.xs[j]).norm());
+    EXPECT_LE(nearest, o.max_step + 1e-12) << "evaluation " << i;
+  }
+  EXPECT_LT(std::sqrt(2 * rep.final_cost), 0.5225) << rep.termination;
+  EXPECT_LT((x - bowl.a()).lpNorm<Eigen::Infinity>(), 0.1);
+  o.max_step = -1;
+  EXPECT_THROW(o.Validate(), Error);
+}
+
 }  // namespace
 }  // namespace drape::optim
