@@ -122,7 +122,10 @@ std::string SimulationQuality(const std::vector<Release::EntryInfo>& entries) {
     o << "\n| material | stretch % measured | reproduced | friction angle ° measured | reproduced | μ (sim) |\n"
          "|---|---|---|---|---|---|\n";
     for (const auto& [name, f] : fits) {
-      auto val = [&](const char* k) { return f->contains(k) && (*f)[k].is_number() ? (*f)[k].get<double>() : NAN; };
+      // fit = f: clang 14 cannot capture a structured binding.
+      auto val = [fit = f](const char* k) {
+        return fit->contains(k) && (*fit)[k].is_number() ? (*fit)[k].get<double>() : NAN;
+      };
       o << "| " << name << " | " << Fmt(val("target_stretch_percent"), 2) << " | "
         << Fmt(val("reproduced_stretch_percent"), 3) << " | " << Fmt(val("target_friction_deg"), 1) << " | "
         << Fmt(val("reproduced_friction_deg"), 2) << " | " << Fmt(val("friction"), 3) << " |\n";
