@@ -32,6 +32,7 @@ const char* kUsage =
     "Usage: drape fold GARMENT --plan PLAN [--trials N] [--seed S] [-o DIR]\n"
     "                  [--size S|M|L] [--edge M] [--material NAME] [--category C]\n"
     "                  [--gripper pinch|point] [--max-sims N] [--fan STEP|none] [--no-optimise]\n"
+    "                  [--key-points-only]\n"
     "                  [--stiffness K] [--friction MU] [--replay TRAJECTORIES_JSON]\n"
     "\n"
     "Folds a garment lying flat on a table in simulation, step by step as PLAN says\n"
@@ -54,6 +55,8 @@ const char* kUsage =
     "  --max-sims N       simulations per step's optimisation (default 40)\n"
     "  --fan STEP|none    the solution-space fans for this step (1-based; default the last)\n"
     "  --no-optimise      keep the initial h = 1/3 trajectories (for comparison)\n"
+    "  --key-points-only  no folding: the trials' perturbed flat garments and the key points the\n"
+    "                     camera finds on them (keypoints_trialN.png), or why it found none\n"
     "  --stiffness K      Bullet link stiffness kLST instead of fitting it to the material's stretch\n"
     "  --friction MU      table friction coefficient instead of fitting it to the friction angle\n"
     "  --replay FILE      no optimisation: replay the optimised trajectories of an earlier run's\n"
@@ -127,6 +130,13 @@ FoldInputs SetUpFold(const Args& args) {
   if (mu && !(*mu >= 0 && *mu < 5)) throw Error("--friction: must be in [0, 5), got " + std::to_string(*mu));
   HangOptions ho;
   ho.fit_edge_length = args.GetDouble("--edge").value_or(0.04);
+  // The stretch reference strip (fit_width 0.1 m) is hung from its top_centre node, node
+  // nx/2 of nx = round(width / edge) elements across: at 8 cm edges nx = 1 and that node
+  // is a corner — the strip hangs from its corner, swings diagonal, and what FitMaterial
+  // measures is not the stretch (the fit ran to its kLST floor 0.001). Keep an even
+  // number (≥ 2) of whole elements across, so the node is the middle of the top edge.
+  const int across = std::max(2, 2 * static_cast<int>(std::lround(ho.fit_width / (2 * ho.fit_edge_length))));
+  ho.fit_width = across * ho.fit_edge_length;
   if (!(k && mu)) {
     std::printf("fitting %s to its stretch (%.1f %%) and friction angle (%.1f deg) ...\n", in.material.c_str(),
                 material->stretch_percent, material->friction_deg);
@@ -231,6 +241,7 @@ Json TrialJson(int t, const TrialResult& tr) {
           {"final_dissimilarity", tr.final_dissimilarity},
           {"diagonal", tr.diagonal},
           {"inside_fraction", tr.inside_fraction},
+          {"silhouette_reach", tr.reach},
           {"sim_time", tr.sim_time},
           {"wall_seconds", tr.wall_seconds}};
 }
@@ -239,14 +250,14 @@ Json TrialJson(int t, const TrialResult& tr) {
 std::string TrialRow(const std::string& label, const TrialResult& tr) {
   char row[512];
   if (!tr.completed) {
-    std::snprintf(row, sizeof row, "| %s | %.3f | %.3f | %.3f | (%.3f, %.3f) | %.1f | – | – | – | did not finish: %s |\n",
+    std::snprintf(row, sizeof row, "| %s | %.3f | %.3f | %.3f | (%.3f, %.3f) | %.1f | – | – | – | – | did not finish: %s |\n",
                   label.c_str(), tr.friction_scale, tr.stiffness_scale, tr.density_scale, tr.offset.x(),
                   tr.offset.y(), tr.yaw_deg, tr.failure.c_str());
   } else {
-    std::snprintf(row, sizeof row, "| %s | %.3f | %.3f | %.3f | (%.3f, %.3f) | %.1f | %.1f | %.1f | %.0f | %s |\n",
+    std::snprintf(row, sizeof row, "| %s | %.3f | %.3f | %.3f | (%.3f, %.3f) | %.1f | %.1f | %.1f | %.0f | %.1f | %s |\n",
                   label.c_str(), tr.friction_scale, tr.stiffness_scale, tr.density_scale, tr.offset.x(),
                   tr.offset.y(), tr.yaw_deg, 1e3 * tr.final_dissimilarity,
-                  100 * tr.final_dissimilarity / std::max(tr.diagonal, 1e-9), 100 * tr.inside_fraction,
+                  100 * tr.final_dissimilarity / std::max(tr.diagonal, 1e-9), 100 * tr.inside_fraction, 100 * tr.reach,
                   tr.success ? "success" : tr.failure.c_str());
   }
   return row;
@@ -256,19 +267,30 @@ void PrintTrial(const std::string& label, const TrialResult& tr) {
   if (!tr.completed)
     std::printf("%s: did not finish: %s\n", label.c_str(), tr.failure.c_str());
   else
-    std::printf("%s: %s, D %.1f mm (%.1f %% of %.2f m), silhouette %.0f %% inside\n", label.c_str(),
+    std::printf("%s: %s, D %.1f mm (%.1f %% of %.2f m), silhouette %.0f %% inside (reach %.1f cm)\n", label.c_str(),
                 tr.success ? "success" : ("failed: " + tr.failure).c_str(), 1e3 * tr.final_dissimilarity,
-                100 * tr.final_dissimilarity / std::max(tr.diagonal, 1e-9), tr.diagonal, 100 * tr.inside_fraction);
+                100 * tr.final_dissimilarity / std::max(tr.diagonal, 1e-9), tr.diagonal, 100 * tr.inside_fraction,
+                100 * tr.reach);
   std::fflush(stdout);
 }
 
 // The picture of a failed trial: its last finished step's key frames, or the flat
 // garment with the key points found when it stopped before the first fold.
-void WriteFailurePicture(const fs::path& file, const TrialResult& tr, const Faces& F) {
-  if (!tr.run.steps.empty())
+void WriteFailurePicture(const fs::path& file, const TrialResult& tr, const Faces& F, double tolerance) {
+  if (tr.completed) {
+    const cv::Mat steps = StepKeyFrames(tr.run.steps.back(), F);
+    cv::Mat judged = ResultFigure(tr.run, F, tolerance, tr.failure), pic;
+    // The judged result beside the last step's frames, padded to the same height.
+    if (judged.rows < steps.rows)
+      cv::copyMakeBorder(judged, judged, 0, steps.rows - judged.rows, 0, 0, cv::BORDER_CONSTANT, cv::Scalar::all(255));
+    if (judged.rows > steps.rows) cv::resize(judged, judged, cv::Size(judged.cols * steps.rows / judged.rows, steps.rows));
+    cv::hconcat(steps, judged, pic);
+    WritePng(file, pic);
+  } else if (!tr.run.steps.empty()) {
     WritePng(file, StepKeyFrames(tr.run.steps.back(), F));
-  else if (tr.run.flat.rows() > 0)
+  } else if (tr.run.flat.rows() > 0) {
     WritePng(file, FlatGarmentFigure(tr.run, F, tr.failure));
+  }
 }
 
 // Evaluation trials replaying the optimised relative trajectories under perturbation,
@@ -289,8 +311,10 @@ Json RunTrialsReport(const Args& args, const FoldSetup& setup, const FoldingPlan
   JudgeFold(nominal, F, to);
   nominal_json = TrialJson(-1, nominal);
   PrintTrial("unperturbed", nominal);
+  WritePng(out / "result.png",
+           ResultFigure(run, F, to.silhouette_tolerance, nominal.success ? "unperturbed: success" : "unperturbed: " + nominal.failure));
   md << "\n| trial | friction × | stiffness × | density × | offset (m) | yaw (°) | D (mm) | D (% of diagonal) "
-        "| silhouette inside (%) | result |\n|---|---|---|---|---|---|---|---|---|---|\n"
+        "| silhouette inside (%) | reach (cm) | result |\n|---|---|---|---|---|---|---|---|---|---|---|\n"
      << TrialRow("unperturbed", nominal);
   int success = 0;
   double seconds = 0;
@@ -301,7 +325,8 @@ Json RunTrialsReport(const Args& args, const FoldSetup& setup, const FoldingPlan
     trials.push_back(TrialJson(tr.index, tr));
     md << TrialRow(std::to_string(tr.index), tr);
     PrintTrial("trial " + std::to_string(tr.index), tr);
-    if (!tr.success) WriteFailurePicture(out / ("failure_trial" + std::to_string(tr.index) + ".png"), tr, F);
+    if (!tr.success)
+      WriteFailurePicture(out / ("failure_trial" + std::to_string(tr.index) + ".png"), tr, F, to.silhouette_tolerance);
   });
   if (to.trials > 0) {
     char row[256];
@@ -311,7 +336,8 @@ Json RunTrialsReport(const Args& args, const FoldSetup& setup, const FoldingPlan
     md << row << "| paper (average, real robot) | 2.3 | 9.3/10 | 97 |\n\n"
        << "Success: D(ideal, final) <= " << to.d_fraction * 100 << " % of the flat garment's diagonal and >= "
        << to.inside * 100 << " % of the final silhouette inside the ideal one grown by " << to.silhouette_tolerance * 100
-       << " cm.\n";
+       << " cm (reach: the distance from the ideal silhouette within which " << to.inside * 100
+       << " % of the final one lies).\n";
     std::printf("success %d/%d\n", success, to.trials);
   }
   return trials;
@@ -379,8 +405,33 @@ Json WriteFans(const FoldScene& scene, const PlanRun& run, const PlanRunOptions&
   return {{"step", k + 1}, {"trajectories", fan_json}};
 }
 
+// --key-points-only: each trial's perturbed garment settles flat and the camera looks
+// for the plan's key points (the plan without its steps: no folding simulated).
+int KeyPointTrials(const Args& args, const FoldSetup& setup, const FoldingPlan& plan, const PlanRunOptions& ro,
+                   const fs::path& out) {
+  FoldingPlan none = plan;
+  none.steps.clear();
+  TrialOptions to;
+  to.trials = static_cast<int>(args.GetInt("--trials").value_or(10));
+  to.seed = static_cast<uint64_t>(args.GetInt("--seed").value_or(1));
+  int found = 0;
+  RunTrials(setup, none, ro, {}, to, [&](const TrialResult& tr) {
+    found += tr.completed;
+    char caption[256];
+    std::snprintf(caption, sizeof caption, "trial %d: friction x%.3f, stiffness x%.3f, offset (%.3f, %.3f) m, yaw %.1f deg",
+                  tr.index, tr.friction_scale, tr.stiffness_scale, tr.offset.x(), tr.offset.y(), tr.yaw_deg);
+    std::printf("%s: %s\n", caption, tr.completed ? "key points found" : tr.failure.c_str());
+    std::fflush(stdout);
+    if (tr.run.flat.rows() > 0)
+      WritePng(out / ("keypoints_trial" + std::to_string(tr.index) + ".png"),
+               FlatGarmentFigure(tr.run, setup.garment.mesh.F, tr.completed ? caption : tr.failure));
+  });
+  std::printf("key points found in %d/%d trials\n", found, to.trials);
+  return 0;
+}
+
 int Run(const std::vector<std::string>& argv) {
-  Args args(argv, {"--no-optimise"},
+  Args args(argv, {"--no-optimise", "--key-points-only"},
             {"--plan", "--trials", "--seed", "-o", "--output", "--size", "--edge", "--material", "--category",
              "--gripper", "--max-sims", "--fan", "--stiffness", "--friction", "--replay"});
   if (args.help()) {
@@ -404,6 +455,7 @@ int Run(const std::vector<std::string>& argv) {
               GripperModelName(ro.sim.gripper).c_str());
   std::fflush(stdout);
 
+  if (args.Flag("--key-points-only")) return KeyPointTrials(args, setup, plan, ro, out);
   std::vector<std::vector<RelativeTrajectory>> replay;
   if (auto r = args.Get("--replay")) replay = LoadReplay(*r, plan);
   const PlanRun run = RunPlan(scene, LayFlat(setup.garment.mesh, setup.table), category, plan, ro,

@@ -2,6 +2,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 
@@ -47,11 +48,31 @@ double SilhouetteInside(const TriMesh& shape, const TriMesh& reference, double t
   return total > 0 ? cv::countNonZero(in) / total : 0.0;
 }
 
+double SilhouetteReach(const TriMesh& shape, const TriMesh& reference, double fraction, double mpp) {
+  if (!(fraction > 0 && fraction <= 1)) throw Error("SilhouetteReach: fraction must be in (0, 1]");
+  Points3 both(shape.NumVertices() + reference.NumVertices(), 3);
+  both << shape.V, reference.V;
+  const TopDownCamera cam = FrameCamera(both, mpp, 0.05);
+  const cv::Mat a = TopDownMask(shape, cam), b = TopDownMask(reference, cam);
+  // Distance of every pixel to the nearest reference pixel (0 inside it).
+  cv::Mat outside = b == 0, dist;
+  cv::distanceTransform(outside, dist, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+  std::vector<float> d;
+  for (int y = 0; y < a.rows; ++y)
+    for (int x = 0; x < a.cols; ++x)
+      if (a.at<uchar>(y, x)) d.push_back(dist.at<float>(y, x));
+  if (d.empty()) return 0;
+  const size_t k = std::min(d.size() - 1, static_cast<size_t>(std::ceil(fraction * d.size())) - 1);
+  std::nth_element(d.begin(), d.begin() + k, d.end());
+  return d[k] * mpp;
+}
+
 void JudgeFold(TrialResult& r, const Faces& F, const TrialOptions& o) {
   const Vec3 lo = r.run.flat.colwise().minCoeff(), hi = r.run.flat.colwise().maxCoeff();
   r.diagonal = std::hypot(hi.x() - lo.x(), hi.z() - lo.z());
   r.final_dissimilarity = r.run.final_dissimilarity;
   r.inside_fraction = SilhouetteInside(TriMesh{r.run.final, F}, r.run.ideal, o.silhouette_tolerance, 0.004);
+  r.reach = SilhouetteReach(TriMesh{r.run.final, F}, r.run.ideal, o.inside, 0.004);
   r.sim_time = 0;
   for (const auto& s : r.run.steps) r.sim_time += s.result.after.sim_time;
   const bool d_ok = r.final_dissimilarity <= o.d_fraction * r.diagonal;

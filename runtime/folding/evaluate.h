@@ -56,6 +56,7 @@ struct TrialResult {
   double final_dissimilarity = 0;  // m
   double diagonal = 0;             // m
   double inside_fraction = 0;
+  double reach = 0;                // m, SilhouetteReach of the final shape at options.inside
   double sim_time = 0;             // s simulated (flat settle not counted)
   double wall_seconds = 0;         // timing only
   PlanRun run;                     // for pictures
@@ -63,6 +64,10 @@ struct TrialResult {
 
 // Fraction of `shape`'s top-down silhouette inside `reference`'s grown by tolerance.
 double SilhouetteInside(const TriMesh& shape, const TriMesh& reference, double tolerance, double metres_per_pixel);
+// The distance (m) from `reference`'s top-down silhouette within which `fraction` of
+// `shape`'s silhouette lies (0 when that much is inside it): how far the tolerance
+// would have to grow for SilhouetteInside(…) ≥ fraction.
+double SilhouetteReach(const TriMesh& shape, const TriMesh& reference, double fraction, double metres_per_pixel);
 
 // Scores a completed run against the success criterion: fills diagonal,
 // final_dissimilarity, inside_fraction, sim_time, success and failure from r.run.

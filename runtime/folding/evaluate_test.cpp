@@ -26,6 +26,31 @@ std::vector<std::vector<RelativeTrajectory>> Initial(size_t steps, size_t arms) 
   return std::vector<std::vector<RelativeTrajectory>>(steps, std::vector<RelativeTrajectory>(arms, h3));
 }
 
+// A w × w square on the table (world x, z), its corner at (x0, z0).
+TriMesh Square(double w, double x0, double z0) {
+  TriMesh m;
+  m.V.resize(4, 3);
+  m.V << x0, 0, z0, x0 + w, 0, z0, x0 + w, 0, z0 + w, x0, 0, z0 + w;
+  m.F.resize(2, 3);
+  m.F << 0, 1, 2, 0, 2, 3;
+  return m;
+}
+
+TEST(Silhouette, InsideFractionAndReachOfAShiftedSquare) {
+  // A 0.3 m square shifted by s = 6 cm along x: the strip outside the reference is 20 %
+  // of it, its pixels 0..s from the reference, so q of the shape lies within
+  // s − (1 − q)·0.3 of it: 3 cm for q = 0.9, 4.5 cm for q = 0.95.
+  const TriMesh ref = Square(0.3, 0, 0), shifted = Square(0.3, 0.06, 0);
+  const double px = 0.002;
+  EXPECT_EQ(SilhouetteReach(ref, ref, 0.9, px), 0.0);
+  EXPECT_NEAR(SilhouetteInside(ref, ref, 0.0, px), 1.0, 1e-12);
+  EXPECT_NEAR(SilhouetteReach(shifted, ref, 0.9, px), 0.03, 2 * px);
+  EXPECT_NEAR(SilhouetteReach(shifted, ref, 0.95, px), 0.045, 2 * px);
+  EXPECT_NEAR(SilhouetteInside(shifted, ref, 0.0, px), 0.8, 0.02);
+  EXPECT_NEAR(SilhouetteInside(shifted, ref, 0.03, px), 0.9, 0.02);
+  EXPECT_NEAR(SilhouetteInside(shifted, ref, 0.06, px), 1.0, 0.01);
+}
+
 TEST(Trials, KeyPointFailureMarksTheTrialAndTheNextOneRuns) {
   // A rectangle called pants has no crotch notch: the plan cannot find its key points.
   const FoldingPlan plan = ParsePlan(
@@ -72,6 +97,7 @@ TEST(Trials, ACompletedTrialIsJudged) {
   EXPECT_GT(t.sim_time, 0);
   EXPECT_EQ(t.success, t.failure.empty());
   EXPECT_EQ(t.success, t.final_dissimilarity <= o.d_fraction * t.diagonal && t.inside_fraction >= o.inside);
+  EXPECT_GE(t.reach, 0.0);
   std::printf("small towel trial: D %.1f mm (%.1f %% of %.3f m), %.0f %% inside, %s\n", 1e3 * t.final_dissimilarity,
               100 * t.final_dissimilarity / t.diagonal, t.diagonal, 100 * t.inside_fraction,
               t.success ? "success" : t.failure.c_str());
