@@ -1,5 +1,7 @@
 // drape fold GARMENT --plan PLAN: the paper's trajectory optimisation for folding with
 // the cloth simulation in the loop, and its evaluation over seeded, perturbed trials.
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -30,7 +32,7 @@ const char* kUsage =
     "Usage: drape fold GARMENT --plan PLAN [--trials N] [--seed S] [-o DIR]\n"
     "                  [--size S|M|L] [--edge M] [--material NAME] [--category C]\n"
     "                  [--gripper pinch|point] [--max-sims N] [--fan STEP|none] [--no-optimise]\n"
-    "                  [--stiffness K] [--friction MU]\n"
+    "                  [--stiffness K] [--friction MU] [--replay TRAJECTORIES_JSON]\n"
     "\n"
     "Folds a garment lying flat on a table in simulation, step by step as PLAN says\n"
     "(runtime/folding/plans/*.yaml), optimising each step's cubic Bezier trajectories by\n"
@@ -54,6 +56,8 @@ const char* kUsage =
     "  --no-optimise      keep the initial h = 1/3 trajectories (for comparison)\n"
     "  --stiffness K      Bullet link stiffness kLST instead of fitting it to the material's stretch\n"
     "  --friction MU      table friction coefficient instead of fitting it to the friction angle\n"
+    "  --replay FILE      no optimisation: replay the optimised trajectories of an earlier run's\n"
+    "                     trajectories.json (relative to each step's P0 -> P3) on this garment\n"
     "\n"
     "Material: link stiffness fitted to the measured stretch and table friction fitted to the\n"
     "measured friction angle (a square of the cloth starts to slide on a table tilted by it;\n"
@@ -217,6 +221,7 @@ Json ReportSteps(const FoldScene& scene, const PlanRun& run, const PlanRunOption
 Json TrialJson(int t, const TrialResult& tr) {
   return {{"index", t},
           {"success", tr.success},
+          {"completed", tr.completed},
           {"failure", tr.failure},
           {"friction_scale", tr.friction_scale},
           {"stiffness_scale", tr.stiffness_scale},
@@ -230,32 +235,74 @@ Json TrialJson(int t, const TrialResult& tr) {
           {"wall_seconds", tr.wall_seconds}};
 }
 
-// Evaluation trials replaying the optimised relative trajectories under perturbation; a
-// failed trial's last step as a picture; the success table in md.
-Json RunTrials(const Args& args, const FoldSetup& setup, const FoldingPlan& plan, const PlanRunOptions& ro,
-               const PlanRun& run, const fs::path& out, std::ostringstream& md) {
+// One row of the trials table in md.
+std::string TrialRow(const std::string& label, const TrialResult& tr) {
+  char row[512];
+  if (!tr.completed) {
+    std::snprintf(row, sizeof row, "| %s | %.3f | %.3f | %.3f | (%.3f, %.3f) | %.1f | – | – | – | did not finish: %s |\n",
+                  label.c_str(), tr.friction_scale, tr.stiffness_scale, tr.density_scale, tr.offset.x(),
+                  tr.offset.y(), tr.yaw_deg, tr.failure.c_str());
+  } else {
+    std::snprintf(row, sizeof row, "| %s | %.3f | %.3f | %.3f | (%.3f, %.3f) | %.1f | %.1f | %.1f | %.0f | %s |\n",
+                  label.c_str(), tr.friction_scale, tr.stiffness_scale, tr.density_scale, tr.offset.x(),
+                  tr.offset.y(), tr.yaw_deg, 1e3 * tr.final_dissimilarity,
+                  100 * tr.final_dissimilarity / std::max(tr.diagonal, 1e-9), 100 * tr.inside_fraction,
+                  tr.success ? "success" : tr.failure.c_str());
+  }
+  return row;
+}
+
+void PrintTrial(const std::string& label, const TrialResult& tr) {
+  if (!tr.completed)
+    std::printf("%s: did not finish: %s\n", label.c_str(), tr.failure.c_str());
+  else
+    std::printf("%s: %s, D %.1f mm (%.1f %% of %.2f m), silhouette %.0f %% inside\n", label.c_str(),
+                tr.success ? "success" : ("failed: " + tr.failure).c_str(), 1e3 * tr.final_dissimilarity,
+                100 * tr.final_dissimilarity / std::max(tr.diagonal, 1e-9), tr.diagonal, 100 * tr.inside_fraction);
+  std::fflush(stdout);
+}
+
+// The picture of a failed trial: its last finished step's key frames, or the flat
+// garment with the key points found when it stopped before the first fold.
+void WriteFailurePicture(const fs::path& file, const TrialResult& tr, const Faces& F) {
+  if (!tr.run.steps.empty())
+    WritePng(file, StepKeyFrames(tr.run.steps.back(), F));
+  else if (tr.run.flat.rows() > 0)
+    WritePng(file, FlatGarmentFigure(tr.run, F, tr.failure));
+}
+
+// Evaluation trials replaying the optimised relative trajectories under perturbation,
+// after the criterion applied to the unperturbed run itself; a failed trial as a
+// picture; the success table and one row per trial in md.
+Json RunTrialsReport(const Args& args, const FoldSetup& setup, const FoldingPlan& plan, const PlanRunOptions& ro,
+                     const PlanRun& run, const fs::path& out, std::ostringstream& md, Json& nominal_json) {
   std::vector<std::vector<RelativeTrajectory>> relative;
   for (const StepRecord& s : run.steps) relative.push_back(s.relative);
   TrialOptions to;
   to.trials = static_cast<int>(args.GetInt("--trials").value_or(10));
   to.seed = static_cast<uint64_t>(args.GetInt("--seed").value_or(1));
+  const Faces& F = setup.garment.mesh.F;
+  TrialResult nominal;
+  nominal.index = -1;
+  nominal.run = run;
+  nominal.completed = true;
+  JudgeFold(nominal, F, to);
+  nominal_json = TrialJson(-1, nominal);
+  PrintTrial("unperturbed", nominal);
+  md << "\n| trial | friction × | stiffness × | density × | offset (m) | yaw (°) | D (mm) | D (% of diagonal) "
+        "| silhouette inside (%) | result |\n|---|---|---|---|---|---|---|---|---|---|\n"
+     << TrialRow("unperturbed", nominal);
   int success = 0;
   double seconds = 0;
   Json trials = Json::array();
-  for (int t = 0; t < to.trials; ++t) {
-    const TrialResult tr = RunTrial(setup, plan, ro, relative, to, t);
+  RunTrials(setup, plan, ro, relative, to, [&](const TrialResult& tr) {
     success += tr.success;
     seconds += tr.sim_time;
-    trials.push_back(TrialJson(t, tr));
-    std::printf("trial %d: %s, D %.1f mm (%.1f %% of %.2f m), silhouette %.0f %% inside\n", t,
-                tr.success ? "success" : ("failed: " + tr.failure).c_str(), 1e3 * tr.final_dissimilarity,
-                100 * tr.final_dissimilarity / std::max(tr.diagonal, 1e-9), tr.diagonal, 100 * tr.inside_fraction);
-    std::fflush(stdout);
-    if (!tr.success && !tr.run.steps.empty()) {
-      cv::Mat pic = StepKeyFrames(tr.run.steps.back(), setup.garment.mesh.F);
-      WritePng(out / ("failure_trial" + std::to_string(t) + ".png"), pic);
-    }
-  }
+    trials.push_back(TrialJson(tr.index, tr));
+    md << TrialRow(std::to_string(tr.index), tr);
+    PrintTrial("trial " + std::to_string(tr.index), tr);
+    if (!tr.success) WriteFailurePicture(out / ("failure_trial" + std::to_string(tr.index) + ".png"), tr, F);
+  });
   if (to.trials > 0) {
     char row[256];
     md << "\n| garment | # folds | success | avg. simulated time (s) |\n|---|---|---|---|\n";
@@ -268,6 +315,38 @@ Json RunTrials(const Args& args, const FoldSetup& setup, const FoldingPlan& plan
     std::printf("success %d/%d\n", success, to.trials);
   }
   return trials;
+}
+
+// The optimised trajectories of an earlier run (its trajectories.json), one set per
+// plan step, relative to each step's P0 -> P3.
+std::vector<std::vector<RelativeTrajectory>> LoadReplay(const fs::path& file, const FoldingPlan& plan) {
+  Json doc;
+  try {
+    doc = Json::parse(ReadFile(file));
+  } catch (const Json::exception& e) {
+    throw Error(file.string() + ": " + e.what());
+  }
+  auto v3 = [&](const Json& a) {
+    if (!a.is_array() || a.size() != 3) throw Error(file.string() + ": a knot is not [x, y, z]");
+    return Vec3(a[0].get<double>(), a[1].get<double>(), a[2].get<double>());
+  };
+  if (doc.value("plan", "") != plan.name)
+    throw Error(file.string() + ": made with plan '" + doc.value("plan", "") + "', not '" + plan.name + "'");
+  if (!doc.contains("steps") || !doc["steps"].is_array()) throw Error(file.string() + ": no steps array");
+  const Json& steps = doc["steps"];
+  if (steps.size() != plan.steps.size())
+    throw Error(file.string() + ": " + std::to_string(steps.size()) + " steps, the plan has " +
+                std::to_string(plan.steps.size()));
+  std::vector<std::vector<RelativeTrajectory>> out;
+  try {
+    for (const Json& st : steps) {
+      out.emplace_back();
+      for (const Json& k : st.at("optimised_relative")) out.back().push_back({v3(k.at("k1")), v3(k.at("k2"))});
+    }
+  } catch (const Json::exception& e) {
+    throw Error(file.string() + ": steps[" + std::to_string(out.size() - 1) + "].optimised_relative: " + e.what());
+  }
+  return out;
 }
 
 // The three 13-trajectory fans of step `fan` (1-based): fan.png, the D per knot height
@@ -303,7 +382,7 @@ Json WriteFans(const FoldScene& scene, const PlanRun& run, const PlanRunOptions&
 int Run(const std::vector<std::string>& argv) {
   Args args(argv, {"--no-optimise"},
             {"--plan", "--trials", "--seed", "-o", "--output", "--size", "--edge", "--material", "--category",
-             "--gripper", "--max-sims", "--fan", "--stiffness", "--friction"});
+             "--gripper", "--max-sims", "--fan", "--stiffness", "--friction", "--replay"});
   if (args.help()) {
     std::cout << kUsage;
     return 0;
@@ -325,13 +404,17 @@ int Run(const std::vector<std::string>& argv) {
               GripperModelName(ro.sim.gripper).c_str());
   std::fflush(stdout);
 
-  const PlanRun run = RunPlan(scene, LayFlat(setup.garment.mesh, setup.table), category, plan, ro);
+  std::vector<std::vector<RelativeTrajectory>> replay;
+  if (auto r = args.Get("--replay")) replay = LoadReplay(*r, plan);
+  const PlanRun run = RunPlan(scene, LayFlat(setup.garment.mesh, setup.table), category, plan, ro,
+                              replay.empty() ? nullptr : &replay);
 
   std::ostringstream md;
   md << "# drape fold: " << setup.garment.instance << " with plan " << plan.name << "\n\n"
      << "Mesh " << setup.garment.mesh.NumVertices() << " vertices / " << setup.garment.mesh.NumFaces()
      << " faces; material " << in.material << " (kLST " << in.fit.stiffness << ", mu " << setup.friction
-     << "); gripper " << GripperModelName(ro.sim.gripper) << ".\n\n"
+     << "); gripper " << GripperModelName(ro.sim.gripper) << "."
+     << (replay.empty() ? "" : " Replayed " + *args.Get("--replay") + " (no optimisation).") << "\n\n"
      << "| step | arms | D before (mm) | D after (mm) | C before | C after | l before (m) | l after (m) | simulations "
         "| "
         "seconds |\n|---|---|---|---|---|---|---|---|---|---|\n";
@@ -351,7 +434,12 @@ int Run(const std::vector<std::string>& argv) {
   const std::string fan = args.Get("--fan", std::to_string(plan.steps.size()));
   if (fan != "none") doc["fan"] = WriteFans(scene, run, ro, fan, out, md);
 
-  doc["trials"] = RunTrials(args, setup, plan, ro, run, out, md);
+  // Written before the trials too: the optimisation is the expensive part.
+  WriteFileAtomic(out / "trajectories.json", doc.dump(2) + "\n");
+  WriteFileAtomic(out / "report.md", md.str());
+  Json nominal;
+  doc["trials"] = RunTrialsReport(args, setup, plan, ro, run, out, md, nominal);
+  doc["unperturbed"] = nominal;
   WriteFileAtomic(out / "trajectories.json", doc.dump(2) + "\n");
   WriteFileAtomic(out / "report.md", md.str());
   std::printf("wrote %s\n", out.string().c_str());

@@ -47,6 +47,21 @@ double SilhouetteInside(const TriMesh& shape, const TriMesh& reference, double t
   return total > 0 ? cv::countNonZero(in) / total : 0.0;
 }
 
+void JudgeFold(TrialResult& r, const Faces& F, const TrialOptions& o) {
+  const Vec3 lo = r.run.flat.colwise().minCoeff(), hi = r.run.flat.colwise().maxCoeff();
+  r.diagonal = std::hypot(hi.x() - lo.x(), hi.z() - lo.z());
+  r.final_dissimilarity = r.run.final_dissimilarity;
+  r.inside_fraction = SilhouetteInside(TriMesh{r.run.final, F}, r.run.ideal, o.silhouette_tolerance, 0.004);
+  r.sim_time = 0;
+  for (const auto& s : r.run.steps) r.sim_time += s.result.after.sim_time;
+  const bool d_ok = r.final_dissimilarity <= o.d_fraction * r.diagonal;
+  const bool in_ok = r.inside_fraction >= o.inside;
+  r.success = d_ok && in_ok;
+  r.failure.clear();
+  if (!d_ok) r.failure = "D above the threshold";
+  if (!in_ok) r.failure += std::string(r.failure.empty() ? "" : "; ") + "silhouette outside the target's";
+}
+
 TrialResult RunTrial(const FoldSetup& setup, const FoldingPlan& plan, const PlanRunOptions& run_options,
                      const std::vector<std::vector<RelativeTrajectory>>& trajectories, const TrialOptions& o,
                      int index) {
@@ -63,26 +78,37 @@ TrialResult RunTrial(const FoldSetup& setup, const FoldingPlan& plan, const Plan
   r.yaw_deg = rng.Uniform(-o.yaw_deg, o.yaw_deg);
   const FoldScene scene = MakeScene(setup, r.friction_scale, r.stiffness_scale, r.density_scale);
   const Points3 laid = LayFlat(setup.garment.mesh, setup.table, r.offset, r.yaw_deg * M_PI / 180);
-  try {
-    r.run = RunPlan(scene, laid, setup.garment.category, plan, run_options, &trajectories);
-  } catch (const NumericalError& e) {
+  // Both kinds end this trial only: the next one starts from its own seed.
+  auto stop = [&](const std::exception& e) {
     r.failure = e.what();
+    for (const auto& s : r.run.steps) r.sim_time += s.result.after.sim_time;
     r.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  };
+  try {
+    RunPlan(r.run, scene, laid, setup.garment.category, plan, run_options, &trajectories);
+  } catch (const NumericalError& e) {
+    stop(e);
+    return r;
+  } catch (const Error& e) {
+    stop(e);
     return r;
   }
-  const Faces& F = setup.garment.mesh.F;
-  const Vec3 lo = r.run.flat.colwise().minCoeff(), hi = r.run.flat.colwise().maxCoeff();
-  r.diagonal = std::hypot(hi.x() - lo.x(), hi.z() - lo.z());
-  r.final_dissimilarity = r.run.final_dissimilarity;
-  r.inside_fraction = SilhouetteInside(TriMesh{r.run.final, F}, r.run.ideal, o.silhouette_tolerance, 0.004);
-  for (const auto& s : r.run.steps) r.sim_time += s.result.after.sim_time;
-  const bool d_ok = r.final_dissimilarity <= o.d_fraction * r.diagonal;
-  const bool in_ok = r.inside_fraction >= o.inside;
-  r.success = d_ok && in_ok;
-  if (!d_ok) r.failure = "D above the threshold";
-  if (!in_ok) r.failure += std::string(r.failure.empty() ? "" : "; ") + "silhouette outside the target's";
+  r.completed = true;
+  JudgeFold(r, setup.garment.mesh.F, o);
   r.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return r;
+}
+
+std::vector<TrialResult> RunTrials(const FoldSetup& setup, const FoldingPlan& plan, const PlanRunOptions& run_options,
+                                   const std::vector<std::vector<RelativeTrajectory>>& trajectories,
+                                   const TrialOptions& options, const std::function<void(const TrialResult&)>& done) {
+  options.Validate();
+  std::vector<TrialResult> out;
+  for (int t = 0; t < options.trials; ++t) {
+    out.push_back(RunTrial(setup, plan, run_options, trajectories, options, t));
+    if (done) done(out.back());
+  }
+  return out;
 }
 
 }  // namespace drape::folding
