@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <bit>
 #include <chrono>
+#include <cmath>
 #include <cstring>
 #include <map>
 #include <set>
@@ -213,9 +214,18 @@ void ScoreGates(const Database& db, const Code& code, const EntryLabel& ql, cons
   }
 }
 
-// The first (weakest) τ with the most right answers.
-double BestGate(const std::vector<double>& taus, const std::vector<int>& right) {
-  return taus[std::max_element(right.begin(), right.end()) - right.begin()];
+// The weakest τ within one standard error of the best (the "one-standard-error rule" of
+// model selection, Breiman et al. 1984; Hastie et al., ESL §7.10): with ~100 selection
+// queries the right-answer counts of neighbouring gates differ by noise, and a weaker
+// gate discards less of the feature's information. SE = sqrt(p(1 − p)/n) of the best rate p.
+double BestGate(const std::vector<double>& taus, const std::vector<int>& right, int queries) {
+  const int best = *std::max_element(right.begin(), right.end());
+  const double p = double(best) / queries;
+  const double slack = std::sqrt(p * (1 - p) / queries) * queries;
+  for (size_t k = 0; k < taus.size(); ++k) {
+    if (right[k] >= best - slack) return taus[k];
+  }
+  return taus.front();
 }
 
 }  // namespace
@@ -242,7 +252,9 @@ GateSelection SelectHeightGates(const Database& db, const std::vector<LabelledCo
   if (options.gate_train_queries) {
     for (int i = 0; i < db.size(); ++i) add(db.code(i), db.label(i));
   }
-  if (g.queries > 0) g.chosen = {BestGate(g.taus, g.category_right), BestGate(g.taus, g.pose_right)};
+  if (g.queries > 0) {
+    g.chosen = {BestGate(g.taus, g.category_right, g.queries), BestGate(g.taus, g.pose_right, g.queries)};
+  }
   return g;
 }
 
@@ -255,8 +267,8 @@ Json ToJson(const GateSelection& g) {
               {"chosen", {{"category", g.chosen.category}, {"pose", g.chosen.pose}}},
               {"rule",
                "per gate: right category / right anchor (category known) of the unweighted nearest neighbour "
-               "among the database entries of other garment instances; the weakest gate with the most right "
-               "answers"}};
+               "among the database entries of other garment instances; the weakest gate within one standard "
+               "error of the most right answers"}};
 }
 
 CalibrationResult Calibrate(const Database& db, const std::vector<LabelledCode>& queries,

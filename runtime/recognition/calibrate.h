@@ -38,8 +38,8 @@ struct CategoryCalibration {
 
 // How the height gates were chosen: for each candidate τ (0 = no gate), how many
 // selection queries got the right category (unweighted NN over the database) and the
-// right anchor (category known, unweighted NN); the weakest gate with the most right
-// answers wins, separately for the two.
+// right anchor (category known, unweighted NN); the weakest gate within one standard
+// error of the most right answers wins, separately for the two.
 struct GateSelection {
   std::vector<double> taus;
   std::vector<int> category_right, pose_right;

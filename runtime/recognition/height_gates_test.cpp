@@ -73,12 +73,15 @@ TEST(RecognitionHeightGates, CategoryGateSeparatesGarmentsThatDifferOnlyInScale)
   // The paper's setting on the same query: gates off.
   o.height_gates = false;
   EXPECT_EQ(rec.Recognize(t.waist, o).category, "pants");
-  // A gate no entry passes is not applied (the answer is the ungated one).
+  // A gate no entry passes is widened to the nearest height's ratio + τ: a 5 m query
+  // compares with the pants (1.2, 1.45 m), not with the shorts.
   o.height_gates = true;
   o.query_height = 5.0;
   const Recognition far = rec.Recognize(t.waist, o);
   EXPECT_EQ(far.category, "pants");
-  EXPECT_EQ(far.category_pool, 4);
+  EXPECT_EQ(far.category_pool, 2);
+  o.query_height = 0.1;  // and a 10 cm one with the shorts, although pants come first
+  EXPECT_EQ(rec.Recognize(t.waist, o).category, "shorts");
 }
 
 TEST(RecognitionHeightGates, PoseGateKeepsTheEntriesOfSimilarHeight) {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <set>
 #include <sstream>
 
@@ -68,11 +69,20 @@ bool PassesHeightGate(double query_h, double entry_h, double tau) {
 }
 
 std::vector<int> HeightGated(const Database& db, const std::vector<int>& pool, double query_h, double tau) {
+  if (tau <= 0 || query_h <= 0 || pool.empty()) return pool;
+  // Widened to the nearest entry's ratio + τ when none is within τ (an outlier query
+  // then still compares with the entries of the nearest heights, not with all).
+  double nearest = std::numeric_limits<double>::infinity();
+  for (int i : pool) {
+    const double h = db.label(i).height;
+    nearest = std::min(nearest, h > 0 ? std::abs(std::log(query_h / h)) : 0.0);
+  }
+  const double bound = nearest <= tau ? tau : nearest + tau;
   std::vector<int> kept;
   for (int i : pool) {
-    if (PassesHeightGate(query_h, db.label(i).height, tau)) kept.push_back(i);
+    if (PassesHeightGate(query_h, db.label(i).height, bound)) kept.push_back(i);
   }
-  return kept.empty() ? pool : kept;
+  return kept;
 }
 
 Recognizer::Recognizer(const Database& db, const Weights* weights) : db_(db) {

@@ -17,8 +17,8 @@
 // or by its hem — can give nearly the same bits. The hung height below the gripper is
 // measured anyway (the reconstruction's y extent, the H of Algorithm 1), and both steps
 // may keep only the entries whose height is within a factor of the query's: an entry
-// passes gate τ when |ln(h_query / h_entry)| ≤ τ. A gate that no entry passes is not
-// applied; entries or queries of unknown height (0) always pass. `drape calibrate`
+// passes gate τ when |ln(h_query / h_entry)| ≤ τ. A gate that no entry passes is widened
+// to the nearest entry's ratio + τ; entries or queries of unknown height (0) always pass. `drape calibrate`
 // chooses τ on train + calibration queries (calibrate.h).
 #pragma once
 
@@ -92,7 +92,8 @@ struct HeightGates {
 
 // Whether an entry of height `entry_h` passes gate `tau` for a query of height `query_h`.
 bool PassesHeightGate(double query_h, double entry_h, double tau);
-// The entries of `pool` that pass the gate; `pool` itself when none does.
+// The entries of `pool` that pass the gate; when none does, those within the nearest
+// entry's |ln ratio| + τ.
 std::vector<int> HeightGated(const Database& db, const std::vector<int>& pool, double query_h, double tau);
 
 // Learned weights, one vector per category (bits in `frame`; see matcher.h).
