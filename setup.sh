@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # drape's one entry point for a fresh Debian 12 machine (as root, or with sudo).
 #   ./setup.sh          install packages, build, and build the quickstart release
-#   ./setup.sh test     install packages, build, and run the test suite (what CI runs;
-#                       the sanitizer and fuzz runs are separate: docs/testing.md)
+#   ./setup.sh test     install packages, build, and run the test suite (what CI runs,
+#                       then fuzz/ci.sh: the readers under sanitizers, docs/testing.md)
 #   ./setup.sh build    install packages and build only
 #   ./setup.sh bench    also install what the benchmarks compare against (Open3D), build
 #   ./setup.sh sanitize all unit tests under ASan + UBSan (clang-14, folder build-san;
