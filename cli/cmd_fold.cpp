@@ -12,6 +12,7 @@
 #include "cli/command.h"
 #include "common/error.h"
 #include "common/files.h"
+#include "common/format.h"
 #include "common/json.h"
 #include "garments/io.h"
 #include "garments/templates.h"
@@ -120,7 +121,7 @@ FoldInputs SetUpFold(const Args& args) {
   // given on the command line.
   const auto k = args.GetDouble("--stiffness");
   const auto mu = args.GetDouble("--friction");
-  if (mu && !(*mu >= 0 && *mu < 5)) throw Error("--friction: must be in [0, 5), got " + std::to_string(*mu));
+  if (mu && !(*mu >= 0 && *mu < 5)) throw Error("--friction: must be in [0, 5), got " + FormatNumber(*mu));
   HangOptions ho;
   ho.fit_edge_length = args.GetDouble("--edge").value_or(0.04);
   if (!(k && mu)) {

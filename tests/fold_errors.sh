@@ -1,0 +1,19 @@
+#!/usr/bin/env bash
+# drape fold's errors on bad input: a clear message, exit status 1, before any simulation;
+# numbers in them as a person writes them (7, not 7.000000).
+source "$(dirname "$0")/e2e_lib.sh"
+plan="$SRC/runtime/folding/plans/towel.yaml"
+# The whole message line must read "drape fold: MESSAGE" (so "got 7" does not pass for
+# "got 7.000000").
+expect_error() {
+  local message=$1
+  shift
+  local out status=0
+  out=$("$DRAPE" fold "$@" -o "$WORK/out" 2>&1) || status=$?
+  [ "$status" -eq 1 ] || fail "fold $*: status $status (want 1), output: $out"
+  echo "$out" | grep -qxF -- "drape fold: $message" || fail "fold $*: expected 'drape fold: $message', got: $out"
+}
+expect_error "--plan PLAN is required" towel
+expect_error "--friction: must be in [0, 5), got 7" towel --plan "$plan" --friction 7
+expect_error "--friction: must be in [0, 5), got -0.25" towel --plan "$plan" --friction -0.25
+expect_error "--material: unknown material 'felt'" towel --plan "$plan" --material felt
