@@ -77,11 +77,12 @@ std::string ReportMarkdown(const std::vector<TableRow>& rows) {
      << "|---|---|---|---|---|---|---|---|---|\n";
   char buf[256];
   for (const TableRow& r : rows) {
-    char cov[32] = "–";
+    char cov[32] = "–", regrasps[32] = "–";
     if (r.placed) std::snprintf(cov, sizeof cov, "%.2f (%d)", r.coverage, r.placed);
+    if (r.unfolded) std::snprintf(regrasps, sizeof regrasps, "%.1f", r.regrasps_on_success);  // as the paper's rows
     std::snprintf(buf, sizeof buf, "| %s | %s | %d | %d/%d | %d/%d | %d/%d | %s | %s | %.0f |\n", r.category.c_str(),
                   r.variant.c_str(), r.trials, r.recognised, r.trials, r.regrasped, r.trials, r.unfolded, r.trials,
-                  r.unfolded ? (std::to_string(r.regrasps_on_success).substr(0, 4)).c_str() : "–", cov, r.seconds);
+                  regrasps, cov, r.seconds);
     os << buf;
   }
   os << "| **paper (Baxter, average of 7 garments)** | | 10 | 8.3/10 | 8.7/10 | 8.0/10 | 1.6 | – | |\n";
