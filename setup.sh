@@ -80,17 +80,31 @@ install_viewer() {
   (cd "$dir" && npm ci --no-audit --no-fund --loglevel=error)
 }
 
-# Debian's python3 finds the package built in $BUILD_DIR/python (import drape).
+# Debian's python3 finds the package built in $BUILD_DIR/python (import drape) through
+# a drape.pth in its site folder: machine-wide, so written only when there is none (or it
+# already names this checkout); one naming another checkout is left alone, with how to
+# use this one. DRAPE_PYTHON_PTH=replace points it here; DRAPE_PYTHON_PTH=no skips this.
 install_python_path() {
-  local site
+  [ "${DRAPE_PYTHON_PTH:-}" = no ] && return
+  local site pkg pth current=""
   site=$(/usr/bin/python3 -c 'import sys; print(f"/usr/local/lib/python{sys.version_info.major}.{sys.version_info.minor}/dist-packages")')
+  pkg="$(cd "$BUILD_DIR" && pwd)/python"
+  pth="$site/drape.pth"
+  [ -f "$pth" ] && current=$(head -n 1 "$pth")
+  if [ "$current" = "$pkg" ]; then
+    echo "setup: /usr/bin/python3 imports drape from $pkg ($pth)"
+    return
+  fi
+  if [ -n "$current" ] && [ "${DRAPE_PYTHON_PTH:-}" != replace ]; then
+    echo "setup: left $pth as it is: /usr/bin/python3 imports drape from $current, not this checkout;" \
+      "for this one: export PYTHONPATH=$pkg (or DRAPE_PYTHON_PTH=replace ./setup.sh build to point $pth here)"
+    return
+  fi
   local sudo=""
   [ "$(id -u)" -eq 0 ] || sudo="sudo"
   $sudo mkdir -p "$site"
-  local pkg
-  pkg="$(cd "$BUILD_DIR" && pwd)/python"
-  echo "$pkg" | $sudo tee "$site/drape.pth" > /dev/null
-  echo "setup: /usr/bin/python3 imports drape from $pkg ($site/drape.pth)"
+  echo "$pkg" | $sudo tee "$pth" > /dev/null
+  echo "setup: wrote $pth${current:+ (it named $current)}: /usr/bin/python3 imports drape from $pkg"
 }
 
 build() {
