@@ -1,5 +1,7 @@
 // drape fold GARMENT --plan PLAN: the paper's trajectory optimisation for folding with
 // the cloth simulation in the loop, and its evaluation over seeded, perturbed trials.
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -31,7 +33,8 @@ const char* kUsage =
     "Usage: drape fold GARMENT --plan PLAN [--trials N] [--seed S] [-o DIR]\n"
     "                  [--size S|M|L] [--edge M] [--material NAME] [--category C]\n"
     "                  [--gripper pinch|point] [--max-sims N] [--fan STEP|none] [--no-optimise]\n"
-    "                  [--stiffness K] [--friction MU]\n"
+    "                  [--key-points-only]\n"
+    "                  [--stiffness K] [--friction MU] [--replay TRAJECTORIES_JSON]\n"
     "\n"
     "Folds a garment lying flat on a table in simulation, step by step as PLAN says\n"
     "(runtime/folding/plans/*.yaml), optimising each step's cubic Bezier trajectories by\n"
@@ -53,8 +56,12 @@ const char* kUsage =
     "  --max-sims N       simulations per step's optimisation (default 40)\n"
     "  --fan STEP|none    the solution-space fans for this step (1-based; default the last)\n"
     "  --no-optimise      keep the initial h = 1/3 trajectories (for comparison)\n"
+    "  --key-points-only  no folding: the trials' perturbed flat garments and the key points the\n"
+    "                     camera finds on them (keypoints_trialN.png), or why it found none\n"
     "  --stiffness K      Bullet link stiffness kLST instead of fitting it to the material's stretch\n"
     "  --friction MU      table friction coefficient instead of fitting it to the friction angle\n"
+    "  --replay FILE      no optimisation: replay the optimised trajectories of an earlier run's\n"
+    "                     trajectories.json (relative to each step's P0 -> P3) on this garment\n"
     "\n"
     "Material: link stiffness fitted to the measured stretch and table friction fitted to the\n"
     "measured friction angle (a square of the cloth starts to slide on a table tilted by it;\n"
@@ -124,6 +131,13 @@ FoldInputs SetUpFold(const Args& args) {
   if (mu && !(*mu >= 0 && *mu < 5)) throw Error("--friction: must be in [0, 5), got " + FormatNumber(*mu));
   HangOptions ho;
   ho.fit_edge_length = args.GetDouble("--edge").value_or(0.04);
+  // The stretch reference strip (fit_width 0.1 m) is hung from its top_centre node, node
+  // nx/2 of nx = round(width / edge) elements across: at 8 cm edges nx = 1 and that node
+  // is a corner — the strip hangs from its corner, swings diagonal, and what FitMaterial
+  // measures is not the stretch (the fit ran to its kLST floor 0.001). Keep an even
+  // number (≥ 2) of whole elements across, so the node is the middle of the top edge.
+  const int across = std::max(2, 2 * static_cast<int>(std::lround(ho.fit_width / (2 * ho.fit_edge_length))));
+  ho.fit_width = across * ho.fit_edge_length;
   if (!(k && mu)) {
     std::printf("fitting %s to its stretch (%.1f %%) and friction angle (%.1f deg) ...\n", in.material.c_str(),
                 material->stretch_percent, material->friction_deg);
@@ -218,6 +232,7 @@ Json ReportSteps(const FoldScene& scene, const PlanRun& run, const PlanRunOption
 Json TrialJson(int t, const TrialResult& tr) {
   return {{"index", t},
           {"success", tr.success},
+          {"completed", tr.completed},
           {"failure", tr.failure},
           {"friction_scale", tr.friction_scale},
           {"stiffness_scale", tr.stiffness_scale},
@@ -227,36 +242,93 @@ Json TrialJson(int t, const TrialResult& tr) {
           {"final_dissimilarity", tr.final_dissimilarity},
           {"diagonal", tr.diagonal},
           {"inside_fraction", tr.inside_fraction},
+          {"silhouette_reach", tr.reach},
           {"sim_time", tr.sim_time},
           {"wall_seconds", tr.wall_seconds}};
 }
 
-// Evaluation trials replaying the optimised relative trajectories under perturbation; a
-// failed trial's last step as a picture; the success table in md.
-Json RunTrials(const Args& args, const FoldSetup& setup, const FoldingPlan& plan, const PlanRunOptions& ro,
-               const PlanRun& run, const fs::path& out, std::ostringstream& md) {
+// One row of the trials table in md.
+std::string TrialRow(const std::string& label, const TrialResult& tr) {
+  char row[512];
+  if (!tr.completed) {
+    std::snprintf(row, sizeof row, "| %s | %.3f | %.3f | %.3f | (%.3f, %.3f) | %.1f | – | – | – | – | did not finish: %s |\n",
+                  label.c_str(), tr.friction_scale, tr.stiffness_scale, tr.density_scale, tr.offset.x(),
+                  tr.offset.y(), tr.yaw_deg, tr.failure.c_str());
+  } else {
+    std::snprintf(row, sizeof row, "| %s | %.3f | %.3f | %.3f | (%.3f, %.3f) | %.1f | %.1f | %.1f | %.0f | %.1f | %s |\n",
+                  label.c_str(), tr.friction_scale, tr.stiffness_scale, tr.density_scale, tr.offset.x(),
+                  tr.offset.y(), tr.yaw_deg, 1e3 * tr.final_dissimilarity,
+                  100 * tr.final_dissimilarity / std::max(tr.diagonal, 1e-9), 100 * tr.inside_fraction, 100 * tr.reach,
+                  tr.success ? "success" : tr.failure.c_str());
+  }
+  return row;
+}
+
+void PrintTrial(const std::string& label, const TrialResult& tr) {
+  if (!tr.completed)
+    std::printf("%s: did not finish: %s\n", label.c_str(), tr.failure.c_str());
+  else
+    std::printf("%s: %s, D %.1f mm (%.1f %% of %.2f m), silhouette %.0f %% inside (reach %.1f cm)\n", label.c_str(),
+                tr.success ? "success" : ("failed: " + tr.failure).c_str(), 1e3 * tr.final_dissimilarity,
+                100 * tr.final_dissimilarity / std::max(tr.diagonal, 1e-9), tr.diagonal, 100 * tr.inside_fraction,
+                100 * tr.reach);
+  std::fflush(stdout);
+}
+
+// The picture of a failed trial: its last finished step's key frames, or the flat
+// garment with the key points found when it stopped before the first fold.
+void WriteFailurePicture(const fs::path& file, const TrialResult& tr, const Faces& F, double tolerance) {
+  if (tr.completed) {
+    const cv::Mat steps = StepKeyFrames(tr.run.steps.back(), F);
+    cv::Mat judged = ResultFigure(tr.run, F, tolerance, tr.failure), pic;
+    // The judged result beside the last step's frames, padded to the same height.
+    if (judged.rows < steps.rows)
+      cv::copyMakeBorder(judged, judged, 0, steps.rows - judged.rows, 0, 0, cv::BORDER_CONSTANT, cv::Scalar::all(255));
+    if (judged.rows > steps.rows) cv::resize(judged, judged, cv::Size(judged.cols * steps.rows / judged.rows, steps.rows));
+    cv::hconcat(steps, judged, pic);
+    WritePng(file, pic);
+  } else if (!tr.run.steps.empty()) {
+    WritePng(file, StepKeyFrames(tr.run.steps.back(), F));
+  } else if (tr.run.flat.rows() > 0) {
+    WritePng(file, FlatGarmentFigure(tr.run, F, tr.failure));
+  }
+}
+
+// Evaluation trials replaying the optimised relative trajectories under perturbation,
+// after the criterion applied to the unperturbed run itself; a failed trial as a
+// picture; the success table and one row per trial in md.
+Json RunTrialsReport(const Args& args, const FoldSetup& setup, const FoldingPlan& plan, const PlanRunOptions& ro,
+                     const PlanRun& run, const fs::path& out, std::ostringstream& md, Json& nominal_json) {
   std::vector<std::vector<RelativeTrajectory>> relative;
   for (const StepRecord& s : run.steps) relative.push_back(s.relative);
   TrialOptions to;
   to.trials = static_cast<int>(args.GetInt("--trials").value_or(10));
   to.seed = static_cast<uint64_t>(args.GetInt("--seed").value_or(1));
+  const Faces& F = setup.garment.mesh.F;
+  TrialResult nominal;
+  nominal.index = -1;
+  nominal.run = run;
+  nominal.completed = true;
+  JudgeFold(nominal, F, to);
+  nominal_json = TrialJson(-1, nominal);
+  PrintTrial("unperturbed", nominal);
+  WritePng(out / "result.png",
+           ResultFigure(run, F, to.silhouette_tolerance, nominal.success ? "unperturbed: success" : "unperturbed: " + nominal.failure));
+  md << "\n| trial | friction × | stiffness × | density × | offset (m) | yaw (°) | D (mm) | D (% of diagonal) "
+        "| silhouette inside (%) | reach (cm) | result |\n|---|---|---|---|---|---|---|---|---|---|---|\n"
+     << TrialRow("unperturbed", nominal);
   int success = 0;
   double seconds = 0;
   Json trials = Json::array();
-  for (int t = 0; t < to.trials; ++t) {
-    const TrialResult tr = RunTrial(setup, plan, ro, relative, to, t);
+  RunTrials(setup, plan, ro, relative, to, [&](const TrialResult& tr) {
     success += tr.success;
     seconds += tr.sim_time;
-    trials.push_back(TrialJson(t, tr));
-    std::printf("trial %d: %s, D %.1f mm (%.1f %% of %.2f m), silhouette %.0f %% inside\n", t,
-                tr.success ? "success" : ("failed: " + tr.failure).c_str(), 1e3 * tr.final_dissimilarity,
-                100 * tr.final_dissimilarity / std::max(tr.diagonal, 1e-9), tr.diagonal, 100 * tr.inside_fraction);
-    std::fflush(stdout);
-    if (!tr.success && !tr.run.steps.empty()) {
-      cv::Mat pic = StepKeyFrames(tr.run.steps.back(), setup.garment.mesh.F);
-      WritePng(out / ("failure_trial" + std::to_string(t) + ".png"), pic);
-    }
-  }
+    trials.push_back(TrialJson(tr.index, tr));
+    md << TrialRow(std::to_string(tr.index), tr);
+    PrintTrial("trial " + std::to_string(tr.index), tr);
+    if (!tr.success)
+      WriteFailurePicture(out / ("failure_trial" + std::to_string(tr.index) + ".png"), tr, F, to.silhouette_tolerance);
+  });
   if (to.trials > 0) {
     char row[256];
     md << "\n| garment | # folds | success | avg. simulated time (s) |\n|---|---|---|---|\n";
@@ -265,10 +337,43 @@ Json RunTrials(const Args& args, const FoldSetup& setup, const FoldingPlan& plan
     md << row << "| paper (average, real robot) | 2.3 | 9.3/10 | 97 |\n\n"
        << "Success: D(ideal, final) <= " << to.d_fraction * 100 << " % of the flat garment's diagonal and >= "
        << to.inside * 100 << " % of the final silhouette inside the ideal one grown by " << to.silhouette_tolerance * 100
-       << " cm.\n";
+       << " cm (reach: the distance from the ideal silhouette within which " << to.inside * 100
+       << " % of the final one lies).\n";
     std::printf("success %d/%d\n", success, to.trials);
   }
   return trials;
+}
+
+// The optimised trajectories of an earlier run (its trajectories.json), one set per
+// plan step, relative to each step's P0 -> P3.
+std::vector<std::vector<RelativeTrajectory>> LoadReplay(const fs::path& file, const FoldingPlan& plan) {
+  Json doc;
+  try {
+    doc = Json::parse(ReadFile(file));
+  } catch (const Json::exception& e) {
+    throw Error(file.string() + ": " + e.what());
+  }
+  auto v3 = [&](const Json& a) {
+    if (!a.is_array() || a.size() != 3) throw Error(file.string() + ": a knot is not [x, y, z]");
+    return Vec3(a[0].get<double>(), a[1].get<double>(), a[2].get<double>());
+  };
+  if (doc.value("plan", "") != plan.name)
+    throw Error(file.string() + ": made with plan '" + doc.value("plan", "") + "', not '" + plan.name + "'");
+  if (!doc.contains("steps") || !doc["steps"].is_array()) throw Error(file.string() + ": no steps array");
+  const Json& steps = doc["steps"];
+  if (steps.size() != plan.steps.size())
+    throw Error(file.string() + ": " + std::to_string(steps.size()) + " steps, the plan has " +
+                std::to_string(plan.steps.size()));
+  std::vector<std::vector<RelativeTrajectory>> out;
+  try {
+    for (const Json& st : steps) {
+      out.emplace_back();
+      for (const Json& k : st.at("optimised_relative")) out.back().push_back({v3(k.at("k1")), v3(k.at("k2"))});
+    }
+  } catch (const Json::exception& e) {
+    throw Error(file.string() + ": steps[" + std::to_string(out.size() - 1) + "].optimised_relative: " + e.what());
+  }
+  return out;
 }
 
 // The three 13-trajectory fans of step `fan` (1-based): fan.png, the D per knot height
@@ -301,10 +406,35 @@ Json WriteFans(const FoldScene& scene, const PlanRun& run, const PlanRunOptions&
   return {{"step", k + 1}, {"trajectories", fan_json}};
 }
 
+// --key-points-only: each trial's perturbed garment settles flat and the camera looks
+// for the plan's key points (the plan without its steps: no folding simulated).
+int KeyPointTrials(const Args& args, const FoldSetup& setup, const FoldingPlan& plan, const PlanRunOptions& ro,
+                   const fs::path& out) {
+  FoldingPlan none = plan;
+  none.steps.clear();
+  TrialOptions to;
+  to.trials = static_cast<int>(args.GetInt("--trials").value_or(10));
+  to.seed = static_cast<uint64_t>(args.GetInt("--seed").value_or(1));
+  int found = 0;
+  RunTrials(setup, none, ro, {}, to, [&](const TrialResult& tr) {
+    found += tr.completed;
+    char caption[256];
+    std::snprintf(caption, sizeof caption, "trial %d: friction x%.3f, stiffness x%.3f, offset (%.3f, %.3f) m, yaw %.1f deg",
+                  tr.index, tr.friction_scale, tr.stiffness_scale, tr.offset.x(), tr.offset.y(), tr.yaw_deg);
+    std::printf("%s: %s\n", caption, tr.completed ? "key points found" : tr.failure.c_str());
+    std::fflush(stdout);
+    if (tr.run.flat.rows() > 0)
+      WritePng(out / ("keypoints_trial" + std::to_string(tr.index) + ".png"),
+               FlatGarmentFigure(tr.run, setup.garment.mesh.F, tr.completed ? caption : tr.failure));
+  });
+  std::printf("key points found in %d/%d trials\n", found, to.trials);
+  return 0;
+}
+
 int Run(const std::vector<std::string>& argv) {
-  Args args(argv, {"--no-optimise"},
+  Args args(argv, {"--no-optimise", "--key-points-only"},
             {"--plan", "--trials", "--seed", "-o", "--output", "--size", "--edge", "--material", "--category",
-             "--gripper", "--max-sims", "--fan", "--stiffness", "--friction"});
+             "--gripper", "--max-sims", "--fan", "--stiffness", "--friction", "--replay"});
   if (args.help()) {
     std::cout << kUsage;
     return 0;
@@ -326,13 +456,18 @@ int Run(const std::vector<std::string>& argv) {
               GripperModelName(ro.sim.gripper).c_str());
   std::fflush(stdout);
 
-  const PlanRun run = RunPlan(scene, LayFlat(setup.garment.mesh, setup.table), category, plan, ro);
+  if (args.Flag("--key-points-only")) return KeyPointTrials(args, setup, plan, ro, out);
+  std::vector<std::vector<RelativeTrajectory>> replay;
+  if (auto r = args.Get("--replay")) replay = LoadReplay(*r, plan);
+  const PlanRun run = RunPlan(scene, LayFlat(setup.garment.mesh, setup.table), category, plan, ro,
+                              replay.empty() ? nullptr : &replay);
 
   std::ostringstream md;
   md << "# drape fold: " << setup.garment.instance << " with plan " << plan.name << "\n\n"
      << "Mesh " << setup.garment.mesh.NumVertices() << " vertices / " << setup.garment.mesh.NumFaces()
      << " faces; material " << in.material << " (kLST " << in.fit.stiffness << ", mu " << setup.friction
-     << "); gripper " << GripperModelName(ro.sim.gripper) << ".\n\n"
+     << "); gripper " << GripperModelName(ro.sim.gripper) << "."
+     << (replay.empty() ? "" : " Replayed " + *args.Get("--replay") + " (no optimisation).") << "\n\n"
      << "| step | arms | D before (mm) | D after (mm) | C before | C after | l before (m) | l after (m) | simulations "
         "| "
         "seconds |\n|---|---|---|---|---|---|---|---|---|---|\n";
@@ -352,7 +487,12 @@ int Run(const std::vector<std::string>& argv) {
   const std::string fan = args.Get("--fan", std::to_string(plan.steps.size()));
   if (fan != "none") doc["fan"] = WriteFans(scene, run, ro, fan, out, md);
 
-  doc["trials"] = RunTrials(args, setup, plan, ro, run, out, md);
+  // Written before the trials too: the optimisation is the expensive part.
+  WriteFileAtomic(out / "trajectories.json", doc.dump(2) + "\n");
+  WriteFileAtomic(out / "report.md", md.str());
+  Json nominal;
+  doc["trials"] = RunTrialsReport(args, setup, plan, ro, run, out, md, nominal);
+  doc["unperturbed"] = nominal;
   WriteFileAtomic(out / "trajectories.json", doc.dump(2) + "\n");
   WriteFileAtomic(out / "report.md", md.str());
   std::printf("wrote %s\n", out.string().c_str());

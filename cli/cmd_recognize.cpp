@@ -21,6 +21,19 @@
 namespace drape::cli {
 namespace {
 
+// "a,b,c" → {"a", "b", "c"}; a name may not be empty.
+std::vector<std::string> SplitList(const std::string& list) {
+  std::vector<std::string> out;
+  size_t start = 0;
+  while (true) {
+    const size_t comma = list.find(',', start);
+    out.push_back(list.substr(start, comma == std::string::npos ? std::string::npos : comma - start));
+    if (out.back().empty()) throw Error("--split '" + list + "': empty split name");
+    if (comma == std::string::npos) return out;
+    start = comma + 1;
+  }
+}
+
 namespace fs = std::filesystem;
 using namespace drape::recognition;
 
@@ -252,7 +265,9 @@ const char* kCalibrateUsage =
     "\n"
     "Options:\n"
     "  --c C             RankSVM penalty (default 10, the paper's; dlib scales it by 1/#pairs)\n"
-    "  --split S         split to learn from (default calibration)\n"
+    "  --split S[,S2]    split(s) to learn from (default calibration); a query is ranked\n"
+    "                    against the database entries of OTHER garment instances only, so\n"
+    "                    train works too (each database instance queries the others)\n"
     "  --frame F         database (default) | query: which frame w indexes (see docs)\n"
     "  --epsilon E       solver tolerance (default 0.001)\n"
     "  --out DIR         write the weights here instead\n"
@@ -275,8 +290,12 @@ int RunCalibrate(const std::vector<std::string>& argv) {
   LoadReport lr;
   const Database db = LoadDatabase(rel, &lr);
   LoadReport qr;
-  const std::vector<LabelledCode> queries = LoadSplit(rel, split, &qr);
-  if (queries.empty()) throw Error("calibrate: split '" + split + "' of " + rel.dir().string() + " has no usable entries");
+  std::vector<LabelledCode> queries;
+  for (const std::string& s : SplitList(split)) {
+    std::vector<LabelledCode> q = LoadSplit(rel, s, &qr);
+    if (q.empty()) throw Error("calibrate: split '" + s + "' of " + rel.dir().string() + " has no usable entries");
+    queries.insert(queries.end(), std::make_move_iterator(q.begin()), std::make_move_iterator(q.end()));
+  }
   const auto t0 = std::chrono::steady_clock::now();
   CalibrationResult res = Calibrate(db, queries, opt, rel.digest());
   const double secs = Since(t0);

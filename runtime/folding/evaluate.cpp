@@ -2,6 +2,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 
@@ -47,6 +48,41 @@ double SilhouetteInside(const TriMesh& shape, const TriMesh& reference, double t
   return total > 0 ? cv::countNonZero(in) / total : 0.0;
 }
 
+double SilhouetteReach(const TriMesh& shape, const TriMesh& reference, double fraction, double mpp) {
+  if (!(fraction > 0 && fraction <= 1)) throw Error("SilhouetteReach: fraction must be in (0, 1]");
+  Points3 both(shape.NumVertices() + reference.NumVertices(), 3);
+  both << shape.V, reference.V;
+  const TopDownCamera cam = FrameCamera(both, mpp, 0.05);
+  const cv::Mat a = TopDownMask(shape, cam), b = TopDownMask(reference, cam);
+  // Distance of every pixel to the nearest reference pixel (0 inside it).
+  cv::Mat outside = b == 0, dist;
+  cv::distanceTransform(outside, dist, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+  std::vector<float> d;
+  for (int y = 0; y < a.rows; ++y)
+    for (int x = 0; x < a.cols; ++x)
+      if (a.at<uchar>(y, x)) d.push_back(dist.at<float>(y, x));
+  if (d.empty()) return 0;
+  const size_t k = std::min(d.size() - 1, static_cast<size_t>(std::ceil(fraction * d.size())) - 1);
+  std::nth_element(d.begin(), d.begin() + k, d.end());
+  return d[k] * mpp;
+}
+
+void JudgeFold(TrialResult& r, const Faces& F, const TrialOptions& o) {
+  const Vec3 lo = r.run.flat.colwise().minCoeff(), hi = r.run.flat.colwise().maxCoeff();
+  r.diagonal = std::hypot(hi.x() - lo.x(), hi.z() - lo.z());
+  r.final_dissimilarity = r.run.final_dissimilarity;
+  r.inside_fraction = SilhouetteInside(TriMesh{r.run.final, F}, r.run.ideal, o.silhouette_tolerance, 0.004);
+  r.reach = SilhouetteReach(TriMesh{r.run.final, F}, r.run.ideal, o.inside, 0.004);
+  r.sim_time = 0;
+  for (const auto& s : r.run.steps) r.sim_time += s.result.after.sim_time;
+  const bool d_ok = r.final_dissimilarity <= o.d_fraction * r.diagonal;
+  const bool in_ok = r.inside_fraction >= o.inside;
+  r.success = d_ok && in_ok;
+  r.failure.clear();
+  if (!d_ok) r.failure = "D above the threshold";
+  if (!in_ok) r.failure += std::string(r.failure.empty() ? "" : "; ") + "silhouette outside the target's";
+}
+
 TrialResult RunTrial(const FoldSetup& setup, const FoldingPlan& plan, const PlanRunOptions& run_options,
                      const std::vector<std::vector<RelativeTrajectory>>& trajectories, const TrialOptions& o,
                      int index) {
@@ -63,26 +99,37 @@ TrialResult RunTrial(const FoldSetup& setup, const FoldingPlan& plan, const Plan
   r.yaw_deg = rng.Uniform(-o.yaw_deg, o.yaw_deg);
   const FoldScene scene = MakeScene(setup, r.friction_scale, r.stiffness_scale, r.density_scale);
   const Points3 laid = LayFlat(setup.garment.mesh, setup.table, r.offset, r.yaw_deg * M_PI / 180);
-  try {
-    r.run = RunPlan(scene, laid, setup.garment.category, plan, run_options, &trajectories);
-  } catch (const NumericalError& e) {
+  // Both kinds end this trial only: the next one starts from its own seed.
+  auto stop = [&](const std::exception& e) {
     r.failure = e.what();
+    for (const auto& s : r.run.steps) r.sim_time += s.result.after.sim_time;
     r.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  };
+  try {
+    RunPlan(r.run, scene, laid, setup.garment.category, plan, run_options, &trajectories);
+  } catch (const NumericalError& e) {
+    stop(e);
+    return r;
+  } catch (const Error& e) {
+    stop(e);
     return r;
   }
-  const Faces& F = setup.garment.mesh.F;
-  const Vec3 lo = r.run.flat.colwise().minCoeff(), hi = r.run.flat.colwise().maxCoeff();
-  r.diagonal = std::hypot(hi.x() - lo.x(), hi.z() - lo.z());
-  r.final_dissimilarity = r.run.final_dissimilarity;
-  r.inside_fraction = SilhouetteInside(TriMesh{r.run.final, F}, r.run.ideal, o.silhouette_tolerance, 0.004);
-  for (const auto& s : r.run.steps) r.sim_time += s.result.after.sim_time;
-  const bool d_ok = r.final_dissimilarity <= o.d_fraction * r.diagonal;
-  const bool in_ok = r.inside_fraction >= o.inside;
-  r.success = d_ok && in_ok;
-  if (!d_ok) r.failure = "D above the threshold";
-  if (!in_ok) r.failure += std::string(r.failure.empty() ? "" : "; ") + "silhouette outside the target's";
+  r.completed = true;
+  JudgeFold(r, setup.garment.mesh.F, o);
   r.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return r;
+}
+
+std::vector<TrialResult> RunTrials(const FoldSetup& setup, const FoldingPlan& plan, const PlanRunOptions& run_options,
+                                   const std::vector<std::vector<RelativeTrajectory>>& trajectories,
+                                   const TrialOptions& options, const std::function<void(const TrialResult&)>& done) {
+  options.Validate();
+  std::vector<TrialResult> out;
+  for (int t = 0; t < options.trials; ++t) {
+    out.push_back(RunTrial(setup, plan, run_options, trajectories, options, t));
+    if (done) done(out.back());
+  }
+  return out;
 }
 
 }  // namespace drape::folding

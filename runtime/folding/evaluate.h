@@ -8,6 +8,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -48,12 +49,14 @@ struct TrialOptions {
 struct TrialResult {
   int index = 0;
   bool success = false;
-  std::string failure;  // a simulation failure, or why the fold missed the criteria
+  bool completed = false;  // every plan step ran (else `failure` says what stopped it)
+  std::string failure;     // what stopped the plan (key points, a simulation), or why the fold missed the criteria
   double friction_scale = 1, stiffness_scale = 1, density_scale = 1, yaw_deg = 0;
   Vec2 offset = Vec2::Zero();
   double final_dissimilarity = 0;  // m
   double diagonal = 0;             // m
   double inside_fraction = 0;
+  double reach = 0;                // m, SilhouetteReach of the final shape at options.inside
   double sim_time = 0;             // s simulated (flat settle not counted)
   double wall_seconds = 0;         // timing only
   PlanRun run;                     // for pictures
@@ -61,9 +64,28 @@ struct TrialResult {
 
 // Fraction of `shape`'s top-down silhouette inside `reference`'s grown by tolerance.
 double SilhouetteInside(const TriMesh& shape, const TriMesh& reference, double tolerance, double metres_per_pixel);
+// The distance (m) from `reference`'s top-down silhouette within which `fraction` of
+// `shape`'s silhouette lies (0 when that much is inside it): how far the tolerance
+// would have to grow for SilhouetteInside(…) ≥ fraction.
+double SilhouetteReach(const TriMesh& shape, const TriMesh& reference, double fraction, double metres_per_pixel);
 
+// Scores a completed run against the success criterion: fills diagonal,
+// final_dissimilarity, inside_fraction, sim_time, success and failure from r.run.
+void JudgeFold(TrialResult& r, const Faces& F, const TrialOptions& options);
+
+// One trial. A failure inside it — key points not found on the perturbed garment, a
+// plan that does not fit it (drape::Error), a simulation failure (NumericalError) —
+// marks this trial failed with the reason and keeps what ran (r.run); it never throws
+// for those.
 TrialResult RunTrial(const FoldSetup& setup, const FoldingPlan& plan, const PlanRunOptions& run_options,
                      const std::vector<std::vector<RelativeTrajectory>>& trajectories, const TrialOptions& options,
                      int index);
+
+// options.trials trials in order; `done` (if set) sees each as it finishes.
+std::vector<TrialResult> RunTrials(const FoldSetup& setup, const FoldingPlan& plan,
+                                   const PlanRunOptions& run_options,
+                                   const std::vector<std::vector<RelativeTrajectory>>& trajectories,
+                                   const TrialOptions& options,
+                                   const std::function<void(const TrialResult&)>& done = {});
 
 }  // namespace drape::folding

@@ -74,6 +74,43 @@ cv::Mat StepKeyFrames(const StepRecord& step, const Faces& F, int tile) {
   return row;
 }
 
+cv::Mat FlatGarmentFigure(const PlanRun& run, const Faces& F, const std::string& caption) {
+  if (run.flat.rows() == 0) throw Error("FlatGarmentFigure: the run has no settled flat garment");
+  const TopDownCamera& cam = run.camera;
+  cv::Mat img = TopDownPicture(TriMesh{run.flat, F}, cam, cv::Scalar(200, 140, 60));
+  Outline(img, run.flat, F, cam, cv::Scalar(0, 0, 0), 1);
+  for (const auto& [name, xz] : run.key_points) {
+    const Vec2 f = cam.ToFrame(xz.x(), xz.y());
+    const cv::Point p(static_cast<int>(f.x()), static_cast<int>(-f.y()));
+    cv::circle(img, p, 4, cv::Scalar(0, 0, 255), -1, cv::LINE_AA);
+    cv::putText(img, name, p + cv::Point(5, -5), cv::FONT_HERSHEY_SIMPLEX, 0.35, cv::Scalar(0, 0, 160), 1, cv::LINE_AA);
+  }
+  cv::Mat out;
+  cv::copyMakeBorder(img, out, 24, 0, 0, 0, cv::BORDER_CONSTANT, cv::Scalar(255, 255, 255));
+  cv::putText(out, caption, cv::Point(4, 16), cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+  return out;
+}
+
+cv::Mat ResultFigure(const PlanRun& run, const Faces& F, double tolerance, const std::string& caption) {
+  if (run.final.rows() == 0) throw Error("ResultFigure: the run has no final shape");
+  Points3 both(run.final.rows() + run.ideal.V.rows(), 3);
+  both << run.final, run.ideal.V;
+  const double mpp = 0.002;
+  const TopDownCamera cam = FrameCamera(both, mpp, tolerance + 0.03);
+  cv::Mat img = TopDownPicture(TriMesh{run.final, F}, cam, cv::Scalar(200, 140, 60));
+  cv::Mat grown;
+  const int r = static_cast<int>(std::ceil(tolerance / mpp));
+  cv::dilate(TopDownMask(run.ideal, cam), grown, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * r + 1, 2 * r + 1)));
+  std::vector<std::vector<cv::Point>> contours;
+  cv::findContours(grown, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
+  cv::drawContours(img, contours, -1, cv::Scalar(150, 150, 150), 1, cv::LINE_AA);
+  Outline(img, run.ideal.V, F, cam, cv::Scalar(0, 0, 0), 2);
+  cv::Mat out;
+  cv::copyMakeBorder(img, out, 24, 0, 0, 0, cv::BORDER_CONSTANT, cv::Scalar(255, 255, 255));
+  cv::putText(out, caption, cv::Point(4, 16), cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+  return out;
+}
+
 std::vector<FanTrajectory> SolutionFan(const FoldScene& scene, const StepSetup& setup, const FoldSimOptions& sim,
                                        const std::string& kind, int count) {
   if (kind != "symmetric" && kind != "early" && kind != "late") throw Error("fan kind must be symmetric, early or late");

@@ -18,6 +18,16 @@ namespace drape::folding {
 // step's optimised simulation, then the top-down outlines of result and target.
 cv::Mat StepKeyFrames(const StepRecord& step, const Faces& F, int tile = 240);
 
+// The settled flat garment as the camera above the table sees it, its mask outline
+// and the key points found on it (red, named), with a caption: what a trial saw when
+// its plan stopped before the first fold (e.g. a key point it could not find).
+cv::Mat FlatGarmentFigure(const PlanRun& run, const Faces& F, const std::string& caption);
+
+// What the success criterion judges, from above: the final shape (shaded), the ideal
+// chained folds' outline (black) and that outline grown by `tolerance` (grey), with a
+// caption.
+cv::Mat ResultFigure(const PlanRun& run, const Faces& F, double tolerance, const std::string& caption);
+
 // A fan of trajectories for one step: "symmetric" (both knots at height h·s for 13
 // values of h), "early" (the first knot varies, the second at h = ⅓), "late" (the
 // second varies).

@@ -83,12 +83,20 @@ int GraspVertex(const Points3& x, const Vec2& at) {
 PlanRun RunPlan(const FoldScene& scene, const Points3& laid, const std::string& category,
                 const FoldingPlan& plan, const PlanRunOptions& o,
                 const std::vector<std::vector<RelativeTrajectory>>* replay) {
+  PlanRun run;
+  RunPlan(run, scene, laid, category, plan, o, replay);
+  return run;
+}
+
+void RunPlan(PlanRun& run, const FoldScene& scene, const Points3& laid, const std::string& category,
+             const FoldingPlan& plan, const PlanRunOptions& o,
+             const std::vector<std::vector<RelativeTrajectory>>* replay) {
   o.Validate();
   if (std::find(plan.categories.begin(), plan.categories.end(), category) == plan.categories.end())
     throw Error(plan.file_label + ": the plan '" + plan.name + "' is not for a " + category);
   if (replay && replay->size() != plan.steps.size()) throw Error("replay: one trajectory set per plan step");
   const Faces& F = scene.model->rest.F;
-  PlanRun run;
+  run = PlanRun{};
   run.flat = SettleFlat(scene, laid, o.flat_settle);
   run.camera = FrameCamera(run.flat, o.camera_metres_per_pixel, 0.05);
   const auto kp = DetectKeyPoints(TopDownMask(TriMesh{run.flat, F}, run.camera), category, o.key_points);
@@ -138,7 +146,6 @@ PlanRun RunPlan(const FoldScene& scene, const Points3& laid, const std::string& 
   }
   run.final = cur;
   run.final_dissimilarity = Dissimilarity(run.ideal, TriMesh{run.final, F});
-  return run;
 }
 
 }  // namespace drape::folding

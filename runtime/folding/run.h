@@ -63,6 +63,11 @@ struct PlanRun {
 PlanRun RunPlan(const FoldScene& scene, const Points3& laid, const std::string& category,
                 const FoldingPlan& plan, const PlanRunOptions& options,
                 const std::vector<std::vector<RelativeTrajectory>>* replay = nullptr);
+// The same, filling `run` as it goes (the settled flat garment, its camera and key
+// points, each finished step), so a caller that catches a failure keeps what was done.
+void RunPlan(PlanRun& run, const FoldScene& scene, const Points3& laid, const std::string& category,
+             const FoldingPlan& plan, const PlanRunOptions& options,
+             const std::vector<std::vector<RelativeTrajectory>>* replay = nullptr);
 
 // Settles a garment laid on the table (no grippers). Throws NumericalError on a blow-up.
 Points3 SettleFlat(const FoldScene& scene, const Points3& laid, const SettleOptions& settle);

@@ -90,6 +90,9 @@ QueryPairs PairsOf(const Database& db, const LabelledCode& lq, const std::string
   db.matcher().MatchAll(pq, &matches);
   QueryPairs p;
   for (int i : db.EntriesOf(cat)) {
+    // A query ranks only other garment instances: a train entry used as a query would
+    // otherwise find itself at distance 0 and teach nothing about other instances.
+    if (db.label(i).instance == lq.label.instance) continue;
     std::vector<double> x;
     db.matcher().XorVector(i, pq, matches[i].rotation, frame, &x);
     if (db.label(i).anchor == lq.label.anchor) {

@@ -144,6 +144,30 @@ TEST(RecognitionCalibrate, SkipsUnusableQueriesAndAbsentCategories) {
   EXPECT_THROW(Calibrate(Database(train), {}, {}, "d"), Error);
 }
 
+// The database itself as calibration queries (`drape calibrate --split train`): each
+// entry ranks only the entries of the OTHER instances, never itself (distance 0).
+TEST(RecognitionCalibrate, DatabaseEntriesAsQueriesRankOnlyOtherInstances) {
+  Rng rng(7);
+  NoisyCategory cat(rng);
+  std::vector<LabelledCode> train;
+  for (int a = 0; a < 3; ++a)
+    for (int inst = 1; inst <= 3; ++inst)
+      train.push_back(Labelled("t" + std::to_string(a) + std::to_string(inst), "a" + std::to_string(a),
+                               "shirt-" + std::to_string(inst), cat.Sample(rng, a, 4)));
+  const CalibrationResult res = Calibrate(Database(train), train, {}, "d");
+  ASSERT_EQ(res.categories.size(), 1u);
+  EXPECT_EQ(res.categories[0].queries, 9);
+  // Per query: 6 entries of the two other instances, 2 relevant (its anchor) × 4 not.
+  EXPECT_EQ(res.categories[0].pairs, 9LL * 2 * 4);
+  // A single instance has nothing to rank against: every query is skipped.
+  std::vector<LabelledCode> one(train.begin(), train.begin() + 1);
+  one.push_back(train[3]);  // a1 of the same instance shirt-1
+  one[1].label.instance = one[0].label.instance;
+  const CalibrationResult none = Calibrate(Database(one), one, {}, "d");
+  EXPECT_EQ(none.categories.at(0).queries, 0);
+  EXPECT_EQ(none.categories.at(0).skipped, 2);
+}
+
 TEST(RecognitionCalibrate, WeightsRoundTripAndForeignDigestIsRefused) {
   const fs::path dir = fs::temp_directory_path() / ("drape_weights_test_" + std::to_string(::getpid()));
   fs::remove_all(dir);
