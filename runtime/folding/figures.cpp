@@ -106,7 +106,9 @@ cv::Mat ResultFigure(const PlanRun& run, const Faces& F, double tolerance, const
   cv::drawContours(img, contours, -1, cv::Scalar(150, 150, 150), 1, cv::LINE_AA);
   Outline(img, run.ideal.V, F, cam, cv::Scalar(0, 0, 0), 2);
   cv::Mat out;
-  cv::copyMakeBorder(img, out, 24, 0, 0, 0, cv::BORDER_CONSTANT, cv::Scalar(255, 255, 255));
+  // Wide enough for the caption.
+  const int right = std::max(0, 7 * static_cast<int>(caption.size()) + 8 - img.cols);
+  cv::copyMakeBorder(img, out, 24, 0, 0, right, cv::BORDER_CONSTANT, cv::Scalar(255, 255, 255));
   cv::putText(out, caption, cv::Point(4, 16), cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
   return out;
 }

@@ -129,10 +129,18 @@ void Shirt(const Outline& o, Points& k, bool long_sleeve) {
   const double W = o.width, cx = o.centroid.x();
   const std::string l_end = long_sleeve ? "left_cuff" : "left_sleeve_end";
   const std::string r_end = long_sleeve ? "right_cuff" : "right_sleeve_end";
-  // The neckline is the deepest notch near the top centre; its hull edge ends at the
-  // neck points.
+  // The neckline is the deepest notch near the top centre that opens upwards (its hull
+  // edge, between the neck points, above its bottom). Without the last condition an
+  // armpit notch (it opens downwards: its hull edge runs from the cuff down to the hem)
+  // that lies within W/6 of the centroid — a shirt turned by a few degrees — was taken
+  // for the collar, and that armpit was then missing.
   const Defect& neck = DeepestWhere(
-      o, [&](const Defect& d) { return d.far.y() > o.centroid.y() && std::abs(d.far.x() - cx) < W / 6; }, "the collar");
+      o,
+      [&](const Defect& d) {
+        return d.far.y() > o.centroid.y() && std::abs(d.far.x() - cx) < W / 6 &&
+               d.far.y() < std::min(d.start.y(), d.end.y());
+      },
+      "the collar");
   k["collar"] = NotchBottom(o, neck);
   k["left_neck"] = neck.start.x() > neck.end.x() ? neck.start : neck.end;
   k["right_neck"] = neck.start.x() > neck.end.x() ? neck.end : neck.start;

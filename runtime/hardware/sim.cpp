@@ -157,6 +157,8 @@ struct SimWorld::Impl {
   int hang_from = -1;
   ArmState arms[2];
   int hangs = 0;
+  int fallbacks = 0;  // let-go falls that re-hung from the flat garment (no node between the pads)
+  int unsettled = 0;  // let-go falls that reached the time cap still moving (kept as they were)
   double sim_seconds = 0, sense_seconds = 0;
   uint64_t version = 0, ir_version = ~uint64_t(0);
   std::unique_ptr<SweepScene> ir_scene;
@@ -282,6 +284,10 @@ GraspReport SimArm::Close() {
   return r;
 }
 
+namespace {
+void FallFrom(SimWorld::Impl& w, int let_go);
+}  // namespace
+
 void SimArm::Open() {
   auto& a = w_->arms[k_];
   const bool held = a.holds;
@@ -289,7 +295,7 @@ void SimArm::Open() {
   a.holds = false;
   if (!held) return;
   if (w_->state == ClothState::kHeldByTwo) {
-    w_->Rehang(1 - k_);
+    FallFrom(*w_, k_);
   } else if (w_->state == ClothState::kHanging) {
     w_->state = ClothState::kLost;  // dropped
     ++w_->version;
@@ -380,6 +386,49 @@ Jaw PlaceJaw(const SimWorld::Impl& w, const PlaceFlatOptions& po) {
   return jaw;
 }
 
+// The garment's cloth model with the hang's parameters (generator/hang: the fitted
+// stiffness, the material's bending, the strain limit and layer thickness of the
+// release's simulation settings), rest lengths from the flat pattern.
+std::shared_ptr<const ClothModel> ClothModelOf(const SimWorld::Impl& w) {
+  return MakeClothModel(w.garment.mesh, w.garment.layer, ClothMaterialFor(w.material, w.fit, w.o.hang),
+                        ClothOptionsFor(w.o.hang, w.o.hang.time_step));
+}
+
+// Both grippers hold the garment and arm `let_go` opens: the cloth core runs from the
+// garment as the two grippers held it, the other gripper keeping the nodes between its
+// pads (PlaceJaw), until it comes to rest below that gripper (the hang's settling
+// criterion and time cap). A gripper whose pads hold no node of the cloth world (a
+// pinch between nodes of a coarse mesh) falls back to a hang from the flat garment at
+// the pinched point. Throws NumericalError if the simulation blows up.
+void FallFrom(SimWorld::Impl& w, int let_go) {
+  const int keep = 1 - let_go;
+  const auto t0 = Clock::now();
+  ClothWorld cw(ClothModelOf(w), w.mesh.V);
+  const int g = cw.AddGripper(PlaceJaw(w, PlaceFlatOptions{}), JawFrame(w.arms[keep].pose));
+  if (cw.Close(g).nodes == 0) {
+    w.sim_seconds += Since(t0);
+    ++w.fallbacks;
+    w.Rehang(keep);
+    return;
+  }
+  SettleOptions so;
+  so.distance = w.o.hang.settle_distance;
+  so.window = w.o.hang.settle_window;
+  so.min_time = w.o.hang.min_time;
+  so.time_cap = w.o.hang.time_cap;
+  const SettleReport sr = cw.Settle(so);
+  w.sim_seconds += Since(t0);
+  ++w.hangs;
+  if (!sr.settled && !sr.timed_out)
+    throw NumericalError(std::string("cloth simulation: the garment falling to hang from the ") +
+                         (keep ? "right" : "left") + " gripper blew up (" + sr.failure + ")");
+  w.unsettled += sr.timed_out;
+  w.mesh.V = cw.positions();
+  w.state = ClothState::kHanging;
+  w.hang_from = keep;
+  ++w.version;
+}
+
 // The grippers' paths (g: their ids in cw): spread above the near edge of the table, then
 // lower while carrying across it. Returns the time (s) at which both paths end.
 double SetPlacePaths(ClothWorld& cw, const SimWorld::Impl& w, const PlaceFlatOptions& po, const int g[2]) {
@@ -416,19 +465,12 @@ PlaceFlatReport SimWorld::PlaceFlat(const PlaceFlatOptions& po) {
   if (w.state != ClothState::kHeldByTwo) throw Error("place flat: both grippers must hold the garment");
   const auto t0 = Clock::now();
   PlaceFlatReport rep;
-  ClothMaterial cm;
-  cm.area_density = w.material.area_density;
-  cm.link_stiffness = w.fit.stiffness;
-  cm.bending = std::clamp(w.material.bending_stiffness, 1e-3, 1.0);
-  ClothOptions co;
-  co.time_step = w.o.hang.time_step;
-  co.solver_iterations = w.o.hang.solver_iterations;
-  co.damping = w.o.hang.damping;
-  ClothWorld cw(MakeClothModel(w.garment.mesh, w.garment.layer, cm, co), w.mesh.V);
+  ClothWorld cw(ClothModelOf(w), w.mesh.V);
   BoxCollider table;
   table.pose.translation() = w.o.table.center();
   table.half_extents = w.o.table.sizes() / 2;
-  table.friction = w.material.FrictionCoefficient();
+  // The fitted μ reproduces the measured friction angle in this simulation; tan(angle) if unfitted.
+  table.friction = w.fit.friction > 0 ? w.fit.friction : w.material.FrictionCoefficient();
   cw.AddCollider(table);
   const Jaw jaw = PlaceJaw(w, po);
   int g[2];
@@ -533,6 +575,8 @@ std::optional<Vec2> SimWorld::HeldUv(int i) const {
 }
 const SimOptions& SimWorld::options() const { return impl_->o; }
 int SimWorld::hangs() const { return impl_->hangs; }
+int SimWorld::fallbacks() const { return impl_->fallbacks; }
+int SimWorld::unsettled() const { return impl_->unsettled; }
 double SimWorld::simulation_seconds() const { return impl_->sim_seconds; }
 double SimWorld::sensing_seconds() const { return impl_->sense_seconds; }
 

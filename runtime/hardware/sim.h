@@ -1,17 +1,20 @@
 // Simulated hardware: one garment, two arms with parallel grippers, a Kinect, an IR range
 // sensor beside each gripper and a table, sharing one cloth state (SimWorld).
 //
-// Cloth model (quasi-static). Until the cloth core's world (grippers that move cloth
-// along paths, two-point hanging) is available, the garment's state changes only at
-// the events that change what holds it, and each such state is a Bullet soft-body
-// simulation run to rest (generator/hang: Hang, with the release's simulation settings
-// and the garment's material fit):
-//   - picked up from the table, or the other gripper let go: the garment hangs from the
-//     remaining grasp point until stationary (Hang from that point of the pattern);
+// Cloth model. The garment's state changes at the events that change what holds it,
+// each simulated with the cloth core (generator/cloth ClothWorld: Bullet + collision
+// handling, with the release's simulation settings and the garment's material fit) and
+// run to rest; between them it is quasi-static:
+//   - picked up from the table: it hangs from the grasp point until stationary (Hang
+//     from that point of the flat pattern, as the database entries were made);
+//   - held by both grippers, one lets go: it falls from the shape the two held and
+//     settles below the remaining gripper (ClothWorld from the current state);
+//   - held by both and placed on the table: PlaceFlat (ClothWorld: spread, lay, settle);
 //   - a held garment follows its gripper rigidly (translation, and turns with the wrist);
 //   - held by both grippers, it keeps the shape it had when the second one closed;
 //   - released by its only gripper, it falls and is lost (GraspOutcome::kLost).
-// What this leaves out: the swing and slip while grippers move, two-point sagging,
+// What this leaves out: the swing and slip while a holding arm moves (arms are slow, the
+// garment is at rest before each sweep), two-point sagging before placing, and
 // cloth-gripper collisions of a moving arm (a path may pass through the cloth).
 //
 // Jaws. A closing gripper pinches the cloth nodes inside its jaws: a box around the jaw
@@ -105,8 +108,12 @@ class SimWorld {
   int HeldVertex(int arm) const;  // pinched node of the garment, -1 if none
   std::optional<Vec2> HeldUv(int arm) const;  // pinched point on the flat pattern (m)
   const SimOptions& options() const;
-  // Hangs from rest so far: their count and wall seconds in the cloth simulation.
+  // Hangs and let-go falls so far: their count and wall seconds in the cloth simulation.
   int hangs() const;
+  // Let-go falls that re-hung from the flat garment (no cloth-world node between the
+  // remaining gripper's pads), and that reached the time cap still moving.
+  int fallbacks() const;
+  int unsettled() const;
   double simulation_seconds() const;
   double sensing_seconds() const;  // Kinect sweeps and IR readings
 

@@ -87,10 +87,13 @@ TEST(SimHardware, PickUpRegraspReleaseAndLose) {
   r = right.Close();
   EXPECT_NE(r.outcome, GraspOutcome::kMiss);
   EXPECT_EQ(w.state(), ClothState::kHeldByTwo);
-  // The first gripper lets go: the cloth re-hangs from the second.
+  // The first gripper lets go: the cloth falls from the shape the two held (the cloth
+  // world, not a hang from the flat pattern) and comes to rest below the second.
   left.Open();
   EXPECT_EQ(w.state(), ClothState::kHanging);
   EXPECT_EQ(w.hangs(), 2);
+  EXPECT_EQ(w.fallbacks(), 0);
+  EXPECT_EQ(w.unsettled(), 0);
   EXPECT_TRUE(right.HoldsCloth());
   // It hangs below the new grasp: most of it well below the jaws, the far end lowest
   // (the 0.36 m diagonal, less what folds where the cloth was pinched: 0.24 m measured

@@ -134,6 +134,32 @@ std::vector<std::string> ReleaseModel::TestCategories() const {
   return out;
 }
 
+namespace {
+// The material fit the build recorded for job `j` (entry.json "material_fit"), so a
+// trial hangs the garment with the release's own cloth parameters and skips
+// FitMaterial's reference runs (minutes of CPU on the paper recipe). None when the
+// entry is absent or failed, or its record has no fit.
+std::optional<MaterialFit> RecordedFit(const Release& release, const Job& j) {
+  const Release::EntryInfo* e = release.Find(j.id);
+  if (!e || e->failed || !e->record.contains("material_fit")) return std::nullopt;
+  const Json& f = e->record["material_fit"];
+  if (!f.is_object() || !f.contains("stiffness") || !f.contains("friction")) return std::nullopt;
+  MaterialFit fit;
+  fit.stiffness = f["stiffness"].get<double>();
+  fit.friction = f["friction"].get<double>();
+  fit.target_stretch_percent = f.value("target_stretch_percent", 0.0);
+  fit.reproduced_stretch_percent = f.value("reproduced_stretch_percent", 0.0);
+  fit.converged = f.value("converged", false);
+  fit.target_friction_deg = f.value("target_friction_deg", 0.0);
+  fit.reproduced_friction_deg = f.value("reproduced_friction_deg", 0.0);
+  if (!(fit.stiffness > 0 && fit.stiffness <= 1) || !(fit.friction >= 0))
+    throw Error(release.dir().string() + "/entries/" + j.id + "/entry.json: material_fit out of range (stiffness " +
+                std::to_string(fit.stiffness) + ", friction " + std::to_string(fit.friction) + ")");
+  fit.note = "recorded by the release build";
+  return fit;
+}
+}  // namespace
+
 const ReleaseModel::TestGarment& ReleaseModel::TestInstance(const std::string& category) const {
   std::lock_guard<std::mutex> lock(impl_->mu);
   auto it = impl_->tests.find(category);
@@ -148,7 +174,8 @@ const ReleaseModel::TestGarment& ReleaseModel::TestInstance(const std::string& c
     t.garment = std::move(garment);
     t.material = j.material;
     t.hang = HangOptionsFor(r, g);
-    t.fit = FitMaterial(t.material, t.hang);
+    const std::optional<MaterialFit> recorded = RecordedFit(impl_->release, j);
+    t.fit = recorded ? *recorded : FitMaterial(t.material, t.hang);
     t.instance = j.instance_name;
     return impl_->tests.emplace(category, std::move(t)).first->second;
   }
@@ -486,6 +513,7 @@ TrialResult RunTrial(const ReleaseModel& model, const std::string& category, con
     }
   }
   res.times.simulation = world.simulation_seconds();
+  res.hangs = world.hangs(), res.fallbacks = world.fallbacks(), res.unsettled = world.unsettled();
   res.final_state = hw::ClothStateName(world.state());
   res.final_mesh = world.mesh();
   res.seconds = Since(t_start);
@@ -541,6 +569,7 @@ Json TrialResult::ToJson() const {
           {"place_failure", place_failure},
           {"coverage", placed ? Json(coverage) : Json(nullptr)},
           {"failure", failure},
+          {"simulation", {{"hangs", hangs}, {"fallbacks", fallbacks}, {"unsettled", unsettled}}},
           {"timing", times.ToJson()},
           {"seconds", seconds}};
 }

@@ -78,7 +78,8 @@ class ReleaseModel {
   // Vertex of `anchor` in the meshes of database `instance`'s entries; -1 if unknown.
   int AnchorVertex(const std::string& instance, const std::string& anchor) const;
   // The category's test garment instances (from the recipe's test split): garment,
-  // material and its cloth fit. Throws drape::Error if the category has none.
+  // material and its cloth fit (the one the build recorded in the test entry's record,
+  // else FitMaterial). Throws drape::Error if the category has none.
   struct TestGarment {
     Garment garment;
     Material material;
@@ -153,6 +154,9 @@ struct TrialResult {
   bool placed = false;
   std::string place_failure;
   double coverage = -1;
+  // Cloth simulations run (pick-up hangs and let-go falls), let-go falls that re-hung
+  // from the flat garment, and falls that reached the time cap still moving (sim.h).
+  int hangs = 0, fallbacks = 0, unsettled = 0;
   StageTimes times;
   double seconds = 0;
   Json ToJson() const;           // the trace (no meshes)
