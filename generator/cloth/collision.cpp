@@ -948,7 +948,7 @@ void ImpactZones(ApplyContext& cx, Pending pending, std::vector<int> stretched,
   std::vector<int> zone_of(n, -1);
   std::vector<std::vector<int>> zones;
   Eigen::VectorXd w = cx.inv_mass;  // the clamp's inverse masses: zone nodes frozen
-  if (!pending.Empty()) stretched.clear();  // the clamp after the first zone move may fix them
+  if (!pending.Empty() || !cx.opt.strain_zones) stretched.clear();  // the clamp after the first zone move may fix them
   while (!pending.Empty() || !stretched.empty()) {
     if (cx.rep.zone_iterations == cx.opt.max_zone_iterations) {  // last resort: one zone
       std::fill(in_zone.begin(), in_zone.end(), 1);
@@ -989,7 +989,7 @@ void ImpactZones(ApplyContext& cx, Pending pending, std::vector<int> stretched,
     LimitStrain(cx, w);
     HandleColliders(cx, colliders, &in_zone);
     pending = {Detect(cx, &zone_of), DetectBoxes(cx, colliders, &pinned)};
-    stretched = AcrossZones(cx, StrainViolations(cx), zone_of);
+    if (cx.opt.strain_zones) stretched = AcrossZones(cx, StrainViolations(cx), zone_of);
   }
   cx.rep.impact_zones = static_cast<int>(zones.size());
   std::vector<Hit> hits;
@@ -1075,7 +1075,8 @@ CollisionReport CollisionHandler::Apply(const Points3& x0, Points3& x1, const Ei
     pending = ImpulsePasses(cx, colliders);
     stretched = StrainViolations(cx);
   }
-  if (!pending.Empty() || !stretched.empty()) ImpactZones(cx, std::move(pending), std::move(stretched), colliders);
+  if (!pending.Empty() || (options_.strain_zones && !stretched.empty()))
+    ImpactZones(cx, std::move(pending), std::move(stretched), colliders);
   rep.strain_violations = static_cast<int>(StrainViolations(cx, &rep.max_strain).size());
   return rep;
 }

@@ -22,9 +22,10 @@
 //      from x0, so edges inside it keep their x0 length, but edges leaving it are
 //      stretched by the zone's motion: after every zone move the free nodes are clamped
 //      again with the zones' nodes held (infinitely heavy), the colliders re-checked,
-//      and colliding pairs and still-violating edges both merge into zones, until no
-//      pair collides and no edge is beyond the bound. Every round merges at least two
-//      components, so this ends; as the last resort the whole mesh becomes one zone.
+//      and colliding pairs and (with strain_zones) still-violating edges both merge into
+//      zones, until no pair collides and no edge is beyond the bound. Every round merges
+//      at least two components, so this ends; as the last resort the whole mesh becomes
+//      one zone.
 // The caller then uses x1 as the new state and (x1 − x0)/dt as the node velocities.
 //
 // Guarantee: when every kinematic node (inv_mass == 0) moves rigidly as a group over
@@ -32,8 +33,8 @@
 // free of VF and EE crossings between elements that share no vertex
 // (report.remaining_collisions == 0): the CCD is conservative and a rigid zone moves
 // by an affine map (1−t)·I + t·R that stays invertible for rotation angles < π.
-// When in addition every edge of x0 is within the strain bound, so is every edge of
-// the returned x1 (report.strain_violations == 0; bound: (1 + max_strain +
+// When in addition every edge of x0 is within the strain bound and strain_zones is on,
+// so is every edge of the returned x1 (report.strain_violations == 0; bound: (1 + max_strain +
 // strain_tolerance)·L0, and (1 − max_compression − strain_tolerance)·L0 below).
 // Otherwise report.strain_violations counts the edges that could not be brought
 // within it (an edge of x0 already beyond it inside a zone, or between kinematic nodes
@@ -94,6 +95,14 @@ struct CollisionOptions {
   // Clamp → colliders → CCD rounds after the first CCD before edges still beyond the
   // bound go to the fail-safe (where they merge into rigid zones).
   int strain_rounds = 3;
+  // Edges still beyond the bound after those rounds merge into rigid impact zones
+  // (true: every step ends within the bound). Off, they are left to the next step's
+  // clamp and counted in CollisionReport::strain_violations; zones then come from
+  // collisions only. Why off for hanging: a zone that takes in a held node moves with
+  // the gripper, so stretched edges next to the grip froze whatever cloth their zone
+  // had merged with onto it — a shirt held by its cuff kept its body bunched at the
+  // cuff (fail-safe in 94 % of steps) instead of hanging 1.45 m below.
+  bool strain_zones = true;
   // Sweeps run outwards from the kinematic nodes (mesh hops); on an edge between two
   // hop levels the node nearer to a held node gets its inverse mass scaled by this
   // (1: plain mass weighting, which needs hundreds of sweeps to carry a grip's pull
@@ -160,6 +169,9 @@ class CollisionHandler {
                         const std::vector<BoxCollider>& colliders);
 
   const CollisionOptions& options() const { return options_; }
+  // Switches CollisionOptions::strain_zones for the following calls (e.g. strict steps
+  // to finish a run that settled with it off).
+  void SetStrainZones(bool on) { options_.strain_zones = on; }
   int NumVertices() const { return num_vertices_; }
   const std::vector<std::array<int, 2>>& edges() const { return edges_; }
   const Eigen::VectorXd& rest_lengths() const { return rest_lengths_; }

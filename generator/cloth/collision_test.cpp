@@ -548,6 +548,43 @@ TEST(CollisionApply, StrainBoundSurvivesImpulsesAndImpactZones) {
   }
 }
 
+// The same drive with strain_zones off: stretched edges never merge into zones (the
+// fail-safe runs for collisions only, and so less often), every path stays
+// intersection-free, and what the clamp leaves is reported exactly.
+TEST(CollisionApply, WithoutStrainZonesOnlyCollisionsMakeZones) {
+  const TriMesh m = Layers(2, 9, 9, 0.01, 0.006);
+  int fail_safe[2] = {0, 0};
+  for (int zones = 0; zones < 2; ++zones) {
+    CollisionOptions o = TestOptions();
+    o.max_strain = 0.05;
+    o.strain_zones = zones != 0;
+    CollisionHandler handler(m.F, m.V, o);
+    Rng rng(DeriveSeed(8, "strain-zones-0"));
+    Eigen::VectorXd inv_mass = Eigen::VectorXd::Ones(m.V.rows());
+    const int centre = 4 * 9 + 4;
+    inv_mass[centre] = 0;
+    Points3 x = m.V;
+    int violations = 0;
+    for (int step = 0; step < 12; ++step) {
+      Points3 x1 = x + RandomMotion(x, rng, 0.006);
+      for (int i = 0; i < x1.rows(); ++i) x1(i, 2) += i >= 81 ? -0.008 : -0.002 * (x.row(i) - m.V.row(centre)).norm() / 0.01;
+      x1.row(centre) = x.row(centre);
+      const Points3 x0 = x;
+      const CollisionReport rep = handler.Apply(x0, x1, inv_mass, 1.0 / 240, {});
+      ASSERT_EQ(rep.remaining_collisions, 0);
+      ASSERT_EQ(PathIntersections(m.F, x0, x1, 8), 0) << "step " << step;
+      ASSERT_NEAR(rep.max_strain, MaxEdgeStrain(m.F, m.V, x1), 1e-12);
+      if (!o.strain_zones) ASSERT_EQ(rep.strain_merges, 0);
+      violations += rep.strain_violations > 0;
+      fail_safe[zones] += rep.fail_safe_used;
+      x = x1;
+    }
+    if (o.strain_zones) EXPECT_EQ(violations, 0);
+    RecordProperty("fail_safe_steps_zones_" + std::to_string(zones), fail_safe[zones]);
+  }
+  EXPECT_LT(fail_safe[0], fail_safe[1]);
+}
+
 // Kinematic nodes pulled apart beyond the bound: no correction of free nodes can meet
 // it, and the report says so (the caller fails the job) instead of hiding it.
 TEST(CollisionApply, UnreachableStrainBoundIsReported) {

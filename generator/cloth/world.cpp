@@ -393,6 +393,10 @@ void ClothWorld::SetState(const ClothState& s) {
   SyncBullet();
 }
 
+void ClothWorld::SetStrainZones(bool on) {
+  if (handler_) handler_->SetStrainZones(on);
+}
+
 SettleReport ClothWorld::Settle(const SettleOptions& o) {
   o.Validate();
   const double dt = model_->options.time_step;

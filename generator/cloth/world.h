@@ -204,6 +204,10 @@ class ClothWorld {
   // is intersection-free), velocities unchanged: a seeded perturbation to break symmetry.
   void Perturb(const Points3& dx);
 
+  // Turns the collision handler's strain_zones on or off from the next step (the model's
+  // options say how the world starts). No-op without the handler.
+  void SetStrainZones(bool on);
+
   // One step of time_step (see the file comment). Returns the collision handler's report.
   CollisionReport Step();
   // Steps until no node moved more than options.distance over options.window (after

@@ -48,6 +48,12 @@ struct HangOptions {
   // keeps the Gauss–Seidel clamp's residual inside the 2× p99 acceptance bound below,
   // and cuts off the grip concentration (50–100 % strain before this clamp).
   double strain_limit = 1.8;
+  // Edges the clamp could not bring within that limit in a step are left to the next
+  // step (false), not frozen into rigid impact zones (true; collision.h strain_zones):
+  // zones that take in the held nodes ride with the gripper and held cloth up at the
+  // grip (a shirt by its cuff: body bunched at the cuff, 0.75 m long instead of 1.47 m).
+  // The acceptance bounds below still apply to the settled mesh.
+  bool strain_zones = false;
   // Acceptance: a hung mesh whose edge strain max / p99 exceed these multiples of the
   // material's stretch is failed (so is one that intersects itself or never settled).
   double accept_strain_max = 3.0;
