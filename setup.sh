@@ -1,15 +1,14 @@
 #!/usr/bin/env bash
 # drape's one entry point for a fresh Debian 12 machine (as root, or with sudo).
 #   ./setup.sh          install packages, build, and build the quickstart release
-#   ./setup.sh test     install packages, build, and run the test suite (what CI runs,
-#                       then fuzz/ci.sh: the unit suite under sanitizers, docs/testing.md)
+#   ./setup.sh test     install packages, build, and run the test suite (what CI runs;
+#                       the sanitizer and fuzz runs are separate: docs/testing.md)
 #   ./setup.sh build    install packages and build only
 #   ./setup.sh bench    also install what the benchmarks compare against (Open3D), build
-#   ./setup.sh sanitize what CI runs after the tests (fuzz/ci.sh): all unit tests under
-#                       ASan + UBSan (clang-14, folder build-san; end-to-end and "slow"
-#                       suites excluded, see docs/testing.md), every fuzz corpus
-#                       replayed, then every fuzz target for DRAPE_FUZZ_SECONDS
-#                       (default 10) each
+#   ./setup.sh sanitize fuzz/ci.sh: every unit-test program under ASan + UBSan
+#                       (clang-14, folder build-san; heavy simulations trimmed, see
+#                       docs/testing.md), every fuzz corpus replayed, then every fuzz
+#                       target for DRAPE_FUZZ_SECONDS (default 10) each
 #   ./setup.sh format   check that the lines this branch changed since main (on main:
 #                       the last commit) follow .clang-format; run it before landing
 # Safe to run again: packages already present are skipped, the build is incremental.
