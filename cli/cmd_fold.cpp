@@ -184,6 +184,18 @@ PlanRunOptions RunOptionsFrom(const Args& args, const FoldSetup& setup) {
   return ro;
 }
 
+// The optimising run says each step as it finishes (the trials' replays stay quiet).
+PlanRunOptions WithProgress(PlanRunOptions ro) {
+  ro.on_step = [](const StepRecord& s) {
+    const StepOptimum& r = s.result;
+    std::printf("  %-16s D %.1f -> %.1f mm, C %.3f -> %.3f (%d simulations, %.0f s)\n", s.name.c_str(),
+                1e3 * r.before.dissimilarity, 1e3 * r.after.dissimilarity, r.before.cost, r.after.cost,
+                r.simulations, r.wall_seconds);
+    std::fflush(stdout);
+  };
+  return ro;
+}
+
 // One step's record: trajectories before and after, costs, the other gripper's result.
 Json StepJson(const StepRecord& s, const StepSim& alt, GripperModel other) {
   const StepOptimum& r = s.result;
@@ -476,7 +488,7 @@ int Run(const std::vector<std::string>& argv) {
   if (args.Flag("--key-points-only")) return KeyPointTrials(args, setup, plan, ro, out);
   std::vector<std::vector<RelativeTrajectory>> replay;
   if (auto r = args.Get("--replay")) replay = LoadReplay(*r, plan);
-  const PlanRun run = RunPlan(scene, LaidGarment(setup), category, plan, ro,
+  const PlanRun run = RunPlan(scene, LaidGarment(setup), category, plan, WithProgress(ro),
                               replay.empty() ? nullptr : &replay);
 
   std::ostringstream md;

@@ -167,6 +167,7 @@ void RunPlan(PlanRun& run, const FoldScene& scene, const Points3& laid, const st
     for (const auto& c : rec.result.optimised) rec.relative.push_back(ToRelative(c));
     cur = rec.result.after.final;
     run.steps.push_back(std::move(rec));
+    if (o.on_step) o.on_step(run.steps.back());
   }
   run.final = cur;
   run.final_dissimilarity = Dissimilarity(run.ideal, TriMesh{run.final, F});
