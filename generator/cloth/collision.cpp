@@ -439,7 +439,7 @@ struct ApplyContext {
   CollisionHandler::StrainOrder& strain_order;
   CandidatePairs near = {};  // repulsion's pairs: within thickness somewhere on x0 → x1
   CandidatePairs cand, next = {};
-  Points3 box_ref;  // the x1 the candidates were found for
+  Points3 box_ref = {};  // the x1 the candidates were found for
   bool have_cand = false;
   // Detect's results per candidate for the x1 in detect_ref (toi < 0: no hit; NaN:
   // not known), reused for pairs none of whose nodes moved since.
