@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <optional>
 #include <sstream>
 
 #include <opencv2/imgcodecs.hpp>
@@ -22,6 +23,7 @@
 #include "generator/hang/material.h"
 #include "runtime/folding/evaluate.h"
 #include "runtime/folding/figures.h"
+#include "runtime/folding/placed.h"
 
 namespace drape::cli {
 namespace {
@@ -30,7 +32,7 @@ using namespace drape::folding;
 namespace fs = std::filesystem;
 
 const char* kUsage =
-    "Usage: drape fold GARMENT --plan PLAN [--trials N] [--seed S] [-o DIR]\n"
+    "Usage: drape fold GARMENT_OR_ENTRY --plan PLAN [--trials N] [--seed S] [-o DIR]\n"
     "                  [--size S|M|L] [--edge M] [--material NAME] [--category C]\n"
     "                  [--gripper pinch|point] [--max-sims N] [--fan STEP|none] [--no-optimise]\n"
     "                  [--key-points-only]\n"
@@ -42,8 +44,11 @@ const char* kUsage =
     "(paper: Trajectory Optimization for Folding); then replays the optimised trajectories\n"
     "in N seeded trials under perturbation (friction +-10 %, material +-10 %, placement\n"
     "offset <= 3 cm, yaw <= 5 deg) and reports the success rate.\n"
-    "  GARMENT            a template name (towel, pants, shorts, long_sleeve_shirt, tshirt) or a\n"
-    "                     flat garment mesh file (pattern frame, with its NAME.anchors.json)\n"
+    "  GARMENT_OR_ENTRY   a template name (towel, pants, shorts, long_sleeve_shirt, tshirt), a\n"
+    "                     flat garment mesh file (pattern frame, with its NAME.anchors.json), or\n"
+    "                     a garment as drape unfold placed it: its trial folder (OUT/CATEGORY/\n"
+    "                     trial_K), placed.json or trace.json; folded as it lies (turned upright),\n"
+    "                     with the trial's material fit unless --stiffness / --friction\n"
     "  --plan PATH        the folding plan\n"
     "  --trials N         evaluation trials (default 10; 0 = none)\n"
     "  --seed S           seed of the trials' perturbations (default 1)\n"
@@ -119,15 +124,27 @@ struct FoldInputs {
 FoldInputs SetUpFold(const Args& args) {
   FoldInputs in;
   FoldSetup& setup = in.setup;
-  setup.garment = LoadGarment(args.positional()[0], args);
-  in.material = args.Get("--material", DefaultMaterial(setup.garment.category));
+  const std::string& what = args.positional()[0];
+  std::optional<PlacedGarment> placed;
+  if (!FindTemplate(what) && IsPlacedGarmentPath(what)) {
+    placed = ReadPlacedGarment(what);
+    setup.garment = std::move(placed->garment);
+    setup.lying = std::move(placed->lying);
+  } else {
+    setup.garment = LoadGarment(what, args);
+  }
+  const bool preset = placed && FindMaterialPreset(placed->material);
+  in.material = args.Get("--material", preset ? placed->material : DefaultMaterial(setup.garment.category));
   const Material* material = FindMaterialPreset(in.material);
   if (!material) throw Error("--material: unknown material '" + in.material + "'");
   // FitMaterial fits the link stiffness to the measured stretch and the table friction to
   // the measured friction angle (a square on a tilted table); skipped only when both are
   // given on the command line.
-  const auto k = args.GetDouble("--stiffness");
-  const auto mu = args.GetDouble("--friction");
+  // A placed garment keeps the fit its unfold trial's cloth had (at its mesh's edges).
+  auto k = args.GetDouble("--stiffness");
+  auto mu = args.GetDouble("--friction");
+  if (placed && !k) k = placed->stiffness;
+  if (placed && !mu) mu = placed->friction;
   if (mu && !(*mu >= 0 && *mu < 5)) throw Error("--friction: must be in [0, 5), got " + FormatNumber(*mu));
   HangOptions ho;
   ho.fit_edge_length = args.GetDouble("--edge").value_or(0.04);
@@ -459,7 +476,7 @@ int Run(const std::vector<std::string>& argv) {
   if (args.Flag("--key-points-only")) return KeyPointTrials(args, setup, plan, ro, out);
   std::vector<std::vector<RelativeTrajectory>> replay;
   if (auto r = args.Get("--replay")) replay = LoadReplay(*r, plan);
-  const PlanRun run = RunPlan(scene, LayFlat(setup.garment.mesh, setup.table), category, plan, ro,
+  const PlanRun run = RunPlan(scene, LaidGarment(setup), category, plan, ro,
                               replay.empty() ? nullptr : &replay);
 
   std::ostringstream md;

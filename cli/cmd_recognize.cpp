@@ -10,6 +10,7 @@
 #include "cli/args.h"
 #include "cli/command.h"
 #include "common/error.h"
+#include "common/format.h"
 #include "generator/release/release.h"
 #include "runtime/recognition/calibrate.h"
 #include "runtime/recognition/evaluate.h"
@@ -108,7 +109,8 @@ Code EntryQuery(const Args& a, const Release& rel, const std::string& id, uint64
   Code q = LoadEntryCode(rel, *e);
   query = {{"kind", "entry"},         {"id", id},
            {"split", e->split},       {"true_category", l.category},
-           {"true_anchor", l.anchor}, {"instance", l.instance}};
+           {"true_anchor", l.anchor}, {"instance", l.instance},
+           {"height", ReconHeight(rel, *e)}};
   if (e->split == "train") query["note"] = "a train entry is in the database: it matches itself at distance 0";
   const StageTiming st = EntryStageTiming(rel.build_info(), id);
   timing["fusion_seconds"] = st.fusion_seconds >= 0 ? Json(st.fusion_seconds) : Json(nullptr);
@@ -134,7 +136,7 @@ Code FileQuery(const Args& a, const Release& rel, uint64_t seed, Json& query, Js
   const bool sweep = a.Get("--sweep").has_value();
   const fs::path p = sweep ? *a.Get("--sweep") : *a.Get("--mesh");
   const PipelineResult pr = sweep ? FeatureFromSweep(rel, p, seed) : FeatureFromMesh(rel, p, seed);
-  query = {{"kind", sweep ? "sweep" : "mesh"}, {"path", p.string()}, {"info", pr.info}};
+  query = {{"kind", sweep ? "sweep" : "mesh"}, {"path", p.string()}, {"info", pr.info}, {"height", pr.height}};
   timing["read_seconds"] = pr.timing.read_seconds;
   if (!sweep) timing["sweep_seconds"] = pr.timing.sweep_seconds;
   timing["fusion_seconds"] = pr.timing.fusion_seconds;
@@ -227,6 +229,7 @@ int RunRecognize(const std::vector<std::string>& argv) {
   o.top_k = static_cast<int>(a.GetInt("--top-k").value_or(5));
   o.category = a.Get("--category", "");
   o.instance = a.Get("--instance", "");
+  o.query_height = query.value("height", 0.0);
   const Recognition r = rec.Recognize(q, o);
   timing["matching_seconds"] = r.match_seconds;
 
@@ -270,11 +273,14 @@ const char* kCalibrateUsage =
     "                    train works too (each database instance queries the others)\n"
     "  --frame F         database (default) | query: which frame w indexes (see docs)\n"
     "  --epsilon E       solver tolerance (default 0.001)\n"
+    "  --no-height-gates learn no height gates (the paper's Algorithm 1 alone). By default\n"
+    "                    the gates on the hung height (docs/recognition.md) are chosen on\n"
+    "                    the given split(s) and the train entries (vs other instances)\n"
     "  --out DIR         write the weights here instead\n"
     "  --json            print the training statistics as JSON\n";
 
 int RunCalibrate(const std::vector<std::string>& argv) {
-  Args a(argv, {"--json"}, {"--c", "--split", "--frame", "--epsilon", "--out"});
+  Args a(argv, {"--json", "--no-height-gates"}, {"--c", "--split", "--frame", "--epsilon", "--out"});
   if (a.help()) {
     std::cout << kCalibrateUsage;
     return 0;
@@ -285,6 +291,7 @@ int RunCalibrate(const std::vector<std::string>& argv) {
   opt.c = a.GetDouble("--c").value_or(10.0);
   opt.epsilon = a.GetDouble("--epsilon").value_or(0.001);
   opt.frame = ParseWeightFrame(a.Get("--frame", "database"));
+  opt.height_gates = !a.Flag("--no-height-gates");
   opt.Validate();
   const std::string split = a.Get("--split", "calibration");
   LoadReport lr;
@@ -321,6 +328,17 @@ int RunCalibrate(const std::vector<std::string>& argv) {
                   c.category.c_str(), c.queries, c.skipped, c.pairs, c.accuracy_before, c.accuracy_after,
                   c.top1_before, c.top1_after, c.queries, 100 * c.nonzero_fraction);
     std::cout << line;
+  }
+  if (opt.height_gates && res.gates.queries > 0) {
+    const GateSelection& g = res.gates;
+    std::cout << "height gates (" << g.queries << " selection queries): category τ = "
+              << FormatNumber(g.chosen.category) << ", pose τ = " << FormatNumber(g.chosen.pose)
+              << " (right answers per τ: ";
+    for (size_t k = 0; k < g.taus.size(); ++k) {
+      std::cout << (k ? ", " : "") << FormatNumber(g.taus[k]) << ": " << g.category_right[k] << "/"
+                << g.pose_right[k];
+    }
+    std::cout << "; τ 0 = none)\n";
   }
   for (const auto& wmsg : res.warnings) std::cout << "warning: " << wmsg << "\n";
   std::cout << "wrote " << (out / "weights.json").string() << " + weights.bin (release digest " << rel.digest().substr(0, 12)

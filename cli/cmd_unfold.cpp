@@ -13,6 +13,7 @@
 #include "common/rng.h"
 #include "garments/templates.h"
 #include "runtime/recognition/release_source.h"
+#include "runtime/folding/placed.h"
 #include "runtime/unfolding/figures.h"
 #include "runtime/unfolding/loop.h"
 #include "runtime/unfolding/report.h"
@@ -38,7 +39,9 @@ const char* kUsage =
     "  --category C      only this category (default: every test category with a desired pair)\n"
     "  --trials N        trials per category (default 10)\n"
     "  --seed S          trial seeds derive from S (default 1)\n"
-    "  -o DIR            write DIR/<category>/trial_<k>/{trace.json, *.png}, DIR/report.md/.json\n"
+    "  -o DIR            write DIR/<category>/trial_<k>/{trace.json, *.png}, DIR/report.md/.json;\n"
+    "                    a garment placed flat also as placed.json, garment.ply, lying.ply there\n"
+    "                    (drape fold DIR/<category>/trial_<k> --plan PLAN folds it as it lies)\n"
     "  --weights PATH    weights.json (default RELEASE/calibration/weights.json; required unless\n"
     "                    --unweighted)\n"
     "  --frames N        Kinect frames per turn, 360 deg one way and back (default 550, the paper's)\n"
@@ -114,6 +117,12 @@ void WriteTrialTrace(const TrialResult& t, const Variant& v, const std::string& 
   fs::create_directories(td);
   Json trace = t.ToJson();
   trace["variant"] = v.name;
+  if (t.placed) {
+    // The garment as it lies, for drape fold (runtime/folding/placed.h).
+    const auto& tg = model.TestInstance(c);
+    folding::WritePlacedGarment(td, {tg.garment, t.final_mesh.V, tg.material.name, tg.fit.stiffness, tg.fit.friction});
+    trace["placed_garment"] = "placed.json";
+  }
   if (figures) trace["figures"] = WriteTrialFigures(t, model.TestInstance(c).garment, o.sensing_height, td);
   WriteFileAtomic(td / "trace.json", trace.dump(2) + "\n");
 }

@@ -58,11 +58,12 @@ class Runtime {
       if (e->failed) throw Error("recognize: entry " + value + " failed in the build (" + e->failure + ")");
       q = LoadEntryCode(rel_, *e);
       const EntryLabel l = LabelFromEntry(*e);
-      query.update({{"id", value}, {"split", e->split}, {"true_category", l.category}, {"true_anchor", l.anchor}});
+      query.update({{"id", value}, {"split", e->split}, {"true_category", l.category}, {"true_anchor", l.anchor},
+                    {"height", ReconHeight(rel_, *e)}});
     } else if (kind == "sweep" || kind == "mesh") {
       const PipelineResult pr = kind == "sweep" ? FeatureFromSweep(rel_, value, seed) : FeatureFromMesh(rel_, value, seed);
       q = pr.code;
-      query.update({{"path", value}, {"info", pr.info}});
+      query.update({{"path", value}, {"info", pr.info}, {"height", pr.height}});
     } else if (kind == "feature") {
       q = FeatureFromArray(*feature, "feature");
     } else {
@@ -73,6 +74,7 @@ class Runtime {
     o.category = category;
     o.instance = instance;
     o.weighted = weighted;
+    o.query_height = query.value("height", 0.0);  // a bare feature has none: no height gates
     o.Validate();
     const Recognizer rec(db_, weights_ ? &*weights_ : nullptr);
     const Recognition r = rec.Recognize(q, o);

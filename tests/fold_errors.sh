@@ -17,3 +17,7 @@ expect_error "--plan PLAN is required" towel
 expect_error "--friction: must be in [0, 5), got 7" towel --plan "$plan" --friction 7
 expect_error "--friction: must be in [0, 5), got -0.25" towel --plan "$plan" --friction -0.25
 expect_error "--material: unknown material 'felt'" towel --plan "$plan" --material felt
+# An unfold trial folder whose garment was never placed flat: nothing to fold, and why.
+mkdir -p "$WORK/trial_1"
+echo '{"placed": false, "place_failure": "a gripper holds no cloth node in the cloth world"}' > "$WORK/trial_1/trace.json"
+expect_error "$WORK/trial_1/trace.json: the trial did not place its garment flat on the table (placed: false: a gripper holds no cloth node in the cloth world)" "$WORK/trial_1" --plan "$plan"

@@ -15,6 +15,22 @@ done
 grep -q '"regrasps"' "$t/trace.json" || fail "trace has no regrasp count"
 grep -q 'successful unfolding' "$WORK/out/report.md" || fail "report has no table"
 
+# drape fold takes the garment as the trial left it: placed flat, its key points on the
+# folding table (turned upright); a trial that did not place it is a clear error.
+plan="$SRC/runtime/folding/plans/towel.yaml"
+if grep -q '"placed": true' "$t/trace.json"; then
+  for f in placed.json garment.ply garment.anchors.json lying.ply; do
+    [ -s "$t/$f" ] || fail "unfold placed the towel but wrote no $t/$f"
+  done
+  "$DRAPE" fold "$t" --plan "$plan" --key-points-only --trials 1 -o "$WORK/fold" > "$WORK/fold.log" ||
+    fail "fold of the placed towel: $(cat "$WORK/fold.log")"
+  grep -q "towel-" "$WORK/fold.log" || fail "fold did not read the placed towel: $(cat "$WORK/fold.log")"
+  [ -s "$WORK/fold/keypoints_trial0.png" ] || fail "fold wrote no key point picture of the placed towel"
+else
+  if out=$("$DRAPE" fold "$t" --plan "$plan" -o "$WORK/fold" 2>&1); then fail "fold of an unplaced trial succeeded"; fi
+  echo "$out" | grep -q "did not place its garment flat" || fail "fold of an unplaced trial: $out"
+fi
+
 # Bad input: a clear error, exit status 1.
 expect_error() {
   local pattern=$1

@@ -25,6 +25,11 @@ FoldScene MakeScene(const FoldSetup& s, double friction_scale, double stiffness_
   return scene;
 }
 
+Points3 LaidGarment(const FoldSetup& s, const Vec2& offset, double yaw) {
+  if (s.lying.rows() > 0) return PlaceOnTable(s.lying, s.garment.mesh, s.table, offset, yaw);
+  return LayFlat(s.garment.mesh, s.table, offset, yaw);
+}
+
 void TrialOptions::Validate() const {
   if (trials < 0) throw Error("TrialOptions.trials must be >= 0");
   if (!(friction_jitter >= 0 && friction_jitter < 1)) throw Error("TrialOptions.friction_jitter must be in [0, 1)");
@@ -98,7 +103,7 @@ TrialResult RunTrial(const FoldSetup& setup, const FoldingPlan& plan, const Plan
   r.offset = radius * Vec2(std::cos(angle), std::sin(angle));
   r.yaw_deg = rng.Uniform(-o.yaw_deg, o.yaw_deg);
   const FoldScene scene = MakeScene(setup, r.friction_scale, r.stiffness_scale, r.density_scale);
-  const Points3 laid = LayFlat(setup.garment.mesh, setup.table, r.offset, r.yaw_deg * M_PI / 180);
+  const Points3 laid = LaidGarment(setup, r.offset, r.yaw_deg * M_PI / 180);
   // Both kinds end this trial only: the next one starts from its own seed.
   auto stop = [&](const std::exception& e) {
     r.failure = e.what();

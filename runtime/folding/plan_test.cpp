@@ -13,9 +13,10 @@ namespace {
 
 const std::filesystem::path kPlans = std::filesystem::path(DRAPE_SOURCE_DIR) / "runtime/folding/plans";
 
-TEST(Plan, ShippedPlansParseWithThePapersStepCounts) {
+// The paper's step counts, except the shirt's: its sleeves are folded down first.
+TEST(Plan, ShippedPlansParseWithTheirStepCounts) {
   const std::map<std::string, size_t> steps = {
-      {"long_sleeve_shirt", 3}, {"pants", 2}, {"towel", 2}, {"shorts", 2}, {"tshirt", 3}};
+      {"long_sleeve_shirt", 5}, {"pants", 2}, {"towel", 2}, {"shorts", 2}, {"tshirt", 3}};
   for (const auto& [name, n] : steps) {
     const FoldingPlan p = LoadPlan(kPlans / (name + ".yaml"));
     EXPECT_EQ(p.name, name);

@@ -78,6 +78,10 @@ int GraspVertex(const Points3& x, const Vec2& at) {
   return arg;
 }
 
+std::string StepWhere(const FoldingPlan& plan, const PlanStep& ps) {
+  return plan.file_label + ":" + std::to_string(ps.line) + ": step '" + ps.name + "': ";
+}
+
 }  // namespace
 
 PlanRun RunPlan(const FoldScene& scene, const Points3& laid, const std::string& category,
@@ -86,6 +90,37 @@ PlanRun RunPlan(const FoldScene& scene, const Points3& laid, const std::string& 
   PlanRun run;
   RunPlan(run, scene, laid, category, plan, o, replay);
   return run;
+}
+
+std::vector<PlannedStep> PlanSteps(const TriMesh& flat, const std::map<std::string, Vec2>& key_points,
+                                   const FoldingPlan& plan, double thickness) {
+  // Plan points in world x, z: the picture's y (towards the collar) is world −z.
+  auto resolve = [&](const PlanPoint& p) {
+    Vec2 a = key_points.at(p.a);
+    if (!p.b.empty()) a += p.t * (key_points.at(p.b) - a);
+    return Vec2(a.x() + p.offset.x(), a.y() - p.offset.y());
+  };
+  std::vector<PlannedStep> out;
+  TriMesh ideal = flat;
+  for (const PlanStep& ps : plan.steps) {
+    PlannedStep st;
+    st.name = ps.name;
+    const Vec2 a = resolve(ps.line_from), b = resolve(ps.line_to);
+    st.line = FoldLine{a, b - a};
+    for (const PlanPoint& g : ps.grasps) {
+      st.grasp_vertices.push_back(GraspVertex(flat.V, resolve(g)));
+      st.grasps.push_back(g.b.empty() ? g.a : g.a + "~" + g.b);
+    }
+    try {
+      const Vec3 g0 = ideal.V.row(st.grasp_vertices[0]).transpose();
+      ideal = TargetShape(ideal, IdealFold(st.line, Vec2(g0.x(), g0.z()), ideal.V, thickness));
+    } catch (const Error& e) {
+      throw Error(StepWhere(plan, ps) + e.what());
+    }
+    st.ideal = ideal;
+    out.push_back(std::move(st));
+  }
+  return out;
 }
 
 void RunPlan(PlanRun& run, const FoldScene& scene, const Points3& laid, const std::string& category,
@@ -101,30 +136,19 @@ void RunPlan(PlanRun& run, const FoldScene& scene, const Points3& laid, const st
   run.camera = FrameCamera(run.flat, o.camera_metres_per_pixel, 0.05);
   const auto kp = DetectKeyPoints(TopDownMask(TriMesh{run.flat, F}, run.camera), category, o.key_points);
   for (const auto& [name, f] : kp) run.key_points[name] = run.camera.ToWorldXZ(f);
-  // Plan points in world x, z: the picture's y (towards the collar) is world −z.
-  auto resolve = [&](const PlanPoint& p) {
-    Vec2 a = run.key_points.at(p.a);
-    if (!p.b.empty()) a += p.t * (run.key_points.at(p.b) - a);
-    return Vec2(a.x() + p.offset.x(), a.y() - p.offset.y());
-  };
+  const std::vector<PlannedStep> planned = PlanSteps(TriMesh{run.flat, F}, run.key_points, plan, o.thickness);
   Points3 cur = run.flat;
-  run.ideal = TriMesh{run.flat, F};
+  run.ideal = planned.empty() ? TriMesh{run.flat, F} : planned.back().ideal;
   for (size_t i = 0; i < plan.steps.size(); ++i) {
-    const PlanStep& ps = plan.steps[i];
+    const PlannedStep& pl = planned[i];
+    const std::vector<int>& verts = pl.grasp_vertices;
     StepRecord rec;
-    rec.name = ps.name;
-    const Vec2 a = resolve(ps.line_from), b = resolve(ps.line_to);
-    rec.line = FoldLine{a, b - a};
-    std::vector<int> verts;
-    for (const PlanPoint& g : ps.grasps) {
-      verts.push_back(GraspVertex(run.flat, resolve(g)));
-      rec.grasps.push_back(g.b.empty() ? g.a : g.a + "~" + g.b);
-    }
-    const std::string where = plan.file_label + ":" + std::to_string(ps.line) + ": step '" + ps.name + "': ";
+    rec.name = pl.name;
+    rec.line = pl.line;
+    rec.grasps = pl.grasps;
+    const std::string where = StepWhere(plan, plan.steps[i]);
     try {
       rec.setup = PrepareStep(scene, cur, rec.line, verts, o.thickness);
-      const Vec3 g0 = run.ideal.V.row(verts[0]).transpose();
-      run.ideal = TargetShape(run.ideal, IdealFold(rec.line, Vec2(g0.x(), g0.z()), run.ideal.V, o.thickness));
     } catch (const Error& e) {
       throw Error(where + e.what());
     }

@@ -57,6 +57,22 @@ struct PlanRun {
   double final_dissimilarity = 0;          // D(ideal, final), m
 };
 
+// What a plan asks of a garment, before any simulation: per step the fold line (world
+// x, z, fixed on the table), the cloth points grasped (vertices of the flat garment's
+// top layer) and the ideal shape after it (the ideal folds chained from the flat one).
+struct PlannedStep {
+  std::string name;
+  FoldLine line;
+  std::vector<int> grasp_vertices;  // one per arm
+  std::vector<std::string> grasps;  // what the plan names, per arm
+  TriMesh ideal;                    // the flat garment after the ideal folds up to this one
+};
+// `key_points`: world x, z (the camera's key points of `flat`). Throws drape::Error
+// naming the plan file, line and step for a plan that does not fit (a grasp point on
+// its fold line, a degenerate line).
+std::vector<PlannedStep> PlanSteps(const TriMesh& flat, const std::map<std::string, Vec2>& key_points,
+                                   const FoldingPlan& plan, double thickness);
+
 // Optimises every step (replay == nullptr) or replays the given relative trajectories
 // (one vector per step, one per arm). Throws drape::Error for a plan that does not fit
 // the garment, NumericalError when a simulation fails.

@@ -31,6 +31,39 @@ Points3 LayFlat(const TriMesh& flat, const TableOptions& table, const Vec2& offs
   return out;
 }
 
+Points3 PlaceOnTable(const Points3& lying, const TriMesh& pattern, const TableOptions& table, const Vec2& offset,
+                     double yaw) {
+  table.Validate();
+  const int n = static_cast<int>(lying.rows());
+  if (n == 0 || n != pattern.NumVertices())
+    throw Error("PlaceOnTable: the lying garment has " + std::to_string(n) + " vertices, its pattern " +
+                std::to_string(pattern.NumVertices()));
+  if (!lying.allFinite()) throw Error("PlaceOnTable: the lying garment has a non-finite vertex");
+  // Upright as LayFlat lays the pattern: (x, −y); lying: (x, z); both about their means.
+  Eigen::Matrix2Xd q(2, n), p(2, n);
+  q.row(0) = pattern.V.col(0).transpose();
+  q.row(1) = -pattern.V.col(1).transpose();
+  p.row(0) = lying.col(0).transpose();
+  p.row(1) = lying.col(2).transpose();
+  q.colwise() -= q.rowwise().mean();
+  p.colwise() -= p.rowwise().mean();
+  // lying ≈ R(θ)·upright, θ = atan2(Σ q × p, Σ q · p) (2-D Kabsch); undo it, then turn
+  // by LayFlat's yaw, which is R(−yaw) in these coordinates.
+  const double theta = std::atan2((q.row(0).array() * p.row(1).array() - q.row(1).array() * p.row(0).array()).sum(),
+                                  (q.array() * p.array()).sum());
+  const Eigen::Rotation2Dd back(-theta), turn(-yaw);
+  Eigen::Matrix2Xd u(2, n);
+  for (int i = 0; i < n; ++i) u.col(i) = back * Vec2(lying(i, 0), lying(i, 2));
+  const Vec2 mid = 0.5 * (u.rowwise().minCoeff() + u.rowwise().maxCoeff());
+  const double low = lying.col(1).minCoeff();
+  Points3 out(n, 3);
+  for (int i = 0; i < n; ++i) {
+    const Vec2 w = offset + turn * (u.col(i) - mid);
+    out.row(i) = Vec3(w.x(), table.top + table.clearance + lying(i, 1) - low, w.y()).transpose();
+  }
+  return out;
+}
+
 Vec2 TopDownCamera::ToWorldXZ(const Vec2& f) const {
   // The rasteriser puts pixel centres at integer coordinates; the frame at + ½.
   const double col = f.x() - 0.5, row = -f.y() - 0.5;

@@ -26,6 +26,16 @@ struct TableOptions {
 // about world y). Faces keep their order and winding.
 Points3 LayFlat(const TriMesh& flat, const TableOptions& table, const Vec2& offset = Vec2::Zero(), double yaw = 0);
 
+// A garment lying on some table (world y up; e.g. as `drape unfold` placed it) moved
+// onto this one as LayFlat would lay its pattern: turned about the vertical so that the
+// pattern's up (collar/waist) points to world −z as the camera expects — the yaw of the
+// 2-D least-squares rotation of the pattern's x–y onto the lying x–z, what the placing
+// robot knows from the points it held — its x–z bounding-box centre at `offset`, turned
+// further by `yaw` (LayFlat's sense), its lowest point `clearance` above the top. Its
+// shape is kept. Throws drape::Error if `pattern` has other vertices.
+Points3 PlaceOnTable(const Points3& lying, const TriMesh& pattern, const TableOptions& table,
+                     const Vec2& offset = Vec2::Zero(), double yaw = 0);
+
 // An orthographic camera straight above the table looking down, picture x = world x,
 // picture up = world −z; `metres_per_pixel`, centred on (cx, cz).
 struct TopDownCamera {

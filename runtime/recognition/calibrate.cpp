@@ -5,8 +5,10 @@
 #include <algorithm>
 #include <bit>
 #include <chrono>
+#include <cmath>
 #include <cstring>
 #include <map>
+#include <set>
 
 #include "common/error.h"
 #include "common/format.h"
@@ -185,7 +187,89 @@ void CalibrateCategory(const Database& db, const std::string& cat, const std::ve
   out.categories.push_back(st);
 }
 
+// Right category and right anchor of one selection query for every candidate gate.
+void ScoreGates(const Database& db, const Code& code, const EntryLabel& ql, const std::vector<double>& taus,
+                std::vector<Match>& matches, GateSelection& g) {
+  PreparedQuery pq(code);
+  db.matcher().MatchAll(pq, &matches);
+  std::vector<int> others, same_category;
+  for (int i = 0; i < db.size(); ++i) {
+    if (db.label(i).instance == ql.instance) continue;
+    others.push_back(i);
+    if (db.label(i).category == ql.category) same_category.push_back(i);
+  }
+  if (others.empty()) return;
+  auto nearest = [&](const std::vector<int>& pool) {
+    int best = pool.front();
+    for (int i : pool) {
+      if (matches[i].distance < matches[best].distance) best = i;
+    }
+    return best;
+  };
+  for (size_t k = 0; k < taus.size(); ++k) {
+    g.category_right[k] += db.label(nearest(HeightGated(db, others, ql.height, taus[k]))).category == ql.category;
+    if (!same_category.empty()) {
+      g.pose_right[k] += db.label(nearest(HeightGated(db, same_category, ql.height, taus[k]))).anchor == ql.anchor;
+    }
+  }
+}
+
+// The weakest τ within one standard error of the best (the "one-standard-error rule" of
+// model selection, Breiman et al. 1984; Hastie et al., ESL §7.10): with ~100 selection
+// queries the right-answer counts of neighbouring gates differ by noise, and a weaker
+// gate discards less of the feature's information. SE = sqrt(p(1 − p)/n) of the best rate p.
+double BestGate(const std::vector<double>& taus, const std::vector<int>& right, int queries) {
+  const int best = *std::max_element(right.begin(), right.end());
+  const double p = double(best) / queries;
+  const double slack = std::sqrt(p * (1 - p) / queries) * queries;
+  for (size_t k = 0; k < taus.size(); ++k) {
+    if (right[k] >= best - slack) return taus[k];
+  }
+  return taus.front();
+}
+
 }  // namespace
+
+GateSelection SelectHeightGates(const Database& db, const std::vector<LabelledCode>& queries,
+                                const CalibrateOptions& options) {
+  GateSelection g;
+  // Weakest first, so that ties keep the weaker gate; 0 = no gate.
+  g.taus = {0, 0.5, 0.4, 0.3, 0.25, 0.2, 0.15, 0.12, 0.1, 0.08, 0.06, 0.05, 0.04, 0.03, 0.02};
+  g.category_right.assign(g.taus.size(), 0);
+  g.pose_right.assign(g.taus.size(), 0);
+  std::vector<Match> matches;
+  std::set<std::string> seen;  // a train split given as calibration queries counts once
+  auto add = [&](const Code& code, const EntryLabel& l) {
+    if (!seen.insert(l.id).second) return;
+    if (l.height <= 0) {
+      ++g.without_height;
+      return;
+    }
+    ++g.queries;
+    ScoreGates(db, code, l, g.taus, matches, g);
+  };
+  for (const auto& q : queries) add(q.code, q.label);
+  if (options.gate_train_queries) {
+    for (int i = 0; i < db.size(); ++i) add(db.code(i), db.label(i));
+  }
+  if (g.queries > 0) {
+    g.chosen = {BestGate(g.taus, g.category_right, g.queries), BestGate(g.taus, g.pose_right, g.queries)};
+  }
+  return g;
+}
+
+Json ToJson(const GateSelection& g) {
+  return Json{{"taus", g.taus},
+              {"category_right", g.category_right},
+              {"pose_right", g.pose_right},
+              {"queries", g.queries},
+              {"queries_without_height", g.without_height},
+              {"chosen", {{"category", g.chosen.category}, {"pose", g.chosen.pose}}},
+              {"rule",
+               "per gate: right category / right anchor (category known) of the unweighted nearest neighbour "
+               "among the database entries of other garment instances; the weakest gate within one standard "
+               "error of the most right answers"}};
+}
 
 CalibrationResult Calibrate(const Database& db, const std::vector<LabelledCode>& queries,
                             const CalibrateOptions& options, const std::string& release_digest) {
@@ -215,9 +299,17 @@ CalibrationResult Calibrate(const Database& db, const std::vector<LabelledCode>&
     }
     CalibrateCategory(db, cat, qs, options, out);
   }
+  if (options.height_gates) {
+    out.gates = SelectHeightGates(db, queries, options);
+    out.weights.height_gates = out.gates.chosen;
+    if (out.gates.queries == 0) out.warnings.push_back("no query has a known height: no height gates");
+  }
+  out.weights.options["height_gates"] = options.height_gates;
+  out.weights.options["gate_train_queries"] = options.gate_train_queries;
   Json cats = Json::array();
   for (const auto& c : out.categories) cats.push_back(ToJson(c));
   out.weights.stats = Json{{"categories", cats}, {"warnings", out.warnings}};
+  if (options.height_gates) out.weights.stats["height_gates"] = ToJson(out.gates);
   return out;
 }
 
@@ -253,6 +345,7 @@ void SaveWeights(const Weights& w, const fs::path& dir) {
          {"bin", "weights.bin"},
          {"bin_sha256", Sha256Hex(bin)},
          {"categories", cats},
+         {"height_gates", {{"category", w.height_gates.category}, {"pose", w.height_gates.pose}}},
          {"options", w.options},
          {"stats", w.stats}};
   WriteFileAtomic(dir / "weights.bin", bin);
@@ -301,6 +394,13 @@ Weights LoadWeights(const fs::path& path, const std::string& expected_digest) {
     }
     w.options = j.value("options", Json::object());
     w.stats = j.value("stats", Json::object());
+    if (j.contains("height_gates")) {  // absent in weights from before the gates: none
+      w.height_gates.category = j["height_gates"].at("category").get<double>();
+      w.height_gates.pose = j["height_gates"].at("pose").get<double>();
+      if (!(w.height_gates.category >= 0 && w.height_gates.pose >= 0)) {
+        throw Error(json_path.string() + ": height_gates must be >= 0");
+      }
+    }
     return w;
   } catch (const Json::exception& e) {
     throw Error(json_path.string() + ": malformed weights file: " + e.what());

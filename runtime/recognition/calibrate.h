@@ -18,6 +18,8 @@ struct CalibrateOptions {
   int max_iterations = 10000; // OCA iterations cap
   bool nonnegative = true;    // w >= 0, so w^T(x ⊕ q) stays a (weighted Hamming) distance
   WeightFrame frame = WeightFrame::kDatabase;  // which frame w indexes (see matcher.h)
+  bool height_gates = true;   // choose height gates (recognizer.h); false: none, as the paper
+  bool gate_train_queries = true;  // also select them on train entries vs the other instances
   void Validate() const;
 };
 
@@ -34,11 +36,30 @@ struct CategoryCalibration {
   double seconds = 0;            // timing only
 };
 
+// How the height gates were chosen: for each candidate τ (0 = no gate), how many
+// selection queries got the right category (unweighted NN over the database) and the
+// right anchor (category known, unweighted NN); the weakest gate within one standard
+// error of the most right answers wins, separately for the two.
+struct GateSelection {
+  std::vector<double> taus;
+  std::vector<int> category_right, pose_right;
+  int queries = 0;             // selection queries with a known height
+  int without_height = 0;      // left out: no height known
+  HeightGates chosen;
+};
+
 struct CalibrationResult {
   Weights weights;  // categories with no usable query are absent (the runtime stays unweighted)
   std::vector<CategoryCalibration> categories;
+  GateSelection gates;
   std::vector<std::string> warnings;
 };
+
+// The height-gate search on its own. Selection queries: `queries`, and with
+// options.gate_train_queries every database entry; each is ranked against the database
+// entries of other garment instances only (an entry would find itself otherwise).
+GateSelection SelectHeightGates(const Database& db, const std::vector<LabelledCode>& queries,
+                                const CalibrateOptions& options);
 
 // For each calibration query q_j of category c and each database entry i of category c:
 // entries with the query's anchor are relevant, the others nonrelevant; a pair's vector is
@@ -58,5 +79,6 @@ void SaveWeights(const Weights& w, const std::filesystem::path& dir);
 Weights LoadWeights(const std::filesystem::path& path, const std::string& expected_digest);
 
 Json ToJson(const CategoryCalibration& c);
+Json ToJson(const GateSelection& g);
 
 }  // namespace drape::recognition

@@ -150,6 +150,23 @@ std::string ReportMarkdown(const Json& r) {
        << Num(c["grasp_error_cm"]["learned_mean"], "%.1f") << " | "
        << Pair(c.value("pose_accuracy_twin_credited", Json{{"unweighted", nullptr}, {"learned", nullptr}})) << " |\n";
   }
+  if (r.contains("height_gates")) {
+    const Json& g = r["height_gates"];
+    md << "\n## Height gates (an addition to the paper's Algorithm 1)\n\n"
+       << "Gates chosen by `drape calibrate` on train + calibration queries: category τ = "
+       << Num(g["category"], "%.2f") << ", pose τ = " << Num(g["pose"], "%.2f")
+       << " (an entry takes part when |ln(h_query / h_entry)| ≤ τ, h the reconstruction's height; 0 = "
+          "no gate). The tables above use them; the same queries with Algorithm 1 alone, as the paper:\n\n"
+       << "| category | category accuracy, gates / none | pose both (u / l), gates | pose both (u / l), none |\n"
+       << "|---|---|---|---|\n";
+    for (const Json& c : rows) {
+      if (!c.contains("without_height_gates")) continue;
+      const Json& n = c["without_height_gates"];
+      md << "| " << c["category"].get<std::string>() << " | " << Percent(c["category_accuracy"]) << " / "
+         << Percent(n["category_accuracy"]) << " | " << Pair(c["pose_accuracy"]["both"]) << " | "
+         << Pair(n["pose_accuracy_both"]) << " |\n";
+    }
+  }
   md << "\n## Running time per query (seconds)\n\n"
      << "| category | fusion | feature | matching | total | paper (i7 3.0 GHz) |\n|---|---|---|---|---|---|\n";
   for (const Json& c : rows) {

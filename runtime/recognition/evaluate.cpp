@@ -97,6 +97,8 @@ struct CategoryAcc {
   std::map<std::string, Counter> pose;  // "subset/metric"
   Counter category, top_u, top_l, e2e_u, e2e_l;
   Counter twin_u, twin_l;  // both instances, the anchor or its mirror twin
+  // The paper's Algorithm 1 alone (no height gates): category, both instances u / l.
+  Counter paper_category, paper_u, paper_l;
   Mean grasp_u, grasp_l, fusion, feature, match, total;
   bool learned = false;
   std::vector<std::string> instances;
@@ -110,12 +112,17 @@ Recognition ScoreEndToEnd(const Recognizer& rec, const Database& db, const EvalQ
   const EntryLabel& ql = eq.query.label;
   RecognizeOptions e2e;
   e2e.top_k = top_k;
+  e2e.query_height = ql.height;
   const Recognition r_e2e = rec.Recognize(eq.query.code, e2e);
   e2e.weighted = false;
   db.matcher().MatchAll(pq, &matches);
   const Recognition r_e2e_u = rec.Rank(pq, matches, e2e);
   const bool cat_ok = r_e2e.category == ql.category;
   ca.category.Add(cat_ok), all.category.Add(cat_ok);
+  e2e.height_gates = false;
+  const bool paper_cat_ok = rec.Rank(pq, matches, e2e).category == ql.category;
+  ca.paper_category.Add(paper_cat_ok), all.paper_category.Add(paper_cat_ok);
+  rec_json["query_height"] = ql.height;
   ca.e2e_u.Add(cat_ok && r_e2e_u.anchor == ql.anchor), all.e2e_u.Add(cat_ok && r_e2e_u.anchor == ql.anchor);
   if (have_weights) {
     ca.e2e_l.Add(cat_ok && r_e2e.anchor == ql.anchor), all.e2e_l.Add(cat_ok && r_e2e.anchor == ql.anchor);
@@ -175,8 +182,15 @@ Json ScoreKnownCategory(const Recognizer& rec, const Database& db, const AnchorU
       o.category = ql.category;
       o.instance = inst;
       o.weighted = learned;
+      o.query_height = ql.height;
       const Recognition r = rec.Rank(pq, matches, o);
       const bool ok = r.anchor == ql.anchor;
+      if (std::string(s) == "both") {
+        o.height_gates = false;
+        const bool paper_ok = rec.Rank(pq, matches, o).anchor == ql.anchor;
+        (learned ? ca.paper_l : ca.paper_u).Add(paper_ok);
+        (learned ? all.paper_l : all.paper_u).Add(paper_ok);
+      }
       const std::string key = std::string(s) + "/" + m;
       ca.pose[key].Add(ok), all.pose[key].Add(ok);
       Json rj{{"anchor", r.anchor}, {"entry", r.best.id}, {"distance", r.best.distance},
@@ -247,6 +261,9 @@ Json CategoryRow(const std::string& name, const CategoryAcc& a, int top_k) {
               {"learned_weights", a.learned},
               {"pose_accuracy", pose},
               {"category_accuracy", a.category.Rate()},
+              {"without_height_gates",
+               {{"category_accuracy", a.paper_category.Rate()},
+                {"pose_accuracy_both", {{"unweighted", a.paper_u.Rate()}, {"learned", a.paper_l.Rate()}}}}},
               {"pose_accuracy_twin_credited", {{"unweighted", a.twin_u.Rate()}, {"learned", a.twin_l.Rate()}}},
               {"end_to_end_pose_accuracy", {{"unweighted", a.e2e_u.Rate()}, {"learned", a.e2e_l.Rate()}}},
               {"top_k_accuracy", {{"k", top_k}, {"unweighted", a.top_u.Rate()}, {"learned", a.top_l.Rate()}}},
@@ -314,6 +331,9 @@ EvalResult Evaluate(const Database& db, const Weights* weights, const std::vecto
                       {"feature", {{"layers", db.layers()}, {"rings", db.rings()}, {"sectors", db.sectors()}}},
                       {"kernel", KernelName(db.matcher().kernel())}}},
                     {"top_k", options.top_k},
+                    {"height_gates",
+                     weights ? Json{{"category", weights->height_gates.category}, {"pose", weights->height_gates.pose}}
+                             : Json{{"category", 0}, {"pose", 0}}},
                     {"categories", cats},
                     {"overall", CategoryRow("all", all, options.top_k)},
                     {"confusion", conf_json},

@@ -72,6 +72,7 @@ PipelineResult FuseAndExtract(const Sweep& sweep, const BuildOptions& o, uint64_
   r.code.rings = f.rings;
   r.code.sectors = f.sectors;
   r.code.words = f.words;
+  r.height = surface.col(1).maxCoeff() - surface.col(1).minCoeff();
   r.info["frames"] = static_cast<int>(sweep.frames.size());
   r.info["frames_integrated"] = fused.stats.frames_integrated;
   r.info["surface_points"] = static_cast<int>(surface.rows());

@@ -31,6 +31,7 @@ struct PipelineTiming {
 struct PipelineResult {
   Code code;
   PipelineTiming timing;
+  double height = 0;           // hung height: the fused surface's y extent (m), for the height gates
   Json info = Json::object();  // frames, voxels, … for the output
 };
 

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <limits>
 #include <set>
 #include <sstream>
 
@@ -55,6 +57,32 @@ const std::vector<int>& Database::EntriesOf(const std::string& category) const {
 
 void RecognizeOptions::Validate() const {
   if (top_k < 1) throw Error("recognize options: top_k must be >= 1 (got " + std::to_string(top_k) + ")");
+  if (!(query_height >= 0)) throw Error("recognize options: query_height must be >= 0 m (0 = unknown)");
+  if (gates && !(gates->category >= 0 && gates->pose >= 0)) {
+    throw Error("recognize options: height gates must be >= 0 (0 = no gate)");
+  }
+}
+
+bool PassesHeightGate(double query_h, double entry_h, double tau) {
+  if (tau <= 0 || query_h <= 0 || entry_h <= 0) return true;
+  return std::abs(std::log(query_h / entry_h)) <= tau;
+}
+
+std::vector<int> HeightGated(const Database& db, const std::vector<int>& pool, double query_h, double tau) {
+  if (tau <= 0 || query_h <= 0 || pool.empty()) return pool;
+  // Widened to the nearest entry's ratio + τ when none is within τ (an outlier query
+  // then still compares with the entries of the nearest heights, not with all).
+  double nearest = std::numeric_limits<double>::infinity();
+  for (int i : pool) {
+    const double h = db.label(i).height;
+    nearest = std::min(nearest, h > 0 ? std::abs(std::log(query_h / h)) : 0.0);
+  }
+  const double bound = nearest <= tau ? tau : nearest + tau;
+  std::vector<int> kept;
+  for (int i : pool) {
+    if (PassesHeightGate(query_h, db.label(i).height, bound)) kept.push_back(i);
+  }
+  return kept;
 }
 
 Recognizer::Recognizer(const Database& db, const Weights* weights) : db_(db) {
@@ -73,6 +101,12 @@ Recognizer::Recognizer(const Database& db, const Weights* weights) : db_(db) {
     }
     weights_.emplace(cat, PreparedWeights(w, weights->layers, weights->rings, weights->sectors, weights->frame));
   }
+  gates_ = weights->height_gates;
+}
+
+HeightGates Recognizer::GatesFor(const RecognizeOptions& options) const {
+  if (options.query_height <= 0 || !options.height_gates) return {};
+  return options.gates ? *options.gates : gates_;
 }
 
 Recognition Recognizer::Recognize(const Code& query, const RecognizeOptions& options) const {
@@ -95,7 +129,10 @@ Recognition Recognizer::Rank(const PreparedQuery& q, const std::vector<Match>& m
   Recognition r;
   r.compared = db_.size();
 
-  // 1. Category: given, or that of the unweighted nearest neighbour (ties: lowest index).
+  // 1. Category: given, or that of the unweighted nearest neighbour (ties: lowest index)
+  //    among the entries that pass the category height gate.
+  r.query_height = options.query_height;
+  r.gates = GatesFor(options);
   if (!options.category.empty()) {
     if (!db_.HasCategory(options.category)) {
       throw Error("recognize: category '" + options.category + "' is not in the database (it has: " +
@@ -104,15 +141,19 @@ Recognition Recognizer::Rank(const PreparedQuery& q, const std::vector<Match>& m
     r.category = options.category;
     r.category_source = "given";
   } else {
-    int best = 0;
-    for (int i = 1; i < db_.size(); ++i) {
+    std::vector<int> all(db_.size());
+    for (int i = 0; i < db_.size(); ++i) all[i] = i;
+    const std::vector<int> pool = HeightGated(db_, all, options.query_height, r.gates.category);
+    int best = pool.front();
+    for (int i : pool) {
       if (matches[i].distance < matches[best].distance) best = i;
     }
     r.category = db_.label(best).category;
     r.category_source = "unweighted_nn";
+    r.category_pool = static_cast<int>(pool.size());
   }
 
-  // 2. Pose inside the category, under its learned w if there is one.
+  // 2. Pose inside the category (height-gated), under its learned w if there is one.
   std::vector<int> pool;
   for (int i : db_.EntriesOf(r.category)) {
     if (options.instance.empty() || db_.label(i).instance == options.instance) pool.push_back(i);
@@ -121,6 +162,8 @@ Recognition Recognizer::Rank(const PreparedQuery& q, const std::vector<Match>& m
     throw Error("recognize: database instance '" + options.instance + "' has no entries of category '" +
                 r.category + "' (instances: " + JoinNames(db_.instances(r.category)) + ")");
   }
+  pool = HeightGated(db_, pool, options.query_height, r.gates.pose);
+  r.pose_pool = static_cast<int>(pool.size());
   const PreparedWeights* w = nullptr;
   if (options.weighted) {
     auto it = weights_.find(r.category);
@@ -167,7 +210,11 @@ Json ToJson(const Recognition& r) {
   return Json{{"category", r.category}, {"category_source", r.category_source},
               {"anchor", r.anchor},     {"weighted", r.weighted},
               {"best", cand(r.best)},   {"top", top},
-              {"compared", r.compared}};
+              {"compared", r.compared},
+              {"query_height", r.query_height},
+              {"height_gates", {{"category", r.gates.category}, {"pose", r.gates.pose}}},
+              {"category_pool", r.category_pool},
+              {"pose_pool", r.pose_pool}};
 }
 
 }  // namespace drape::recognition

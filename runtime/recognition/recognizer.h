@@ -10,6 +10,16 @@
 // neighbour over the whole database (Eq. match, one common scale: bits), unless the
 // caller knows it (RecognizeOptions::category); the pose (anchor) is then the nearest
 // neighbour inside that category under that category's w (Eq. bestmatch).
+//
+// Height gates (an addition to the paper, off unless the weights carry them): Algorithm 1
+// scales the garment's height away (its N layers span the surface's y extent), so shapes
+// that differ mainly in scale — shorts and pants hung by the waist, a shirt by its cuff
+// or by its hem — can give nearly the same bits. The hung height below the gripper is
+// measured anyway (the reconstruction's y extent, the H of Algorithm 1), and both steps
+// may keep only the entries whose height is within a factor of the query's: an entry
+// passes gate τ when |ln(h_query / h_entry)| ≤ τ. A gate that no entry passes is widened
+// to the nearest entry's ratio + τ; entries or queries of unknown height (0) always pass. `drape calibrate`
+// chooses τ on train + calibration queries (calibrate.h).
 #pragma once
 
 #include <map>
@@ -34,6 +44,7 @@ struct EntryLabel {
   int anchor_vertex = -1;             // vertex of the anchor in the entry's meshes, -1 unknown
   std::optional<Vec2> anchor_uv;      // anchor on the flat pattern (metres), if known
   std::optional<Vec3> anchor_hung;    // anchor vertex on the hung mesh (object frame, metres)
+  double height = 0;                  // hung height: the reconstruction's y extent (m), 0 unknown
 };
 
 struct LabelledCode {
@@ -72,6 +83,19 @@ class Database {
   std::map<std::string, std::vector<int>> by_category_;
 };
 
+// Height gates, τ as a bound on |ln(h_query / h_entry)|; 0 = no gate (see above).
+struct HeightGates {
+  double category = 0;  // on the entries the category's nearest neighbour is chosen from
+  double pose = 0;      // on the entries of the category the pose is chosen from
+  bool operator==(const HeightGates&) const = default;
+};
+
+// Whether an entry of height `entry_h` passes gate `tau` for a query of height `query_h`.
+bool PassesHeightGate(double query_h, double entry_h, double tau);
+// The entries of `pool` that pass the gate; when none does, those within the nearest
+// entry's |ln ratio| + τ.
+std::vector<int> HeightGated(const Database& db, const std::vector<int>& pool, double query_h, double tau);
+
 // Learned weights, one vector per category (bits in `frame`; see matcher.h).
 struct Weights {
   std::string release_digest;  // digest of the release they were learned on
@@ -80,6 +104,7 @@ struct Weights {
   std::map<std::string, std::vector<double>> per_category;
   Json options = Json::object();  // training options (C, epsilon, …)
   Json stats = Json::object();    // training statistics
+  HeightGates height_gates;       // chosen by calibration; none in weights from before them
 };
 
 struct RecognizeOptions {
@@ -87,6 +112,9 @@ struct RecognizeOptions {
   std::string category;      // known category ("" = predict by unweighted NN)
   std::string instance;      // restrict the pose search to one database garment instance ("" = all)
   bool weighted = true;      // use the category's learned w when there is one
+  double query_height = 0;   // hung height of the query (m); 0 = unknown: no height gates
+  bool height_gates = true;  // apply the weights' height gates (false: Algorithm 1 alone, as the paper)
+  std::optional<HeightGates> gates;  // these gates instead of the weights' (calibration's search)
   void Validate() const;
 };
 
@@ -105,6 +133,10 @@ struct Recognition {
   Candidate best;                   // the matched database entry
   std::vector<Candidate> top;       // best entry of each of the top_k distinct anchors, best first
   bool weighted = false;            // whether a learned w ranked the pose
+  double query_height = 0;          // as given (m)
+  HeightGates gates;                // the gates applied (0: none)
+  int category_pool = 0;            // entries the category was chosen from
+  int pose_pool = 0;                // entries the pose was chosen from
   int compared = 0;                 // database entries compared (× Φ rotations each)
   double match_seconds = 0;         // timing only
 };
@@ -124,9 +156,12 @@ class Recognizer {
                    const RecognizeOptions& options) const;
 
   bool HasWeights(const std::string& category) const { return weights_.count(category) > 0; }
+  // The height gates Rank applies with these options.
+  HeightGates GatesFor(const RecognizeOptions& options) const;
 
  private:
   const Database& db_;
+  HeightGates gates_;
   std::map<std::string, PreparedWeights> weights_;
 };
 

@@ -1,10 +1,12 @@
 #include "runtime/recognition/release_source.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cstring>
 #include <sstream>
 
 #include "common/error.h"
+#include "garments/mesh_read.h"
 #include "generator/feature/feature.h"
 
 namespace drape::recognition {
@@ -54,6 +56,18 @@ Code LoadEntryCode(const Release& release, const Release::EntryInfo& e) {
   return f;
 }
 
+double ReconHeight(const Release& release, const Release::EntryInfo& e) {
+  bool listed = false;
+  for (const auto& f : e.files) listed |= f.path == "recon.ply";
+  if (!listed) return 0;
+  const std::string where = (release.dir() / "entries" / e.id / "recon.ply").string();
+  const MeshData m = ParsePly(release.ReadFile(e.id, "recon.ply"), where);
+  if (m.V.empty()) return 0;
+  double lo = m.V.front().y(), hi = lo;
+  for (const Vec3& v : m.V) lo = std::min(lo, v.y()), hi = std::max(hi, v.y());
+  return hi - lo;
+}
+
 std::vector<LabelledCode> LoadSplit(const Release& release, const std::string& split, LoadReport* report) {
   const auto t0 = std::chrono::steady_clock::now();
   LoadReport local;
@@ -69,6 +83,7 @@ std::vector<LabelledCode> LoadSplit(const Release& release, const std::string& s
     LabelledCode lc;
     lc.label = LabelFromEntry(e);
     lc.code = LoadEntryCode(release, e);
+    lc.label.height = ReconHeight(release, e);
     out.push_back(std::move(lc));
     ++rep.loaded;
   }

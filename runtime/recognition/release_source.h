@@ -33,7 +33,12 @@ EntryLabel LabelFromEntry(const Release::EntryInfo& e);
 // missing or corrupt.
 Code LoadEntryCode(const Release& release, const Release::EntryInfo& e);
 
-// All usable entries of `split`, sorted by id.
+// The entry's hung height: the y extent of its recon.ply (the H of Algorithm 1, whose
+// feature the build took from that mesh's vertices), m; 0 when the entry has no
+// reconstruction. Throws drape::Error naming the file if it is corrupt.
+double ReconHeight(const Release& release, const Release::EntryInfo& e);
+
+// All usable entries of `split`, sorted by id, with their heights (ReconHeight).
 std::vector<LabelledCode> LoadSplit(const Release& release, const std::string& split, LoadReport* report);
 
 // The database: the train split. Throws drape::Error if the release has no usable train entry.

@@ -291,6 +291,7 @@ struct TrialRun {
     rec::RecognizeOptions ro;
     ro.category = o.category_known ? category : "";
     ro.weighted = o.weighted;
+    ro.query_height = fused.mesh.V.col(1).maxCoeff() - fused.mesh.V.col(1).minCoeff();  // height gates
     s.recognition = model.recognizer(o.weighted).Recognize(code, ro);
     res.times.recognition += Since(t0);
     s.recognised_right = s.recognition.category == category && s.recognition.anchor == s.held_true_anchor;

@@ -1,0 +1,179 @@
+// Height gates (recognizer.h): the gate rule, its use in both steps of Rank, the
+// search that calibration runs, and the weights file round trip.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+
+#include "common/error.h"
+#include "common/files.h"
+#include "runtime/recognition/calibrate.h"
+#include "runtime/recognition/recognizer.h"
+#include "runtime/recognition/test_features.h"
+
+namespace drape::recognition {
+namespace {
+
+namespace fs = std::filesystem;
+
+LabelledCode Entry(const std::string& id, const std::string& cat, const std::string& inst,
+                   const std::string& anchor, double height, Code code) {
+  LabelledCode lc;
+  lc.label.id = id;
+  lc.label.split = "train";
+  lc.label.category = cat;
+  lc.label.instance = inst;
+  lc.label.anchor = anchor;
+  lc.label.height = height;
+  lc.code = std::move(code);
+  return lc;
+}
+
+TEST(RecognitionHeightGates, GateIsABoundOnTheLogRatioAndUnknownHeightsPass) {
+  EXPECT_TRUE(PassesHeightGate(1.0, 1.2, std::log(1.2) + 1e-12));
+  EXPECT_FALSE(PassesHeightGate(1.0, 1.2, std::log(1.2) - 1e-9));
+  EXPECT_FALSE(PassesHeightGate(1.2, 1.0, std::log(1.2) - 1e-9));  // symmetric
+  EXPECT_TRUE(PassesHeightGate(1.0, 3.0, 0));                        // 0 = no gate
+  EXPECT_TRUE(PassesHeightGate(0, 3.0, 0.1));                        // query height unknown
+  EXPECT_TRUE(PassesHeightGate(1.0, 0, 0.1));                        // entry height unknown
+}
+
+// Shorts and pants with the same shape bits (Algorithm 1 scales the height away) but
+// heights 0.5 and 1.2 m; the pants entry comes first, so without gates it wins ties.
+struct ScaledTwins {
+  Rng rng{5};
+  Code waist = RandomCode(rng, 4, 4, 8), leg = RandomCode(rng, 4, 4, 8);
+  Database db;
+  ScaledTwins() {
+    std::vector<LabelledCode> v;
+    v.push_back(Entry("p0", "pants", "pants-1", "waist", 1.20, waist));
+    v.push_back(Entry("p1", "pants", "pants-1", "leg", 1.45, leg));
+    v.push_back(Entry("s0", "shorts", "shorts-1", "waist", 0.50, waist));
+    v.push_back(Entry("s1", "shorts", "shorts-1", "leg", 0.60, leg));
+    db = Database(std::move(v));
+  }
+};
+
+TEST(RecognitionHeightGates, CategoryGateSeparatesGarmentsThatDifferOnlyInScale) {
+  ScaledTwins t;
+  Weights w;
+  w.layers = 4, w.rings = 4, w.sectors = 8;
+  w.height_gates = {0.3, 0};
+  Recognizer rec(t.db, &w);
+  RecognizeOptions o;
+  o.weighted = false;
+  // Unknown query height: no gate, the tie goes to the first entry (pants).
+  EXPECT_EQ(rec.Recognize(t.waist, o).category, "pants");
+  o.query_height = 0.52;
+  const Recognition r = rec.Recognize(t.waist, o);
+  EXPECT_EQ(r.category, "shorts");
+  EXPECT_EQ(r.anchor, "waist");
+  EXPECT_EQ(r.category_pool, 2);  // only the two shorts entries are within e^0.3 of 0.52 m
+  EXPECT_EQ(r.gates, (HeightGates{0.3, 0}));
+  // The paper's setting on the same query: gates off.
+  o.height_gates = false;
+  EXPECT_EQ(rec.Recognize(t.waist, o).category, "pants");
+  // A gate no entry passes is widened to the nearest height's ratio + τ: a 5 m query
+  // compares with the pants (1.2, 1.45 m), not with the shorts.
+  o.height_gates = true;
+  o.query_height = 5.0;
+  const Recognition far = rec.Recognize(t.waist, o);
+  EXPECT_EQ(far.category, "pants");
+  EXPECT_EQ(far.category_pool, 2);
+  o.query_height = 0.1;  // and a 10 cm one with the shorts, although pants come first
+  EXPECT_EQ(rec.Recognize(t.waist, o).category, "shorts");
+}
+
+TEST(RecognitionHeightGates, PoseGateKeepsTheEntriesOfSimilarHeight) {
+  // One category, two anchors with identical bits but different hung heights.
+  Rng rng(9);
+  const Code c = RandomCode(rng, 4, 4, 8);
+  std::vector<LabelledCode> v;
+  v.push_back(Entry("a", "shirt", "shirt-1", "collar", 0.8, c));
+  v.push_back(Entry("b", "shirt", "shirt-1", "cuff", 1.45, c));
+  Database db(std::move(v));
+  Recognizer rec(db, nullptr);
+  RecognizeOptions o;
+  o.query_height = 1.4;
+  o.gates = HeightGates{0, 0.1};
+  const Recognition r = rec.Recognize(c, o);
+  EXPECT_EQ(r.anchor, "cuff");
+  EXPECT_EQ(r.pose_pool, 1);
+  o.gates = HeightGates{0, 0};
+  EXPECT_EQ(rec.Recognize(c, o).anchor, "collar");
+  RecognizeOptions bad;
+  bad.query_height = -1;
+  EXPECT_THROW(rec.Recognize(c, bad), Error);
+}
+
+TEST(RecognitionHeightGates, SelectionFindsTheGateThatHeightInformsAndNoneOtherwise) {
+  ScaledTwins t;
+  // Queries of another garment instance: shorts at their own heights.
+  std::vector<LabelledCode> qs;
+  qs.push_back(Entry("q0", "shorts", "shorts-2", "waist", 0.51, t.waist));
+  qs.push_back(Entry("q1", "shorts", "shorts-2", "leg", 0.62, t.leg));
+  qs.push_back(Entry("q2", "pants", "pants-2", "leg", 1.40, t.leg));
+  qs.push_back(Entry("q3", "pants", "pants-2", "waist", 0, t.waist));  // height unknown: left out
+  CalibrateOptions opt;
+  opt.gate_train_queries = false;
+  const GateSelection g = SelectHeightGates(t.db, qs, opt);
+  EXPECT_EQ(g.queries, 3);
+  EXPECT_EQ(g.without_height, 1);
+  ASSERT_EQ(g.taus.front(), 0);
+  EXPECT_EQ(g.category_right.front(), 1);  // no gate: only the pants query is right
+  EXPECT_EQ(g.chosen.category, 0.5);       // the weakest gate that gets all three
+  for (size_t k = 1; k < g.taus.size(); ++k) EXPECT_EQ(g.category_right[k], 3) << g.taus[k];
+  EXPECT_EQ(g.chosen.pose, 0);  // within a category the bits already tell the anchors apart
+
+  // Heights that carry no information: every gate ties, the selection keeps none.
+  std::vector<LabelledCode> same;
+  for (const auto& q : qs) same.push_back(q), same.back().label.height = 1.0;
+  ScaledTwins flat;
+  std::vector<LabelledCode> v;
+  for (int i = 0; i < flat.db.size(); ++i) {
+    v.push_back({flat.db.label(i), flat.db.code(i)});
+    v.back().label.height = 1.0;
+  }
+  const Database db1(std::move(v));
+  const GateSelection g1 = SelectHeightGates(db1, same, opt);
+  EXPECT_EQ(g1.chosen, (HeightGates{0, 0}));
+}
+
+TEST(RecognitionHeightGates, TrainEntriesQueryTheOtherInstancesOnly) {
+  ScaledTwins t;
+  CalibrateOptions opt;  // gate_train_queries on: the four train entries are the queries
+  const GateSelection g = SelectHeightGates(t.db, {}, opt);
+  EXPECT_EQ(g.queries, 4);
+  // Each pants entry's only other instance is the shorts one and vice versa: the right
+  // category is never reachable, whatever the gate; the pose pool (same category, other
+  // instances) is empty, so no pose answer counts either.
+  for (size_t k = 0; k < g.taus.size(); ++k) {
+    EXPECT_EQ(g.category_right[k], 0);
+    EXPECT_EQ(g.pose_right[k], 0);
+  }
+}
+
+TEST(RecognitionHeightGates, WeightsFileKeepsTheGatesAndOldFilesHaveNone) {
+  const fs::path dir = fs::temp_directory_path() / "drape_height_gates_test";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  Weights w;
+  w.release_digest = "d";
+  w.layers = 2, w.rings = 2, w.sectors = 2;
+  w.per_category["pants"] = std::vector<double>(8, 1.0);
+  w.height_gates = {0.25, 0.1};
+  SaveWeights(w, dir);
+  EXPECT_EQ(LoadWeights(dir, "d").height_gates, (HeightGates{0.25, 0.1}));
+  // A weights.json from before the gates: none.
+  Json j = Json::parse(ReadFile(dir / "weights.json"));
+  j.erase("height_gates");
+  WriteFileAtomic(dir / "weights.json", j.dump(2));
+  EXPECT_EQ(LoadWeights(dir, "d").height_gates, (HeightGates{0, 0}));
+  j["height_gates"] = {{"category", -1}, {"pose", 0}};
+  WriteFileAtomic(dir / "weights.json", j.dump(2));
+  EXPECT_THROW(LoadWeights(dir, "d"), Error);
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace drape::recognition
