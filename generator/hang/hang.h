@@ -147,7 +147,7 @@ struct HangStats {
   int fail_safe_steps = 0;      // steps that needed rigid impact zones
   long remaining_collisions = 0;  // crossings left by the handler (0 with one still gripper)
   int strain_violation_steps = 0; // steps that ended with an edge beyond the strain clamp
-  int retries = 0;
+  int retries = 0;                // runs repeated at half the step (not settled or not publishable)
   double wall_seconds = 0;        // timing only (never hashed), from here down
   double bullet_seconds = 0;      // inside Bullet's stepSimulation
   double collision_seconds = 0;   // the collision handler in total

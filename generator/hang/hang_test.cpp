@@ -299,6 +299,11 @@ TEST(Hang, OverStretchedResultIsFailedWithItsReason) {
   const HangResult r = Hang(towel, towel.anchors[0].vertex, Vec3::Zero(), soft, loose, o, 1);
   EXPECT_FALSE(r.ok);
   EXPECT_NE(r.failure.find("edge strain max"), std::string::npos) << r.failure;
+  // A settled but unpublishable hang is run once more at half the step before it fails.
+  EXPECT_TRUE(r.stats.settled);
+  EXPECT_EQ(r.stats.retries, 1);
+  EXPECT_DOUBLE_EQ(r.stats.time_step, o.time_step / 2);
+  EXPECT_NE(r.failure.find("after a retry at time_step"), std::string::npos) << r.failure;
 }
 
 TEST(Hang, BadInputNamesTheField) {
