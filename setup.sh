@@ -5,10 +5,10 @@
 #                       the sanitizer and fuzz runs are separate: docs/testing.md)
 #   ./setup.sh build    install packages and build only
 #   ./setup.sh bench    also install what the benchmarks compare against (Open3D), build
-#   ./setup.sh sanitize all unit tests under ASan + UBSan (clang-14, folder build-san;
-#                       end-to-end and "slow" suites excluded; too slow for CI, see
-#                       docs/testing.md), then every fuzz target for
-#                       DRAPE_FUZZ_SECONDS (default 10) each
+#   ./setup.sh sanitize fuzz/ci.sh: every unit-test program under ASan + UBSan
+#                       (clang-14, folder build-san; heavy simulations trimmed, see
+#                       docs/testing.md), every fuzz corpus replayed, then every fuzz
+#                       target for DRAPE_FUZZ_SECONDS (default 10) each
 #   ./setup.sh format   check that the lines this branch changed since main (on main:
 #                       the last commit) follow .clang-format; run it before landing
 # Safe to run again: packages already present are skipped, the build is incremental.
@@ -140,11 +140,7 @@ case "${1:-main}" in
     ;;
   sanitize)
     install_packages
-    . fuzz/sanitize_env.sh
-    san_configure
-    cmake --build "$SAN_BUILD_DIR" -j "$SAN_JOBS"
-    ctest --test-dir "$SAN_BUILD_DIR" --output-on-failure -j "$SAN_JOBS" -L unit -LE slow
-    fuzz/run.sh "${DRAPE_FUZZ_SECONDS:-10}"
+    DRAPE_FUZZ_CI_SECONDS=${DRAPE_FUZZ_SECONDS:-10} fuzz/ci.sh
     ;;
   format)
     command -v git-clang-format >/dev/null ||

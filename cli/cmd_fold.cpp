@@ -184,6 +184,18 @@ PlanRunOptions RunOptionsFrom(const Args& args, const FoldSetup& setup) {
   return ro;
 }
 
+// The optimising run says each step as it finishes (the trials' replays stay quiet).
+PlanRunOptions WithProgress(PlanRunOptions ro) {
+  ro.on_step = [](const StepRecord& s) {
+    const StepOptimum& r = s.result;
+    std::printf("  %-16s D %.1f -> %.1f mm, C %.3f -> %.3f (%d simulations, %.0f s)\n", s.name.c_str(),
+                1e3 * r.before.dissimilarity, 1e3 * r.after.dissimilarity, r.before.cost, r.after.cost,
+                r.simulations, r.wall_seconds);
+    std::fflush(stdout);
+  };
+  return ro;
+}
+
 // One step's record: trajectories before and after, costs, the other gripper's result.
 Json StepJson(const StepRecord& s, const StepSim& alt, GripperModel other) {
   const StepOptimum& r = s.result;
@@ -476,8 +488,14 @@ int Run(const std::vector<std::string>& argv) {
   if (args.Flag("--key-points-only")) return KeyPointTrials(args, setup, plan, ro, out);
   std::vector<std::vector<RelativeTrajectory>> replay;
   if (auto r = args.Get("--replay")) replay = LoadReplay(*r, plan);
-  const PlanRun run = RunPlan(scene, LaidGarment(setup), category, plan, ro,
-                              replay.empty() ? nullptr : &replay);
+  PlanRun run;
+  try {
+    RunPlan(run, scene, LaidGarment(setup), category, plan, WithProgress(ro), replay.empty() ? nullptr : &replay);
+  } catch (const NumericalError& e) {
+    // A simulation that cannot run (a gripper that catches no cloth, a blow-up) ends the
+    // run with its step named, as a failure of this input rather than of drape.
+    throw Error(std::string("the simulation failed: ") + e.what());
+  }
 
   std::ostringstream md;
   md << "# drape fold: " << setup.garment.instance << " with plan " << plan.name << "\n\n"

@@ -3,7 +3,9 @@
 # both for the unit tests under sanitizers and for the fuzz targets.
 SAN_BUILD_DIR=${DRAPE_SAN_BUILD_DIR:-build-san}
 SAN_JOBS=${DRAPE_JOBS:-$(nproc)}
+# fuzz/ubsan_ignorelist.txt: UBSan checks skipped inside library headers (library bugs).
 SAN_FLAGS="-fsanitize=address,undefined,fuzzer-no-link -fno-sanitize-recover=undefined -fno-omit-frame-pointer -g1"
+SAN_FLAGS+=" -fsanitize-ignorelist=$PWD/fuzz/ubsan_ignorelist.txt"
 export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1:detect_stack_use_after_return=0}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
 

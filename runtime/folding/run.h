@@ -8,6 +8,7 @@
 // without optimising: the evaluation trials.
 #pragma once
 
+#include <functional>
 #include <map>
 #include <string>
 #include <vector>
@@ -28,6 +29,8 @@ struct RelativeTrajectory {
 RelativeTrajectory ToRelative(const CubicBezier& c);
 CubicBezier FromRelative(const RelativeTrajectory& r, const Vec3& p0, const Vec3& p3);
 
+struct StepRecord;
+
 struct PlanRunOptions {
   FoldSimOptions sim;
   OptimiseOptions optimise;
@@ -35,6 +38,8 @@ struct PlanRunOptions {
   double camera_metres_per_pixel = 0.003;
   double thickness = 0.004;  // m, ideal fold's lift (the cloth world's collision thickness)
   SettleOptions flat_settle = {0.002, 0.2, 0.3, 3.0};  // the garment laid on the table
+  // Told each step as it finishes (a long optimisation reports as it goes); optional.
+  std::function<void(const StepRecord&)> on_step;
   void Validate() const;
 };
 
