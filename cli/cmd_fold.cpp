@@ -488,8 +488,14 @@ int Run(const std::vector<std::string>& argv) {
   if (args.Flag("--key-points-only")) return KeyPointTrials(args, setup, plan, ro, out);
   std::vector<std::vector<RelativeTrajectory>> replay;
   if (auto r = args.Get("--replay")) replay = LoadReplay(*r, plan);
-  const PlanRun run = RunPlan(scene, LaidGarment(setup), category, plan, WithProgress(ro),
-                              replay.empty() ? nullptr : &replay);
+  PlanRun run;
+  try {
+    RunPlan(run, scene, LaidGarment(setup), category, plan, WithProgress(ro), replay.empty() ? nullptr : &replay);
+  } catch (const NumericalError& e) {
+    // A simulation that cannot run (a gripper that catches no cloth, a blow-up) ends the
+    // run with its step named, as a failure of this input rather than of drape.
+    throw Error(std::string("the simulation failed: ") + e.what());
+  }
 
   std::ostringstream md;
   md << "# drape fold: " << setup.garment.instance << " with plan " << plan.name << "\n\n"

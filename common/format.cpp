@@ -1,6 +1,7 @@
 #include "common/format.h"
 
 #include <charconv>
+#include <cstdio>
 
 namespace drape {
 
@@ -8,6 +9,12 @@ std::string FormatNumber(double x) {
   char buf[64];
   const auto r = std::to_chars(buf, buf + sizeof buf, x);
   return std::string(buf, r.ptr);
+}
+
+std::string FormatFixed(double x, int digits) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.*f", digits, x);
+  return buf;
 }
 
 }  // namespace drape

@@ -9,4 +9,8 @@ namespace drape {
 // inf, nan. Use it instead of std::to_string(double) in messages.
 std::string FormatNumber(double x);
 
+// A measured value with `digits` decimals: FormatFixed(26.7874, 1) = "26.8". Use it
+// for measurements, whose full precision is noise to the reader.
+std::string FormatFixed(double x, int digits);
+
 }  // namespace drape

@@ -19,5 +19,12 @@ TEST(FormatNumber, WritesNumbersAsPeopleDo) {
     EXPECT_EQ(std::stod(FormatNumber(x)), x) << FormatNumber(x);
 }
 
+TEST(FormatFixed, MeasurementsWithTheirDecimals) {
+  EXPECT_EQ(FormatFixed(26.787441779777954, 1), "26.8");  // a blow-up's node speed, m/s
+  EXPECT_EQ(FormatFixed(2.9, 2), "2.90");
+  EXPECT_EQ(FormatFixed(-0.004, 2), "-0.00");
+  EXPECT_EQ(FormatFixed(3, 0), "3");
+}
+
 }  // namespace
 }  // namespace drape

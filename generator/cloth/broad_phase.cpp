@@ -1,6 +1,7 @@
 #include "generator/cloth/broad_phase.h"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <string>
 
@@ -112,17 +113,28 @@ void BroadPhase::Relayout(const Points3& layout) {
   if (layout.rows() != num_vertices_)
     throw Error("broad phase: a layout of " + std::to_string(layout.rows()) + " positions for " +
                 std::to_string(num_vertices_) + " vertices");
-  nodes_.clear();
-  if (nf == 0) return;
   const Faces& F = F_;
   std::vector<Vec3> centroid(nf);
   for (int f = 0; f < nf; ++f)
     centroid[f] = (layout.row(F(f, 0)) + layout.row(F(f, 1)) + layout.row(F(f, 2))).transpose() / 3.0;
+  BuildTree(centroid);
+}
+
+void BroadPhase::BuildTree(const std::vector<Vec3>& centroid) {
+  const int nf = static_cast<int>(F_.rows());
+  nodes_.clear();
+  if (nf == 0) return;
   std::vector<int> faces(nf);
   for (int f = 0; f < nf; ++f) faces[f] = f;
   nodes_.reserve(2 * static_cast<size_t>(nf));
   Build(faces, 0, nf, centroid);
   leaf_faces_ = std::move(faces);
+}
+
+void BroadPhase::SetReuseMargin(double margin) {
+  if (!(margin >= 0 && std::isfinite(margin))) throw Error("broad phase: reuse margin must be finite and >= 0 m");
+  reuse_margin_ = margin;
+  have_superset_ = false;
 }
 
 // Top-down median split along the centroids' widest axis (ties by face index, so the
@@ -201,16 +213,60 @@ void BroadPhase::QueryVertex(int v) {
   }
 }
 
-void BroadPhase::Find(const std::vector<Aabb>& vbox, CandidatePairs* out) {
-  if (static_cast<int>(vbox.size()) != num_vertices_)
-    throw Error("broad phase: " + std::to_string(vbox.size()) + " vertex boxes for " + std::to_string(num_vertices_) +
-                " vertices");
+void BroadPhase::SetBoxes(const std::vector<Aabb>& vbox) {
   const int nf = static_cast<int>(F_.rows()), ne = static_cast<int>(E_.size());
   vbox_ = vbox;
   ebox_.resize(ne);
   for (int e = 0; e < ne; ++e) ebox_[e] = Aabb::Union(vbox_[E_[e][0]], vbox_[E_[e][1]]);
   fbox_.resize(nf);
   for (int f = 0; f < nf; ++f) fbox_[f] = Aabb::Union(Aabb::Union(vbox_[F_(f, 0)], vbox_[F_(f, 1)]), vbox_[F_(f, 2)]);
+}
+
+bool BroadPhase::InsideGrown(const std::vector<Aabb>& vbox) const {
+  if (!have_superset_) return false;
+  bool inside = true;
+  for (size_t i = 0; i < vbox.size() && inside; ++i) {
+    const Aabb &b = vbox[i], &g = grown_[i];
+    inside = (g.lo[0] <= b.lo[0]) & (g.lo[1] <= b.lo[1]) & (g.lo[2] <= b.lo[2]) & (b.hi[0] <= g.hi[0]) &
+             (b.hi[1] <= g.hi[1]) & (b.hi[2] <= g.hi[2]);
+  }
+  return inside;
+}
+
+void BroadPhase::Find(const std::vector<Aabb>& vbox, CandidatePairs* out) {
+  if (static_cast<int>(vbox.size()) != num_vertices_)
+    throw Error("broad phase: " + std::to_string(vbox.size()) + " vertex boxes for " + std::to_string(num_vertices_) +
+                " vertices");
+  if (!(reuse_margin_ > 0)) {
+    SetBoxes(vbox);
+    Search(out);
+    return;
+  }
+  if (!InsideGrown(vbox)) {
+    // lo − m ≤ lo and hi + m ≥ hi after rounding too: overlapping boxes still overlap.
+    grown_.resize(vbox.size());
+    for (size_t i = 0; i < vbox.size(); ++i)
+      grown_[i] = {vbox[i].lo.array() - reuse_margin_, vbox[i].hi.array() + reuse_margin_};
+    SetBoxes(grown_);
+    std::vector<Vec3> centre(fbox_.size());
+    for (size_t f = 0; f < fbox_.size(); ++f) centre[f] = 0.5 * (fbox_[f].lo + fbox_[f].hi);
+    BuildTree(centre);
+    Search(&superset_);
+    have_superset_ = true;
+  }
+  // The superset is sorted: filtering keeps the order.
+  SetBoxes(vbox);
+  out->vf.clear();
+  out->ee.clear();
+  for (const auto& p : superset_.vf)
+    if (vbox_[p[0]].Overlaps(fbox_[p[1]])) out->vf.push_back(p);
+  for (const auto& p : superset_.ee)
+    if (ebox_[p[0]].Overlaps(ebox_[p[1]])) out->ee.push_back(p);
+}
+
+void BroadPhase::Search(CandidatePairs* out) {
+  ++searches_;
+  const int nf = static_cast<int>(F_.rows()), ne = static_cast<int>(E_.size());
   // Refit: children come after their parent.
   for (int i = static_cast<int>(nodes_.size()) - 1; i >= 0; --i) {
     Node& n = nodes_[i];

@@ -52,6 +52,16 @@ class BroadPhase {
   // e.g. the flat rest shape of a crumpled garment, has boxes that overlap more).
   void Relayout(const Points3& x);
 
+  // Superset reuse (margin > 0, m; 0: off): a tree search finds the pairs of the boxes
+  // grown by `margin` and keeps them; a later query whose every box lies inside its
+  // grown box takes its pairs from that superset by the same box tests, without a tree
+  // search. The answer is the same (boxes that overlap overlap when grown; the filter
+  // is the same exact test), only cheaper while the cloth moves less than the margin.
+  // Each search first rebuilds the tree around the grown boxes (the tree's shape never
+  // changes an answer), so Relayout is not needed with reuse on.
+  void SetReuseMargin(double margin);
+  long long searches() const { return searches_; }  // tree searches run (work counter)
+
   // Every VF pair (v, f) with v not in f and every EE pair (a, b) with no shared vertex
   // whose boxes overlap (a face's or an edge's box: the union of its vertices' boxes).
   // vbox: one box per vertex (vertices in no face are tested too).
@@ -73,6 +83,10 @@ class BroadPhase {
     int faces = 1;              // faces below
   };
   int Build(std::vector<int>& faces, int begin, int end, const std::vector<Vec3>& centroid);
+  void BuildTree(const std::vector<Vec3>& centroid);
+  void SetBoxes(const std::vector<Aabb>& vbox);  // vbox_, ebox_, fbox_
+  void Search(CandidatePairs* out);              // tree search on vbox_, ebox_, fbox_
+  bool InsideGrown(const std::vector<Aabb>& vbox) const;
   void LeavesPair(const Node& a, const Node& b);
   void LeafPair(int fa, int fb);
   void QueryVertex(int v);
@@ -90,6 +104,12 @@ class BroadPhase {
   std::vector<Aabb> path_boxes_;
   std::vector<std::array<int, 2>> stack_, raw_vf_, raw_ee_, tmp_;
   std::vector<int> count_;
+  // Superset reuse.
+  double reuse_margin_ = 0;         // m
+  std::vector<Aabb> grown_;         // per vertex: the boxes the superset was found for
+  CandidatePairs superset_;
+  bool have_superset_ = false;
+  long long searches_ = 0;
 };
 
 // The same pairs as Find (FindClose) by testing every VF and EE pair (O(n²)): the

@@ -162,6 +162,64 @@ TEST(BroadPhase, FindCloseKeepsEveryPairThatComesClose) {
   EXPECT_GT(close_pairs, 100u);  // not vacuous
 }
 
+// Superset reuse: a sequence of queries on a garment that moves a little between them
+// (mostly less than the margin, sometimes more), answered by one broad phase with reuse
+// on, gives exactly the brute-force pairs every time; most queries need no tree search.
+TEST(BroadPhase, ReuseMatchesBruteForceOverAMotion) {
+  const Garment g = MakeRectangleGarment(0.3, 0.2, 0.03, /*two_layers=*/true, 0.01);
+  const auto E = UniqueEdges(g.mesh);
+  BroadPhase reuse(g.mesh.F, E, g.mesh.V);
+  const double margin = 0.004;
+  reuse.SetReuseMargin(margin);
+  Rng rng(DeriveSeed(7, "broad_phase/reuse"));
+  Points3 x0 = g.mesh.V, x1 = g.mesh.V;
+  int queries = 0;
+  size_t total = 0;
+  for (int step = 0; step < 40; ++step) {
+    x0 = x1;
+    const double scale = step % 10 == 9 ? 0.02 : 0.0005;  // every tenth step a jump past the margin
+    for (int i = 0; i < x1.rows(); ++i) x1.row(i) += RandomVec(rng, scale).transpose();
+    for (const double dist : {0.008, 0.002}) {  // a wide and a narrow query per step, as the handler's
+      CandidatePairs got;
+      reuse.FindClose(x0, x1, dist, 0.001, &got);
+      ++queries;
+      const CandidatePairs want = BruteForceClose(g.mesh.F, E, x0, x1, dist, 0.001);
+      ExpectSame(got, want, "step " + std::to_string(step) + " dist " + std::to_string(dist));
+      total += want.vf.size() + want.ee.size();
+    }
+  }
+  EXPECT_GT(total, 1000u);
+  EXPECT_LT(reuse.searches(), queries / 2);  // the superset served most queries
+  EXPECT_GE(reuse.searches(), 4);            // and the jumps forced new searches
+}
+
+// Boxes just outside the grown ones force a new search: a pair that only overlaps once
+// a box leaves its grown box is found.
+TEST(BroadPhase, ReuseSearchesAgainWhenABoxLeavesItsGrownBox) {
+  TriMesh m;
+  m.V.resize(6, 3);
+  m.V << 0, 0, 0, 1, 0, 0, 0, 1, 0,  //
+      0, 0, 1, 1, 0, 1, 0, 1, 1;
+  m.F.resize(2, 3);
+  m.F << 0, 1, 2, 3, 4, 5;
+  const auto E = UniqueEdges(m);
+  BroadPhase broad(m.F, E, m.V);
+  broad.SetReuseMargin(0.1);
+  CandidatePairs got;
+  std::vector<Aabb> boxes;
+  SweptVertexBoxes(m.V, m.V, 0.01, &boxes);
+  broad.Find(boxes, &got);
+  EXPECT_TRUE(got.vf.empty() && got.ee.empty());  // the triangles are 1 m apart
+  Points3 x1 = m.V;
+  x1.col(2).head(3).setConstant(0.985);  // the lower triangle rises to 1.5 cm under the upper one
+  SweptVertexBoxes(m.V, x1, 0.01, &boxes);
+  broad.Find(boxes, &got);
+  ExpectSame(got, BruteForceCandidates(m.F, E, boxes), "after the rise");
+  EXPECT_FALSE(got.vf.empty());
+  EXPECT_EQ(broad.searches(), 2);
+  EXPECT_THROW(broad.SetReuseMargin(-1), Error);
+}
+
 TEST(BroadPhase, RejectsEdgesThatAreNoSideOfAFace) {
   TriMesh m;
   m.V = Points3::Zero(4, 3);

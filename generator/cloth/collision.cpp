@@ -21,6 +21,7 @@ constexpr double kAccdShrink = 0.1;      // ACCD's s: report when the gap falls 
 constexpr int kAccdMaxSteps = 2000;      // ACCD step cap; hitting it reports a collision
 constexpr double kMaxZoneAngle = 1.5;    // rad per step: keeps (1−t)I + tR invertible
 constexpr double kBroadSlack = 0.25;      // × thickness: how far x1 may move before a new CCD broad-phase search
+constexpr double kReuseMargin = 0.5;     // × thickness: broad-phase superset margin (BroadPhase::SetReuseMargin)
 constexpr double kRigidTolerance = 1e-7; // m: kinematic nodes further off a rigid fit are non-rigid
 
 // ---------------------------------------------------------------------------------
@@ -437,14 +438,36 @@ struct ApplyContext {
   BroadPhase& broad;
   CollisionHandler::StrainOrder& strain_order;
   CandidatePairs near = {};  // repulsion's pairs: within thickness somewhere on x0 → x1
-  CandidatePairs cand;
-  Points3 box_ref;  // the x1 the candidates were found for
+  CandidatePairs cand, next = {};
+  Points3 box_ref = {};  // the x1 the candidates were found for
   bool have_cand = false;
   // Detect's results per candidate for the x1 in detect_ref (toi < 0: no hit; NaN:
   // not known), reused for pairs none of whose nodes moved since.
-  std::vector<double> cand_toi = {};
+  std::vector<double> cand_toi = {}, next_toi = {};
   Points3 detect_ref = {};
   std::vector<char> dirty = {};
+
+  // cand_toi for the pairs of `next`: the known results of pairs also in `cand` (both
+  // lists sorted), NaN for the others. A kept result stays valid: it was found for the
+  // positions in detect_ref, and Detect retests a pair whose nodes moved since.
+  void CarryResults() {
+    next_toi.assign(next.vf.size() + next.ee.size(), std::numeric_limits<double>::quiet_NaN());
+    if (!have_cand) {
+      cand_toi.swap(next_toi);
+      return;
+    }
+    auto carry = [](const std::vector<std::array<int, 2>>& from, const double* from_toi,
+                    const std::vector<std::array<int, 2>>& to, double* to_toi) {
+      size_t i = 0;
+      for (size_t j = 0; j < to.size(); ++j) {
+        while (i < from.size() && from[i] < to[j]) ++i;
+        if (i < from.size() && from[i] == to[j]) to_toi[j] = from_toi[i];
+      }
+    };
+    carry(cand.vf, cand_toi.data(), next.vf, next_toi.data());
+    carry(cand.ee, cand_toi.data() + cand.vf.size(), next.ee, next_toi.data() + next.vf.size());
+    cand_toi.swap(next_toi);
+  }
 
   Stencil VF(int v, int f) const { return {{v, F(f, 0), F(f, 1), F(f, 2)}, true}; }
   Stencil EE(int a, int b) const { return {{E[a][0], E[a][1], E[b][0], E[b][1]}, false}; }
@@ -458,12 +481,13 @@ struct ApplyContext {
     bool valid = have_cand;
     for (int i = 0; valid && i < x1.rows(); ++i) valid = (x1.row(i) - box_ref.row(i)).squaredNorm() <= slack * slack;
     if (!valid) {
-      broad.FindClose(x0, x1, opt.min_separation, slack, &cand);
+      broad.FindClose(x0, x1, opt.min_separation, slack, &next);
       ++rep.broad_builds;
-      rep.broad_candidates += static_cast<long long>(cand.vf.size() + cand.ee.size());
+      rep.broad_candidates += static_cast<long long>(next.vf.size() + next.ee.size());
       box_ref = x1;
+      CarryResults();
+      std::swap(cand, next);
       have_cand = true;
-      cand_toi.assign(cand.vf.size() + cand.ee.size(), std::numeric_limits<double>::quiet_NaN());
     }
     rep.broad_seconds += Since(t0);
     return cand;
@@ -527,10 +551,19 @@ void LimitStrain(ApplyContext& cx, const Eigen::VectorXd& w) {
   }
   const std::vector<int>& level = so.level;
   const std::vector<int>& order = so.order;
+  // An edge found within the bounds stays so until a node of it is corrected: it is not
+  // measured again until then (stamp: tick of a node's last correction; checked: tick
+  // at which the edge was last found within, −1: not yet). Same sweeps, fewer roots.
+  int tick = 0;
+  std::vector<int>& stamp = so.stamp;
+  std::vector<int>& checked = so.checked;
+  stamp.assign(w.size(), 0);
+  checked.assign(cx.E.size(), -1);
   for (int it = 0; it < cx.opt.strain_iterations; ++it) {
     double worst = 0;  // largest relative violation corrected in this sweep
     for (const int e : order) {
       const int i = cx.E[e][0], j = cx.E[e][1];
+      if (checked[e] >= 0 && stamp[i] <= checked[e] && stamp[j] <= checked[e]) continue;
       double wi = w[i], wj = w[j];
       if (level[i] < level[j]) wi *= cx.opt.strain_lead_weight;
       if (level[j] < level[i]) wj *= cx.opt.strain_lead_weight;
@@ -541,11 +574,15 @@ void LimitStrain(ApplyContext& cx, const Eigen::VectorXd& w) {
       double target = l;
       if (l > b.hi * L0) target = b.hi * L0;
       else if (l < b.lo * L0 && l > 0) target = b.lo * L0;
-      else continue;
+      else {
+        checked[e] = tick;
+        continue;
+      }
       worst = std::max(worst, std::abs(l - target) / L0);
       const Vec3 corr = d * ((l - target) / l);
       cx.x1.row(i) += (wi / (wi + wj)) * corr.transpose();
       cx.x1.row(j) -= (wj / (wi + wj)) * corr.transpose();
+      stamp[i] = stamp[j] = ++tick;
       ++cx.rep.strain_corrections;
     }
     if (worst < 1e-6) break;
@@ -1033,6 +1070,7 @@ CollisionHandler::CollisionHandler(const Faces& F, const Points3& rest, const Co
   for (size_t e = 0; e < edges_.size(); ++e)
     rest_lengths_[Eigen::Index(e)] = (rest.row(edges_[e][0]) - rest.row(edges_[e][1])).norm();
   broad_ = BroadPhase(F_, edges_, rest);
+  broad_.SetReuseMargin(kReuseMargin * options_.thickness);
   adjacency_start_.assign(num_vertices_ + 1, 0);
   for (const auto& e : edges_) ++adjacency_start_[e[0] + 1], ++adjacency_start_[e[1] + 1];
   std::partial_sum(adjacency_start_.begin(), adjacency_start_.end(), adjacency_start_.begin());
@@ -1055,11 +1093,7 @@ CollisionReport CollisionHandler::Apply(const Points3& x0, Points3& x1, const Ei
   for (const BoxCollider& box : colliders) box.Validate();
 
   CollisionReport rep;
-  {  // a tree over where the cloth is now, refitted within the call
-    const auto t0 = ThreadCpuSeconds();
-    broad_.Relayout(x0);
-    rep.broad_seconds += Since(t0);
-  }
+  const long long searches0 = broad_.searches();
   ApplyContext cx{F_,  edges_, rest_, options_, x0,   x1,   inv_mass, rest_lengths_, adjacency_start_,
                   adjacency_, dt, rep, broad_, strain_order_, {}, {}, {}};
   LimitStrain(cx, inv_mass);
@@ -1078,6 +1112,7 @@ CollisionReport CollisionHandler::Apply(const Points3& x0, Points3& x1, const Ei
   if (!pending.Empty() || (options_.strain_zones && !stretched.empty()))
     ImpactZones(cx, std::move(pending), std::move(stretched), colliders);
   rep.strain_violations = static_cast<int>(StrainViolations(cx, &rep.max_strain).size());
+  rep.broad_searches = static_cast<int>(broad_.searches() - searches0);
   return rep;
 }
 

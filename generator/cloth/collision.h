@@ -139,7 +139,8 @@ struct CollisionReport {
   int strain_merges = 0;        // edges beyond the bound merged into impact zones (step 6)
   int strain_violations = 0;    // edges of the returned x1 beyond the bound (0 unless x0 was, or non-rigid kinematics)
   double max_strain = 0;        // largest edge strain (l − L0)/L0 of the returned x1
-  int broad_builds = 0;         // broad-phase candidate searches run (work counter)
+  int broad_builds = 0;         // broad-phase candidate queries run (work counter)
+  int broad_searches = 0;       // of which needed a tree search (the rest filtered the kept superset)
   long long broad_candidates = 0;  // candidate pairs found (summed over searches)
   long long ccd_tests = 0;      // pair CCD tests run (summed over passes)
   double broad_seconds = 0, strain_seconds = 0, proximity_seconds = 0, collider_seconds = 0,
@@ -154,6 +155,7 @@ class CollisionHandler {
     std::vector<int> fixed;         // nodes with w == 0, ascending
     std::vector<int> level, order;  // hop level per node; edges by level
     bool valid = false;
+    std::vector<int> stamp, checked;  // per-call scratch of the clamp (node, edge)
   };
 
   // Topology and rest lengths fixed at construction (rest: the flat garment, metres).
@@ -184,7 +186,7 @@ class CollisionHandler {
   std::vector<std::array<int, 2>> edges_;  // unique, sorted
   std::vector<int> adjacency_start_, adjacency_;  // vertex → neighbouring vertices (CSR)
   Eigen::VectorXd rest_lengths_;           // m, per edge
-  BroadPhase broad_;                       // tree over the faces, refitted per query
+  BroadPhase broad_;                       // tree over the faces; its candidate superset is kept across calls
   StrainOrder strain_order_;
 };
 

@@ -58,7 +58,7 @@ void BM_CollisionStep(benchmark::State& state) {
   for (int i = 0; i < state.range(0); ++i) sim.Step(dt);
   double broad = 0, strain = 0, prox = 0, ccd = 0, zone = 0, collider = 0;
   double steps = 0, fail_safe = 0, ccd_pairs = 0, prox_pairs = 0, zones = 0, remaining = 0, total = 0;
-  double strain_max = 0, violations = 0, builds = 0, candidates = 0, ccd_tests = 0, passes = 0;
+  double strain_max = 0, violations = 0, builds = 0, searches = 0, candidates = 0, ccd_tests = 0, passes = 0;
   for (auto _ : state) {
     const double t0 = ThreadCpuSeconds();
     const CollisionReport r = sim.Step(dt);
@@ -78,6 +78,7 @@ void BM_CollisionStep(benchmark::State& state) {
     zones += r.impact_zones;
     remaining += r.remaining_collisions;
     builds += r.broad_builds;
+    searches += r.broad_searches;
     candidates += double(r.broad_candidates);
     ccd_tests += double(r.ccd_tests);
     passes += r.ccd_passes + r.zone_iterations;
@@ -97,6 +98,7 @@ void BM_CollisionStep(benchmark::State& state) {
   state.counters["zones"] = zones / steps;
   state.counters["remaining"] = remaining;
   state.counters["broad_builds"] = builds / steps;
+  state.counters["broad_searches"] = searches / steps;
   state.counters["cand_per_build"] = builds > 0 ? candidates / builds : 0;
   state.counters["ccd_tests"] = ccd_tests / steps;
   state.counters["passes"] = passes / steps;

@@ -374,7 +374,7 @@ std::string ClothWorld::Health() const {
   double vmax = 0;
   for (int i = 0; i < v_.rows(); ++i)
     if (holder_[i] < 0) vmax = std::max(vmax, v_.row(i).norm());
-  if (vmax > model_->options.max_speed) return "blew up: node speed " + FormatNumber(vmax) + " m/s";
+  if (vmax > model_->options.max_speed) return "blew up: node speed " + FormatFixed(vmax, 1) + " m/s";
   const double cap = 50 * model_->total_mass * model_->options.gravity.norm() * std::max(model_->extent, 0.1);
   const double ke = KineticEnergy();
   if (ke > cap) return "blew up: kinetic energy " + FormatNumber(ke) + " J";

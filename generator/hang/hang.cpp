@@ -60,13 +60,6 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double Seconds(Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double>(b - a).count(); }
 
-std::string Fixed(double v, int digits) {
-  std::ostringstream o;
-  o.setf(std::ios::fixed);
-  o.precision(digits);
-  o << v;
-  return o.str();
-}
 
 // The gripper for hanging: closing across the layers (world z, the flat garment's
 // normal), pads in the garment's plane, at the grasp point (the origin).
@@ -218,8 +211,8 @@ std::string Verdict(const SettleReport& settle, const ClothMeasurement& m, const
   if (m.intersecting_pairs > 0)
     return "hung mesh intersects itself: " + std::to_string(m.intersecting_pairs) + " triangle pairs (CGAL exact test)";
   auto over = [&](const char* what, double strain, double bound) {
-    return "edge strain " + std::string(what) + " " + Fixed(100 * strain, 2) + " % exceeds " + Fixed(bound, 2) +
-           " × the material's stretch (" + Fixed(material.stretch_percent, 2) + " %)";
+    return "edge strain " + std::string(what) + " " + FormatFixed(100 * strain, 2) + " % exceeds " + FormatFixed(bound, 2) +
+           " × the material's stretch (" + FormatFixed(material.stretch_percent, 2) + " %)";
   };
   const double stretch = material.stretch_percent / 100;
   if (m.strain.max > o.accept_strain_max * stretch) return over("max", m.strain.max, o.accept_strain_max);

@@ -8,6 +8,7 @@
 
 #include "common/error.h"
 #include "common/files.h"
+#include "common/format.h"
 #include "common/json.h"
 #include "generator/sweep/sweep.h"
 
@@ -127,11 +128,6 @@ std::string EncodePng(const cv::Mat& image) {
   return std::string(buf.begin(), buf.end());
 }
 
-std::string Fixed(double x, int digits) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.*f", digits, x);
-  return buf;
-}
 
 }  // namespace
 
@@ -181,12 +177,12 @@ std::vector<std::pair<std::string, std::string>> EncodeSweep(const Sweep& sweep)
           {"width", K.width}}},
         {"version_major", 1},
         {"version_minor", 0}});
-    depth_txt += Fixed(t, 6) + " " + name + "\n";
+    depth_txt += FormatFixed(t, 6) + " " + name + "\n";
     const Eigen::Quaterniond q(f.camera_to_object.linear());
     const Vec3 p = f.camera_to_object.translation();
-    gt_txt += Fixed(t, 6) + " " + Fixed(p.x(), 9) + " " + Fixed(p.y(), 9) + " " + Fixed(p.z(), 9) +
-              " " + Fixed(q.x(), 9) + " " + Fixed(q.y(), 9) + " " + Fixed(q.z(), 9) + " " +
-              Fixed(q.w(), 9) + "\n";
+    gt_txt += FormatFixed(t, 6) + " " + FormatFixed(p.x(), 9) + " " + FormatFixed(p.y(), 9) + " " + FormatFixed(p.z(), 9) +
+              " " + FormatFixed(q.x(), 9) + " " + FormatFixed(q.y(), 9) + " " + FormatFixed(q.z(), 9) + " " +
+              FormatFixed(q.w(), 9) + "\n";
   }
   Json cameras = {
       {"format", "drape.sweep"},
@@ -320,7 +316,7 @@ std::string RenderDepthPreview(const DepthFrame& frame, const Intrinsics& K) {
       const int y = top + (bottom - top - 1) * t / 4;
       const double z = lo + (hi - lo) * t / 4;
       cv::line(canvas, {x1, y}, {x1 + 5, y}, cv::Scalar(0, 0, 0), 1);
-      cv::putText(canvas, Fixed(z, 2) + " m", {x1 + 8, y + 5}, cv::FONT_HERSHEY_SIMPLEX, 0.45,
+      cv::putText(canvas, FormatFixed(z, 2) + " m", {x1 + 8, y + 5}, cv::FONT_HERSHEY_SIMPLEX, 0.45,
                   cv::Scalar(0, 0, 0), 1, cv::LINE_8);
     }
     cv::putText(canvas, "depth", {x0, top - 10}, cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(0, 0, 0), 1,

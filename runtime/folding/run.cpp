@@ -161,7 +161,11 @@ void RunPlan(PlanRun& run, const FoldScene& scene, const Points3& laid, const st
       rec.result.after = SimulateStep(scene, rec.setup, paths, o.sim, o.optimise.alpha, true);
       rec.result.before = rec.result.after;
     } else {
-      rec.result = OptimiseStep(scene, rec.setup, o.sim, o.optimise);
+      try {
+        rec.result = OptimiseStep(scene, rec.setup, o.sim, o.optimise);
+      } catch (const NumericalError& e) {
+        throw NumericalError(where + e.what());
+      }
     }
     if (!rec.result.after.ok) throw NumericalError(where + rec.result.after.failure);
     for (const auto& c : rec.result.optimised) rec.relative.push_back(ToRelative(c));
