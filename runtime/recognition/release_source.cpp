@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstring>
+#include <limits>
 #include <sstream>
 
 #include "common/error.h"
@@ -56,16 +57,21 @@ Code LoadEntryCode(const Release& release, const Release::EntryInfo& e) {
   return f;
 }
 
+namespace {
+std::optional<double> PlyHeight(const std::string& bytes);
+}  // namespace
+
 double ReconHeight(const Release& release, const Release::EntryInfo& e) {
   bool listed = false;
   for (const auto& f : e.files) listed |= f.path == "recon.ply";
   if (!listed) return 0;
-  const std::string where = (release.dir() / "entries" / e.id / "recon.ply").string();
-  const MeshData m = ParsePly(release.ReadFile(e.id, "recon.ply"), where);
-  if (m.V.empty()) return 0;
-  double lo = m.V.front().y(), hi = lo;
+  const std::string bytes = release.ReadFile(e.id, "recon.ply");
+  if (const auto h = PlyHeight(bytes)) return *h;
+  // Another PLY layout than drape writes: the full reader (throws naming the file).
+  const MeshData m = ParsePly(bytes, (release.dir() / "entries" / e.id / "recon.ply").string());
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
   for (const Vec3& v : m.V) lo = std::min(lo, v.y()), hi = std::max(hi, v.y());
-  return hi - lo;
+  return hi >= lo ? hi - lo : 0.0;
 }
 
 std::vector<LabelledCode> LoadSplit(const Release& release, const std::string& split, LoadReport* report) {
@@ -143,86 +149,140 @@ StageTiming EntryStageTiming(const Json& build_info, const std::string& id) {
 
 namespace {
 
-// Minimal PLY vertex reader (ascii or binary little-endian; x, y, z float or double).
-std::optional<Vec3> PlyVertex(const std::string& bytes, int vertex) {
-  size_t pos = bytes.find("end_header");
-  if (bytes.rfind("ply", 0) != 0 || pos == std::string::npos) return std::nullopt;
-  const size_t body = bytes.find('\n', pos) + 1;
-  std::istringstream hs(bytes.substr(0, pos));
-  std::string line, format;
-  long long n_vertex = -1;
-  bool in_vertex = false, before_vertex = true;
-  size_t skip_bytes = 0;  // binary: elements before "vertex" are not expected
-  struct Prop { std::string name, type; };
+// The vertex block of a PLY as the minimal readers below take it: ascii or binary
+// little-endian, "vertex" the first element, scalar properties (x, y, z float or double).
+// They read a vertex or the heights without parsing the faces, which are most of a
+// reconstruction's bytes.
+struct PlyVertexBlock {
+  struct Prop {
+    int axis = -1;  // 0, 1, 2 for x, y, z
+    std::string type;
+    size_t size = 0;
+  };
+  std::string format;
+  size_t body = 0;  // first byte after the header
+  long long count = -1;
   std::vector<Prop> props;
+  size_t stride = 0;  // binary: bytes per vertex
+};
+
+size_t PlyTypeSize(const std::string& t) {
+  if (t == "char" || t == "uchar" || t == "int8" || t == "uint8") return 1;
+  if (t == "short" || t == "ushort" || t == "int16" || t == "uint16") return 2;
+  if (t == "int" || t == "uint" || t == "float" || t == "int32" || t == "uint32" || t == "float32") return 4;
+  if (t == "double" || t == "float64") return 8;
+  return 0;
+}
+
+std::optional<PlyVertexBlock> VertexBlock(const std::string& bytes) {
+  const size_t pos = bytes.find("end_header");
+  if (bytes.rfind("ply", 0) != 0 || pos == std::string::npos) return std::nullopt;
+  PlyVertexBlock b;
+  b.body = bytes.find('\n', pos) + 1;
+  std::istringstream hs(bytes.substr(0, pos));
+  std::string line;
+  bool in_vertex = false;
   while (std::getline(hs, line)) {
     std::istringstream ls(line);
     std::string w;
     ls >> w;
     if (w == "format") {
-      ls >> format;
+      ls >> b.format;
     } else if (w == "element") {
       std::string name;
       long long n;
       ls >> name >> n;
       in_vertex = name == "vertex";
-      if (in_vertex) n_vertex = n, before_vertex = false;
-      else if (before_vertex) return std::nullopt;
+      if (in_vertex) b.count = n;
+      else if (b.count < 0) return std::nullopt;  // an element before the vertices
     } else if (w == "property" && in_vertex) {
-      std::string type, name;
-      ls >> type;
-      if (type == "list") return std::nullopt;
+      PlyVertexBlock::Prop pr;
+      std::string name;
+      ls >> pr.type;
+      if (pr.type == "list") return std::nullopt;
       ls >> name;
-      props.push_back({name, type});
+      pr.axis = name == "x" ? 0 : name == "y" ? 1 : name == "z" ? 2 : -1;
+      pr.size = PlyTypeSize(pr.type);
+      b.stride += pr.size;
+      b.props.push_back(pr);
     }
   }
-  (void)skip_bytes;
-  if (vertex < 0 || vertex >= n_vertex) return std::nullopt;
-  auto size_of = [](const std::string& t) -> size_t {
-    if (t == "char" || t == "uchar" || t == "int8" || t == "uint8") return 1;
-    if (t == "short" || t == "ushort" || t == "int16" || t == "uint16") return 2;
-    if (t == "int" || t == "uint" || t == "float" || t == "int32" || t == "uint32" || t == "float32") return 4;
-    if (t == "double" || t == "float64") return 8;
-    return 0;
-  };
+  if (b.count < 0 || (b.format != "ascii" && b.format != "binary_little_endian")) return std::nullopt;
+  if (b.format != "ascii") {
+    for (const auto& pr : b.props) {
+      if (pr.size == 0) return std::nullopt;
+    }
+  }
+  return b;
+}
+
+// Vertex i of a binary block (the caller checked that its bytes are there).
+Vec3 BinaryVertex(const std::string& bytes, const PlyVertexBlock& b, long long i) {
   Vec3 p = Vec3::Zero();
-  if (format == "binary_little_endian") {
-    size_t stride = 0;
-    for (const auto& pr : props) {
-      if (!size_of(pr.type)) return std::nullopt;
-      stride += size_of(pr.type);
+  size_t off = b.body + b.stride * size_t(i);
+  for (const auto& pr : b.props) {
+    if (pr.axis >= 0 && pr.size == 4 && pr.type.rfind("float", 0) == 0) {
+      float f;
+      std::memcpy(&f, bytes.data() + off, 4);
+      p[pr.axis] = f;
+    } else if (pr.axis >= 0 && pr.size == 8) {
+      std::memcpy(&p[pr.axis], bytes.data() + off, 8);
     }
-    size_t off = body + stride * size_t(vertex);
-    if (off + stride > bytes.size()) return std::nullopt;
-    for (const auto& pr : props) {
-      const int axis = pr.name == "x" ? 0 : pr.name == "y" ? 1 : pr.name == "z" ? 2 : -1;
-      if (axis >= 0) {
-        if (pr.type == "float" || pr.type == "float32") {
-          float f;
-          std::memcpy(&f, bytes.data() + off, 4);
-          p[axis] = f;
-        } else if (pr.type == "double" || pr.type == "float64") {
-          std::memcpy(&p[axis], bytes.data() + off, 8);
-        }
-      }
-      off += size_of(pr.type);
-    }
-    return p;
+    off += pr.size;
   }
-  if (format == "ascii") {
-    std::istringstream bs(bytes.substr(body));
-    for (int i = 0; i <= vertex; ++i) std::getline(bs, line);
-    std::istringstream ls(line);
-    for (const auto& pr : props) {
-      double v;
-      ls >> v;
-      if (pr.name == "x") p[0] = v;
-      if (pr.name == "y") p[1] = v;
-      if (pr.name == "z") p[2] = v;
-    }
-    return p;
+  return p;
+}
+
+Vec3 AsciiVertex(const std::string& line, const PlyVertexBlock& b) {
+  std::istringstream ls(line);
+  Vec3 p = Vec3::Zero();
+  for (const auto& pr : b.props) {
+    double v = 0;
+    ls >> v;
+    if (pr.axis >= 0) p[pr.axis] = v;
   }
-  return std::nullopt;
+  return p;
+}
+
+// Calls f(vertex) for the first `n` vertices (all when n < 0); false if unreadable.
+template <typename F>
+bool ForEachVertex(const std::string& bytes, long long n, F&& f) {
+  const auto b = VertexBlock(bytes);
+  if (!b) return false;
+  if (n < 0 || n > b->count) n = b->count;
+  if (b->format == "binary_little_endian") {
+    if (b->body + b->stride * size_t(n) > bytes.size()) return false;
+    for (long long i = 0; i < n; ++i) f(BinaryVertex(bytes, *b, i));
+    return true;
+  }
+  std::istringstream bs(bytes.substr(b->body));
+  std::string line;
+  for (long long i = 0; i < n; ++i) {
+    if (!std::getline(bs, line)) return false;
+    f(AsciiVertex(line, *b));
+  }
+  return true;
+}
+
+std::optional<Vec3> PlyVertex(const std::string& bytes, int vertex) {
+  const auto b = VertexBlock(bytes);
+  if (!b || vertex < 0 || vertex >= b->count) return std::nullopt;
+  if (b->format == "binary_little_endian") {
+    if (b->body + b->stride * size_t(vertex + 1) > bytes.size()) return std::nullopt;
+    return BinaryVertex(bytes, *b, vertex);
+  }
+  Vec3 last;
+  if (!ForEachVertex(bytes, vertex + 1, [&](const Vec3& p) { last = p; })) return std::nullopt;
+  return last;
+}
+
+// The y extent of a PLY's vertices; nullopt if the minimal reader cannot read it.
+std::optional<double> PlyHeight(const std::string& bytes) {
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  if (!ForEachVertex(bytes, -1, [&](const Vec3& p) { lo = std::min(lo, p.y()), hi = std::max(hi, p.y()); })) {
+    return std::nullopt;
+  }
+  return hi >= lo ? hi - lo : 0.0;
 }
 
 }  // namespace

@@ -4,12 +4,14 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstring>
 #include <filesystem>
 
 #include "common/error.h"
 #include "common/files.h"
 #include "common/rng.h"
+#include "garments/mesh_read.h"
 #include "generator/feature/feature.h"
 #include "runtime/recognition/test_features.h"
 
@@ -25,6 +27,27 @@ std::string TinyPly() {
   for (int i = 0; i < 3; ++i) {
     const float v[3] = {i / 10.0f, -i / 10.0f, 0.05f * i};
     s.append(reinterpret_cast<const char*>(v), sizeof v);
+  }
+  return s;
+}
+
+// The same three vertices as an ascii PLY with one face, and as a big-endian binary PLY
+// (which the minimal vertex reader leaves to the full reader).
+std::string TinyPlyAscii() {
+  return "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+         "element face 1\nproperty list uchar int vertex_indices\nend_header\n"
+         "0 0 0\n0.1 -0.1 0.05\n0.2 -0.2 0.1\n3 0 1 2\n";
+}
+std::string TinyPlyBigEndian() {
+  std::string s = "ply\nformat binary_big_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                  "property float z\nelement face 0\nproperty list uchar int vertex_indices\nend_header\n";
+  for (int i = 0; i < 3; ++i) {
+    const float v[3] = {i / 10.0f, -i / 10.0f, 0.05f * i};
+    for (float f : v) {
+      char b[4];
+      std::memcpy(b, &f, 4);
+      s.append({b[3], b[2], b[1], b[0]});
+    }
   }
   return s;
 }
@@ -84,6 +107,7 @@ fs::path BuildRelease(const fs::path& dir, const std::vector<Spec>& specs, const
                     {"anchor", {{"label", s.anchor}, {"vertex", a % 3}, {"uv", {0.1 * a, 0.0}}}}};
     e.timing = Json{{"stages", {{"fusion_seconds", 0.25}, {"feature_seconds", 0.002}}}};
     e.files.push_back({"hang.ply", TinyPly()});
+    e.files.push_back({"recon.ply", i % 3 == 0 ? TinyPly() : i % 3 == 1 ? TinyPlyAscii() : TinyPlyBigEndian()});
     e.files.push_back({"feature.bin", EncodeFeature(s.feature)});
     w->Commit(e);
   }
@@ -130,6 +154,14 @@ TEST_F(RecognitionRelease, LoadsTheTrainSplitWithLabels) {
       ASSERT_EQ(got[i].distance, ref.distance);
       ASSERT_EQ(got[i].rotation, ref.rotation);
     }
+  }
+  // Hung heights from recon.ply (binary, ascii, big-endian), as the full reader sees them.
+  for (const auto& lc : test) {
+    const MeshData m = ParsePly(rel.ReadFile(lc.label.id, "recon.ply"), lc.label.id);
+    double lo = 1e9, hi = -1e9;
+    for (const Vec3& v : m.V) lo = std::min(lo, v.y()), hi = std::max(hi, v.y());
+    EXPECT_NEAR(lc.label.height, hi - lo, 1e-7) << lc.label.id;
+    EXPECT_NEAR(lc.label.height, 0.2, 1e-7) << lc.label.id;
   }
   // Hung anchor position from hang.ply.
   const auto p = HungVertex(rel, db.label(0).id, 2);
