@@ -199,13 +199,7 @@ void ScoreGates(const Database& db, const Code& code, const EntryLabel& ql, cons
     if (db.label(i).category == ql.category) same_category.push_back(i);
   }
   if (others.empty()) return;
-  auto nearest = [&](const std::vector<int>& pool) {
-    int best = pool.front();
-    for (int i : pool) {
-      if (matches[i].distance < matches[best].distance) best = i;
-    }
-    return best;
-  };
+  auto nearest = [&](const std::vector<int>& pool) { return NearestUnweighted(pool, matches); };
   for (size_t k = 0; k < taus.size(); ++k) {
     g.category_right[k] += db.label(nearest(HeightGated(db, others, ql.height, taus[k]))).category == ql.category;
     if (!same_category.empty()) {

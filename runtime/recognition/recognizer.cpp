@@ -85,6 +85,14 @@ std::vector<int> HeightGated(const Database& db, const std::vector<int>& pool, d
   return kept;
 }
 
+int NearestUnweighted(const std::vector<int>& pool, const std::vector<Match>& matches) {
+  int best = pool.front();
+  for (int i : pool) {
+    if (matches[i].distance < matches[best].distance) best = i;
+  }
+  return best;
+}
+
 Recognizer::Recognizer(const Database& db, const Weights* weights) : db_(db) {
   if (!weights) return;
   if (!db.empty() && (weights->layers != db.layers() || weights->rings != db.rings() ||
@@ -144,11 +152,7 @@ Recognition Recognizer::Rank(const PreparedQuery& q, const std::vector<Match>& m
     std::vector<int> all(db_.size());
     for (int i = 0; i < db_.size(); ++i) all[i] = i;
     const std::vector<int> pool = HeightGated(db_, all, options.query_height, r.gates.category);
-    int best = pool.front();
-    for (int i : pool) {
-      if (matches[i].distance < matches[best].distance) best = i;
-    }
-    r.category = db_.label(best).category;
+    r.category = db_.label(NearestUnweighted(pool, matches)).category;
     r.category_source = "unweighted_nn";
     r.category_pool = static_cast<int>(pool.size());
   }

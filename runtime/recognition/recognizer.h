@@ -96,6 +96,10 @@ bool PassesHeightGate(double query_h, double entry_h, double tau);
 // entry's |ln ratio| + τ.
 std::vector<int> HeightGated(const Database& db, const std::vector<int>& pool, double query_h, double tau);
 
+// The entry of a non-empty `pool` nearest under Eq. match (`matches` indexed by entry;
+// ties: the first in the pool).
+int NearestUnweighted(const std::vector<int>& pool, const std::vector<Match>& matches);
+
 // Learned weights, one vector per category (bits in `frame`; see matcher.h).
 struct Weights {
   std::string release_digest;  // digest of the release they were learned on
