@@ -14,17 +14,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-LabelledCode L(const std::string& id, const std::string& cat, const std::string& inst, const std::string& anchor,
-               Code c) {
-  LabelledCode lc;
-  lc.label.id = id;
-  lc.label.category = cat;
-  lc.label.instance = inst;
-  lc.label.anchor = anchor;
-  lc.code = std::move(c);
-  return lc;
-}
-
 // pants: 2 instances × anchors {a, b}; shorts: 1 instance × {a, c}. Queries are small
 // perturbations of one instance's entry, except one pants query built to be nearest to
 // instance 1's "b" while labelled "a" (a known mistake) and one towel query whose category
@@ -34,12 +23,12 @@ TEST(RecognitionEvaluate, CountsTheTableAndWritesTheReport) {
   std::map<std::string, Code> proto;
   for (const char* k : {"pants/a", "pants/b", "shorts/a", "shorts/c"}) proto[k] = RandomCode(rng, 4, 4, 8);
   std::vector<LabelledCode> train = {
-      L("p1a", "pants", "pants-1", "a", FlipBits(proto["pants/a"], rng, 2)),
-      L("p1b", "pants", "pants-1", "b", FlipBits(proto["pants/b"], rng, 2)),
-      L("p2a", "pants", "pants-2", "a", FlipBits(proto["pants/a"], rng, 2)),
-      L("p2b", "pants", "pants-2", "b", FlipBits(proto["pants/b"], rng, 2)),
-      L("s1a", "shorts", "shorts-1", "a", FlipBits(proto["shorts/a"], rng, 2)),
-      L("s1c", "shorts", "shorts-1", "c", FlipBits(proto["shorts/c"], rng, 2)),
+      Labelled("p1a", "pants", "pants-1", "a", FlipBits(proto["pants/a"], rng, 2)),
+      Labelled("p1b", "pants", "pants-1", "b", FlipBits(proto["pants/b"], rng, 2)),
+      Labelled("p2a", "pants", "pants-2", "a", FlipBits(proto["pants/a"], rng, 2)),
+      Labelled("p2b", "pants", "pants-2", "b", FlipBits(proto["pants/b"], rng, 2)),
+      Labelled("s1a", "shorts", "shorts-1", "a", FlipBits(proto["shorts/a"], rng, 2)),
+      Labelled("s1c", "shorts", "shorts-1", "c", FlipBits(proto["shorts/c"], rng, 2)),
   };
   Database db(train);
   std::vector<EvalQuery> qs;
@@ -51,11 +40,11 @@ TEST(RecognitionEvaluate, CountsTheTableAndWritesTheReport) {
     q.timing_source = "test";
     qs.push_back(std::move(q));
   };
-  add(L("q1", "pants", "pants-q", "a", Rotate(FlipBits(proto["pants/a"], rng, 1), 3)), 0.2);
-  add(L("q2", "pants", "pants-q", "b", FlipBits(proto["pants/b"], rng, 1)), 0.2);
-  add(L("q3", "pants", "pants-q", "a", train[1].code), 0.2);  // looks exactly like pants-1 "b"
-  add(L("q4", "shorts", "shorts-q", "c", FlipBits(proto["shorts/c"], rng, 1)), -1);
-  add(L("q5", "towel", "towel-q", "corner", RandomCode(rng, 4, 4, 8)), -1);
+  add(Labelled("q1", "pants", "pants-q", "a", Rotate(FlipBits(proto["pants/a"], rng, 1), 3)), 0.2);
+  add(Labelled("q2", "pants", "pants-q", "b", FlipBits(proto["pants/b"], rng, 1)), 0.2);
+  add(Labelled("q3", "pants", "pants-q", "a", train[1].code), 0.2);  // looks exactly like pants-1 "b"
+  add(Labelled("q4", "shorts", "shorts-q", "c", FlipBits(proto["shorts/c"], rng, 1)), -1);
+  add(Labelled("q5", "towel", "towel-q", "corner", RandomCode(rng, 4, 4, 8)), -1);
   AnchorUvMap uvs = {{{"pants-q", "a"}, Vec2(0, 0)}, {{"pants-q", "b"}, Vec2(0.3, 0.4)}};
 
   const EvalResult res = Evaluate(db, nullptr, qs, uvs, {});
@@ -118,13 +107,13 @@ TEST(RecognitionEvaluate, SymmetryTwinsSwapWholeSideTokens) {
 // one matched to an unrelated anchor is wrong both ways.
 TEST(RecognitionEvaluate, TwinCreditedAccuracy) {
   Rng rng(11);
-  std::vector<LabelledCode> train = {L("l", "shorts", "s-1", "left_leg", RandomCode(rng, 4, 4, 8)),
-                                     L("r", "shorts", "s-1", "right_leg", RandomCode(rng, 4, 4, 8)),
-                                     L("w", "shorts", "s-1", "waist", RandomCode(rng, 4, 4, 8))};
+  std::vector<LabelledCode> train = {Labelled("l", "shorts", "s-1", "left_leg", RandomCode(rng, 4, 4, 8)),
+                                     Labelled("r", "shorts", "s-1", "right_leg", RandomCode(rng, 4, 4, 8)),
+                                     Labelled("w", "shorts", "s-1", "waist", RandomCode(rng, 4, 4, 8))};
   Database db(train);
   std::vector<EvalQuery> qs(2);
-  qs[0].query = L("q0", "shorts", "s-q", "left_leg", train[1].code);  // looks like right_leg
-  qs[1].query = L("q1", "shorts", "s-q", "waist", train[0].code);     // looks like left_leg
+  qs[0].query = Labelled("q0", "shorts", "s-q", "left_leg", train[1].code);  // looks like right_leg
+  qs[1].query = Labelled("q1", "shorts", "s-q", "waist", train[0].code);     // looks like left_leg
   const Json r = Evaluate(db, nullptr, qs, {}, {}).report;
   const Json& c = r["categories"][0];
   EXPECT_DOUBLE_EQ(c["pose_accuracy"]["both"]["unweighted"].get<double>(), 0.0);

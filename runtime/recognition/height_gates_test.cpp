@@ -16,19 +16,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-LabelledCode Entry(const std::string& id, const std::string& cat, const std::string& inst,
-                   const std::string& anchor, double height, Code code) {
-  LabelledCode lc;
-  lc.label.id = id;
-  lc.label.split = "train";
-  lc.label.category = cat;
-  lc.label.instance = inst;
-  lc.label.anchor = anchor;
-  lc.label.height = height;
-  lc.code = std::move(code);
-  return lc;
-}
-
 TEST(RecognitionHeightGates, GateIsABoundOnTheLogRatioAndUnknownHeightsPass) {
   EXPECT_TRUE(PassesHeightGate(1.0, 1.2, std::log(1.2) + 1e-12));
   EXPECT_FALSE(PassesHeightGate(1.0, 1.2, std::log(1.2) - 1e-9));
@@ -46,10 +33,10 @@ struct ScaledTwins {
   Database db;
   ScaledTwins() {
     std::vector<LabelledCode> v;
-    v.push_back(Entry("p0", "pants", "pants-1", "waist", 1.20, waist));
-    v.push_back(Entry("p1", "pants", "pants-1", "leg", 1.45, leg));
-    v.push_back(Entry("s0", "shorts", "shorts-1", "waist", 0.50, waist));
-    v.push_back(Entry("s1", "shorts", "shorts-1", "leg", 0.60, leg));
+    v.push_back(Labelled("p0", "pants", "pants-1", "waist", waist, 1.20));
+    v.push_back(Labelled("p1", "pants", "pants-1", "leg", leg, 1.45));
+    v.push_back(Labelled("s0", "shorts", "shorts-1", "waist", waist, 0.50));
+    v.push_back(Labelled("s1", "shorts", "shorts-1", "leg", leg, 0.60));
     db = Database(std::move(v));
   }
 };
@@ -89,8 +76,8 @@ TEST(RecognitionHeightGates, PoseGateKeepsTheEntriesOfSimilarHeight) {
   Rng rng(9);
   const Code c = RandomCode(rng, 4, 4, 8);
   std::vector<LabelledCode> v;
-  v.push_back(Entry("a", "shirt", "shirt-1", "collar", 0.8, c));
-  v.push_back(Entry("b", "shirt", "shirt-1", "cuff", 1.45, c));
+  v.push_back(Labelled("a", "shirt", "shirt-1", "collar", c, 0.8));
+  v.push_back(Labelled("b", "shirt", "shirt-1", "cuff", c, 1.45));
   Database db(std::move(v));
   Recognizer rec(db, nullptr);
   RecognizeOptions o;
@@ -110,10 +97,10 @@ TEST(RecognitionHeightGates, SelectionFindsTheGateThatHeightInformsAndNoneOtherw
   ScaledTwins t;
   // Queries of another garment instance: shorts at their own heights.
   std::vector<LabelledCode> qs;
-  qs.push_back(Entry("q0", "shorts", "shorts-2", "waist", 0.51, t.waist));
-  qs.push_back(Entry("q1", "shorts", "shorts-2", "leg", 0.62, t.leg));
-  qs.push_back(Entry("q2", "pants", "pants-2", "leg", 1.40, t.leg));
-  qs.push_back(Entry("q3", "pants", "pants-2", "waist", 0, t.waist));  // height unknown: left out
+  qs.push_back(Labelled("q0", "shorts", "shorts-2", "waist", t.waist, 0.51));
+  qs.push_back(Labelled("q1", "shorts", "shorts-2", "leg", t.leg, 0.62));
+  qs.push_back(Labelled("q2", "pants", "pants-2", "leg", t.leg, 1.40));
+  qs.push_back(Labelled("q3", "pants", "pants-2", "waist", t.waist, 0));  // height unknown: left out
   CalibrateOptions opt;
   opt.gate_train_queries = false;
   const GateSelection g = SelectHeightGates(t.db, qs, opt);

@@ -2,9 +2,12 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
+#include <utility>
 
 #include "common/rng.h"
 #include "generator/feature/feature.h"
+#include "runtime/recognition/recognizer.h"
 
 namespace drape::recognition {
 
@@ -39,6 +42,20 @@ inline Feature FlipBits(Feature f, Rng& rng, int flips) {
     f.Set(b, !f.Get(b));
   }
   return f;
+}
+
+// A labelled database entry or query (split "train"; height 0 = unknown).
+inline LabelledCode Labelled(const std::string& id, const std::string& category, const std::string& instance,
+                             const std::string& anchor, Code code, double height = 0) {
+  LabelledCode lc;
+  lc.label.id = id;
+  lc.label.split = "train";
+  lc.label.category = category;
+  lc.label.instance = instance;
+  lc.label.anchor = anchor;
+  lc.label.height = height;
+  lc.code = std::move(code);
+  return lc;
 }
 
 }  // namespace drape::recognition
