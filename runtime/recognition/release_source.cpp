@@ -193,8 +193,11 @@ std::optional<PlyVertexBlock> VertexBlock(const std::string& bytes) {
       long long n;
       ls >> name >> n;
       in_vertex = name == "vertex";
-      if (in_vertex) b.count = n;
-      else if (b.count < 0) return std::nullopt;  // an element before the vertices
+      if (in_vertex) {
+        b.count = n;
+      } else if (b.count < 0) {
+        return std::nullopt;  // an element before the vertices
+      }
     } else if (w == "property" && in_vertex) {
       PlyVertexBlock::Prop pr;
       std::string name;

@@ -39,8 +39,9 @@ std::string TinyPlyAscii() {
          "0 0 0\n0.1 -0.1 0.05\n0.2 -0.2 0.1\n3 0 1 2\n";
 }
 std::string TinyPlyBigEndian() {
-  std::string s = "ply\nformat binary_big_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
-                  "property float z\nelement face 0\nproperty list uchar int vertex_indices\nend_header\n";
+  std::string s =
+      "ply\nformat binary_big_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+      "property float z\nelement face 0\nproperty list uchar int vertex_indices\nend_header\n";
   for (int i = 0; i < 3; ++i) {
     const float v[3] = {i / 10.0f, -i / 10.0f, 0.05f * i};
     for (float f : v) {
