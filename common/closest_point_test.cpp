@@ -40,7 +40,8 @@ TEST(ExactClosestPoint, MatchesBruteForceEverywhere) {
   const ExactClosestPoint exact(mesh);
   Rng rng(5);
   for (int q = 0; q < 2000; ++q) {
-    const Vec3 p(rng.Uniform(-0.5, 1.5), rng.Uniform(-0.5, 1.5), rng.Uniform(-0.5, 0.6));
+    const double px = rng.Uniform(-0.5, 1.5), py = rng.Uniform(-0.5, 1.5), pz = rng.Uniform(-0.5, 0.6);
+    const Vec3 p(px, py, pz);
     const ClosestPoint a = exact.Query(p), b = BruteForceClosestPoint(mesh, p);
     ASSERT_EQ(a.distance, b.distance) << "query " << q;
     EXPECT_EQ(a.triangle, b.triangle) << "query " << q;  // ties go to the lowest index in both
@@ -66,7 +67,8 @@ TEST(ExactClosestPoint, MatchesBruteForceNearTheSurfaceFarFromTheOrigin) {
     const double s = std::sqrt(rng.Uniform()), t = rng.Uniform();
     const Vec3 a = mesh.V.row(mesh.F(f, 0)), b = mesh.V.row(mesh.F(f, 1)), c = mesh.V.row(mesh.F(f, 2));
     const Vec3 on = (1 - s) * a + s * (1 - t) * b + s * t * c;
-    const Vec3 dir = Vec3(rng.Uniform(-1, 1), rng.Uniform(-1, 1), rng.Uniform(-1, 1)).normalized();
+    const double dx = rng.Uniform(-1, 1), dy = rng.Uniform(-1, 1), dz = rng.Uniform(-1, 1);
+    const Vec3 dir = Vec3(dx, dy, dz).normalized();
     const Vec3 p = on + std::pow(10.0, rng.Uniform(-9, -5)) * dir;
     const ClosestPoint got = exact.Query(p), want = BruteForceClosestPoint(mesh, p);
     ASSERT_EQ(got.distance, want.distance) << "query " << q;

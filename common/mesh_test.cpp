@@ -61,7 +61,8 @@ TEST(Mesh, ClosestPointOnTriangleMatchesDenseSampling) {
   const Vec3 a(0, 0, 0), b(1, 0, 0), c(0.2, 1, 0.3);
   Rng rng(7);
   for (int trial = 0; trial < 200; ++trial) {
-    const Vec3 p(rng.Uniform(-1, 2), rng.Uniform(-1, 2), rng.Uniform(-1, 1));
+    const double px = rng.Uniform(-1, 2), py = rng.Uniform(-1, 2), pz = rng.Uniform(-1, 1);
+    const Vec3 p(px, py, pz);
     const Vec3 q = ClosestPointOnTriangle(p, a, b, c);
     double best = 1e9;
     const int n = 200;

@@ -1,7 +1,11 @@
 // Seeded random numbers. Every random draw in drape comes from an Rng seeded by
 // DeriveSeed(recipe seed, job key): never from global state or the clock. The
 // generators are written out here (not std:: distributions) so that a seed gives
-// the same numbers with any standard library.
+// the same numbers with any standard library. Draw one value per statement or
+// declarator (`const double x = rng.Uniform(), y = rng.Uniform();`), never several in
+// the arguments of one call: `Vec3(rng.Uniform(), rng.Uniform(), rng.Uniform())` gets
+// its draws in an unspecified order (gcc right to left, clang left to right), so the
+// same seed would give other points with another compiler.
 #pragma once
 
 #include <cstdint>

@@ -13,7 +13,10 @@
 namespace drape {
 namespace {
 
-Vec3 RandomVec(Rng& rng, double scale) { return Vec3(rng.Uniform(-1, 1), rng.Uniform(-1, 1), rng.Uniform(-1, 1)) * scale; }
+Vec3 RandomVec(Rng& rng, double scale) {
+  const double x = rng.Uniform(-1, 1), y = rng.Uniform(-1, 1), z = rng.Uniform(-1, 1);
+  return Vec3(x, y, z) * scale;
+}
 
 // Swept boxes of random paths: most nodes move a little, some a lot (up to the
 // garment's size), a few not at all; pad random per call.

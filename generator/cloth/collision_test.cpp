@@ -18,7 +18,10 @@ using K = CGAL::Exact_predicates_inexact_constructions_kernel;
 
 // ---- helpers ----------------------------------------------------------------------
 
-Vec3 RandomVec(Rng& rng, double scale) { return Vec3(rng.Uniform(-1, 1), rng.Uniform(-1, 1), rng.Uniform(-1, 1)) * scale; }
+Vec3 RandomVec(Rng& rng, double scale) {
+  const double x = rng.Uniform(-1, 1), y = rng.Uniform(-1, 1), z = rng.Uniform(-1, 1);
+  return Vec3(x, y, z) * scale;
+}
 
 // nx × ny nodes, spacing h, in the plane z = z0 (offset by `first` node indices).
 void AddSheet(int nx, int ny, double h, double z0, std::vector<Vec3>* V, std::vector<Eigen::Vector3i>* F) {

@@ -30,7 +30,8 @@ Points3 SurfacePoints(const std::function<double(const Vec3&)>& sdf, uint64_t se
   Rng rng(seed);
   std::vector<Vec3> pts;
   while (pts.size() < 4000) {
-    const Vec3 p(rng.Uniform(-0.5, 0.5), rng.Uniform(-0.75, 0.05), rng.Uniform(-0.5, 0.5));
+    const double px = rng.Uniform(-0.5, 0.5), py = rng.Uniform(-0.75, 0.05), pz = rng.Uniform(-0.5, 0.5);
+    const Vec3 p(px, py, pz);
     if (std::abs(sdf(p)) < 0.003) pts.push_back(p);
   }
   Points3 P(pts.size(), 3);
@@ -165,8 +166,10 @@ TEST(Feature, FastDistanceEqualsReference) {
       if (trial % 2 == 0) {
         // Mostly a rotated copy with a few flipped bits, so the minimum is sharp.
         b = Rotate(a, int(rng.Below(sh[2])));
-        for (int i = 0; i < 5; ++i)
-          b.Set(int(rng.Below(sh[0])), int(rng.Below(sh[1])), int(rng.Below(sh[2])), rng.Uniform() < 0.5);
+        for (int i = 0; i < 5; ++i) {
+          const int l = int(rng.Below(sh[0])), r = int(rng.Below(sh[1])), s = int(rng.Below(sh[2]));
+          b.Set(l, r, s, rng.Uniform() < 0.5);
+        }
       }
       const Match fast = Distance(a, b), ref = DistanceReference(a, b);
       ASSERT_EQ(fast.distance, ref.distance) << sh[0] << "x" << sh[1] << "x" << sh[2];

@@ -53,7 +53,8 @@ TEST_F(VdbRead, SampleEqualsTsdf) {
   EXPECT_DOUBLE_EQ(g.voxel_size(), 1.0 / 128);
   Rng rng(11);
   for (int i = 0; i < 2000; ++i) {
-    const Vec3 p(rng.Uniform(-0.2, 0.2), rng.Uniform(-0.5, -0.1), rng.Uniform(-0.2, 0.2));
+    const double px = rng.Uniform(-0.2, 0.2), py = rng.Uniform(-0.5, -0.1), pz = rng.Uniform(-0.2, 0.2);
+    const Vec3 p(px, py, pz);
     // OpenVDB interpolates in float, Tsdf in double over the same float voxel values.
     EXPECT_NEAR(g.Sample(p), t.Sdf(p), 1e-6) << p.transpose();
   }

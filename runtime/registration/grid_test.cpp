@@ -40,7 +40,8 @@ Errors Measure(const TriMesh& mesh, const GridOptions& opt, int samples, uint64_
   const Vec3 lo = box.min() - 0.1 * box.sizes(), span = 1.2 * box.sizes();
   int near = 0;
   for (int n = 0; n < samples; ++n) {
-    const Vec3 p = lo + Vec3(rng.Uniform() * span.x(), rng.Uniform() * span.y(), rng.Uniform() * span.z());
+    const double px = rng.Uniform() * span.x(), py = rng.Uniform() * span.y(), pz = rng.Uniform() * span.z();
+    const Vec3 p = lo + Vec3(px, py, pz);
     const double d = exact.Query(p).distance;
     const double q = (grid.Query(p).distance - d) / h;
     const double r = (grid.QueryRefined(p).distance - d) / h;

@@ -138,7 +138,8 @@ void GridQueries() {
   std::vector<Vec3> q(n);
   for (int i = 0; i < n; ++i) {
     const Vec3 v = target.V.row(rng.Below(target.NumVertices()));
-    q[i] = v + Vec3(rng.Normal(0, 0.01), rng.Normal(0, 0.01), rng.Normal(0, 0.01));
+    const double nx = rng.Normal(0, 0.01), ny = rng.Normal(0, 0.01), nz = rng.Normal(0, 0.01);
+    q[i] = v + Vec3(nx, ny, nz);
   }
   for (int cells : {64, 96, 128}) {
     GridOptions go;
