@@ -36,7 +36,8 @@ const char* kUsage =
     "                  [--size S|M|L] [--edge M] [--material NAME] [--category C]\n"
     "                  [--gripper pinch|point] [--max-sims N] [--fan STEP|none] [--no-optimise]\n"
     "                  [--key-points-only]\n"
-    "                  [--stiffness K] [--friction MU] [--replay TRAJECTORIES_JSON]\n"
+    "                  [--stiffness K] [--friction MU] [--cloth-friction MU]\n"
+    "                  [--replay TRAJECTORIES_JSON]\n"
     "\n"
     "Folds a garment lying flat on a table in simulation, step by step as PLAN says\n"
     "(runtime/folding/plans/*.yaml), optimising each step's cubic Bezier trajectories by\n"
@@ -65,13 +66,15 @@ const char* kUsage =
     "                     camera finds on them (keypoints_trialN.png), or why it found none\n"
     "  --stiffness K      Bullet link stiffness kLST instead of fitting it to the material's stretch\n"
     "  --friction MU      table friction coefficient instead of fitting it to the friction angle\n"
+    "  --cloth-friction MU  Coulomb friction between layers of the cloth (default: the table's)\n"
     "  --replay FILE      no optimisation: replay the optimised trajectories of an earlier run's\n"
     "                     trajectories.json (relative to each step's P0 -> P3) on this garment\n"
     "\n"
     "Material: link stiffness fitted to the measured stretch and table friction fitted to the\n"
     "measured friction angle (a square of the cloth starts to slide on a table tilted by it;\n"
-    "generator/hang FitMaterial) unless --stiffness / --friction; strain limit 2 x the measured\n"
-    "stretch.\n";
+    "generator/hang FitMaterial) unless --stiffness / --friction; strain limit 1.8 x the measured\n"
+    "stretch. Layers of the cloth on each other take the table's friction (no cloth-on-cloth\n"
+    "angle is measured) unless --cloth-friction.\n";
 
 Garment LoadGarment(const std::string& what, const Args& args) {
   if (FindTemplate(what)) {
@@ -171,6 +174,12 @@ FoldInputs SetUpFold(const Args& args) {
   setup.material = ClothMaterialFor(*material, in.fit, ho);
   setup.cloth = ClothOptionsFor(ho, ho.time_step);
   setup.friction = in.fit.friction;
+  // Cloth on cloth: the hang leaves it frictionless, but a fold stacks layers that must
+  // not slide off each other. No cloth-on-cloth angle was measured, so the table's
+  // fitted μ (the paper's table was measured with garments on it) unless given.
+  const auto cmu = args.GetDouble("--cloth-friction");
+  if (cmu && !(*cmu >= 0 && *cmu < 5)) throw Error("--cloth-friction: must be in [0, 5), got " + FormatNumber(*cmu));
+  setup.cloth.collision.cloth_friction = cmu.value_or(in.fit.friction);
   return in;
 }
 
@@ -463,7 +472,7 @@ int KeyPointTrials(const Args& args, const FoldSetup& setup, const FoldingPlan& 
 int Run(const std::vector<std::string>& argv) {
   Args args(argv, {"--no-optimise", "--key-points-only"},
             {"--plan", "--trials", "--seed", "-o", "--output", "--size", "--edge", "--material", "--category",
-             "--gripper", "--max-sims", "--fan", "--stiffness", "--friction", "--replay"});
+             "--gripper", "--max-sims", "--fan", "--stiffness", "--friction", "--cloth-friction", "--replay"});
   if (args.help()) {
     std::cout << kUsage;
     return 0;
