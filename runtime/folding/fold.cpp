@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "common/error.h"
+#include "common/format.h"
 #include "runtime/folding/dissimilarity.h"
 
 namespace drape::folding {
@@ -88,9 +89,10 @@ double PathLength(const std::vector<CubicBezier>& paths, double tolerance) {
   return l;
 }
 
-StepSim SimulateStep(const FoldScene& scene, const StepSetup& setup, const std::vector<CubicBezier>& paths,
+namespace {
+
+StepSim SimulateOnce(const FoldScene& scene, const StepSetup& setup, const std::vector<CubicBezier>& paths,
                      const FoldSimOptions& o, double alpha, bool keep_frames) {
-  o.Validate();
   const auto t_start = Clock::now();
   const size_t arms = setup.p0.size();
   DRAPE_CHECK(paths.size() == arms, "one path per arm");
@@ -163,6 +165,32 @@ StepSim SimulateStep(const FoldScene& scene, const StepSetup& setup, const std::
   r.cost = FoldCost(r.length, r.dissimilarity, alpha);
   r.ok = true;
   r.wall_seconds = Since(t_start);
+  return r;
+}
+
+// The same cloth at half the time step, with the same damping per simulated second.
+std::shared_ptr<const ClothModel> HalfStep(const ClothModel& m) {
+  ClothOptions o = m.options;
+  o.time_step /= 2;
+  o.damping = 1 - std::sqrt(1 - o.damping);
+  return MakeClothModel(m.rest, m.layer, m.material, o);
+}
+
+}  // namespace
+
+StepSim SimulateStep(const FoldScene& scene, const StepSetup& setup, const std::vector<CubicBezier>& paths,
+                     const FoldSimOptions& o, double alpha, bool keep_frames) {
+  o.Validate();
+  StepSim r = SimulateOnce(scene, setup, paths, o, alpha, keep_frames);
+  r.time_step = scene.model->options.time_step;
+  if (r.ok || r.failure.find("blew up") == std::string::npos) return r;
+  FoldScene fine = scene;
+  fine.model = HalfStep(*scene.model);
+  const double wall = r.wall_seconds;
+  r = SimulateOnce(fine, setup, paths, o, alpha, keep_frames);
+  r.time_step = fine.model->options.time_step;
+  r.wall_seconds += wall;
+  if (!r.ok) r.failure += " (after a retry at time_step " + FormatNumber(r.time_step) + " s)";
   return r;
 }
 

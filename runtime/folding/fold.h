@@ -78,11 +78,14 @@ struct StepSim {
   double cost = 0;              // C = l_x + α·D
   double sim_time = 0;          // s simulated
   int steps = 0;
+  double time_step = 0;         // s: the model's, or half of it after a blow-up
   double wall_seconds = 0;      // timing only
   std::vector<Points3> frames;  // key frames when asked: path at 0, ⅓, ⅔, 1, after settling
 };
 
-// The arms' trajectories must start at setup.p0 and end at setup.p3.
+// The arms' trajectories must start at setup.p0 and end at setup.p3. A simulation that
+// blows up is run once more at half the time step (as a hang is; damping per second
+// kept), and fails only if that blows up too.
 StepSim SimulateStep(const FoldScene& scene, const StepSetup& setup, const std::vector<CubicBezier>& paths,
                      const FoldSimOptions& options, double alpha = 1e3, bool keep_frames = false);
 

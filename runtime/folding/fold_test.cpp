@@ -108,5 +108,29 @@ TEST(Fold, OptimisationNeverEndsWorse) {
   EXPECT_LE(r.after.cost, std::sqrt(2 * r.lm.final_cost) + 1e-9);  // deterministic simulations
 }
 
+// A simulation that blows up is run once more at half the time step before the step
+// is failed; the record says which step it ended with. Here a speed limit the arm
+// itself breaks (0.2 m/s against the arm's 0.4) is a blow-up at any time step.
+TEST(Fold, BlowUpIsRetriedAtHalfTheTimeStepThenFailedWithItsReason) {
+  Small s = MakeSmall();
+  const std::vector<int> grasps = {Nearest(s.start, -0.15, 0.10), Nearest(s.start, 0.15, 0.10)};
+  const StepSetup setup = PrepareStep(s.scene, s.start, FoldLine{Vec2(0, 0), Vec2(1, 0)}, grasps, 0.004);
+  std::vector<CubicBezier> paths;
+  for (size_t a = 0; a < 2; ++a) paths.push_back(InitialTrajectory(setup.p0[a], setup.p3[a], 1.0 / 3));
+  const double dt = s.scene.model->options.time_step;
+  const StepSim ok = SimulateStep(s.scene, setup, paths, FoldSimOptions{});
+  ASSERT_TRUE(ok.ok) << ok.failure;
+  EXPECT_EQ(ok.time_step, dt);
+  ClothOptions slow = s.scene.model->options;
+  slow.max_speed = 0.2;
+  s.scene.model = MakeClothModel(s.scene.model->rest, s.scene.model->layer, s.scene.model->material, slow);
+  const StepSim r = SimulateStep(s.scene, setup, paths, FoldSimOptions{});
+  EXPECT_FALSE(r.ok);
+  EXPECT_TRUE(std::isnan(r.cost));
+  EXPECT_EQ(r.time_step, dt / 2);
+  EXPECT_NE(r.failure.find("blew up"), std::string::npos) << r.failure;
+  EXPECT_NE(r.failure.find("after a retry at time_step"), std::string::npos) << r.failure;
+}
+
 }  // namespace
 }  // namespace drape::folding
