@@ -105,9 +105,16 @@ Json PathsJson(const std::vector<CubicBezier>& paths) {
 }
 
 Json SimJson(const StepSim& s) {
-  return {{"ok", s.ok},          {"failure", s.failure},   {"length", s.length}, {"dissimilarity", s.dissimilarity},
-          {"cost", s.cost},      {"settled", s.settled},   {"held_nodes", s.held}, {"sim_time", s.sim_time},
-          {"time_step", s.time_step}, {"wall_seconds", s.wall_seconds}};
+  return {{"ok", s.ok},
+          {"failure", s.failure},
+          {"length", s.length},
+          {"dissimilarity", s.dissimilarity},
+          {"cost", s.cost},
+          {"settled", s.settled},
+          {"held_nodes", s.held},
+          {"sim_time", s.sim_time},
+          {"time_step", s.time_step},
+          {"wall_seconds", s.wall_seconds}};
 }
 
 void WritePng(const fs::path& p, const cv::Mat& img) {
