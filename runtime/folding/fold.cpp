@@ -190,7 +190,7 @@ StepSim SimulateStep(const FoldScene& scene, const StepSetup& setup, const std::
   r = SimulateOnce(fine, setup, paths, o, alpha, keep_frames);
   r.time_step = fine.model->options.time_step;
   r.wall_seconds += wall;
-  if (!r.ok) r.failure += " (after a retry at time_step " + FormatNumber(r.time_step) + " s)";
+  if (!r.ok) r.failure += " (after a retry at time_step " + FormatFixed(1e3 * r.time_step, 3) + " ms)";
   return r;
 }
 
