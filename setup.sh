@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # drape's one entry point for a fresh Debian 12 machine (as root, or with sudo).
 #   ./setup.sh          install packages, build, and build the quickstart release
-#   ./setup.sh test     install packages, build, and run the test suite (what CI runs;
-#                       the sanitizer and fuzz runs are separate: docs/testing.md)
+#   ./setup.sh test     install packages, build, run the test suite, then the sanitizer
+#                       suite (./setup.sh sanitize below); what CI runs (.ci/run).
+#                       DRAPE_SANITIZE=0 skips the sanitizer suite (a quicker local run)
 #   ./setup.sh build    install packages and build only
 #   ./setup.sh bench    also install what the benchmarks compare against (Open3D), build
 #   ./setup.sh sanitize fuzz/ci.sh: every unit-test program under ASan + UBSan
@@ -129,6 +130,10 @@ case "${1:-main}" in
     install_packages
     build
     ctest --test-dir "$BUILD_DIR" --output-on-failure -j "$JOBS"
+    # Then every unit-test program under ASan + UBSan and the fuzz targets (docs/testing.md).
+    if [ "${DRAPE_SANITIZE:-1}" != 0 ]; then
+      DRAPE_FUZZ_CI_SECONDS=${DRAPE_FUZZ_SECONDS:-10} fuzz/ci.sh
+    fi
     ;;
   build)
     install_packages
