@@ -1,5 +1,6 @@
 #include "generator/cloth/broad_phase.h"
 
+#include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -233,7 +234,38 @@ bool BroadPhase::InsideGrown(const std::vector<Aabb>& vbox) const {
   return inside;
 }
 
-void BroadPhase::Find(const std::vector<Aabb>& vbox, CandidatePairs* out) {
+bool BroadPhase::InsideGrownMoved(const std::vector<Aabb>& vbox, const Points3& points) const {
+  const Eigen::Index n = points.rows();
+  if (!have_superset_ || search_points_.rows() != n || n == 0) return false;
+  // Kabsch: x ↦ R (x − c) + c_ref, fitting points onto search_points_.
+  const Vec3 c = points.colwise().mean().transpose(), c_ref = search_points_.colwise().mean().transpose();
+  Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
+  for (Eigen::Index i = 0; i < n; ++i)
+    H += (points.row(i).transpose() - c) * (search_points_.row(i).transpose() - c_ref).transpose();
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(H, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
+  D(2, 2) = (svd.matrixV() * svd.matrixU().transpose()).determinant() < 0 ? -1 : 1;
+  const Eigen::Matrix3d R = svd.matrixV() * D * svd.matrixU().transpose();
+  if (!R.allFinite()) return false;
+  const Eigen::Matrix3d absR = R.cwiseAbs();
+  const Vec3 t = c_ref - R * c;
+  // The box of a mapped box: centre R·m + t, half sizes |R|·h; rounding is covered by a
+  // pad far above it (relative 1e-12 of the magnitudes involved).
+  bool inside = true;
+  for (size_t i = 0; i < vbox.size() && inside; ++i) {
+    const Vec3 m = 0.5 * (vbox[i].lo + vbox[i].hi), h = 0.5 * (vbox[i].hi - vbox[i].lo);
+    const Vec3 mc = R * m + t;
+    const double pad = 1e-12 * (1 + m.cwiseAbs().maxCoeff() + t.cwiseAbs().maxCoeff() + h.cwiseAbs().maxCoeff());
+    const Vec3 hc = (absR * h).array() + pad;
+    const Aabb& g = grown_[i];
+    inside = ((g.lo - (mc - hc)).array() <= 0).all() && (((mc + hc) - g.hi).array() <= 0).all();
+  }
+  return inside;
+}
+
+void BroadPhase::Find(const std::vector<Aabb>& vbox, CandidatePairs* out) { Query(vbox, nullptr, out); }
+
+void BroadPhase::Query(const std::vector<Aabb>& vbox, const Points3* points, CandidatePairs* out) {
   if (static_cast<int>(vbox.size()) != num_vertices_)
     throw Error("broad phase: " + std::to_string(vbox.size()) + " vertex boxes for " + std::to_string(num_vertices_) +
                 " vertices");
@@ -242,7 +274,7 @@ void BroadPhase::Find(const std::vector<Aabb>& vbox, CandidatePairs* out) {
     Search(out);
     return;
   }
-  if (!InsideGrown(vbox)) {
+  if (!InsideGrown(vbox) && !(points && InsideGrownMoved(vbox, *points))) {
     // lo − m ≤ lo and hi + m ≥ hi after rounding too: overlapping boxes still overlap.
     grown_.resize(vbox.size());
     for (size_t i = 0; i < vbox.size(); ++i)
@@ -253,15 +285,26 @@ void BroadPhase::Find(const std::vector<Aabb>& vbox, CandidatePairs* out) {
     BuildTree(centre);
     Search(&superset_);
     have_superset_ = true;
+    if (points) search_points_ = *points;
+    else search_points_.resize(0, 3);
   }
   // The superset is sorted: filtering keeps the order.
   SetBoxes(vbox);
-  out->vf.clear();
-  out->ee.clear();
-  for (const auto& p : superset_.vf)
-    if (vbox_[p[0]].Overlaps(fbox_[p[1]])) out->vf.push_back(p);
-  for (const auto& p : superset_.ee)
-    if (ebox_[p[0]].Overlaps(ebox_[p[1]])) out->ee.push_back(p);
+  // Branch-free: every pair is written, the count advances only past those that overlap.
+  out->vf.resize(superset_.vf.size());
+  size_t k = 0;
+  for (const auto& p : superset_.vf) {
+    out->vf[k] = p;
+    k += vbox_[p[0]].Overlaps(fbox_[p[1]]);
+  }
+  out->vf.resize(k);
+  out->ee.resize(superset_.ee.size());
+  k = 0;
+  for (const auto& p : superset_.ee) {
+    out->ee[k] = p;
+    k += ebox_[p[0]].Overlaps(ebox_[p[1]]);
+  }
+  out->ee.resize(k);
 }
 
 void BroadPhase::Search(CandidatePairs* out) {
@@ -318,7 +361,7 @@ void BroadPhase::FindClose(const Points3& x0, const Points3& x1, double dist, do
   if (x0.rows() != num_vertices_ || x1.rows() != num_vertices_)
     throw Error("broad phase: FindClose expects " + std::to_string(num_vertices_) + " positions");
   PathBoxes(x0, x1, dist, slack, &path_boxes_);
-  Find(path_boxes_, out);
+  Query(path_boxes_, &x0, out);
 }
 
 CandidatePairs BruteForceClose(const Faces& F, const std::vector<std::array<int, 2>>& E, const Points3& x0,

@@ -57,6 +57,9 @@ class BroadPhase {
   // grown box takes its pairs from that superset by the same box tests, without a tree
   // search. The answer is the same (boxes that overlap overlap when grown; the filter
   // is the same exact test), only cheaper while the cloth moves less than the margin.
+  // FindClose also keeps the superset while the boxes, carried by the rigid motion that
+  // best fits x0 to the x0 of the last search, lie inside the grown boxes (a swinging
+  // garment moves much more than it deforms).
   // Each search first rebuilds the tree around the grown boxes (the tree's shape never
   // changes an answer), so Relayout is not needed with reuse on.
   void SetReuseMargin(double margin);
@@ -87,6 +90,12 @@ class BroadPhase {
   void SetBoxes(const std::vector<Aabb>& vbox);  // vbox_, ebox_, fbox_
   void Search(CandidatePairs* out);              // tree search on vbox_, ebox_, fbox_
   bool InsideGrown(const std::vector<Aabb>& vbox) const;
+  // InsideGrown in the frame of the last search: the boxes mapped by the best rigid fit
+  // of `points` onto the points of that search (FindClose's x0). Any map keeps boxes that
+  // overlap overlapping (they share a point), so this only decides when to search again:
+  // a garment swinging as a whole keeps its superset.
+  bool InsideGrownMoved(const std::vector<Aabb>& vbox, const Points3& points) const;
+  void Query(const std::vector<Aabb>& vbox, const Points3* points, CandidatePairs* out);  // Find; points: x0
   void LeavesPair(const Node& a, const Node& b);
   void LeafPair(int fa, int fb);
   void QueryVertex(int v);
@@ -109,6 +118,7 @@ class BroadPhase {
   std::vector<Aabb> grown_;         // per vertex: the boxes the superset was found for
   CandidatePairs superset_;
   bool have_superset_ = false;
+  Points3 search_points_;  // FindClose's x0 at the last search (empty: that search had none)
   long long searches_ = 0;
 };
 

@@ -196,6 +196,43 @@ TEST(BroadPhase, ReuseMatchesBruteForceOverAMotion) {
   EXPECT_GE(reuse.searches(), 4);            // and the jumps forced new searches
 }
 
+// Superset reuse under whole-garment motion: the same garment at rigid poses far apart
+// (turned by up to 0.25 rad, moved by up to 0.5 m: far more than the margin) keeps the
+// superset of the first search, since FindClose compares boxes in the frame that best
+// fits x0 to that search's; the pairs are the brute-force ones at every pose.
+TEST(BroadPhase, ReuseFollowsARigidlyMovingGarment) {
+  const Garment g = MakeRectangleGarment(0.3, 0.2, 0.03, /*two_layers=*/true, 0.01);
+  const auto E = UniqueEdges(g.mesh);
+  BroadPhase reuse(g.mesh.F, E, g.mesh.V);
+  reuse.SetReuseMargin(0.004);
+  size_t total = 0;
+  for (int k = 0; k < 6; ++k) {
+    const Eigen::Matrix3d R = Eigen::AngleAxisd(0.05 * k, Vec3(0.2, 1, 0.1).normalized()).toRotationMatrix();
+    const Vec3 t(0.1 * k, -0.05 * k, 0.02 * k);
+    Points3 x = g.mesh.V;
+    for (int i = 0; i < x.rows(); ++i) x.row(i) = (R * g.mesh.V.row(i).transpose() + t).transpose();
+    CandidatePairs got;
+    reuse.FindClose(x, x, 0.008, 0.001, &got);
+    const CandidatePairs want = BruteForceClose(g.mesh.F, E, x, x, 0.008, 0.001);
+    ExpectSame(got, want, "pose " + std::to_string(k));
+    total += want.vf.size() + want.ee.size();
+  }
+  EXPECT_GT(total, 1000u);
+  EXPECT_EQ(reuse.searches(), 1);
+  // The same boxes through Find (no positions to fit a frame to): every pose searches again.
+  BroadPhase plain(g.mesh.F, E, g.mesh.V);
+  plain.SetReuseMargin(0.004);
+  for (int k = 0; k < 2; ++k) {
+    Points3 x = g.mesh.V;
+    x.col(0).array() += 0.1 * k;
+    std::vector<Aabb> boxes;
+    PathBoxes(x, x, 0.008, 0.001, &boxes);
+    CandidatePairs got;
+    plain.Find(boxes, &got);
+  }
+  EXPECT_EQ(plain.searches(), 2);
+}
+
 // Boxes just outside the grown ones force a new search: a pair that only overlaps once
 // a box leaves its grown box is found.
 TEST(BroadPhase, ReuseSearchesAgainWhenABoxLeavesItsGrownBox) {
