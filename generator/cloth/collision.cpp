@@ -474,9 +474,10 @@ struct ApplyContext {
 
   // Pairs that could come within min_separation on the paths x0 → box_ref: all the
   // CCD needs, and still all while every node's x1 stays within kBroadSlack·thickness
-  // of box_ref (small corrections do not force a new search).
-  const CandidatePairs& Fresh() {
-    const auto t0 = ThreadCpuSeconds();
+  // of box_ref (small corrections do not force a new search). *t0: the caller's clock
+  // reading; a search is timed from it as broad phase and *t0 moved to its end (the
+  // check alone stays the caller's: one clock reading fewer per call).
+  const CandidatePairs& Fresh(double* t0) {
     const double slack = kBroadSlack * opt.thickness;
     bool valid = have_cand;
     for (int i = 0; valid && i < x1.rows(); ++i) valid = (x1.row(i) - box_ref.row(i)).squaredNorm() <= slack * slack;
@@ -488,8 +489,10 @@ struct ApplyContext {
       CarryResults();
       std::swap(cand, next);
       have_cand = true;
+      const double t1 = ThreadCpuSeconds();
+      rep.broad_seconds += t1 - *t0;
+      *t0 = t1;
     }
-    rep.broad_seconds += Since(t0);
     return cand;
   }
 };
@@ -644,8 +647,9 @@ void Repel(ApplyContext& cx) {
   cx.broad.FindClose(cx.x0, cx.x1, cx.opt.thickness, 0, &cx.near);
   ++cx.rep.broad_builds;
   cx.rep.broad_candidates += static_cast<long long>(cx.near.vf.size() + cx.near.ee.size());
-  cx.rep.broad_seconds += Since(t0);
-  t0 = ThreadCpuSeconds();
+  const double t1 = ThreadCpuSeconds();
+  cx.rep.broad_seconds += t1 - t0;
+  t0 = t1;
   const CandidatePairs& cand = cx.near;
   const int n = static_cast<int>(cx.x1.rows());
   std::vector<char> moved_node(n, 1);
@@ -715,8 +719,9 @@ bool CollideNode(const BoxCollider& box, double pad, const Vec3& x0, Vec3& x1) {
 // frozen (optional): nodes in an impact zone, left alone.
 void HandleColliders(ApplyContext& cx, const std::vector<BoxCollider>& colliders,
                      const std::vector<char>* frozen = nullptr) {
+  if (colliders.empty()) return;
   const auto t0 = ThreadCpuSeconds();
-  for (int i = 0; i < cx.x1.rows() && !colliders.empty(); ++i) {
+  for (int i = 0; i < cx.x1.rows(); ++i) {
     if (cx.inv_mass[i] == 0 || (frozen && (*frozen)[i])) continue;
     const Vec3 a = cx.x0.row(i).transpose();
     Vec3 b = cx.x1.row(i).transpose();
@@ -859,8 +864,8 @@ void BoxImpulse(ApplyContext& cx, const BoxHit& hit, const std::vector<BoxCollid
 // ---- continuous collision detection and impulses (Bridson §7.3) -------------------------
 // Colliding pairs on x0 → x1; pairs whose nodes all lie in one rigid zone are skipped.
 std::vector<Hit> Detect(ApplyContext& cx, const std::vector<int>* zone_of) {
-  const CandidatePairs& cand = cx.Fresh();
-  const auto t0 = ThreadCpuSeconds();
+  auto t0 = ThreadCpuSeconds();
+  const CandidatePairs& cand = cx.Fresh(&t0);
   const int n = static_cast<int>(cx.x1.rows());
   const bool have_ref = cx.detect_ref.rows() == n;
   cx.dirty.resize(n);
