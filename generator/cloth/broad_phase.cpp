@@ -285,8 +285,10 @@ void BroadPhase::Query(const std::vector<Aabb>& vbox, const Points3* points, Can
     BuildTree(centre);
     Search(&superset_);
     have_superset_ = true;
-    if (points) search_points_ = *points;
-    else search_points_.resize(0, 3);
+    if (points)
+      search_points_ = *points;
+    else
+      search_points_.resize(0, 3);
   }
   // The superset is sorted: filtering keeps the order.
   SetBoxes(vbox);
