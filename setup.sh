@@ -35,6 +35,7 @@ PACKAGES=(
   pybind11-dev        # the drape Python package (python/)
   python3-pytest      # its tests, run from CTest
   python3-torch       # drape.torch.GarmentDataset
+  python3-open3d      # open3d=True meshes of the Python package, which its tests check
   nodejs              # npm, for three.js (the gallery's 3D view)
   npm                 # (nodesource's nodejs provides it: counted as present)
   zlib1g-dev          # gzip of the gallery's 3D mesh scripts
