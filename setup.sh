@@ -46,7 +46,8 @@ PACKAGES=(
   clang-format        # ./setup.sh format: changed lines follow .clang-format
 )
 
-# Only the benchmarks need these (registration_bench compares with Open3D's ICP).
+# What the benchmarks need beyond PACKAGES (registration_bench compares with Open3D's ICP;
+# python3-open3d is in PACKAGES too now, for the Python tests).
 BENCH_PACKAGES=(python3-open3d)
 
 install_packages() {
