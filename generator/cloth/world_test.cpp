@@ -265,6 +265,16 @@ TEST(ClothWorld, HeldAtTheMiddleOfAStitchedEdgeItStaysWithinTheStrainBound) {
   ExpectHungWithinStrainBound(Vec3(0, 0.02, 0), "edge-middle grip");
 }
 
+// A 1 × 0.1 × 1 m table whose top face passes through (0, top, 0), turned by `tilt`.
+BoxCollider TiltedTable(const Eigen::Matrix3d& tilt, double top, double friction) {
+  BoxCollider table;
+  table.half_extents = Vec3(0.5, 0.05, 0.5);
+  table.pose.linear() = tilt;
+  table.pose.translation() = Vec3(0, top, 0) + tilt * Vec3(0, -0.05, 0);
+  table.friction = friction;
+  return table;
+}
+
 // The garment laid flat, 2 cm above a table top, front layer up.
 struct TableScene {
   Garment g;
@@ -291,10 +301,7 @@ TableScene LaidOnTable(double tilt_rad, double friction, bool two_layers) {
     s.start.row(i) = (tilt * (flat * (s.g.mesh.V.row(i).transpose() - centre) + above - Vec3(0, s.top, 0)) +
                       Vec3(0, s.top, 0))
                          .transpose();
-  s.table.half_extents = Vec3(0.5, 0.05, 0.5);
-  s.table.pose.linear() = tilt;
-  s.table.pose.translation() = Vec3(0, s.top, 0) + tilt * Vec3(0, -0.05, 0);
-  s.table.friction = friction;
+  s.table = TiltedTable(tilt, s.top, friction);
   return s;
 }
 
@@ -377,12 +384,7 @@ double SlideOnCloth(double deg, double mu) {
     start.row(i) = (tilt * local + Vec3(0, top, 0)).transpose();
   }
   ClothWorld w(model, start);
-  BoxCollider table;
-  table.half_extents = Vec3(0.5, 0.05, 0.5);
-  table.pose.linear() = tilt;
-  table.pose.translation() = Vec3(0, top, 0) + tilt * Vec3(0, -0.05, 0);
-  table.friction = 1.0;
-  w.AddCollider(table);
+  w.AddCollider(TiltedTable(tilt, top, 1.0));
   auto rel = [&] {
     const Points3& x = w.positions();
     return Vec3(x.bottomRows(nu).colwise().mean().transpose() - x.topRows(nl).colwise().mean().transpose());
