@@ -266,11 +266,25 @@ const char* kCalibrateUsage =
     "Writes RELEASE/calibration/weights.json + weights.bin, tied to the release digest\n"
     "(outside SHA256SUMS and the digest).\n"
     "\n"
+    "By default the RankSVM is regularised towards the unweighted distance, w = 1 + δ with\n"
+    "½‖δ‖² penalised (--regularize uniform), and the weight tying and C are chosen by\n"
+    "leave-one-garment-instance-out cross-validation on the calibration and train queries\n"
+    "(one-standard-error rule; the unweighted distance, C = 0, is a candidate and wins when\n"
+    "no learned setting is clearly better). The test split is never read. See\n"
+    "docs/recognition.md, \"Learned weights that carry over\".\n"
+    "\n"
     "Options:\n"
-    "  --c C             RankSVM penalty (default 10, the paper's; dlib scales it by 1/#pairs)\n"
-    "  --split S[,S2]    split(s) to learn from (default calibration); a query is ranked\n"
-    "                    against the database entries of OTHER garment instances only, so\n"
-    "                    train works too (each database instance queries the others)\n"
+    "  --paper           the paper's setting: plain RankSVM (½‖w‖², w >= 0), one weight per\n"
+    "                    bit, C = 10, calibration split only, no cross-validation\n"
+    "  --c C             fixed RankSVM penalty instead of cross-validation (dlib scales it by\n"
+    "                    1/#pairs; with the uniform prior C = 0 gives w = 1)\n"
+    "  --regularize R    uniform (default): ½‖w − 1‖², negative weights set to 0 afterwards;\n"
+    "                    zero: ½‖w‖² with w >= 0 (the paper's)\n"
+    "  --tie T           bit | annulus (one weight per layer × ring, shared by the sectors)\n"
+    "                    | layer; with --c (default annulus), else cross-validated\n"
+    "  --split S[,S2]    split(s) to learn from (default calibration,train; --paper:\n"
+    "                    calibration); a query is ranked against the database entries of\n"
+    "                    OTHER garment instances only, so train works too\n"
     "  --frame F         database (default) | query: which frame w indexes (see docs)\n"
     "  --epsilon E       solver tolerance (default 0.001)\n"
     "  --no-height-gates learn no height gates (the paper's Algorithm 1 alone). By default\n"
@@ -280,20 +294,32 @@ const char* kCalibrateUsage =
     "  --json            print the training statistics as JSON\n";
 
 int RunCalibrate(const std::vector<std::string>& argv) {
-  Args a(argv, {"--json", "--no-height-gates"}, {"--c", "--split", "--frame", "--epsilon", "--out"});
+  Args a(argv, {"--json", "--no-height-gates", "--paper"},
+         {"--c", "--split", "--frame", "--epsilon", "--out", "--regularize", "--tie"});
   if (a.help()) {
     std::cout << kCalibrateUsage;
     return 0;
   }
   a.RequirePositional(1, 1, "RELEASE");
   const Release rel = Release::Open(a.positional()[0]);
+  const bool paper = a.Flag("--paper");
+  if (paper && (a.Get("--c") || a.Get("--regularize") || a.Get("--tie"))) {
+    throw Error("calibrate: --paper fixes C, the regulariser and the tying; drop --c/--regularize/--tie");
+  }
   CalibrateOptions opt;
-  opt.c = a.GetDouble("--c").value_or(10.0);
+  opt.regularizer = paper ? Regularizer::kZero : ParseRegularizer(a.Get("--regularize", "uniform"));
+  opt.tying = paper ? WeightTying::kBit : ParseWeightTying(a.Get("--tie", "annulus"));
+  opt.c = paper ? 10.0 : a.GetDouble("--c").value_or(10.0);
+  const bool cross_validate = !paper && !a.Get("--c");
+  if (cross_validate && (a.Get("--regularize") || a.Get("--tie"))) {
+    throw Error("calibrate: --regularize/--tie go with --c (without it both are cross-validated)");
+  }
   opt.epsilon = a.GetDouble("--epsilon").value_or(0.001);
   opt.frame = ParseWeightFrame(a.Get("--frame", "database"));
   opt.height_gates = !a.Flag("--no-height-gates");
+  if (cross_validate) opt.c = 1;  // validated below with the chosen value
   opt.Validate();
-  const std::string split = a.Get("--split", "calibration");
+  const std::string split = a.Get("--split", paper ? "calibration" : "calibration,train");
   LoadReport lr;
   const Database db = LoadDatabase(rel, &lr);
   LoadReport qr;
@@ -303,10 +329,34 @@ int RunCalibrate(const std::vector<std::string>& argv) {
     if (q.empty()) throw Error("calibrate: split '" + s + "' of " + rel.dir().string() + " has no usable entries");
     queries.insert(queries.end(), std::make_move_iterator(q.begin()), std::make_move_iterator(q.end()));
   }
+  std::optional<CrossValidation> cv;
+  if (cross_validate) {
+    const auto tcv = std::chrono::steady_clock::now();
+    const HeightGates gates = opt.height_gates ? SelectHeightGates(db, queries, opt).chosen : HeightGates{};
+    cv = CrossValidate(db, queries, opt, gates, DefaultCvGrid());
+    if (cv->chosen < 0) throw Error("calibrate: cross-validation had no held-out query (too few garment instances)");
+    const CvSetting& ch = cv->settings[cv->chosen];
+    opt.c = ch.c;
+    opt.regularizer = ch.regularizer;
+    opt.tying = ch.tying;
+    if (!a.Flag("--json")) {
+      std::cout << "cross-validation (leave one garment instance out, " << cv->folds << " folds, " << cv->queries
+                << " held-out queries, " << Fmt("%.1f", Since(tcv)) << " s): right anchors per setting\n";
+      for (size_t k = 0; k < cv->settings.size(); ++k) {
+        const CvSetting& s = cv->settings[k];
+        std::cout << (int(k) == cv->chosen ? "  * " : "    ") << s.Name() << ": " << s.right << "/" << cv->queries;
+        for (const auto& [c, n] : s.right_by_category)
+          std::cout << "  " << c << " " << n << "/" << cv->queries_by_category[c];
+        std::cout << (s.eligible ? "" : "  (reported only)") << "\n";
+      }
+    }
+  }
   const auto t0 = std::chrono::steady_clock::now();
   CalibrationResult res = Calibrate(db, queries, opt, rel.digest());
   const double secs = Since(t0);
   res.weights.options["split"] = split;
+  res.weights.options["setting"] = paper ? "paper" : cross_validate ? "cross-validated" : "fixed";
+  if (cv) res.weights.stats["cross_validation"] = ToJson(*cv);
   res.weights.stats["seconds"] = secs;
   res.weights.stats["database_entries"] = db.size();
   res.weights.stats["queries"] = static_cast<int>(queries.size());
@@ -319,14 +369,17 @@ int RunCalibrate(const std::vector<std::string>& argv) {
     return 0;
   }
   std::cout << "calibrated " << rel.dir().string() << " (" << db.size() << " database entries, " << queries.size()
-            << " " << split << " queries, C = " << opt.c << ", frame " << WeightFrameName(opt.frame) << ") in "
+            << " " << split << " queries, C = " << opt.c << ", " << RegularizerName(opt.regularizer) << " prior, "
+            << WeightTyingName(opt.tying) << " weights, frame " << WeightFrameName(opt.frame) << ") in "
             << Fmt("%.2f", secs) << " s\n";
-  std::cout << "category              queries skipped   pairs  pair-acc u→l   calib top-1 u→l   nonzero w\n";
+  std::cout << "category              queries skipped   pairs  pair-acc u→l   calib top-1 u→l   nonzero w  "
+               "mean |w−1|  clipped\n";
   for (const auto& c : res.categories) {
     char line[256];
-    std::snprintf(line, sizeof line, "%-20s %8d %7d %7lld  %5.3f → %5.3f   %3d → %3d of %-3d   %5.1f %%\n",
-                  c.category.c_str(), c.queries, c.skipped, c.pairs, c.accuracy_before, c.accuracy_after,
-                  c.top1_before, c.top1_after, c.queries, 100 * c.nonzero_fraction);
+    std::snprintf(line, sizeof line,
+                  "%-20s %8d %7d %7lld  %5.3f → %5.3f   %3d → %3d of %-3d   %5.1f %%    %6.3f   %6d\n",
+                  c.category.c_str(), c.queries, c.skipped, c.pairs, c.accuracy_before, c.accuracy_after, c.top1_before,
+                  c.top1_after, c.queries, 100 * c.nonzero_fraction, c.mean_abs_departure, c.clipped);
     std::cout << line;
   }
   if (opt.height_gates && res.gates.queries > 0) {

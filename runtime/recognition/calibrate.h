@@ -4,6 +4,7 @@
 #pragma once
 
 #include <filesystem>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -12,8 +13,34 @@
 
 namespace drape::recognition {
 
+// What the RankSVM's quadratic term pulls w towards.
+//  kZero:    ½‖w‖², w ≥ 0 — the paper's plain RankSVM. With 4096 free weights and a few
+//            hundred pairs it fits its pairs exactly, and nothing ties it to the
+//            unweighted distance that works.
+//  kUniform: ½‖w − 1‖² — w = 1 + δ with ½‖δ‖² penalised (dlib's prior): the unweighted
+//            (Hamming) distance is the solution as C → 0, and C sets how far the data may
+//            move w from it. Margins are in bits. dlib cannot combine a prior with w ≥ 0:
+//            negative weights are set to 0 afterwards and counted (CategoryCalibration).
+enum class Regularizer { kZero, kUniform };
+const char* RegularizerName(Regularizer r);
+Regularizer ParseRegularizer(const std::string& name);  // "zero" | "uniform"
+
+// Which bits share one weight.
+//  kBit:     4096 free weights (the paper).
+//  kAnnulus: one weight per (layer, ring), shared by the Φ sectors: L·R = 256. A category's
+//            w serves every database entry of it, and an entry's sector 0 points wherever
+//            its garment happened to face when swept (Eq. match turns the query, not the
+//            frame into a common one), so a weight per sector has no meaning shared across
+//            entries; layer (height) and ring (radius) do, both normalised by Algorithm 1.
+//  kLayer:   one weight per layer: L = 16.
+enum class WeightTying { kBit, kAnnulus, kLayer };
+const char* WeightTyingName(WeightTying t);
+WeightTying ParseWeightTying(const std::string& name);  // "bit" | "annulus" | "layer"
+
 struct CalibrateOptions {
   double c = 10;              // RankSVM penalty C (paper: 10). dlib scales it by 1/#pairs.
+  Regularizer regularizer = Regularizer::kZero;  // the paper's; `drape calibrate` defaults to kUniform
+  WeightTying tying = WeightTying::kBit;         // the paper's
   double epsilon = 0.001;     // OCA stopping tolerance on the ranking accuracy
   int max_iterations = 10000; // OCA iterations cap
   bool nonnegative = true;    // w >= 0, so w^T(x ⊕ q) stays a (weighted Hamming) distance
@@ -33,6 +60,8 @@ struct CategoryCalibration {
   double map_after = 0;          // mean average precision with the learned w (dlib)
   int top1_before = 0, top1_after = 0;  // calibration queries whose NN has the right anchor
   double nonzero_fraction = 0;   // share of weights > 1e-9
+  int clipped = 0;               // weights (of 4096) the uniform prior left < 0, set to 0
+  double mean_abs_departure = 0;  // mean |w_b − 1| over the bits
   double seconds = 0;            // timing only
 };
 
@@ -68,6 +97,38 @@ GateSelection SelectHeightGates(const Database& db, const std::vector<LabelledCo
 // skipped with a warning. `release_digest` is stored in the weights.
 CalibrationResult Calibrate(const Database& db, const std::vector<LabelledCode>& queries,
                             const CalibrateOptions& options, const std::string& release_digest);
+
+// Leave-one-garment-instance-out cross-validation of calibration settings. Per category,
+// each garment instance h among the queries is held out in turn: weights are learned on
+// the queries of the other instances ranked against the database entries of the other
+// instances (h's entries take part in no pair), and each query of h is then ranked,
+// category known, against the database entries of every instance but h, through the
+// pose height gate `gates.pose`, as `drape eval` does. A setting with c == 0 is the
+// unweighted distance. Queries are those given (calibration and train); no test split.
+struct CvSetting {
+  Regularizer regularizer = Regularizer::kUniform;
+  WeightTying tying = WeightTying::kAnnulus;
+  double c = 0;          // 0: unweighted
+  bool eligible = true;  // false: reported only (the paper's setting)
+  int right = 0;         // held-out queries whose nearest entry has their anchor
+  std::map<std::string, int> right_by_category;
+  std::string Name() const;
+};
+struct CrossValidation {
+  std::vector<CvSetting> settings;  // in order of complexity: unweighted first
+  int queries = 0;                  // held-out queries that had a database entry to rank
+  std::map<std::string, int> queries_by_category;
+  int folds = 0;    // (category, held-out instance) pairs
+  int chosen = -1;  // index into settings (one-standard-error rule)
+};
+// The default grid: unweighted; uniform prior × {layer, annulus, bit} × C ∈ {0.03, 0.1,
+// 0.3, 1, 3, 10, 100}; and the paper's plain RankSVM (C = 10, per bit), not eligible.
+std::vector<CvSetting> DefaultCvGrid();
+// Among the eligible settings, the first (simplest) whose count is within one standard
+// error sqrt(p(1 − p)/n)·n of the best.
+CrossValidation CrossValidate(const Database& db, const std::vector<LabelledCode>& queries,
+                              const CalibrateOptions& base, const HeightGates& gates, std::vector<CvSetting> settings);
+Json ToJson(const CrossValidation& cv);
 
 // The artifact: DIR/weights.json (digest, shape, options, stats, and for each category
 // the offset of its weights in weights.bin and their SHA-256) and DIR/weights.bin

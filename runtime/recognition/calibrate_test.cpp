@@ -171,6 +171,187 @@ TEST(RecognitionCalibrate, DatabaseEntriesAsQueriesRankOnlyOtherInstances) {
   EXPECT_EQ(none.categories.at(0).skipped, 2);
 }
 
+// --- The uniform prior (w = 1 + δ, ½‖δ‖²), weight tying, cross-validation ---
+
+// A code whose every (layer, ring) annulus is all ones or all zeros: every rotation of it
+// is itself, so the Eq. match rotation cannot change an XOR vector.
+Code AnnulusCode(int l, int r, int s, const std::vector<int>& ones) {
+  Code c = ZeroFeature(l, r, s);
+  for (int a : ones)
+    for (int k = 0; k < s; ++k) c.Set(a * s + k, true);
+  return c;
+}
+
+// One query, one relevant entry 8 bits away (layer 1), one nonrelevant entry 4 bits away
+// (layer 0): the unweighted distance orders the pair wrong by 4 bits. With one weight per
+// layer, a = z_n − z_r = (4, −8), and min ½‖v − 1‖² + C·max(0, 1 − v·a) has the closed
+// form v = 1 + t·a, t = min(C, (1 − 1·a)/‖a‖²) = min(C, 5/80).
+TEST(RecognitionCalibrate, UniformPriorMatchesTheClosedFormOnOnePair) {
+  const int L = 2, R = 2, S = 4;
+  std::vector<LabelledCode> db_entries = {
+      Labelled("rel", "A", "db", AnnulusCode(L, R, S, {2, 3})),  // layer 1, both rings
+      Labelled("non", "B", "db", AnnulusCode(L, R, S, {0})),     // layer 0, ring 0
+  };
+  const std::vector<LabelledCode> q = {Labelled("q", "A", "cal", AnnulusCode(L, R, S, {}))};
+  const Database db(db_entries);
+  for (double c : {0.01, 0.03, 1.0, 100.0}) {
+    CalibrateOptions opt;
+    opt.regularizer = Regularizer::kUniform;
+    opt.tying = WeightTying::kLayer;
+    opt.height_gates = false;
+    opt.epsilon = 1e-7;
+    opt.c = c;
+    const CalibrationResult res = Calibrate(db, q, opt, "d");
+    const auto& w = res.weights.per_category.at("shirt");
+    const double t = std::min(c, 5.0 / 80);
+    for (int b = 0; b < L * R * S; ++b) {
+      const double expect = 1 + t * (b < R * S ? 4 : -8);
+      EXPECT_NEAR(w[b], expect, 1e-3) << "C " << c << " bit " << b;
+    }
+    EXPECT_EQ(res.categories[0].clipped, 0);
+  }
+  // A weight the closed form puts below 0 is set to 0 and counted: the relevant entry
+  // 12 bits away (annuli 1, 2, 3), the nonrelevant one 4 (annulus 0).
+  db_entries[0] = Labelled("rel", "A", "db", AnnulusCode(L, R, S, {1, 2, 3}));
+  CalibrateOptions opt;
+  opt.tying = WeightTying::kLayer;
+  opt.regularizer = Regularizer::kUniform;
+  opt.height_gates = false;
+  opt.epsilon = 1e-7;
+  opt.c = 100;
+  // Layers: z_r = (4, 8), z_n = (4, 0) → a = (0, −8), 1·a = −8, t = 9/64: v = (1, 1 − 72/64) < 0.
+  const CalibrationResult res = Calibrate(Database(db_entries), q, opt, "d");
+  const auto& w = res.weights.per_category.at("shirt");
+  EXPECT_NEAR(w[0], 1, 1e-3);
+  EXPECT_EQ(w[R * S], 0);
+  EXPECT_EQ(res.categories[0].clipped, R * S);
+}
+
+// δ penalised infinitely (C = 0, or C → 0): the learned ranking is the unweighted one.
+TEST(RecognitionCalibrate, UniformPriorWithCZeroRanksAsUnweighted) {
+  Rng rng(DeriveSeed(42, "prior-limit"));
+  NoisyCategory cat(rng);
+  std::vector<LabelledCode> train, calib, test;
+  for (int a = 0; a < NoisyCategory::kAnchors; ++a) {
+    const std::string an = "anchor" + std::to_string(a);
+    for (int inst = 1; inst <= 2; ++inst)
+      train.push_back(
+          Labelled("t" + an + std::to_string(inst), an, "shirt-" + std::to_string(inst), cat.Sample(rng, a, 4)));
+    for (int j = 0; j < 3; ++j) {
+      calib.push_back(Labelled("c" + an + std::to_string(j), an, "shirt-c", cat.Sample(rng, a, 8)));
+      test.push_back(Labelled("q" + an + std::to_string(j), an, "shirt-q", cat.Sample(rng, a, 8)));
+    }
+  }
+  const Database db(train);
+  CalibrateOptions opt;
+  opt.regularizer = Regularizer::kUniform;
+  for (WeightTying t : {WeightTying::kBit, WeightTying::kAnnulus, WeightTying::kLayer}) {
+    opt.tying = t;
+    opt.c = 0;
+    const CalibrationResult zero = Calibrate(db, calib, opt, "d");
+    EXPECT_EQ(zero.weights.per_category.at("shirt"), std::vector<double>(16 * 16 * 16, 1.0));
+    Recognizer unweighted(db, nullptr), learned(db, &zero.weights);
+    RecognizeOptions ro;
+    ro.top_k = 100;
+    for (const auto& q : test) {
+      const Recognition u = unweighted.Recognize(q.code, ro), l = learned.Recognize(q.code, ro);
+      ASSERT_EQ(u.top.size(), l.top.size());
+      for (size_t k = 0; k < u.top.size(); ++k) EXPECT_EQ(u.top[k].entry, l.top[k].entry);
+    }
+    // C → 0: w → 1, and every pair of entries the Hamming distance orders keeps its order.
+    opt.c = 1e-6;
+    const CalibrationResult tiny = Calibrate(db, calib, opt, "d");
+    const auto& w = tiny.weights.per_category.at("shirt");
+    for (double v : w) ASSERT_NEAR(v, 1, 1e-4);
+    for (const auto& q : test) {
+      const PreparedQuery pq(q.code);
+      std::vector<Match> m;
+      db.matcher().MatchAll(pq, &m);
+      PreparedWeights pw(w, 16, 16, 16, WeightFrame::kDatabase);
+      for (int i = 0; i < db.size(); ++i)
+        for (int j = 0; j < db.size(); ++j) {
+          if (m[i].distance < m[j].distance) {
+            EXPECT_LT(db.matcher().Weighted(i, pq, m[i].rotation, pw), db.matcher().Weighted(j, pq, m[j].rotation, pw));
+          }
+        }
+    }
+  }
+}
+
+// One informative block (the upper layers), noise in the rest: the uniform prior raises
+// the informative layers' weights above the noise layers', keeps annulus weights equal
+// across sectors, and beats the unweighted distance on new queries; cross-validation
+// (leave one instance out) prefers a learned setting to the unweighted distance.
+TEST(RecognitionCalibrate, UniformPriorRaisesTheInformativeBlock) {
+  Rng rng(DeriveSeed(42, "informative-block"));
+  NoisyCategory cat(rng);
+  std::vector<LabelledCode> train, calib, test;
+  for (int a = 0; a < NoisyCategory::kAnchors; ++a) {
+    const std::string an = "anchor" + std::to_string(a);
+    for (int inst = 1; inst <= 2; ++inst)
+      train.push_back(
+          Labelled("t" + an + std::to_string(inst), an, "shirt-" + std::to_string(inst), cat.Sample(rng, a, 4)));
+    for (int j = 0; j < 5; ++j) {
+      calib.push_back(Labelled("c" + an + std::to_string(j), an, "shirt-c", cat.Sample(rng, a, 8)));
+      test.push_back(Labelled("q" + an + std::to_string(j), an, "shirt-q",
+                              Rotate(cat.Sample(rng, a, 8), static_cast<int>(rng.Below(16)))));
+    }
+  }
+  const Database db(train);
+  CalibrateOptions opt;
+  opt.regularizer = Regularizer::kUniform;
+  opt.tying = WeightTying::kAnnulus;
+  opt.c = 10;
+  const CalibrationResult res = Calibrate(db, calib, opt, "d");
+  const auto& w = res.weights.per_category.at("shirt");
+  const int half = 8 * 16 * 16;
+  double up = 0, down = 0;
+  for (int b = 0; b < half; ++b) up += w[b];
+  for (int b = half; b < 2 * half; ++b) down += w[b];
+  EXPECT_GT(up / half, 1.0);
+  EXPECT_LT(down / half, 1.0);
+  for (int b = 0; b < 2 * half; ++b) ASSERT_EQ(w[b], w[b / 16 * 16]) << "annulus weights differ across sectors";
+  Recognizer unweighted(db, nullptr), learned(db, &res.weights);
+  int err_u = 0, err_w = 0;
+  for (const auto& q : test) {
+    err_u += unweighted.Recognize(q.code, {}).anchor != q.label.anchor;
+    err_w += learned.Recognize(q.code, {}).anchor != q.label.anchor;
+  }
+  std::printf("informative block: unweighted %d/40 wrong, learned (annulus, C = 10) %d/40; mean w %.2f / %.2f\n", err_u,
+              err_w, up / half, down / half);
+  EXPECT_LT(err_w, err_u);
+
+  // Cross-validation over calibration + train (three instances: shirt-1, shirt-2, shirt-c).
+  std::vector<LabelledCode> cvq = calib;
+  cvq.insert(cvq.end(), train.begin(), train.end());
+  const CrossValidation cv = CrossValidate(db, cvq, opt, {}, DefaultCvGrid());
+  EXPECT_EQ(cv.folds, 3);
+  EXPECT_EQ(cv.queries, 40 + 16);
+  ASSERT_GE(cv.chosen, 0);
+  EXPECT_GT(cv.settings[cv.chosen].c, 0) << "a learned setting should win here";
+  EXPECT_GT(cv.settings[cv.chosen].right, cv.settings[0].right);
+  EXPECT_EQ(cv.settings[0].c, 0);
+}
+
+// Cross-validation never lets a held-out instance's entries into a training pair: with
+// two database instances and queries of those instances only, holding one out leaves the
+// other with no instance to rank against, so every learned setting falls back to w = 1
+// and scores exactly as the unweighted distance.
+TEST(RecognitionCalibrate, CrossValidationHoldsTheInstanceOutOfTraining) {
+  Rng rng(11);
+  NoisyCategory cat(rng);
+  std::vector<LabelledCode> train;
+  for (int a = 0; a < 4; ++a)
+    for (int inst = 1; inst <= 2; ++inst)
+      train.push_back(Labelled("t" + std::to_string(a) + std::to_string(inst), "a" + std::to_string(a),
+                               "shirt-" + std::to_string(inst), cat.Sample(rng, a, 4)));
+  const CrossValidation cv = CrossValidate(Database(train), train, {}, {}, DefaultCvGrid());
+  EXPECT_EQ(cv.folds, 2);
+  EXPECT_EQ(cv.queries, 8);
+  for (const auto& s : cv.settings) EXPECT_EQ(s.right, cv.settings[0].right) << s.Name();
+  EXPECT_EQ(cv.chosen, 0);  // ties: the simplest, the unweighted distance
+}
+
 TEST(RecognitionCalibrate, WeightsRoundTripAndForeignDigestIsRefused) {
   const fs::path dir = fs::temp_directory_path() / ("drape_weights_test_" + std::to_string(::getpid()));
   fs::remove_all(dir);
