@@ -369,9 +369,11 @@ int RunCalibrate(const std::vector<std::string>& argv) {
     return 0;
   }
   std::cout << "calibrated " << rel.dir().string() << " (" << db.size() << " database entries, " << queries.size()
-            << " " << split << " queries, C = " << opt.c << ", " << RegularizerName(opt.regularizer) << " prior, "
-            << WeightTyingName(opt.tying) << " weights, frame " << WeightFrameName(opt.frame) << ") in "
-            << Fmt("%.2f", secs) << " s\n";
+            << " " << split << " queries, "
+            << (opt.c == 0 ? std::string("C = 0: w = 1, the unweighted distance")
+                           : "C = " + FormatNumber(opt.c) + ", " + RegularizerName(opt.regularizer) + " prior, " +
+                                 WeightTyingName(opt.tying) + " weights")
+            << ", frame " << WeightFrameName(opt.frame) << ") in " << Fmt("%.2f", secs) << " s\n";
   std::cout << "category              queries skipped   pairs  pair-acc u→l   calib top-1 u→l   nonzero w  "
                "mean |w−1|  clipped\n";
   for (const auto& c : res.categories) {

@@ -284,6 +284,7 @@ void CalibrateCategory(const Database& db, const std::string& cat, const std::ve
   const auto samples = Samples(db, data, tied, "", &st.pairs, &used);
   std::vector<QueryData> usable;
   std::vector<int> rel, non;
+  std::map<std::string, int> alone;  // instance → its queries with no other instance to rank
   for (size_t q = 0; q < data.size(); ++q) {
     if (used[q]) {
       usable.push_back(data[q]);
@@ -291,11 +292,19 @@ void CalibrateCategory(const Database& db, const std::string& cat, const std::ve
       continue;
     }
     ++st.skipped;
+    if (data[q].entries.empty()) {
+      ++alone[data[q].lq->label.instance];
+      continue;
+    }
     SplitEntries(db, data[q], "", &rel, &non);
     const LabelledCode* lq = data[q].lq;
     out.warnings.push_back(
         "calibration query " + lq->label.id + " (" + cat + ", anchor '" + lq->label.anchor + "'): " +
         (rel.empty() ? "no database entry has this anchor" : "every database entry has this anchor") + "; skipped");
+  }
+  for (const auto& [inst, n] : alone) {
+    out.warnings.push_back(std::to_string(n) + " " + cat + " queries of garment instance '" + inst +
+                           "': the database has no entry of another instance of this category to rank; skipped");
   }
   if (samples.empty()) {
     out.warnings.push_back("category '" + cat + "': no usable calibration query; it stays unweighted");
