@@ -117,6 +117,31 @@ Contour CheckedContour(const Contour& in) {
     // Reverse: new edge i runs p'[i] → p'[i+1] = old p[n-1-i] → p[n-2-i] = old edge n-2-i.
     std::reverse(out.points.begin(), out.points.end());
     for (size_t i = 0; i < n; ++i) out.edge_tag[i] = in.edge_tag.empty() ? "" : in.edge_tag[(2 * n - 2 - i) % n];
+    for (auto& [tag, poly] : out.back_openings) std::reverse(poly.begin(), poly.end());
+  }
+  // Back edges: of a named opening, from its first corner to its last (exactly).
+  for (auto& [tag, poly] : out.back_openings) {
+    size_t start = n;
+    for (size_t i = 0; i < n && !tag.empty(); ++i)
+      if (out.edge_tag[i] == tag && out.edge_tag[(i + n - 1) % n] != tag) start = i;
+    if (start == n) throw Error("back_openings names '" + tag + "', which is not an opening of the contour");
+    size_t end = start;
+    while (out.edge_tag[end % n] == tag) ++end;
+    const Vec2 first = out.points[start], last = out.points[end % n];
+    if (poly.size() < 2) throw Error("the back edge of opening '" + tag + "' has fewer than 2 points");
+    for (size_t i = 0; i < poly.size(); ++i)
+      if (!poly[i].allFinite())
+        throw Error("the back edge of opening '" + tag + "': point " + std::to_string(i) + " is not finite");
+    if ((poly.front() - first).norm() > 1e-9 || (poly.back() - last).norm() > 1e-9)
+      throw Error("the back edge of opening '" + tag + "' must run from " + Fmt(first) + " to " + Fmt(last) +
+                  " (the opening's ends, in contour order); it runs from " + Fmt(poly.front()) + " to " +
+                  Fmt(poly.back()));
+    poly.front() = first;
+    poly.back() = last;
+    for (size_t i = 0; i + 1 < poly.size(); ++i)
+      if ((poly[i] - poly[i + 1]).norm() < 1e-9)
+        throw Error("the back edge of opening '" + tag + "': points " + std::to_string(i) + " and " +
+                    std::to_string(i + 1) + " coincide at " + Fmt(poly[i]));
   }
   return out;
 }
@@ -155,7 +180,134 @@ Boundary Resample(const Contour& c, double h) {
   return b;
 }
 
-// Marks faces inside the polygon (nesting level 1 from the infinite face); CGAL's
+double SegmentDistance(const Vec2& p, const Vec2& a, const Vec2& b) {
+  const Vec2 ab = b - a;
+  const double t = std::clamp((p - a).dot(ab) / ab.squaredNorm(), 0.0, 1.0);
+  return (a + t * ab - p).norm();
+}
+
+bool InsidePolygon(const Vec2& p, const std::vector<Vec2>& poly) {
+  bool in = false;
+  for (size_t i = 0, j = poly.size() - 1; i < poly.size(); j = i++) {
+    const Vec2 &a = poly[i], &b = poly[j];
+    if ((a.y() > p.y()) != (b.y() > p.y()) && p.x() < (b.x() - a.x()) * (p.y() - a.y()) / (b.y() - a.y()) + a.x())
+      in = !in;
+  }
+  return in;
+}
+
+double DistanceToPolygon(const Vec2& p, const std::vector<Vec2>& poly) {
+  double d = std::numeric_limits<double>::infinity();
+  for (size_t i = 0; i < poly.size(); ++i) d = std::min(d, SegmentDistance(p, poly[i], poly[(i + 1) % poly.size()]));
+  return d;
+}
+
+// A polyline (both ends kept) split into pieces about h long, at least two in all.
+std::vector<Vec2> ResamplePolyline(const std::vector<Vec2>& p, double h) {
+  std::vector<int> pieces(p.size() - 1);
+  int total = 0;
+  for (size_t i = 0; i + 1 < p.size(); ++i)
+    total += pieces[i] = std::max(1, static_cast<int>(std::ceil((p[i + 1] - p[i]).norm() / h - 1e-9)));
+  if (total < 2) pieces[0] = 2;
+  std::vector<Vec2> out;
+  for (size_t i = 0; i + 1 < p.size(); ++i)
+    for (int k = 0; k < pieces[i]; ++k) out.push_back(p[i] + (p[i + 1] - p[i]) * (static_cast<double>(k) / pieces[i]));
+  out.push_back(p.back());
+  return out;
+}
+
+// A constraint of the triangulation: a piece of the outline or of an inner opening edge.
+struct Segment {
+  Vec2 a, b;
+  bool seam = false;
+};
+
+// What is triangulated: the outline of both layers' patterns together (`outer`), the
+// opening edges inside it (the front's, where the back's lies outside, or the back's),
+// and each layer's own outline. Without back openings all three outlines are `front.p`.
+struct Outline {
+  Boundary front;                        // the front layer's outline, resampled
+  std::vector<Vec2> back;                // the back layer's outline
+  std::vector<Vec2> outer;               // the union's outline
+  std::vector<std::vector<Vec2>> inner;  // opening edges inside `outer`, corner to corner
+  std::vector<Segment> segments;         // outer's pieces in order, then inner's
+  bool two = false;                      // the layers' outlines differ
+};
+
+Outline MakeOutline(const Contour& c, double h) {
+  Outline o;
+  o.front = Resample(c, h);
+  const std::vector<Vec2>& p = o.front.p;
+  const std::vector<std::string>& tag = o.front.tag;
+  const size_t n = p.size();
+  if (c.back_openings.empty()) {
+    o.back = o.outer = p;
+    for (size_t i = 0; i < n; ++i) o.segments.push_back({p[i], p[(i + 1) % n], tag[i].empty()});
+    return o;
+  }
+  o.two = true;
+  size_t s0 = 0;  // a seam piece: no opening runs across the walk's start
+  while (!tag[s0].empty()) ++s0;
+  std::vector<char> outer_seam;
+  for (size_t k = 0; k < n;) {
+    const size_t i = (s0 + k) % n;
+    const auto it = c.back_openings.find(tag[i]);
+    if (it == c.back_openings.end()) {
+      o.outer.push_back(p[i]);
+      o.back.push_back(p[i]);
+      outer_seam.push_back(tag[i].empty());
+      ++k;
+      continue;
+    }
+    std::vector<Vec2> front_edge;
+    for (; k < n && tag[(s0 + k) % n] == it->first; ++k) front_edge.push_back(p[(s0 + k) % n]);
+    front_edge.push_back(p[(s0 + k) % n]);
+    const std::vector<Vec2> back_edge = ResamplePolyline(it->second, h);
+    int outside = 0;
+    for (size_t j = 1; j + 1 < back_edge.size(); ++j) outside += !InsidePolygon(back_edge[j], p);
+    if (outside != 0 && outside != static_cast<int>(back_edge.size()) - 2)
+      throw Error("the back edge of opening '" + it->first +
+                  "' crosses its front edge (it must lie wholly outside the outline or wholly inside)");
+    const std::vector<Vec2>& out_edge = outside ? back_edge : front_edge;
+    o.inner.push_back(outside ? front_edge : back_edge);
+    for (size_t j = 0; j + 1 < out_edge.size(); ++j) {
+      o.outer.push_back(out_edge[j]);
+      outer_seam.push_back(0);
+    }
+    for (size_t j = 0; j + 1 < back_edge.size(); ++j) o.back.push_back(back_edge[j]);
+  }
+  const size_t m = o.outer.size();
+  for (size_t i = 0; i < m; ++i) o.segments.push_back({o.outer[i], o.outer[(i + 1) % m], outer_seam[i] != 0});
+  for (const auto& e : o.inner)
+    for (size_t j = 0; j + 1 < e.size(); ++j) o.segments.push_back({e[j], e[j + 1], false});
+  // Nothing may cross: pieces sharing an end only touch there, the others not at all.
+  const size_t ns = o.segments.size();
+  std::vector<K::Segment_2> seg(ns);
+  for (size_t i = 0; i < ns; ++i)
+    seg[i] =
+        K::Segment_2(Point(o.segments[i].a.x(), o.segments[i].a.y()), Point(o.segments[i].b.x(), o.segments[i].b.y()));
+  for (size_t i = 0; i < ns; ++i) {
+    const Segment& u = o.segments[i];
+    for (size_t j = i + 1; j < ns; ++j) {
+      const Segment& v = o.segments[j];
+      const bool share = u.a == v.a || u.a == v.b || u.b == v.a || u.b == v.b;
+      bool bad = false;
+      if (!share) {
+        bad = CGAL::do_intersect(seg[i], seg[j]);
+      } else {
+        const auto r = CGAL::intersection(seg[i], seg[j]);
+        bad = r && boost::get<K::Segment_2>(&*r);
+      }
+      if (bad)
+        throw Error("the outline with its back opening edges is not simple: " + Fmt(u.a) + "-" + Fmt(u.b) +
+                    " crosses " + Fmt(v.a) + "-" + Fmt(v.b));
+    }
+  }
+  return o;
+}
+
+// Marks faces inside the outline (reached from the infinite face across at least one
+// constraint: inner opening edges divide the inside, they do not make holes); CGAL's
 // own marks are not kept up to date by every operation (Lloyd moves vertices).
 void MarkDomain(CDT& cdt) {
   for (auto f = cdt.all_faces_begin(); f != cdt.all_faces_end(); ++f) f->set_in_domain(false);
@@ -183,13 +335,7 @@ void MarkDomain(CDT& cdt) {
     }
   }
   for (auto& [f, lev] : level)
-    if (!cdt.is_infinite(f)) f->set_in_domain(lev % 2 == 1);
-}
-
-double SegmentDistance(const Vec2& p, const Vec2& a, const Vec2& b) {
-  const Vec2 ab = b - a;
-  const double t = std::clamp((p - a).dot(ab) / ab.squaredNorm(), 0.0, 1.0);
-  return (a + t * ab - p).norm();
+    if (!cdt.is_infinite(f)) f->set_in_domain(lev >= 1);
 }
 
 Vec2 ToVec(const Point& p) { return Vec2(CGAL::to_double(p.x()), CGAL::to_double(p.y())); }
@@ -200,9 +346,9 @@ struct VertexClass {
   bool opening = false;
 };
 
-std::map<VH, VertexClass> ClassifyBoundary(const CDT& cdt, const Boundary& b) {
+std::map<VH, VertexClass> ClassifyBoundary(const CDT& cdt, const Outline& o) {
   std::map<VH, VertexClass> cls;
-  const size_t n = b.p.size();
+  const size_t n = o.segments.size();
   for (auto e = cdt.finite_edges_begin(); e != cdt.finite_edges_end(); ++e) {
     if (!cdt.is_constrained(*e)) continue;
     VH u = e->first->vertex(CDT::cw(e->second)), v = e->first->vertex(CDT::ccw(e->second));
@@ -210,10 +356,10 @@ std::map<VH, VertexClass> ClassifyBoundary(const CDT& cdt, const Boundary& b) {
     size_t best = 0;
     double best_d = std::numeric_limits<double>::infinity();
     for (size_t i = 0; i < n; ++i) {
-      const double d = SegmentDistance(mid, b.p[i], b.p[(i + 1) % n]);
+      const double d = SegmentDistance(mid, o.segments[i].a, o.segments[i].b);
       if (d < best_d) best_d = d, best = i;
     }
-    const bool seam = b.tag[best].empty();
+    const bool seam = o.segments[best].seam;
     for (VH w : {u, v}) {
       auto& c = cls[w];
       (seam ? c.seam : c.opening) = true;
@@ -222,22 +368,17 @@ std::map<VH, VertexClass> ClassifyBoundary(const CDT& cdt, const Boundary& b) {
   return cls;
 }
 
-bool InsidePolygon(const Vec2& p, const std::vector<Vec2>& poly) {
-  bool in = false;
-  for (size_t i = 0, j = poly.size() - 1; i < poly.size(); j = i++) {
-    const Vec2 &a = poly[i], &b = poly[j];
-    if ((a.y() > p.y()) != (b.y() > p.y()) &&
-        p.x() < (b.x() - a.x()) * (p.y() - a.y()) / (b.y() - a.y()) + a.x())
-      in = !in;
-  }
-  return in;
-}
+// Which layers a face of the triangulation belongs to.
+struct FaceLayers {
+  bool front = false, back = false;
+  bool Both() const { return front && back; }
+};
 
-double DistanceToPolygon(const Vec2& p, const std::vector<Vec2>& poly) {
-  double d = std::numeric_limits<double>::infinity();
-  for (size_t i = 0; i < poly.size(); ++i)
-    d = std::min(d, SegmentDistance(p, poly[i], poly[(i + 1) % poly.size()]));
-  return d;
+FaceLayers LayersOf(const CDT& cdt, FH f, const Outline& o) {
+  if (cdt.is_infinite(f) || !f->is_in_domain()) return {};
+  if (!o.two) return {true, true};
+  const Vec2 c = (ToVec(f->vertex(0)->point()) + ToVec(f->vertex(1)->point()) + ToVec(f->vertex(2)->point())) / 3.0;
+  return {InsidePolygon(c, o.front.p), InsidePolygon(c, o.back)};
 }
 
 // Lloyd-style smoothing: each interior vertex moves to the area-weighted mean of its
@@ -245,7 +386,7 @@ double DistanceToPolygon(const Vec2& p, const std::vector<Vec2>& poly) {
 // rebuilt. Written here instead of CGAL::lloyd_optimize_mesh_2 because that one
 // orders its work by handle address and so differs from run to run; here points are
 // inserted in lexicographic order, which makes the result reproducible bit for bit.
-CDT Smooth(const CDT& start, const Boundary& b, int iterations, double h) {
+CDT Smooth(const CDT& start, const Outline& o, int iterations, double h) {
   CDT cdt = start;
   MarkDomain(cdt);
   for (int it = 0; it < iterations; ++it) {
@@ -284,7 +425,10 @@ CDT Smooth(const CDT& start, const Boundary& b, int iterations, double h) {
       if (!pts[i].second && weight[i] > 0) {
         const Vec2 q = sum[i] / weight[i];
         // Keep points inside and off the outline (else the rebuild could lose them).
-        if (InsidePolygon(q, b.p) && DistanceToPolygon(q, b.p) > 0.25 * h) p = q;
+        bool off_inner = true;
+        for (const auto& e : o.inner)
+          for (size_t j = 0; j + 1 < e.size(); ++j) off_inner &= SegmentDistance(q, e[j], e[j + 1]) > 0.25 * h;
+        if (InsidePolygon(q, o.outer) && DistanceToPolygon(q, o.outer) > 0.25 * h && off_inner) p = q;
       }
       moved.push_back(p);
     }
@@ -311,16 +455,21 @@ CDT Smooth(const CDT& start, const Boundary& b, int iterations, double h) {
 // Constrained Delaunay triangulation of the outline, refined to the edge length and
 // Lloyd-smoothed (then refined again: smoothing can leave a few triangles below the
 // angle bound).
-CDT TriangulateOutline(const Boundary& boundary, const ContourOptions& options, const Criteria& criteria) {
+CDT TriangulateOutline(const Outline& outline, const ContourOptions& options, const Criteria& criteria) {
   CDT cdt;
   std::vector<VH> bv;
-  bv.reserve(boundary.p.size());
-  for (const Vec2& p : boundary.p) bv.push_back(cdt.insert(Point(p.x(), p.y())));
+  bv.reserve(outline.outer.size());
+  for (const Vec2& p : outline.outer) bv.push_back(cdt.insert(Point(p.x(), p.y())));
   for (size_t i = 0; i < bv.size(); ++i) cdt.insert_constraint(bv[i], bv[(i + 1) % bv.size()]);
+  for (const auto& e : outline.inner) {
+    std::vector<VH> ev;
+    for (const Vec2& p : e) ev.push_back(cdt.insert(Point(p.x(), p.y())));
+    for (size_t i = 0; i + 1 < ev.size(); ++i) cdt.insert_constraint(ev[i], ev[i + 1]);
+  }
   CGAL::refine_Delaunay_mesh_2(cdt, criteria);
   MarkDomain(cdt);
   if (options.lloyd_iterations > 0) {
-    cdt = Smooth(cdt, boundary, options.lloyd_iterations, options.edge_length);
+    cdt = Smooth(cdt, outline, options.lloyd_iterations, options.edge_length);
     CGAL::refine_Delaunay_mesh_2(cdt, criteria);
     MarkDomain(cdt);
   }
@@ -328,17 +477,17 @@ CDT TriangulateOutline(const Boundary& boundary, const ContourOptions& options, 
 }
 
 // An interior edge joining two stitched vertices would exist on both layers at the
-// same place (non-manifold): split it and refine again until there is none. Returns the
-// rounds taken; `cls` is the final boundary classification.
-int SplitSeamChords(CDT& cdt, const Boundary& boundary, const Criteria& criteria, double h,
+// same place (non-manifold) where both layers have it: split it and refine again until
+// there is none. Returns the rounds taken; `cls` is the final boundary classification.
+int SplitSeamChords(CDT& cdt, const Outline& outline, const Criteria& criteria, double h,
                     std::map<VH, VertexClass>& cls) {
   for (int rounds = 0;; ++rounds) {
-    cls = ClassifyBoundary(cdt, boundary);
+    cls = ClassifyBoundary(cdt, outline);
     std::vector<Point> splits;
     for (auto e = cdt.finite_edges_begin(); e != cdt.finite_edges_end(); ++e) {
       if (cdt.is_constrained(*e)) continue;
       FH f = e->first, g = f->neighbor(e->second);
-      if (!f->is_in_domain() && (cdt.is_infinite(g) || !g->is_in_domain())) continue;
+      if (!LayersOf(cdt, f, outline).Both() && !LayersOf(cdt, g, outline).Both()) continue;
       VH u = f->vertex(CDT::cw(e->second)), v = f->vertex(CDT::ccw(e->second));
       auto iu = cls.find(u), iv = cls.find(v);
       if (iu != cls.end() && iv != cls.end() && iu->second.seam && iv->second.seam)
@@ -361,20 +510,24 @@ int SplitSeamChords(CDT& cdt, const Boundary& boundary, const Criteria& criteria
 
 // The two layers' connectivity: the front numbered by first appearance in the face list
 // (so that importers which renumber that way, e.g. assimp's OBJ reader, keep the order),
-// the back its mirror with reversed winding, stitched (seam) vertices shared.
+// the back with reversed winding and its own copies numbered by first appearance in
+// its faces, stitched (seam) vertices shared. Without back openings the back is the
+// front's mirror.
 struct Layers {
-  std::vector<VH> front_vertices;
+  std::vector<VH> front_vertices, back_vertices;  // back_vertices[j] is vertex #front + j
   std::vector<std::array<int, 3>> front_faces, back_faces;
-  std::vector<char> seam;       // per front vertex
-  std::vector<int> back_index;  // per front vertex: its back copy, -1 on the seam
+  std::vector<char> seam;  // per front vertex
   int num_vertices = 0;
 };
 
-Layers NumberLayers(const CDT& cdt, const std::map<VH, VertexClass>& cls) {
+Layers NumberLayers(const CDT& cdt, const std::map<VH, VertexClass>& cls, const Outline& outline) {
   Layers l;
   std::map<VH, int> front_index;
+  std::vector<FH> back;
   for (auto f = cdt.finite_faces_begin(); f != cdt.finite_faces_end(); ++f) {
-    if (!f->is_in_domain()) continue;
+    const FaceLayers in = LayersOf(cdt, f, outline);
+    if (in.back) back.push_back(f);
+    if (!in.front) continue;
     std::array<int, 3> tri;
     for (int k = 0; k < 3; ++k) {
       VH v = f->vertex(k);
@@ -391,18 +544,25 @@ Layers NumberLayers(const CDT& cdt, const std::map<VH, VertexClass>& cls) {
     auto it = cls.find(l.front_vertices[i]);
     l.seam[i] = it != cls.end() && it->second.seam;
   }
-  l.back_index.assign(nf, -1);
+  std::map<VH, int> back_index;
   int next = nf;
-  for (const auto& t : l.front_faces) {
+  for (FH f : back) {
     std::array<int, 3> b;
-    const std::array<int, 3> rev = {t[0], t[2], t[1]};
+    const std::array<VH, 3> rev = {f->vertex(0), f->vertex(2), f->vertex(1)};
     for (int k = 0; k < 3; ++k) {
-      const int v = rev[k];
-      if (l.seam[v]) {
-        b[k] = v;
+      const VH v = rev[k];
+      const auto c = cls.find(v);
+      if (c != cls.end() && c->second.seam) {
+        const auto fi = front_index.find(v);
+        DRAPE_CHECK(fi != front_index.end(), "a stitched vertex on the back layer only");
+        b[k] = fi->second;
       } else {
-        if (l.back_index[v] < 0) l.back_index[v] = next++;
-        b[k] = l.back_index[v];
+        auto [it, inserted] = back_index.emplace(v, next);
+        if (inserted) {
+          l.back_vertices.push_back(v);
+          ++next;
+        }
+        b[k] = it->second;
       }
     }
     l.back_faces.push_back(b);
@@ -423,11 +583,13 @@ void FillTwoLayers(const Layers& l, double layer_gap, Garment& g) {
     const Vec2 p = ToVec(l.front_vertices[i]->point());
     g.uv.row(i) = p;
     g.mesh.V.row(i) = Vec3(p.x(), p.y(), l.seam[i] ? 0.0 : half);
-    if (l.back_index[i] >= 0) {
-      g.uv.row(l.back_index[i]) = p;
-      g.mesh.V.row(l.back_index[i]) = Vec3(p.x(), p.y(), -half);
-      g.layer[l.back_index[i]] = 1;
-    }
+  }
+  for (size_t j = 0; j < l.back_vertices.size(); ++j) {
+    const int i = nf + static_cast<int>(j);
+    const Vec2 p = ToVec(l.back_vertices[j]->point());
+    g.uv.row(i) = p;
+    g.mesh.V.row(i) = Vec3(p.x(), p.y(), -half);
+    g.layer[i] = 1;
   }
   g.mesh.F.resize(static_cast<int>(l.front_faces.size() + l.back_faces.size()), 3);
   int r = 0;
@@ -512,12 +674,12 @@ Garment GarmentFromContour(const Contour& contour_in, const std::vector<AnchorSp
   options.Validate();
   const Contour contour = CheckedContour(contour_in);
   const double h = options.edge_length;
-  const Boundary boundary = Resample(contour, h);
+  const Outline outline = MakeOutline(contour, h);
   const Criteria criteria(options.angle_bound, options.size_factor * h);
-  CDT cdt = TriangulateOutline(boundary, options, criteria);
+  CDT cdt = TriangulateOutline(outline, options, criteria);
   std::map<VH, VertexClass> cls;
-  const int rounds = SplitSeamChords(cdt, boundary, criteria, h, cls);
-  const Layers layers = NumberLayers(cdt, cls);
+  const int rounds = SplitSeamChords(cdt, outline, criteria, h, cls);
+  const Layers layers = NumberLayers(cdt, cls, outline);
 
   Garment g;
   g.category = category;

@@ -1,14 +1,17 @@
 // Contour → two-sided garment mesh (paper §"Folding Pipeline in Simulation"): a closed
 // 2D outline is resampled, triangulated inside with a constrained Delaunay
 // triangulation refined to a target edge length (CGAL), mirrored into a back layer
-// and stitched to the front along the outline except at the openings.
+// and stitched to the front along the outline except at the openings. An opening may
+// have a back edge of its own (Contour::back_openings: a shirt's back neckline is
+// higher than the front's): both edges are then constraints of one triangulation, and
+// the region between them belongs to one layer only.
 // The procedural templates (templates.h) are built through this same code path.
 #pragma once
 
+#include <map>
+#include <opencv2/core.hpp>
 #include <string>
 #include <vector>
-
-#include <opencv2/core.hpp>
 
 #include "garments/garment.h"
 
@@ -23,6 +26,15 @@ namespace drape {
 struct Contour {
   std::vector<Vec2> points;
   std::vector<std::string> edge_tag;  // #points; empty vector = all seams (closed shell)
+  // Openings whose back-layer edge differs from the front's (real garments: a shirt's
+  // back neckline is higher than the front's, trousers' back waist higher): opening
+  // tag → the back edge as a polyline from the opening's first point to its last, in
+  // the order of `points`, both included (they are the stitched corners where the
+  // opening meets its seams). The back edge must lie wholly outside the outline (the
+  // back layer has the extra cloth between the two edges) or wholly inside it (the
+  // front has it) and cross nothing. The seams stay shared: stitched vertex to vertex.
+  // An opening not named here has the same edge on both layers.
+  std::map<std::string, std::vector<Vec2>> back_openings;
 };
 
 // A labelled point on the flat pattern; snapped to the nearest front-layer vertex.
@@ -64,7 +76,14 @@ struct MeshStats {
 //   uv: the pattern position (x, y) of every vertex (same for both layers);
 //   layer: 0 front (incl. stitched seam vertices), 1 back;
 //   V: (x, y, +gap/2) front, (x, y, −gap/2) back, (x, y, 0) stitched seam vertices;
+//     front vertices first (numbered by first appearance in the front faces), then the
+//     back's in order of appearance in the back faces;
 //   faces: front counter-clockwise seen from +z, back reversed (outward normals).
+// With back_openings, the back layer's pattern is the outline with those openings'
+// back edges; each layer is the triangulation of its own pattern (one triangulation
+// of both, so the common part is the same on both layers) and a front-opening vertex
+// lying inside the back's pattern has a back copy that is interior to the back layer.
+// Without back_openings the result is exactly the mirrored-layer garment.
 // Throws drape::Error for a bad contour (fewer than 3 points, repeated points,
 // self-intersections, zero area, tag count mismatch), naming the point/edge.
 Garment GarmentFromContour(const Contour& contour, const std::vector<AnchorSpec>& anchors,

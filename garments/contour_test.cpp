@@ -8,6 +8,7 @@
 
 #include "common/error.h"
 #include "common/testing.h"
+#include "garments/layers_testing.h"
 #include "garments/validate.h"
 
 namespace drape {
@@ -102,6 +103,85 @@ TEST(Contour, SharpSpikesAreSplitSoLayersStayManifold) {
   EXPECT_NEAR(s.area, PolygonArea(c.points), 1e-12);
 }
 
+// The L with its top opening's back edge at `apex` (between the top corners (0.2, 0.6)
+// and (0, 0.6), in contour order): above the top, the back has cloth the front lacks;
+// below it, the front has.
+Contour LWithBackTop(const Vec2& apex) {
+  Contour c = LShape();
+  c.back_openings["top"] = {{0.2, 0.6}, apex, {0, 0.6}};
+  return c;
+}
+
+TEST(Contour, BackOpeningEdgeOfItsOwn) {
+  for (const Vec2& apex : {Vec2(0.1, 0.7), Vec2(0.1, 0.5)}) {
+    SCOPED_TRACE(apex.y());
+    const Contour c = LWithBackTop(apex);
+    ContourOptions o;
+    o.edge_length = 0.02;
+    MeshStats s;
+    const Garment g = GarmentFromContour(c, {{"top_mid", {0.1, 0.6}}}, o, "boot", "", &s);
+    ExpectSound(g, 2);
+    EXPECT_EQ(s.openings, 2);
+    // Each layer is its own pattern: the front the L, the back the L with the top
+    // replaced by the two edges to the apex (a triangle of 0.2 × 0.1 / 2 more or less).
+    const testing::LayerSeams m = testing::MeasureLayers(g);
+    const double l = PolygonArea(c.points), tri = 0.5 * 0.2 * 0.1;
+    EXPECT_NEAR(m.front_area, l, 1e-12);
+    EXPECT_NEAR(m.back_area, apex.y() > 0.6 ? l + tri : l - tri, 1e-12);
+    EXPECT_NEAR(s.area, l, 1e-12);
+    EXPECT_NEAR(m.front_max_y, 0.6, 1e-15);
+    EXPECT_NEAR(m.back_max_y, std::max(0.6, apex.y()), 1e-15);
+    // Seams stitched vertex to vertex: every edge between stitched vertices has one
+    // face on each layer, so both layers' seams have the same length (the outline less
+    // the two openings).
+    EXPECT_EQ(m.stitched_edges_not_one_per_layer, 0);
+    EXPECT_NEAR(m.front_seam_length, 0.5 + 0.3 + 0.4 + 0.6, 1e-12);
+    EXPECT_EQ(m.front_seam_length, m.back_seam_length);
+    // Vertices: the front's uv inside the L, the back's inside its own pattern; the
+    // anchor on the front's top edge.
+    EXPECT_EQ(g.layer[g.anchors[0].vertex], 0);
+    EXPECT_NEAR(g.anchors[0].position.z(), o.layer_gap / 2, 1e-15);
+    EXPECT_NEAR(g.anchors[0].position.y(), 0.6, 1e-15);
+  }
+}
+
+TEST(Contour, BackOpeningEdgeReversedWithTheContour) {
+  // Clockwise input: the back edge is given in that order too and reversed with it.
+  Contour c = LWithBackTop({0.1, 0.7}), r;
+  const size_t n = c.points.size();
+  for (size_t i = 0; i < n; ++i) {
+    r.points.push_back(c.points[n - 1 - i]);
+    r.edge_tag.push_back(c.edge_tag[(2 * n - 2 - i) % n]);
+  }
+  r.back_openings["top"] = {{0, 0.6}, {0.1, 0.7}, {0.2, 0.6}};
+  MeshStats a, b;
+  const Garment ga = GarmentFromContour(c, {}, {}, "x", "", &a);
+  const Garment gb = GarmentFromContour(r, {}, {}, "x", "", &b);
+  ExpectSound(gb, 2);
+  EXPECT_NEAR(testing::MeasureLayers(ga).back_area, testing::MeasureLayers(gb).back_area, 1e-12);
+}
+
+TEST(Contour, BadBackOpeningEdgesAreNamed) {
+  auto make = [](const Contour& c) { return ErrorOf([&] { GarmentFromContour(c, {}, {}); }); };
+  Contour c = LShape();
+  c.back_openings["heel"] = {{0, 0}, {0.1, 0.1}};
+  EXPECT_NE(make(c).find("'heel', which is not an opening"), std::string::npos) << make(c);
+  c = LWithBackTop({0.1, 0.7});
+  c.back_openings["top"].back() = Vec2(0.05, 0.6);
+  EXPECT_NE(make(c).find("must run from (0.2, 0.6) to (0, 0.6)"), std::string::npos) << make(c);
+  // Zigzag across the front's top edge.
+  c = LShape();
+  c.back_openings["top"] = {{0.2, 0.6}, {0.15, 0.65}, {0.05, 0.55}, {0, 0.6}};
+  EXPECT_NE(make(c).find("crosses its front edge"), std::string::npos) << make(c);
+  // Its points outside, but an edge through the L (a coarse mesh: no points between).
+  c = LShape();
+  c.back_openings["top"] = {{0.2, 0.6}, {0.1, 0.75}, {0.1, -0.1}, {0, 0.6}};
+  ContourOptions coarse;
+  coarse.edge_length = 1;
+  const std::string through = ErrorOf([&] { GarmentFromContour(c, {}, coarse); });
+  EXPECT_NE(through.find("not simple"), std::string::npos) << through;
+}
+
 TEST(Contour, FromMaskOfADisc) {
   const int n = 400;
   const double mpp = 0.001, radius_px = 150;
@@ -132,17 +212,17 @@ TEST(Contour, FromMaskTouchingTheBorder) {
 
 TEST(Contour, BadContoursAreNamed) {
   auto make = [](Contour c) { return ErrorOf([&] { GarmentFromContour(c, {}, {}); }); };
-  EXPECT_NE(make({{{0, 0}, {1, 0}}, {}}).find("2 points"), std::string::npos);
-  EXPECT_NE(make({{{0, 0}, {1, 0}, {1, 0}, {0, 1}}, {}}).find("points 1 and 2 coincide"), std::string::npos);
-  const std::string bowtie = make({{{0, 0}, {1, 1}, {1, 0}, {0, 1}}, {}});
+  EXPECT_NE(make({{{0, 0}, {1, 0}}, {}, {}}).find("2 points"), std::string::npos);
+  EXPECT_NE(make({{{0, 0}, {1, 0}, {1, 0}, {0, 1}}, {}, {}}).find("points 1 and 2 coincide"), std::string::npos);
+  const std::string bowtie = make({{{0, 0}, {1, 1}, {1, 0}, {0, 1}}, {}, {}});
   EXPECT_NE(bowtie.find("not simple: edge 0"), std::string::npos) << bowtie;
-  EXPECT_NE(make({{{0, 0}, {1, 0}, {0, 1}}, {"", ""}}).find("3 points but 2 edge tags"), std::string::npos);
-  EXPECT_NE(make({{{0, 0}, {1, 0}, {0, 1}}, {"a", "a", "a"}}).find("no seam edge"), std::string::npos);
-  EXPECT_NE(make({{{0, 0}, {1, 0}, {1, 1}, {0, 1}}, {"a", "b", "", ""}}).find("openings 'a' and 'b' touch"),
+  EXPECT_NE(make({{{0, 0}, {1, 0}, {0, 1}}, {"", ""}, {}}).find("3 points but 2 edge tags"), std::string::npos);
+  EXPECT_NE(make({{{0, 0}, {1, 0}, {0, 1}}, {"a", "a", "a"}, {}}).find("no seam edge"), std::string::npos);
+  EXPECT_NE(make({{{0, 0}, {1, 0}, {1, 1}, {0, 1}}, {"a", "b", "", ""}, {}}).find("openings 'a' and 'b' touch"),
             std::string::npos);
-  EXPECT_NE(make({{{0, 0}, {1, 0}, {1, 1}, {0, 1}}, {"a", "", "a", ""}}).find("opening 'a' appears twice"),
+  EXPECT_NE(make({{{0, 0}, {1, 0}, {1, 1}, {0, 1}}, {"a", "", "a", ""}, {}}).find("opening 'a' appears twice"),
             std::string::npos);
-  EXPECT_NE(make({{{0, 0}, {1, 0}, {2, 0}}, {}}).find("zero area"), std::string::npos);
+  EXPECT_NE(make({{{0, 0}, {1, 0}, {2, 0}}, {}, {}}).find("zero area"), std::string::npos);
   ContourOptions o;
   o.edge_length = -1;
   EXPECT_NE(ErrorOf([&] { GarmentFromContour(LShape(), {}, o); }).find("edge_length"), std::string::npos);
