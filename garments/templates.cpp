@@ -20,13 +20,24 @@ using Params = std::map<std::string, double>;
 struct Builder {
   Contour c;
   std::vector<AnchorSpec> anchors;
-  // Appends point p; the edge from p to the next point gets `tag`.
-  void Add(Vec2 p, const std::string& tag = "") {
-    // Round-off like cos(π/2) = 6e-17 → 0: keeps coordinates exact through text formats.
+  // Round-off like cos(π/2) = 6e-17 → 0: keeps coordinates exact through text formats.
+  static Vec2 Clean(Vec2 p) {
     for (int k = 0; k < 2; ++k)
       if (std::abs(p[k]) < 1e-12) p[k] = 0;
-    c.points.push_back(p);
+    return p;
+  }
+  // Appends point p; the edge from p to the next point gets `tag`.
+  void Add(Vec2 p, const std::string& tag = "") {
+    c.points.push_back(Clean(p));
     c.edge_tag.push_back(tag);
+  }
+  // The back layer's edge of opening `tag`: `from` and `to` (the opening's corners, in
+  // outline order) and the points between them.
+  void BackEdge(const std::string& tag, const Vec2& from, const std::vector<Vec2>& between, const Vec2& to) {
+    auto& e = c.back_openings[tag];
+    e.push_back(Clean(from));
+    for (const Vec2& p : between) e.push_back(Clean(p));
+    e.push_back(Clean(to));
   }
   void Anchor(const std::string& label, const Vec2& uv) { anchors.push_back({label, uv}); }
 };
@@ -39,13 +50,18 @@ void Require(bool ok, const std::string& what) {
 }
 
 // Shirts (long sleeve and T-shirt) share one outline: body, shoulders, a curved
-// neckline, and sleeves pointing down-outwards at sleeve_angle below horizontal.
+// neckline, and sleeves pointing down-outwards at sleeve_angle below horizontal. The
+// back neckline is a shallow parabola between the same neck points (its depth
+// neck_depth − back_neck_rise), as shirts are drafted; back_neck_rise = 0 makes the
+// back the front's mirror.
 Builder Shirt(const Params& p, double h, bool long_sleeve) {
   const double H = p.at("body_length"), cw = p.at("chest_width"), hw = p.at("hem_width");
   const double sw = p.at("shoulder_width"), nw = p.at("neck_width"), nd = p.at("neck_depth");
   const double sd = p.at("shoulder_drop"), ad = p.at("armhole_depth");
   const double sl = p.at("sleeve_length"), cuff = p.at("sleeve_width"), ang = p.at("sleeve_angle");
+  const double rise = p.at("back_neck_rise");
   Require(nw < sw, "neck_width must be smaller than shoulder_width");
+  Require(rise <= nd, "back_neck_rise must not exceed neck_depth (the back neckline above the neck points)");
   Require(nd < ad && sd < ad, "neck_depth and shoulder_drop must be smaller than armhole_depth");
   Require(ad < H, "armhole_depth must be smaller than body_length");
   const Vec2 hem(hw / 2, 0), armpit(cw / 2, H - ad), shoulder(sw / 2, H - sd), neck(nw / 2, H);
@@ -74,6 +90,19 @@ Builder Shirt(const Params& p, double h, bool long_sleeve) {
   }
   b.Add(MirrorX(neck));
   b.Add(MirrorX(shoulder));
+  if (rise > 0) {
+    const double bd = nd - rise;
+    // A parabola: it leaves the neck points ~25° below the horizontal, not tangent to
+    // the front's half ellipse (which leaves them straight down), so the cloth between
+    // the two necklines meshes without slivers.
+    const int kBack = 2 * std::max(2, static_cast<int>(std::ceil((nw + bd) / (2 * h))));  // even: a centre point
+    std::vector<Vec2> back;
+    for (int k = 1; k < kBack; ++k) {
+      const double x = nw / 2 * (1 - 2.0 * k / kBack);  // from the left neck point (+x) to the right
+      back.push_back(Vec2(x, H - bd * (1 - (2 * x / nw) * (2 * x / nw))));
+    }
+    b.BackEdge("neck", neck, back, MirrorX(neck));
+  }
   b.Add(MirrorX(cuff_top), cuff_r);
   b.Add(MirrorX(cuff_bottom));
   b.Add(MirrorX(armpit));
@@ -107,11 +136,16 @@ Builder Shirt(const Params& p, double h, bool long_sleeve) {
   return b;
 }
 
-// Pants and shorts: waistband on top, two legs meeting at the crotch.
-Builder Trousers(const Params& p, double, bool shorts) {
+// Pants and shorts: waistband on top, two legs meeting at the crotch. The back waist
+// rises to back_waist_rise above the front's at the centre (a half ellipse between the
+// waist corners), as trousers are drafted: the back rise is the longer. Front and back
+// share the side seams, inseams and crotch point, so in this two-layer flat pattern the
+// back crotch curve's extra length shows as that higher back waist. back_waist_rise = 0
+// makes the back the front's mirror.
+Builder Trousers(const Params& p, double h, bool shorts) {
   const double ww = p.at("waist_width"), hipw = p.at("hip_width"), rise = p.at("rise");
   const double hd = p.at("hip_depth"), inseam = p.at("inseam"), lw = p.at("leg_width");
-  const double gap = p.at("leg_gap");
+  const double gap = p.at("leg_gap"), back_rise = p.at("back_waist_rise");
   Require(hd < rise, "hip_depth must be smaller than rise");
   Require(gap > 0.005, "leg_gap must be at least 5 mm");
   const double H = rise + inseam;
@@ -128,6 +162,21 @@ Builder Trousers(const Params& p, double, bool shorts) {
   b.Add(MirrorX(leg_out), "right_leg");
   b.Add(MirrorX(leg_in));
   b.Add(crotch);
+  if (back_rise > 0) {
+    // A half ellipse: it leaves the waist corners straight up (at a right angle to the
+    // front's waist), so the cloth between the two waists meshes without slivers (but
+    // within a few cm of the corners it is thinner than the edge length: edges there
+    // down to 0.35 of it, templates_test).
+    // Points evenly spaced in x (evenly in angle would crowd them at the corners, where
+    // the flat ellipse runs nearly straight up); an even count puts one at the centre.
+    const int kBack = 2 * std::max(2, static_cast<int>(std::ceil(ww / (2 * h))));
+    std::vector<Vec2> back;
+    for (int k = 1; k < kBack; ++k) {
+      const double u = 1 - 2.0 * k / kBack;  // from the left waist corner (u = 1, +x) to the right
+      back.push_back(Vec2(ww / 2 * u, H + back_rise * std::sqrt(std::max(0.0, 1 - u * u))));
+    }
+    b.BackEdge("waist", waist, back, MirrorX(waist));
+  }
 
   b.Anchor("waist_center", Vec2(0, H));
   b.Anchor("left_waist", waist);
@@ -205,7 +254,7 @@ std::vector<TemplateParameter> ShirtParams(bool long_sleeve) {
       {"body_length", "height from the neck points down to the hem", 0.68, 0.72, 0.76},
       {"shoulder_width", "distance between the shoulder points", 0.42, 0.46, 0.50},
       {"neck_width", "distance between the neck points", 0.17, 0.18, 0.19},
-      {"neck_depth", "depth of the neckline below the neck points", 0.07, 0.08, 0.09},
+      {"neck_depth", "depth of the front neckline below the neck points", 0.07, 0.08, 0.09},
       {"shoulder_drop", "height of the neck points above the shoulder points", 0.04, 0.045, 0.05},
       {"armhole_depth", "height of the neck points above the armpits", 0.22, 0.24, 0.26},
   };
@@ -219,8 +268,19 @@ std::vector<TemplateParameter> ShirtParams(bool long_sleeve) {
     v.push_back({"sleeve_width", "flat width of the sleeve opening", 0.15, 0.16, 0.17});
     v.push_back({"sleeve_angle", "sleeve direction below horizontal (radians)", 0.35, 0.35, 0.35, true});
   }
+  // Front neck drop ≈ 7–9 cm, back ≈ 2 cm (scaled with size), as shirts are drafted.
+  v.push_back({"back_neck_rise",
+               "how much higher the back neckline's lowest point is than the front's (the back neck "
+               "depth is neck_depth minus this; 0: the back neckline is the front's)",
+               0.052, 0.060, 0.068});
   return v;
 }
+
+// Appended last: the seeded perturbation draws the parameters in order, so the others
+// keep their values.
+constexpr const char* kBackWaistRise =
+    "how much higher the back waist's centre is than the front's (the back rise is rise plus "
+    "this; 0: the back waist is the front's)";
 
 std::vector<TemplateParameter> TrouserParams(bool shorts) {
   if (!shorts) {
@@ -228,20 +288,22 @@ std::vector<TemplateParameter> TrouserParams(bool shorts) {
         {"waist_width", "flat width of the waistband", 0.38, 0.40, 0.43},
         {"hip_width", "flat width at the hips", 0.48, 0.51, 0.54},
         {"hip_depth", "waist to hip line", 0.16, 0.17, 0.18},
-        {"rise", "waist to crotch", 0.26, 0.28, 0.30},
+        {"rise", "waist to crotch (front)", 0.26, 0.28, 0.30},
         {"inseam", "height of the crotch above the leg openings", 0.74, 0.78, 0.82},
         {"leg_width", "flat width of a leg opening", 0.18, 0.19, 0.20},
         {"leg_gap", "distance between the inner corners of the two leg openings", 0.12, 0.12, 0.12},
+        {"back_waist_rise", kBackWaistRise, 0.03, 0.035, 0.04},
     };
   }
   return {
       {"waist_width", "flat width of the waistband", 0.38, 0.40, 0.43},
       {"hip_width", "flat width at the hips", 0.50, 0.53, 0.56},
       {"hip_depth", "waist to hip line", 0.16, 0.17, 0.18},
-      {"rise", "waist to crotch", 0.26, 0.28, 0.30},
+      {"rise", "waist to crotch (front)", 0.26, 0.28, 0.30},
       {"inseam", "height of the crotch above the leg openings", 0.16, 0.18, 0.20},
       {"leg_width", "flat width of a leg opening", 0.27, 0.29, 0.31},
       {"leg_gap", "distance between the inner corners of the two leg openings", 0.04, 0.04, 0.04},
+      {"back_waist_rise", kBackWaistRise, 0.03, 0.035, 0.04},
   };
 }
 

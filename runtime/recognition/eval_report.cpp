@@ -138,9 +138,11 @@ std::string ReportMarkdown(const Json& r) {
         "Grasp-point error: distance on the flat pattern of the query's "
         "garment between the predicted and the true anchor, cm (0 when right), both instances.\n\n"
      << "Twin credited: pose accuracy (both instances) counting the anchor's symmetry twins as right "
-        "(left/right swapped; for the rectangular towel also top/bottom): the templates are symmetric with "
-        "identical front and back layers, so twins hang as each other turned about the gripper and no "
-        "rotation-invariant feature can tell them apart.\n\n"
+        "(left/right swapped; for the rectangular towel also top/bottom). Where a garment's front and back "
+        "are alike (the towel, the skirt, any template with its front/back difference set to 0) twins hang "
+        "as each other turned about the gripper and no rotation-invariant feature can tell them apart; "
+        "shirts (lower front neckline) and trousers (higher back waist) differ front to back, as real "
+        "garments do.\n\n"
      << "| category | category accuracy | end-to-end pose (u / l) | top-" << r["top_k"].get<int>()
      << " (u / l) | grasp error cm (u / l) | pose, twin credited (u / l) |\n|---|---|---|---|---|---|\n";
   for (const Json& c : rows) {

@@ -31,10 +31,12 @@ using AnchorUvMap = std::map<std::pair<std::string, std::string>, Vec2>;
 // "bottom" swapped, and both ("left_cuff" → {"right_cuff"}; the towel's "top_left" →
 // {"top_right", "bottom_left", "bottom_right"}); empty when the label names no side. Every
 // template's outline is left/right symmetric (the towel's also top/bottom: a rectangle;
-// no other template has top/bottom labels) and its back layer mirrors the front, so a
-// garment hung from a twin is the other's hang turned about the gripper (up to the
-// triangulation and the simulation's chaos): no rotation-invariant feature can tell
-// twins apart. Reported beside the strict (paper's) accuracy as "twin credited".
+// no other template has top/bottom labels). Where the back layer mirrors the front (towel,
+// skirt, or a template's front/back difference set to 0, garments/anchors.md) a garment
+// hung from a twin is the other's hang turned about the gripper (up to the triangulation
+// and the simulation's chaos): no rotation-invariant feature can tell twins apart. Shirts
+// and trousers differ front to back (neckline, back waist), which tells them apart.
+// Reported beside the strict (paper's) accuracy as "twin credited".
 std::vector<std::string> SymmetryTwins(const std::string& anchor);
 
 struct EvalOptions {

@@ -105,8 +105,8 @@ std::string LadderMarkdown(const Json& table) {
   md << "## Ablation ladder (pose accuracy, both database instances, category known)\n\n"
      << "Each rung adds one difference between a database entry and the query; the drop from one "
         "row to the next is what that difference costs. Twin credited: the anchor's symmetry twins (left/right, "
-        "for the towel also top/bottom) count as right — indistinguishable in principle for these symmetric "
-        "two-layer templates.\n";
+        "for the towel also top/bottom) count as right — indistinguishable in principle where front and back "
+        "are alike (towel, skirt), told apart by the front/back difference of shirts and trousers.\n";
   for (const auto& [cat, rows] : table.items()) {
     md << "\n### " << cat << "\n\n| rung | queries | differs from the database entry by | pose (unweighted) | "
           "pose (learned) | twin credited (u / l) | category | grasp error cm (u) |\n"
