@@ -48,6 +48,34 @@ double SignedArea(const std::vector<Vec2>& p) {
   return 0.5 * a;
 }
 
+// Back edges: of a named opening, from its first corner to its last (exactly).
+void CheckBackOpenings(Contour& out) {
+  const size_t n = out.points.size();
+  for (auto& [tag, poly] : out.back_openings) {
+    size_t start = n;
+    for (size_t i = 0; i < n && !tag.empty(); ++i)
+      if (out.edge_tag[i] == tag && out.edge_tag[(i + n - 1) % n] != tag) start = i;
+    if (start == n) throw Error("back_openings names '" + tag + "', which is not an opening of the contour");
+    size_t end = start;
+    while (out.edge_tag[end % n] == tag) ++end;
+    const Vec2 first = out.points[start], last = out.points[end % n];
+    if (poly.size() < 2) throw Error("the back edge of opening '" + tag + "' has fewer than 2 points");
+    for (size_t i = 0; i < poly.size(); ++i)
+      if (!poly[i].allFinite())
+        throw Error("the back edge of opening '" + tag + "': point " + std::to_string(i) + " is not finite");
+    if ((poly.front() - first).norm() > 1e-9 || (poly.back() - last).norm() > 1e-9)
+      throw Error("the back edge of opening '" + tag + "' must run from " + Fmt(first) + " to " + Fmt(last) +
+                  " (the opening's ends, in contour order); it runs from " + Fmt(poly.front()) + " to " +
+                  Fmt(poly.back()));
+    poly.front() = first;
+    poly.back() = last;
+    for (size_t i = 0; i + 1 < poly.size(); ++i)
+      if ((poly[i] - poly[i + 1]).norm() < 1e-9)
+        throw Error("the back edge of opening '" + tag + "': points " + std::to_string(i) + " and " +
+                    std::to_string(i + 1) + " coincide at " + Fmt(poly[i]));
+  }
+}
+
 // Checks the input polygon and returns it counter-clockwise with its edge tags.
 Contour CheckedContour(const Contour& in) {
   const size_t n = in.points.size();
@@ -119,30 +147,7 @@ Contour CheckedContour(const Contour& in) {
     for (size_t i = 0; i < n; ++i) out.edge_tag[i] = in.edge_tag.empty() ? "" : in.edge_tag[(2 * n - 2 - i) % n];
     for (auto& [tag, poly] : out.back_openings) std::reverse(poly.begin(), poly.end());
   }
-  // Back edges: of a named opening, from its first corner to its last (exactly).
-  for (auto& [tag, poly] : out.back_openings) {
-    size_t start = n;
-    for (size_t i = 0; i < n && !tag.empty(); ++i)
-      if (out.edge_tag[i] == tag && out.edge_tag[(i + n - 1) % n] != tag) start = i;
-    if (start == n) throw Error("back_openings names '" + tag + "', which is not an opening of the contour");
-    size_t end = start;
-    while (out.edge_tag[end % n] == tag) ++end;
-    const Vec2 first = out.points[start], last = out.points[end % n];
-    if (poly.size() < 2) throw Error("the back edge of opening '" + tag + "' has fewer than 2 points");
-    for (size_t i = 0; i < poly.size(); ++i)
-      if (!poly[i].allFinite())
-        throw Error("the back edge of opening '" + tag + "': point " + std::to_string(i) + " is not finite");
-    if ((poly.front() - first).norm() > 1e-9 || (poly.back() - last).norm() > 1e-9)
-      throw Error("the back edge of opening '" + tag + "' must run from " + Fmt(first) + " to " + Fmt(last) +
-                  " (the opening's ends, in contour order); it runs from " + Fmt(poly.front()) + " to " +
-                  Fmt(poly.back()));
-    poly.front() = first;
-    poly.back() = last;
-    for (size_t i = 0; i + 1 < poly.size(); ++i)
-      if ((poly[i] - poly[i + 1]).norm() < 1e-9)
-        throw Error("the back edge of opening '" + tag + "': points " + std::to_string(i) + " and " +
-                    std::to_string(i + 1) + " coincide at " + Fmt(poly[i]));
-  }
+  CheckBackOpenings(out);
   return out;
 }
 
