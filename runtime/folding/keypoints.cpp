@@ -22,6 +22,7 @@ struct Defect {
 struct Outline {
   std::vector<Vec2> pts;
   std::vector<Defect> defects;  // sorted deepest first
+  double min_depth = 0, min_neck_depth = 0;  // pixels: KeyPointOptions' fractions of the width
   std::vector<Vec2> poly;       // the outline simplified to its corners (approxPolyDP)
   Vec2 centroid = Vec2::Zero();
   double width = 0, height = 0;
@@ -29,7 +30,7 @@ struct Outline {
 
 Vec2 ToFrame(const cv::Point& p) { return Vec2(p.x + 0.5, -(p.y + 0.5)); }
 
-Outline Analyse(const cv::Mat& mask, double min_defect_depth, double corner_tolerance) {
+Outline Analyse(const cv::Mat& mask, double min_defect_depth, double min_neck_depth, double corner_tolerance) {
   if (mask.empty() || mask.type() != CV_8UC1) throw Error("key points: the mask must be a non-empty 8-bit image");
   cv::Mat bin = mask != 0;
   std::vector<std::vector<cv::Point>> contours;
@@ -55,10 +56,12 @@ Outline Analyse(const cv::Mat& mask, double min_defect_depth, double corner_tole
   if (hull.size() > 3) cv::convexityDefects(c, hull, defects);
   for (const auto& d : defects) {
     const double depth = d[3] / 256.0;
-    if (depth < min_defect_depth * o.width) continue;
+    if (depth < std::min(min_defect_depth, min_neck_depth) * o.width) continue;
     o.defects.push_back({ToFrame(c[d[0]]), ToFrame(c[d[1]]), ToFrame(c[d[2]]), depth, d[0], d[1]});
   }
   std::sort(o.defects.begin(), o.defects.end(), [](const Defect& a, const Defect& b) { return a.depth > b.depth; });
+  o.min_depth = min_defect_depth * o.width;
+  o.min_neck_depth = min_neck_depth * o.width;
   return o;
 }
 
@@ -73,9 +76,12 @@ Vec2 Extreme(const std::vector<Vec2>& pts, const Vec2& dir, const std::function<
   return arg;
 }
 
-const Defect& DeepestWhere(const Outline& o, const std::function<bool(const Defect&)>& keep, const char* what) {
+// Deepest defect passing `keep` and at least min_depth deep (default: Outline::min_depth).
+const Defect& DeepestWhere(const Outline& o, const std::function<bool(const Defect&)>& keep, const char* what,
+                           double min_depth = -1) {
+  if (min_depth < 0) min_depth = o.min_depth;
   for (const Defect& d : o.defects)
-    if (keep(d)) return d;
+    if (d.depth >= min_depth && keep(d)) return d;
   throw Error(std::string("key points: no convexity defect found for ") + what);
 }
 
@@ -140,7 +146,7 @@ void Shirt(const Outline& o, Points& k, bool long_sleeve) {
         return d.far.y() > o.centroid.y() && std::abs(d.far.x() - cx) < W / 6 &&
                d.far.y() < std::min(d.start.y(), d.end.y());
       },
-      "the collar");
+      "the collar", o.min_neck_depth);
   k["collar"] = NotchBottom(o, neck);
   k["left_neck"] = neck.start.x() > neck.end.x() ? neck.start : neck.end;
   k["right_neck"] = neck.start.x() > neck.end.x() ? neck.end : neck.start;
@@ -206,6 +212,7 @@ void KeyPointOptions::Validate() const {
     throw Error("KeyPointOptions.corner_tolerance must be in (0, 0.2)");
   if (!(min_defect_depth >= 0 && min_defect_depth < 0.5))
     throw Error("KeyPointOptions.min_defect_depth must be in [0, 0.5)");
+  if (!(min_neck_depth >= 0 && min_neck_depth < 0.5)) throw Error("KeyPointOptions.min_neck_depth must be in [0, 0.5)");
 }
 
 std::map<std::string, Vec2> DetectKeyPoints(const cv::Mat& mask, const std::string& category,
@@ -214,7 +221,7 @@ std::map<std::string, Vec2> DetectKeyPoints(const cv::Mat& mask, const std::stri
   if (KeyPointNames(category).empty())
     throw Error("key points: no detector for category '" + category +
                 "' (known: towel, pants, shorts, long_sleeve_shirt, tshirt)");
-  const Outline o = Analyse(mask, options.min_defect_depth, options.corner_tolerance);
+  const Outline o = Analyse(mask, options.min_defect_depth, options.min_neck_depth, options.corner_tolerance);
   Points k;
   k["center"] = o.centroid;
   if (category == "towel")

@@ -26,6 +26,10 @@ struct KeyPointOptions {
   double corner_tolerance = 0.01;
   // Convexity defects shallower than this fraction of the garment's width are ignored.
   double min_defect_depth = 0.02;
+  // The neck notch may be shallower: a shirt laid front up shows the back neckline in its
+  // outline (~2 cm deep, 1.3 % of a shirt's width), the front's lower one lies inside it.
+  // So the detected `collar` is the bottom of the back neckline, not the front's anchor.
+  double min_neck_depth = 0.005;
   void Validate() const;
 };
 
