@@ -4,12 +4,14 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <mutex>
 #include <unistd.h>
 
 #include "cli/args.h"
 #include "cli/command.h"
 #include "common/error.h"
 #include "common/files.h"
+#include "common/parallel.h"
 #include "common/rng.h"
 #include "garments/templates.h"
 #include "runtime/recognition/release_source.h"
@@ -46,6 +48,7 @@ const char* kUsage =
     "                    --unweighted)\n"
     "  --frames N        Kinect frames per turn, 360 deg one way and back (default 550, the paper's)\n"
     "  --max-regrasps K  give up after K regrasps (default 4)\n"
+    "  --jobs N          trials run side by side on N threads (default 1; same results for any N)\n"
     "  --category-known  tell recognition the category\n"
     "  --no-ir           ablation: grasp the registered point without IR refinement\n"
     "  --rigid           ablation: rigid-only registration\n"
@@ -129,15 +132,19 @@ void WriteTrialTrace(const TrialResult& t, const Variant& v, const std::string& 
 
 // One variant's trials on one category (seeds derived from the run's seed, the category
 // and the trial), summarised as a table row.
+// With jobs > 1 the trials run side by side (each its own world and seeds: the same
+// results for any job count), and the progress lines interleave.
 TableRow RunTrials(const ReleaseModel& model, const Variant& v, const std::string& c, const LoopOptions& lo, int trials,
-                   uint64_t seed, const std::optional<fs::path>& out, bool figures) {
-  const bool tty = isatty(fileno(stderr));
-  std::vector<TrialResult> results;
-  for (int k = 0; k < trials; ++k) {
+                   uint64_t seed, const std::optional<fs::path>& out, bool figures, int jobs) {
+  const bool tty = isatty(fileno(stderr)) && jobs == 1;
+  std::vector<TrialResult> results(trials);
+  std::mutex say_mu;
+  ParallelFor(trials, jobs, [&](int k) {
     LoopOptions o = lo;
     o.ir_refinement = v.ir, o.nonrigid = v.nonrigid, o.weighted = v.weighted;
     const uint64_t ts = DeriveSeed(seed, c + "/trial/" + std::to_string(k));
     auto say = [&](const std::string& s) {
+      std::lock_guard<std::mutex> lock(say_mu);
       std::cerr << (tty ? "\r\033[K" : "") << "[" << v.name << " " << c << " " << k + 1 << "/" << trials << "] " << s
                 << (tty ? "" : "\n") << std::flush;
     };
@@ -148,14 +155,14 @@ TableRow RunTrials(const ReleaseModel& model, const Variant& v, const std::strin
     say(line);
     if (tty) std::cerr << "\n";
     if (out) WriteTrialTrace(t, v, c, k, model, o, figures, *out);
-    results.push_back(std::move(t));
-  }
+    results[k] = std::move(t);
+  });
   return Summarise(c, v.name, results);
 }
 
 int RunUnfold(const std::vector<std::string>& argv) {
   Args a(argv, {"--no-ir", "--rigid", "--unweighted", "--ablations", "--no-figures", "--category-known"},
-         {"--category", "--trials", "--seed", "-o", "--weights", "--frames", "--max-regrasps"});
+         {"--category", "--trials", "--seed", "-o", "--weights", "--frames", "--max-regrasps", "--jobs"});
   if (a.help()) {
     std::cout << kUsage;
     return 0;
@@ -176,6 +183,9 @@ int RunUnfold(const std::vector<std::string>& argv) {
   lo.capture.frames = static_cast<int>(a.GetInt("--frames").value_or(550));
   lo.max_regrasps = static_cast<int>(a.GetInt("--max-regrasps").value_or(4));
   lo.category_known = a.Flag("--category-known");
+  const int jobs = static_cast<int>(a.GetInt("--jobs").value_or(1));
+  if (jobs < 1) throw Error("--jobs: must be >= 1");
+  if (jobs > 1) lo.fusion_threads = 1;  // the trials share the cores instead
   std::vector<Variant> variants;
   variants.push_back({"full", !a.Flag("--no-ir"), !a.Flag("--rigid"), !a.Flag("--unweighted")});
   if (a.Flag("--ablations")) {
@@ -188,7 +198,7 @@ int RunUnfold(const std::vector<std::string>& argv) {
   std::vector<TableRow> rows;
   for (const Variant& v : variants)
     for (const std::string& c : categories)
-      rows.push_back(RunTrials(model, v, c, lo, trials, seed, out, !a.Flag("--no-figures")));
+      rows.push_back(RunTrials(model, v, c, lo, trials, seed, out, !a.Flag("--no-figures"), jobs));
   const std::string md = ReportMarkdown(rows);
   std::cout << md;
   if (out) {

@@ -14,6 +14,7 @@
 #include "generator/recipe/jobs.h"
 #include "runtime/folding/table.h"
 #include "runtime/recognition/calibrate.h"
+#include "runtime/recognition/evaluate.h"
 #include "runtime/recognition/release_source.h"
 
 namespace drape::unfolding {
@@ -236,6 +237,7 @@ struct TrialRun {
   TrialResult& res;
   const std::function<void(const std::string&)>& progress;
   int holder = 0;
+  std::string trial_category;  // decided by the first recognition (see SenseAndRecognise)
 
   void Say(const std::string& s) const {
     if (progress) progress(s);
@@ -274,7 +276,7 @@ struct TrialRun {
     s.frames = static_cast<int>(sweep.frames.size());
     t0 = Clock::now();
     FusionOptions fo = recipe.fusion;
-    fo.threads = 0;
+    fo.threads = o.fusion_threads;
     const FusionResult fused =
         FuseFrames(sweep.frames, sweep.intrinsics, fo, DeriveSeed(seed, "fusion/" + std::to_string(iteration)));
     if (fused.mesh.NumFaces() == 0) {
@@ -289,12 +291,16 @@ struct TrialRun {
 
     t0 = Clock::now();
     rec::RecognizeOptions ro;
-    ro.category = o.category_known ? category : "";
+    // The garment in the gripper does not change between steps: after the first step the
+    // pose is recognised within the category that step decided (re-deciding it from each
+    // new hang only adds chances to be wrong; a wrong category ends the trial anyway).
+    ro.category = o.category_known ? category : trial_category;
     ro.weighted = o.weighted;
     ro.query_height = fused.mesh.V.col(1).maxCoeff() - fused.mesh.V.col(1).minCoeff();  // height gates
     s.recognition = model.recognizer(o.weighted).Recognize(code, ro);
     res.times.recognition += Since(t0);
     s.recognised_right = s.recognition.category == category && s.recognition.anchor == s.held_true_anchor;
+    if (trial_category.empty()) trial_category = s.recognition.category;
     return true;
   }
 
@@ -381,6 +387,26 @@ struct TrialRun {
     return PlanNext(s, pairs) && RegisterAndPredict(s, db, pairs);
   }
 
+  // Evaluation only: how far the predicted and grasp points are from the real garment's
+  // next anchor (or its twin, whichever is nearer the prediction) as it hangs now.
+  void MeasureAgainstTruth(Step& s) const {
+    const Garment& g = world.garment();
+    std::vector<std::string> labels = rec::SymmetryTwins(s.next_anchor);
+    labels.insert(labels.begin(), s.next_anchor);
+    double best = std::numeric_limits<double>::infinity();
+    for (const std::string& l : labels) {
+      const Anchor* a = g.FindAnchor(l);
+      if (!a || a->vertex < 0 || a->vertex >= world.mesh().NumVertices()) continue;
+      const Vec3 p = world.mesh().V.row(a->vertex);
+      if ((s.predicted - p).norm() < best) {
+        best = (s.predicted - p).norm();
+        s.target_true_anchor = l;
+        s.predicted_error = best;
+        s.grasp_error = (s.grasp - p).norm();
+      }
+    }
+  }
+
   // IR scan across the predicted point with the free gripper; returns the grasp pose.
   hw::GripperPose Refine(Step& s, int free_arm) {
     const auto t0 = Clock::now();
@@ -434,6 +460,7 @@ struct TrialRun {
       const int free_arm = 1 - holder;
       hw::Arm& fa = world.arm(free_arm);
       const hw::GripperPose g = Refine(s, free_arm);
+      MeasureAgainstTruth(s);
       fa.Move(hw::StraightPath(fa.pose(), g));
       s.regrasp = fa.Close();
       ++res.regrasps;
@@ -445,6 +472,8 @@ struct TrialRun {
       }
       s.regrasp_uv = world.HeldUv(free_arm);
       s.regrasp_true_anchor = NearestAnchor(world.garment(), *s.regrasp_uv);
+      if (const Anchor* t = world.garment().FindAnchor(s.target_true_anchor))
+        s.regrasp_pattern_error = (*s.regrasp_uv - t->uv).norm();
       if (s.f >= o.objective.xi) {
         res.converged = true;
         res.final_f = s.f;
@@ -486,7 +515,7 @@ TrialResult RunTrial(const ReleaseModel& model, const std::string& category, con
   res.instance = tg.instance;
   res.seed = seed;
   hw::SimWorld world(tg.garment, tg.material, tg.fit, so, DeriveSeed(seed, "world"));
-  TrialRun run{model, options, category, seed, world, res, progress};
+  TrialRun run{model, options, category, seed, world, res, progress, 0, ""};
   try {
     run.Run();
   } catch (const NumericalError& e) {
@@ -545,6 +574,10 @@ Json TrialResult::ToJson() const {
            {"regrasp_uv", s.regrasp_uv ? J(*s.regrasp_uv) : Json(nullptr)},
            {"regrasp_true_anchor", s.regrasp_true_anchor},
            {"released_other", s.released_other},
+           {"truth", {{"target_anchor", s.target_true_anchor},
+                      {"predicted_error_m", s.predicted_error},
+                      {"grasp_error_m", s.grasp_error},
+                      {"regrasp_pattern_error_m", s.regrasp_pattern_error}}},
            {"note", s.note}};
     // No reading (nothing in range) → null.
     for (size_t i = 0; i < s.ir_ranges.size(); ++i)

@@ -46,6 +46,7 @@ struct LoopOptions {
   bool weighted = true;         // ablation: false = unweighted recognition (Eq. match)
   bool category_known = false;  // true: recognition is told the category
   hardware::CaptureOptions capture;  // frames per turn (paper ~550 both ways)
+  int fusion_threads = 0;       // TSDF fusion threads (<= 0: all cores); no effect on results
   double standoff = 0.12;       // m: the IR scan runs this far before the predicted point
   double grasp_depth = 0.01;    // m: jaws go this far past the surface reading
   double sensing_height = 1.5;  // m: the holding gripper's height while the garment turns
@@ -130,6 +131,13 @@ struct Step {
   std::optional<Vec2> regrasp_uv;  // truth: pinched point of the pattern
   std::string regrasp_true_anchor;
   bool released_other = false;
+  // Truth, for evaluation only: the real garment's next anchor (or a symmetry twin of it,
+  // the same point for the plan when the held anchor was taken for its twin), nearest of
+  // them; distances from the predicted and the grasp point to it in the world (m, -1
+  // when not planned), and from the pinched pattern point to it on the pattern (m, -1
+  // without a pinch).
+  std::string target_true_anchor;
+  double predicted_error = -1, grasp_error = -1, regrasp_pattern_error = -1;
   std::string note;
 };
 
