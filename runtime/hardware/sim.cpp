@@ -7,6 +7,7 @@
 #include <limits>
 
 #include "common/error.h"
+#include "common/format.h"
 #include "common/rng.h"
 #include "generator/cloth/world.h"
 
@@ -159,6 +160,7 @@ struct SimWorld::Impl {
   int hangs = 0;
   int fallbacks = 0;  // let-go falls that re-hung from the flat garment (no node between the pads)
   int unsettled = 0;  // let-go falls that reached the time cap still moving (kept as they were)
+  int retries = 0;    // falls and placings run again at half the time step after blowing up
   double sim_seconds = 0, sense_seconds = 0;
   uint64_t version = 0, ir_version = ~uint64_t(0);
   std::unique_ptr<SweepScene> ir_scene;
@@ -389,9 +391,10 @@ Jaw PlaceJaw(const SimWorld::Impl& w, const PlaceFlatOptions& po) {
 // The garment's cloth model with the hang's parameters (generator/hang: the fitted
 // stiffness, the material's bending, the strain limit and layer thickness of the
 // release's simulation settings), rest lengths from the flat pattern.
-std::shared_ptr<const ClothModel> ClothModelOf(const SimWorld::Impl& w) {
+// `dt` is the release's time step, or half of it for a retry (damping per second kept).
+std::shared_ptr<const ClothModel> ClothModelOf(const SimWorld::Impl& w, double dt) {
   return MakeClothModel(w.garment.mesh, w.garment.layer, ClothMaterialFor(w.material, w.fit, w.o.hang),
-                        ClothOptionsFor(w.o.hang, w.o.hang.time_step));
+                        ClothOptionsFor(w.o.hang, dt));
 }
 
 // Both grippers hold the garment and arm `let_go` opens: the cloth core runs from the
@@ -399,31 +402,41 @@ std::shared_ptr<const ClothModel> ClothModelOf(const SimWorld::Impl& w) {
 // pads (PlaceJaw), until it comes to rest below that gripper (the hang's settling
 // criterion and time cap). A gripper whose pads hold no node of the cloth world (a
 // pinch between nodes of a coarse mesh) falls back to a hang from the flat garment at
-// the pinched point. Throws NumericalError if the simulation blows up.
+// the pinched point. A fall that blows up is run once more at half the time step (damping
+// per second kept), as a hang is; throws NumericalError if that blows up too.
 void FallFrom(SimWorld::Impl& w, int let_go) {
   const int keep = 1 - let_go;
   const auto t0 = Clock::now();
-  ClothWorld cw(ClothModelOf(w), w.mesh.V);
-  const int g = cw.AddGripper(PlaceJaw(w, PlaceFlatOptions{}), JawFrame(w.arms[keep].pose));
-  if (cw.Close(g).nodes == 0) {
-    w.sim_seconds += Since(t0);
-    ++w.fallbacks;
-    w.Rehang(keep);
-    return;
-  }
   SettleOptions so;
   so.distance = w.o.hang.settle_distance;
   so.window = w.o.hang.settle_window;
   so.min_time = w.o.hang.min_time;
   so.time_cap = w.o.hang.time_cap;
-  const SettleReport sr = cw.Settle(so);
+  double dt = w.o.hang.time_step;
+  SettleReport sr;
+  Points3 x;
+  for (int attempt = 0; attempt < 2; ++attempt) {
+    if (attempt > 0) dt /= 2, ++w.retries;
+    ClothWorld cw(ClothModelOf(w, dt), w.mesh.V);
+    const int g = cw.AddGripper(PlaceJaw(w, PlaceFlatOptions{}), JawFrame(w.arms[keep].pose));
+    if (cw.Close(g).nodes == 0) {
+      w.sim_seconds += Since(t0);
+      ++w.fallbacks;
+      w.Rehang(keep);
+      return;
+    }
+    sr = cw.Settle(so);
+    x = cw.positions();
+    if (sr.settled || sr.timed_out) break;
+  }
   w.sim_seconds += Since(t0);
   ++w.hangs;
   if (!sr.settled && !sr.timed_out)
     throw NumericalError(std::string("cloth simulation: the garment falling to hang from the ") +
-                         (keep ? "right" : "left") + " gripper blew up (" + sr.failure + ")");
+                         (keep ? "right" : "left") + " gripper blew up (" + sr.failure + "; after a retry at time_step " +
+                         FormatNumber(dt) + " s)");
   w.unsettled += sr.timed_out;
-  w.mesh.V = cw.positions();
+  w.mesh.V = x;
   w.state = ClothState::kHanging;
   w.hang_from = keep;
   ++w.version;
@@ -459,13 +472,12 @@ double SetPlacePaths(ClothWorld& cw, const SimWorld::Impl& w, const PlaceFlatOpt
 }
 }  // namespace
 
-PlaceFlatReport SimWorld::PlaceFlat(const PlaceFlatOptions& po) {
-  po.Validate();
-  Impl& w = *impl_;
-  if (w.state != ClothState::kHeldByTwo) throw Error("place flat: both grippers must hold the garment");
-  const auto t0 = Clock::now();
+namespace {
+// One attempt at placing flat at time step dt (see SimWorld::PlaceFlat); the cloth as it
+// ended and the grippers' last positions go to x and ends.
+PlaceFlatReport PlaceOnce(const SimWorld::Impl& w, const PlaceFlatOptions& po, double dt, Points3& x, Vec3 ends[2]) {
   PlaceFlatReport rep;
-  ClothWorld cw(ClothModelOf(w), w.mesh.V);
+  ClothWorld cw(ClothModelOf(w, dt), w.mesh.V);
   BoxCollider table;
   table.pose.translation() = w.o.table.center();
   table.half_extents = w.o.table.sizes() / 2;
@@ -489,7 +501,6 @@ PlaceFlatReport SimWorld::PlaceFlat(const PlaceFlatOptions& po) {
     const std::string h = cw.Health();
     if (!h.empty()) {
       rep.failure = "cloth world: " + h;
-      w.sim_seconds += Since(t0);
       return rep;
     }
   }
@@ -502,16 +513,38 @@ PlaceFlatReport SimWorld::PlaceFlat(const PlaceFlatOptions& po) {
   rep.settled = sr.settled;
   if (!sr.failure.empty() && !sr.timed_out) rep.failure = "cloth world: " + sr.failure;
   rep.sim_time = cw.time();
-  w.mesh.V = cw.positions();
+  x = cw.positions();
+  for (int k = 0; k < 2; ++k) ends[k] = cw.GripperPose(g[k]).translation();
+  rep.ok = rep.failure.empty();
+  return rep;
+}
+}  // namespace
+
+PlaceFlatReport SimWorld::PlaceFlat(const PlaceFlatOptions& po) {
+  po.Validate();
+  Impl& w = *impl_;
+  if (w.state != ClothState::kHeldByTwo) throw Error("place flat: both grippers must hold the garment");
+  const auto t0 = Clock::now();
+  // A placing that blows up is run once more at half the time step, as a hang is.
+  double dt = w.o.hang.time_step;
+  Points3 x;
+  Vec3 ends[2];
+  PlaceFlatReport rep = PlaceOnce(w, po, dt, x, ends);
+  if (!rep.ok && rep.held_nodes[0] > 0 && rep.held_nodes[1] > 0) {
+    dt /= 2, ++w.retries;
+    rep = PlaceOnce(w, po, dt, x, ends);
+    if (!rep.ok) rep.failure += " (after a retry at time_step " + FormatNumber(dt) + " s)";
+  }
+  w.sim_seconds += Since(t0);
+  if (x.rows() != w.mesh.V.rows()) return rep;  // failed before it was laid down: nothing changed
+  w.mesh.V = x;
   for (int k = 0; k < 2; ++k) {
-    w.arms[k].pose.position = cw.GripperPose(g[k]).translation();
+    w.arms[k].pose.position = ends[k];
     w.arms[k].closed = false;
     w.arms[k].holds = false;
   }
   w.state = ClothState::kOnTable;
   ++w.version;
-  rep.ok = rep.failure.empty();
-  w.sim_seconds += Since(t0);
   return rep;
 }
 
@@ -577,6 +610,7 @@ const SimOptions& SimWorld::options() const { return impl_->o; }
 int SimWorld::hangs() const { return impl_->hangs; }
 int SimWorld::fallbacks() const { return impl_->fallbacks; }
 int SimWorld::unsettled() const { return impl_->unsettled; }
+int SimWorld::retries() const { return impl_->retries; }
 double SimWorld::simulation_seconds() const { return impl_->sim_seconds; }
 double SimWorld::sensing_seconds() const { return impl_->sense_seconds; }
 

@@ -114,6 +114,8 @@ class SimWorld {
   // remaining gripper's pads), and that reached the time cap still moving.
   int fallbacks() const;
   int unsettled() const;
+  // Falls and placings that blew up and were run again at half the time step.
+  int retries() const;
   double simulation_seconds() const;
   double sensing_seconds() const;  // Kinect sweeps and IR readings
 

@@ -544,6 +544,7 @@ TrialResult RunTrial(const ReleaseModel& model, const std::string& category, con
   }
   res.times.simulation = world.simulation_seconds();
   res.hangs = world.hangs(), res.fallbacks = world.fallbacks(), res.unsettled = world.unsettled();
+  res.retries = world.retries();
   res.final_state = hw::ClothStateName(world.state());
   res.final_mesh = world.mesh();
   res.seconds = Since(t_start);
@@ -603,7 +604,7 @@ Json TrialResult::ToJson() const {
           {"place_failure", place_failure},
           {"coverage", placed ? Json(coverage) : Json(nullptr)},
           {"failure", failure},
-          {"simulation", {{"hangs", hangs}, {"fallbacks", fallbacks}, {"unsettled", unsettled}}},
+          {"simulation", {{"hangs", hangs}, {"fallbacks", fallbacks}, {"unsettled", unsettled}, {"retries", retries}}},
           {"timing", times.ToJson()},
           {"seconds", seconds}};
 }

@@ -165,6 +165,7 @@ struct TrialResult {
   // Cloth simulations run (pick-up hangs and let-go falls), let-go falls that re-hung
   // from the flat garment, and falls that reached the time cap still moving (sim.h).
   int hangs = 0, fallbacks = 0, unsettled = 0;
+  int retries = 0;  // falls and placings run again at half the time step after blowing up
   StageTimes times;
   double seconds = 0;
   Json ToJson() const;           // the trace (no meshes)
