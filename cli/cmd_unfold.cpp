@@ -1,11 +1,12 @@
 // drape unfold: the regrasping/unfolding loop (paper §"Online Model Registration for
 // Regrasping and Unfolding") on simulated dual-arm hardware, trials and the paper's table.
+#include <unistd.h>
+
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
 #include <mutex>
-#include <unistd.h>
 
 #include "cli/args.h"
 #include "cli/command.h"
@@ -14,8 +15,8 @@
 #include "common/parallel.h"
 #include "common/rng.h"
 #include "garments/templates.h"
-#include "runtime/recognition/release_source.h"
 #include "runtime/folding/placed.h"
+#include "runtime/recognition/release_source.h"
 #include "runtime/unfolding/figures.h"
 #include "runtime/unfolding/loop.h"
 #include "runtime/unfolding/report.h"

@@ -433,8 +433,8 @@ void FallFrom(SimWorld::Impl& w, int let_go) {
   ++w.hangs;
   if (!sr.settled && !sr.timed_out)
     throw NumericalError(std::string("cloth simulation: the garment falling to hang from the ") +
-                         (keep ? "right" : "left") + " gripper blew up (" + sr.failure + "; after a retry at time_step " +
-                         FormatNumber(dt) + " s)");
+                         (keep ? "right" : "left") + " gripper blew up (" + sr.failure +
+                         "; after a retry at time_step " + FormatNumber(dt) + " s)");
   w.unsettled += sr.timed_out;
   w.mesh.V = x;
   w.state = ClothState::kHanging;

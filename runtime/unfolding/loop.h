@@ -46,7 +46,7 @@ struct LoopOptions {
   bool weighted = true;         // ablation: false = unweighted recognition (Eq. match)
   bool category_known = false;  // true: recognition is told the category
   hardware::CaptureOptions capture;  // frames per turn (paper ~550 both ways)
-  int fusion_threads = 0;       // TSDF fusion threads (<= 0: all cores); no effect on results
+  int fusion_threads = 0;            // TSDF fusion threads (<= 0: all cores); no effect on results
   double standoff = 0.12;       // m: the IR scan runs this far before the predicted point
   double grasp_depth = 0.01;    // m: jaws go this far past the surface reading
   double sensing_height = 1.5;  // m: the holding gripper's height while the garment turns
