@@ -293,6 +293,38 @@ const char* kCalibrateUsage =
     "  --out DIR         write the weights here instead\n"
     "  --json            print the training statistics as JSON\n";
 
+// The summary drape calibrate prints: the setting, one line per category, the height gates.
+void PrintCalibration(const Release& rel, const Database& db, const std::vector<LabelledCode>& queries,
+                      const std::string& split, const CalibrateOptions& opt, double secs, const CalibrationResult& res) {
+  std::cout << "calibrated " << rel.dir().string() << " (" << db.size() << " database entries, " << queries.size()
+            << " " << split << " queries, "
+            << (opt.c == 0 ? std::string("C = 0: w = 1, the unweighted distance")
+                           : "C = " + FormatNumber(opt.c) + ", " + RegularizerName(opt.regularizer) + " prior, " +
+                                 WeightTyingName(opt.tying) + " weights")
+            << ", frame " << WeightFrameName(opt.frame) << ") in " << Fmt("%.2f", secs) << " s\n";
+  std::cout << "category              queries skipped   pairs  pair-acc u→l   calib top-1 u→l   nonzero w  "
+               "mean |w−1|  clipped\n";
+  for (const auto& c : res.categories) {
+    char line[256];
+    std::snprintf(line, sizeof line,
+                  "%-20s %8d %7d %7lld  %5.3f → %5.3f   %3d → %3d of %-3d   %5.1f %%    %6.3f   %6d\n",
+                  c.category.c_str(), c.queries, c.skipped, c.pairs, c.accuracy_before, c.accuracy_after, c.top1_before,
+                  c.top1_after, c.queries, 100 * c.nonzero_fraction, c.mean_abs_departure, c.clipped);
+    std::cout << line;
+  }
+  if (opt.height_gates && res.gates.queries > 0) {
+    const GateSelection& g = res.gates;
+    std::cout << "height gates (" << g.queries << " selection queries): category τ = "
+              << FormatNumber(g.chosen.category) << ", pose τ = " << FormatNumber(g.chosen.pose)
+              << " (right answers per τ: ";
+    for (size_t k = 0; k < g.taus.size(); ++k) {
+      std::cout << (k ? ", " : "") << FormatNumber(g.taus[k]) << ": " << g.category_right[k] << "/"
+                << g.pose_right[k];
+    }
+    std::cout << "; τ 0 = none)\n";
+  }
+}
+
 int RunCalibrate(const std::vector<std::string>& argv) {
   Args a(argv, {"--json", "--no-height-gates", "--paper"},
          {"--c", "--split", "--frame", "--epsilon", "--out", "--regularize", "--tie"});
@@ -368,33 +400,7 @@ int RunCalibrate(const std::vector<std::string>& argv) {
     std::cout << Json{{"weights", (out / "weights.json").string()}, {"stats", res.weights.stats}}.dump(2) << "\n";
     return 0;
   }
-  std::cout << "calibrated " << rel.dir().string() << " (" << db.size() << " database entries, " << queries.size()
-            << " " << split << " queries, "
-            << (opt.c == 0 ? std::string("C = 0: w = 1, the unweighted distance")
-                           : "C = " + FormatNumber(opt.c) + ", " + RegularizerName(opt.regularizer) + " prior, " +
-                                 WeightTyingName(opt.tying) + " weights")
-            << ", frame " << WeightFrameName(opt.frame) << ") in " << Fmt("%.2f", secs) << " s\n";
-  std::cout << "category              queries skipped   pairs  pair-acc u→l   calib top-1 u→l   nonzero w  "
-               "mean |w−1|  clipped\n";
-  for (const auto& c : res.categories) {
-    char line[256];
-    std::snprintf(line, sizeof line,
-                  "%-20s %8d %7d %7lld  %5.3f → %5.3f   %3d → %3d of %-3d   %5.1f %%    %6.3f   %6d\n",
-                  c.category.c_str(), c.queries, c.skipped, c.pairs, c.accuracy_before, c.accuracy_after, c.top1_before,
-                  c.top1_after, c.queries, 100 * c.nonzero_fraction, c.mean_abs_departure, c.clipped);
-    std::cout << line;
-  }
-  if (opt.height_gates && res.gates.queries > 0) {
-    const GateSelection& g = res.gates;
-    std::cout << "height gates (" << g.queries << " selection queries): category τ = "
-              << FormatNumber(g.chosen.category) << ", pose τ = " << FormatNumber(g.chosen.pose)
-              << " (right answers per τ: ";
-    for (size_t k = 0; k < g.taus.size(); ++k) {
-      std::cout << (k ? ", " : "") << FormatNumber(g.taus[k]) << ": " << g.category_right[k] << "/"
-                << g.pose_right[k];
-    }
-    std::cout << "; τ 0 = none)\n";
-  }
+  PrintCalibration(rel, db, queries, split, opt, secs, res);
   for (const auto& wmsg : res.warnings) std::cout << "warning: " << wmsg << "\n";
   std::cout << "wrote " << (out / "weights.json").string() << " + weights.bin (release digest " << rel.digest().substr(0, 12)
             << "…)\n";
