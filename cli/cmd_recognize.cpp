@@ -295,7 +295,8 @@ const char* kCalibrateUsage =
 
 // The summary drape calibrate prints: the setting, one line per category, the height gates.
 void PrintCalibration(const Release& rel, const Database& db, const std::vector<LabelledCode>& queries,
-                      const std::string& split, const CalibrateOptions& opt, double secs, const CalibrationResult& res) {
+                      const std::string& split, const CalibrateOptions& opt, double secs,
+                      const CalibrationResult& res) {
   std::cout << "calibrated " << rel.dir().string() << " (" << db.size() << " database entries, " << queries.size()
             << " " << split << " queries, "
             << (opt.c == 0 ? std::string("C = 0: w = 1, the unweighted distance")
@@ -314,12 +315,11 @@ void PrintCalibration(const Release& rel, const Database& db, const std::vector<
   }
   if (opt.height_gates && res.gates.queries > 0) {
     const GateSelection& g = res.gates;
-    std::cout << "height gates (" << g.queries << " selection queries): category τ = "
-              << FormatNumber(g.chosen.category) << ", pose τ = " << FormatNumber(g.chosen.pose)
-              << " (right answers per τ: ";
+    std::cout << "height gates (" << g.queries
+              << " selection queries): category τ = " << FormatNumber(g.chosen.category)
+              << ", pose τ = " << FormatNumber(g.chosen.pose) << " (right answers per τ: ";
     for (size_t k = 0; k < g.taus.size(); ++k) {
-      std::cout << (k ? ", " : "") << FormatNumber(g.taus[k]) << ": " << g.category_right[k] << "/"
-                << g.pose_right[k];
+      std::cout << (k ? ", " : "") << FormatNumber(g.taus[k]) << ": " << g.category_right[k] << "/" << g.pose_right[k];
     }
     std::cout << "; τ 0 = none)\n";
   }
