@@ -532,6 +532,7 @@ PlaceFlatReport SimWorld::PlaceFlat(const PlaceFlatOptions& po) {
   PlaceFlatReport rep = PlaceOnce(w, po, dt, x, ends);
   if (!rep.ok && rep.held_nodes[0] > 0 && rep.held_nodes[1] > 0) {
     dt /= 2, ++w.retries;
+    x.resize(0, 3);  // nothing of the first attempt's cloth is kept
     rep = PlaceOnce(w, po, dt, x, ends);
     if (!rep.ok) rep.failure += " (after a retry at time_step " + FormatNumber(dt) + " s)";
   }
