@@ -609,6 +609,36 @@ std::vector<int> StrainViolations(const ApplyContext& cx, double* max_strain = n
   return out;
 }
 
+// Edges of x1 outside the accepted bounds and further outside them than at x0 by more
+// than strain_tolerance (longer above the upper bound, shorter below the lower one),
+// sorted: what the step made worse. The tolerance leaves alone the edges next to a grip
+// that the clamp leaves a sliver beyond the bound step after step (they merged in most
+// steps of a hang without it, as with strain_zones).
+std::vector<int> StrainWorsened(const ApplyContext& cx) {
+  const StrainBounds b(cx.opt);
+  std::vector<int> out;
+  for (int e = 0; e < static_cast<int>(cx.E.size()); ++e) {
+    const double L0 = cx.rest_lengths[e];
+    if (!(L0 > 0)) continue;
+    const int i = cx.E[e][0], j = cx.E[e][1];
+    const double r1 = (cx.x1.row(j) - cx.x1.row(i)).norm() / L0;
+    if (r1 <= b.hi_ok && r1 >= b.lo_ok) continue;
+    const double r0 = (cx.x0.row(j) - cx.x0.row(i)).norm() / L0;
+    const double tol = cx.opt.strain_tolerance;
+    if ((r1 > b.hi_ok && r1 > r0 + tol) || (r1 < b.lo_ok && r1 < r0 - tol)) out.push_back(e);
+  }
+  return out;
+}
+
+// The stretched edges the fail-safe merges into zones: all (strain_zones), those the
+// step made worse (strain_monotone) or none.
+std::vector<int> EdgesToMerge(const ApplyContext& cx, const std::vector<int>& stretched) {
+  if (stretched.empty()) return {};
+  if (cx.opt.strain_zones) return stretched;
+  if (cx.opt.strain_monotone) return StrainWorsened(cx);
+  return {};
+}
+
 // ---- proximity repulsion (Bridson §7.2) -------------------------------------------
 bool RepelPair(ApplyContext& cx, const Stencil& s) {
   const Quad q0 = Gather(s, cx.x0), q1 = Gather(s, cx.x1);
@@ -990,7 +1020,7 @@ void ImpactZones(ApplyContext& cx, Pending pending, std::vector<int> stretched,
   std::vector<int> zone_of(n, -1);
   std::vector<std::vector<int>> zones;
   Eigen::VectorXd w = cx.inv_mass;  // the clamp's inverse masses: zone nodes frozen
-  if (!pending.Empty() || !cx.opt.strain_zones) stretched.clear();  // the clamp after the first zone move may fix them
+  if (!pending.Empty()) stretched.clear();  // the clamp after the first zone move may fix them
   while (!pending.Empty() || !stretched.empty()) {
     if (cx.rep.zone_iterations == cx.opt.max_zone_iterations) {  // last resort: one zone
       std::fill(in_zone.begin(), in_zone.end(), 1);
@@ -1031,7 +1061,7 @@ void ImpactZones(ApplyContext& cx, Pending pending, std::vector<int> stretched,
     LimitStrain(cx, w);
     HandleColliders(cx, colliders, &in_zone);
     pending = {Detect(cx, &zone_of), DetectBoxes(cx, colliders, &pinned)};
-    if (cx.opt.strain_zones) stretched = AcrossZones(cx, StrainViolations(cx), zone_of);
+    stretched = AcrossZones(cx, EdgesToMerge(cx, StrainViolations(cx)), zone_of);
   }
   cx.rep.impact_zones = static_cast<int>(zones.size());
   std::vector<Hit> hits;
@@ -1114,8 +1144,8 @@ CollisionReport CollisionHandler::Apply(const Points3& x0, Points3& x1, const Ei
     pending = ImpulsePasses(cx, colliders);
     stretched = StrainViolations(cx);
   }
-  if (!pending.Empty() || (options_.strain_zones && !stretched.empty()))
-    ImpactZones(cx, std::move(pending), std::move(stretched), colliders);
+  std::vector<int> merge = EdgesToMerge(cx, stretched);
+  if (!pending.Empty() || !merge.empty()) ImpactZones(cx, std::move(pending), std::move(merge), colliders);
   rep.strain_violations = static_cast<int>(StrainViolations(cx, &rep.max_strain).size());
   rep.broad_searches = static_cast<int>(broad_.searches() - searches0);
   return rep;
