@@ -38,6 +38,9 @@ void ClothOptions::Validate() const {
   if (!(damping >= 0 && damping < 1)) Bad("cloth options", "damping", "must be in [0, 1)");
   if (!gravity.allFinite()) Bad("cloth options", "gravity", "must be finite");
   if (!(max_speed > 0)) Bad("cloth options", "max_speed", "must be > 0");
+  if (!(air_density >= 0 && air_density <= 1000)) Bad("cloth options", "air_density", "must be in [0, 1000] kg/m³");
+  if (!(drag_coefficient >= 0 && drag_coefficient <= 10))
+    Bad("cloth options", "drag_coefficient", "must be in [0, 10]");
   collision.Validate();
 }
 
@@ -146,7 +149,7 @@ ClothWorld::ClothWorld(std::shared_ptr<const ClothModel> model, const Points3& s
   bullet_->world.setGravity(g);
   btSoftBodyWorldInfo& info = bullet_->world.getWorldInfo();
   info.m_gravity = g;  // setGravity does not reach the soft-body world info
-  info.air_density = 0;
+  info.air_density = btScalar(o.air_density);
   info.m_sparsesdf.Initialize();
   std::vector<btVector3> xb(n);
   std::vector<btScalar> mb(n);
@@ -168,6 +171,11 @@ ClothWorld::ClothWorld(std::shared_ptr<const ClothModel> model, const Points3& s
   for (int f = 0; f < m.rest.NumFaces(); ++f) sb->appendFace(m.rest.F(f, 0), m.rest.F(f, 1), m.rest.F(f, 2), stretch);
   sb->m_cfg.piterations = o.solver_iterations;
   sb->m_cfg.kDP = btScalar(kdp_);
+  // Air drag on the faces (ClothOptions::drag_coefficient); kDG 0 leaves Bullet's
+  // aerodynamics off altogether.
+  sb->m_cfg.aeromodel = btSoftBody::eAeroModel::F_TwoSidedLiftDrag;
+  sb->m_cfg.kDG = btScalar(o.drag_coefficient);
+  sb->m_cfg.kLF = 0;
   sb->m_cfg.collisions = 0;  // soft-soft and soft-rigid contact are the handler's
   sb->getCollisionShape()->setMargin(0.002f);
   bullet_->world.addSoftBody(sb);

@@ -14,8 +14,9 @@
 //   1. every closed gripper's pose is evaluated on its path at the step's end time, and
 //      the nodes it holds are carried there rigidly (Bullet mass 0: they are driven,
 //      Bullet's links pull on the free nodes only);
-//   2. Bullet steps the soft body: gravity, structural links (kLST = link_stiffness),
-//      bending links across interior edges, kDP damping. Bullet's own collision is off
+//   2. Bullet steps the soft body: gravity, air drag (Bullet's face aerodynamics),
+//      structural links (kLST = link_stiffness), bending links across interior edges,
+//      kDP damping. Bullet's own collision is off
 //      (soft-soft and soft-rigid): the colliders are ours;
 //   3. the collision handler corrects the proposed positions from the last
 //      intersection-free state: strain limiting (edges ≤ (1 + max_strain)·L0), VF and EE
@@ -67,6 +68,15 @@ struct ClothOptions {
   CollisionOptions collision;    // thickness, CCD and fail-safe settings; its
                                  // max_strain is replaced by ClothMaterial::max_strain
   Vec3 gravity{0, -9.81, 0};     // m/s²
+  // Air drag, Bullet's own aerodynamic model (btSoftBody aeromodel F_TwoSidedLiftDrag:
+  // every face takes 0.5·kDG·ρ·|v|²·A·cos θ against its velocity, θ between the face
+  // normal and the velocity, a third to each node; no lift). kDG = drag_coefficient,
+  // ρ = air_density; 0 turns it off. 1.2 is a flat plate broadside to the flow
+  // (Hoerner, Fluid-Dynamic Drag, 3-16): a single layer of areal density σ then falls
+  // flat at √(2σg/(ρ·kDG)), 1.6 m/s at 0.2 kg/m², 2.5 m/s at 0.45 kg/m², as cloth does
+  // in air; edge-on (cos θ = 0) it feels none.
+  double air_density = 1.2;  // kg/m³ (air at 20 °C)
+  double drag_coefficient = 1.2;
   double max_speed = 25.0;       // m/s: a faster node means the simulation blew up
   void Validate() const;         // throws drape::Error naming the field
 };

@@ -445,6 +445,96 @@ TEST(ClothWorld, StateRoundTripsAndRewinds) {
   EXPECT_DOUBLE_EQ(w.time(), later.time);
 }
 
+// The unfolding hand-over (docs/simulation.md, "Hand-over falls"): a two-layer cloth
+// hanging flat from two grippers, at a top corner and at the opposite bottom corner;
+// the top one lets go and the cloth falls some 0.5 m past the lower grip and onto
+// itself. Strain handling as in hanging (strain_zones off).
+struct FallFigures {
+  double max_speed = 0, max_strain = 0;
+  long ccd = 0;
+  int violation_steps = 0, merges = 0, remaining = 0;
+  std::string health;
+  ClothMeasurement end;
+};
+FallFigures HandOverFall(bool monotone, double drag) {
+  const Garment g = MakeRectangleGarment(0.4, 0.6, 0.035, true);
+  ClothMaterial mat;
+  mat.area_density = 0.2;
+  mat.link_stiffness = 0.5;
+  mat.bending = 0.02;
+  mat.max_strain = 0.04;
+  ClothOptions o;
+  o.collision.strain_zones = false;
+  o.collision.strain_monotone = monotone;
+  o.drag_coefficient = drag;
+  o.max_speed = 1e3;  // measured here, not judged
+  ClothWorld w(MakeClothModel(g.mesh, g.layer, mat, o), g.mesh.V);
+  Jaw jaw;
+  jaw.pad_length = jaw.pad_width = 0.05;
+  const int top = w.AddGripper(jaw, PinchPose(Vec3(-0.18, 0.58, 0)));
+  w.AddGripper(jaw, PinchPose(Vec3(0.18, 0.02, 0)));
+  EXPECT_GE(w.Close(top).nodes, 2);
+  EXPECT_GE(w.Close(1).nodes, 2);
+  w.Open(top);
+  FallFigures f;
+  for (int step = 0; step < 240; ++step) {  // 1 s
+    const CollisionReport r = w.Step();
+    for (int i = 0; i < w.velocities().rows(); ++i) f.max_speed = std::max(f.max_speed, w.velocities().row(i).norm());
+    f.max_strain = std::max(f.max_strain, r.max_strain);
+    f.ccd += r.ccd_collisions;
+    f.violation_steps += r.strain_violations > 0;
+    f.merges += r.strain_merges;
+    f.remaining += r.remaining_collisions;
+    if (!w.Health().empty() && f.health.empty()) f.health = w.Health() + " at " + std::to_string(w.time()) + " s";
+  }
+  f.end = MeasureCloth(TriMesh{w.positions(), g.mesh.F}, g.mesh.V);
+  return f;
+}
+
+TEST(ClothWorld, HandOverFallOntoItselfStaysBounded) {
+  const FallFigures f = HandOverFall(true, ClothOptions{}.drag_coefficient);
+  EXPECT_TRUE(f.health.empty()) << f.health;
+  EXPECT_EQ(f.remaining, 0);
+  EXPECT_GT(f.end.min_distance, 0);
+  // Free fall over 0.5 m reaches 3.1 m/s; air drag and the cloth's own folding keep it
+  // below that, and nothing runs away.
+  EXPECT_LT(f.max_speed, 4.0);
+  EXPECT_LE(f.max_strain, 0.04 + ClothOptions{}.collision.strain_tolerance + 1e-9);
+  EXPECT_EQ(f.violation_steps, 0);
+  std::cout << "hand-over fall: max speed " << f.max_speed << " m/s, strain max " << f.max_strain << ", CCD pairs "
+            << f.ccd << ", steps over the bound " << f.violation_steps << ", edges merged " << f.merges << "\n";
+  for (const auto& [monotone, drag] : {std::pair{false, 0.0}, std::pair{true, 0.0}, std::pair{false, 1.2}}) {
+    const FallFigures b = HandOverFall(monotone, drag);
+    std::cout << "  strain_monotone " << monotone << ", drag " << drag << ": max speed " << b.max_speed
+              << " m/s, strain max " << b.max_strain << ", CCD pairs " << b.ccd << ", steps over the bound "
+              << b.violation_steps << ", intersecting " << b.end.intersecting_pairs << ", min distance "
+              << b.end.min_distance << (b.health.empty() ? "" : ", " + b.health) << "\n";
+  }
+}
+
+// Bullet's face aerodynamics as the world sets it up: a single-layer sheet falling
+// broadside (gravity along its normal) reaches the terminal speed where gravity, air
+// drag 0.5·kDG·ρ·v²·A and kDP (a fraction of the velocity per step) balance:
+// g = kDP·v/dt + ρ·kDG·v²/(2σ), 1.35 m/s for σ = 0.2 kg/m², kDG = 1.2, kDP = 0.01 at
+// 240 Hz (kDP alone: 4.1 m/s; drag alone: 1.65 m/s).
+TEST(ClothWorld, AirDragGivesAFallingSheetItsTerminalSpeed) {
+  const Garment g = MakeRectangleGarment(0.3, 0.3, 0.05, false);
+  ClothMaterial mat;
+  mat.area_density = 0.2;
+  for (const double drag : {0.0, ClothOptions{}.drag_coefficient}) {
+    ClothOptions o;
+    o.gravity = Vec3(0, 0, -9.81);  // the sheet lies in the x–y plane: broadside
+    o.drag_coefficient = drag;
+    ClothWorld w(MakeClothModel(g.mesh, g.layer, mat, o), g.mesh.V);
+    for (int step = 0; step < 360; ++step) w.Step();  // 1.5 s
+    const double v = -w.velocities().col(2).mean();
+    const double a = o.damping / o.time_step, b = o.air_density * drag / (2 * mat.area_density);
+    const double expected = b > 0 ? (-a + std::sqrt(a * a + 4 * b * 9.81)) / (2 * b) : 9.81 / a;
+    EXPECT_NEAR(v, expected, 0.05 * expected) << "drag " << drag;
+    std::cout << "falling sheet, drag " << drag << ": " << v << " m/s (expected " << expected << ")\n";
+  }
+}
+
 TEST(ClothWorld, BlowUpIsReportedWithItsReason) {
   const Garment g = MakeRectangleGarment(0.2, 0.3, 0.05, false);
   ClothOptions o;

@@ -34,6 +34,8 @@ void HangOptions::Validate() const {
   if (!(jaw_opening > 0 && jaw_opening < 0.5)) bad(jaw_opening, "jaw_opening", "must be in (0, 0.5) m");
   if (!(jitter >= 0 && jitter < 0.01)) bad(jitter, "jitter", "must be in [0, 0.01) m");
   if (!(max_speed > 0)) bad(max_speed, "max_speed", "must be > 0");
+  if (!(drag_coefficient >= 0 && drag_coefficient <= 10))
+    bad(drag_coefficient, "drag_coefficient", "must be in [0, 10]");
   if (!(fit_width > 0.05)) bad(fit_width, "fit_width", "must be > 0.05 m");
   if (!(fit_height > 0.05)) bad(fit_height, "fit_height", "must be > 0.05 m");
   if (!(fit_edge_length > 0.002 && fit_edge_length < 0.2)) bad(fit_edge_length, "fit_edge_length", "must be in (0.002, 0.2) m");
@@ -240,6 +242,8 @@ ClothOptions ClothOptionsFor(const HangOptions& o, double dt) {
   co.collisions = o.self_collision;
   co.collision.thickness = o.layer_thickness;
   co.collision.strain_zones = o.strain_zones;
+  co.collision.strain_monotone = o.strain_monotone;
+  co.drag_coefficient = o.drag_coefficient;
   // Without repulsion the CCD and the impact zones alone keep every step
   // intersection-free (layers then keep at least the CCD margin, min_separation,
   // instead of layer_thickness, apart).

@@ -54,6 +54,15 @@ struct HangOptions {
   // grip (a shirt by its cuff: body bunched at the cuff, 0.75 m long instead of 1.47 m).
   // The acceptance bounds below still apply to the settled mesh.
   bool strain_zones = false;
+  // Edges that a step leaves beyond the limit and longer than it found them merge into
+  // zones all the same (collision.h strain_monotone: violations never compound), and
+  // air drag (cloth/world.h ClothOptions::drag_coefficient, Bullet's face aerodynamics;
+  // 0: none). Off for hanging from the flat garment: a hang starts at rest, never met
+  // the compounding, and turning either on changes every release's bytes (see
+  // docs/simulation.md, "Hand-over falls"); the unfolding's let-go falls and placings
+  // (runtime/hardware) turn both on.
+  bool strain_monotone = false;
+  double drag_coefficient = 0;
   // Acceptance: a hung mesh whose edge strain max / p99 exceed these multiples of the
   // material's stretch is failed (so is one that intersects itself or never settled).
   double accept_strain_max = 3.0;

@@ -85,6 +85,7 @@ void SimOptions::Validate() const {
   if (!(finger_depth > 0 && finger_depth < 0.5)) throw Error("sim.finger_depth: must be in (0, 0.5) m");
   if (!(finger_width > 0 && finger_width < 0.5)) throw Error("sim.finger_width: must be in (0, 0.5) m");
   if (!(speed > 0)) throw Error("sim.speed: must be > 0 m/s");
+  if (!(drag_coefficient >= 0 && drag_coefficient <= 10)) throw Error("sim.drag_coefficient: must be in [0, 10]");
   camera.Validate();
   ir.Validate();
   if (!ir_mount.allFinite()) throw Error("sim.ir_mount: must be finite");
@@ -392,9 +393,13 @@ Jaw PlaceJaw(const SimWorld::Impl& w, const PlaceFlatOptions& po) {
 // stiffness, the material's bending, the strain limit and layer thickness of the
 // release's simulation settings), rest lengths from the flat pattern.
 // `dt` is the release's time step, or half of it for a retry (damping per second kept).
+// Strain handling and air drag as SimOptions says for falls and placings.
 std::shared_ptr<const ClothModel> ClothModelOf(const SimWorld::Impl& w, double dt) {
-  return MakeClothModel(w.garment.mesh, w.garment.layer, ClothMaterialFor(w.material, w.fit, w.o.hang),
-                        ClothOptionsFor(w.o.hang, dt));
+  HangOptions o = w.o.hang;
+  o.strain_monotone = w.o.strain_monotone;
+  o.drag_coefficient = w.o.drag_coefficient;
+  return MakeClothModel(w.garment.mesh, w.garment.layer, ClothMaterialFor(w.material, w.fit, o),
+                        ClothOptionsFor(o, dt));
 }
 
 // Both grippers hold the garment and arm `let_go` opens: the cloth core runs from the

@@ -38,6 +38,14 @@ namespace drape::hardware {
 
 struct SimOptions {
   HangOptions hang;            // the cloth model (use the release's recipe simulation settings)
+  // The let-go falls' and the placings' cloth worlds take these instead of hang's (the
+  // pick-up hang stays the database's hang): edges a step leaves further beyond the
+  // strain bound than it found them merge into impact zones (collision.h
+  // strain_monotone) and air drag (Bullet's face aerodynamics, ClothOptions::
+  // drag_coefficient). Without them a garment falling from two grippers met itself at
+  // 4–6 m/s and blew up (docs/simulation.md, "Hand-over falls").
+  bool strain_monotone = true;
+  double drag_coefficient = 1.2;
   double jaw_opening = 0.08;   // m (paper: ≈ 8 cm)
   double finger_depth = 0.03;  // m along the approach, centred on the jaw centre
   double finger_width = 0.02;  // m across the fingers
