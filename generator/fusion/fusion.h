@@ -87,8 +87,10 @@ struct FusionOptions {
   // Simulated gripper-encoder error: each frame's rotation about the gripper (y) axis
   // is perturbed by N(0, σ) degrees, seeded from FuseFrames' seed. 0 = exact poses.
   double pose_noise_degrees = 0;
-  // Threads per frame (blocks are independent; results identical for any count).
-  // <= 0: all cores.
+  // Threads of the fusion (results identical for any count; <= 0: all cores): the
+  // frame-local steps (segmentation, dropouts, the band's blocks) of up to 8 frames at
+  // once, then the voxels block by block and the carving cells slab by slab over those
+  // frames, and the completion block by block.
   int threads = 1;
 
   double VoxelSize() const { return 1.0 / voxels_per_metre; }

@@ -10,6 +10,7 @@
 #include "common/error.h"
 #include "common/rng.h"
 #include "generator/fusion/synthetic.h"
+#include "generator/fusion/tsdf_impl.h"
 #include "generator/sweep/sweep.h"
 
 namespace drape {
@@ -402,22 +403,48 @@ TEST(Fusion, AccuracyMatchesBruteForce) {
 namespace drape {
 namespace {
 
-// Fuses the frames with the fast path and the reference path; the .vdb bytes hold
-// every voxel's value and weight and every unobserved inside tile.
+// What a fusion holds: stats, .vdb bytes (every voxel's value and weight, every
+// unobserved inside tile), mesh bytes, surface points (in order: the feature's
+// top-layer mean sums them in order).
+struct FusedContent {
+  FusionStats stats;
+  std::string vdb, mesh;
+  Points3 points;
+  explicit FusedContent(const Tsdf& t)
+      : stats(t.Stats()), vdb(t.EncodeVdb()), mesh(MeshBytes(t.ExtractMesh())), points(t.SurfacePoints()) {}
+};
+
+void ExpectSame(const FusedContent& a, const FusedContent& b, const std::string& what) {
+  SCOPED_TRACE(what);
+  EXPECT_GT(a.stats.observed_voxels, 1000);
+  EXPECT_EQ(a.stats.voxel_updates, b.stats.voxel_updates);
+  EXPECT_EQ(a.stats.foreground_pixels, b.stats.foreground_pixels);
+  EXPECT_EQ(a.stats.surface_blocks, b.stats.surface_blocks);
+  EXPECT_EQ(a.stats.inside_blocks, b.stats.inside_blocks);
+  EXPECT_TRUE(a.vdb == b.vdb);
+  EXPECT_TRUE(a.mesh == b.mesh);
+  ASSERT_EQ(a.points.rows(), b.points.rows());
+  EXPECT_TRUE(a.points == b.points);
+}
+
+// Fuses the frames with the reference path and the fast path: frame by frame on the
+// options' threads, and in batches by FuseFrames on 1 and 3 threads.
 void ExpectSameAsReference(const std::vector<DepthFrame>& frames, const Intrinsics& K, const FusionOptions& o) {
   Tsdf fast(o), ref(o);
   for (const auto& f : frames) {
     fast.Integrate(f, K);
     ref.IntegrateReference(f, K);
   }
-  const FusionStats a = fast.Stats(), b = ref.Stats();
-  EXPECT_GT(a.observed_voxels, 1000);
-  EXPECT_EQ(a.voxel_updates, b.voxel_updates);
-  EXPECT_EQ(a.foreground_pixels, b.foreground_pixels);
-  EXPECT_EQ(a.surface_blocks, b.surface_blocks);
-  EXPECT_EQ(a.inside_blocks, b.inside_blocks);
-  EXPECT_EQ(fast.EncodeVdb(), ref.EncodeVdb());
-  EXPECT_EQ(MeshBytes(fast.ExtractMesh()), MeshBytes(ref.ExtractMesh()));
+  const FusedContent expected(ref);
+  ExpectSame(FusedContent(fast), expected, "frame by frame");
+  for (int threads : {1, 3}) {
+    FusionOptions ob = o;
+    ob.threads = threads;
+    ob.frames_stride = 1;
+    const FusionResult r = FuseFrames(frames, K, ob, 1, /*extract_mesh=*/false);
+    EXPECT_EQ(r.stats.frames_integrated, static_cast<int>(frames.size()));
+    ExpectSame(FusedContent(*r.tsdf), expected, "FuseFrames, " + std::to_string(threads) + " threads");
+  }
 }
 
 // The Kinect sweep (noise, dropouts, gripper, table, wall, floor) of a garment-like
@@ -431,7 +458,7 @@ TEST(Fusion, FastPathMatchesReferenceOnKinectSweeps) {
   TriMesh truth = synthetic::MeshShape(slab);
   synthetic::AppendMesh(truth, synthetic::MeshShape(sleeve));
   SweepOptions so;
-  so.frames = 12;
+  so.frames = 12;  // FuseFrames: a batch of 8 frames and one of 4
   const Sweep sweep = SimulateSweep(truth, so, 9);
   FusionOptions o;
   o.threads = 2;
@@ -446,6 +473,115 @@ TEST(Fusion, FastPathMatchesReferenceOnKinectSweeps) {
   wide.box = Eigen::AlignedBox3d(Vec3(-2.5, -1.45, -2.5), Vec3(2.5, -0.02, 2.5));
   wide.radius = 0;
   ExpectSameAsReference(sweep.frames, sweep.intrinsics, wide);
+}
+
+// Segment's row kernels against the reference's expression (Eigen's R * Vec3(d x̂,
+// d ŷ, d) + t, AlignedBox::contains, the radius), with the box faces and the radius put
+// exactly on some pixels' points so that ties are decided by the last bit.
+TEST(Fusion, SegmentRowKernelsMatchTheReferenceExpression) {
+  Rng rng(3);
+  const int W = 203;  // not a multiple of 4: the kernels' scalar tails too
+  std::vector<double> xhat(W);
+  std::vector<float> depth(W), code(W);
+  std::vector<uint8_t> fg(W);
+  for (int trial = 0; trial < 200; ++trial) {
+    const Eigen::Quaterniond q(rng.Normal(), rng.Normal(), rng.Normal(), rng.Normal());
+    const Eigen::Matrix3d R = q.normalized().toRotationMatrix();
+    const Vec3 t(rng.Uniform(-1, 1), rng.Uniform(-1, 1), rng.Uniform(-2, 2));
+    const double yv = rng.Uniform(-0.5, 0.5);
+    std::vector<Vec3> p(W);
+    for (int u = 0; u < W; ++u) {
+      xhat[u] = rng.Uniform(-0.6, 0.6);
+      const uint64_t kind = rng.Below(20);
+      depth[u] = kind == 0   ? 0.f
+                 : kind == 1 ? std::numeric_limits<float>::quiet_NaN()
+                 : kind == 2 ? std::numeric_limits<float>::infinity()
+                 : kind == 3 ? -1.f
+                             : float(rng.Uniform(0.4, 3.0));
+      const float d = depth[u];
+      p[u] = R * Vec3(d * xhat[u], d * yv, d) + t;
+    }
+    auto valid = [&](int u) { return depth[u] > 0 && std::isfinite(depth[u]); };
+    auto pick = [&] {
+      for (;;) {
+        const int u = static_cast<int>(rng.Below(W));
+        if (valid(u)) return p[u];
+      }
+    };
+    Eigen::AlignedBox3d box;
+    box.extend(pick()).extend(pick()).extend(pick());
+    const Vec3 pr = pick();
+    const double radius2 = trial % 3 == 0 ? 0 : pr.x() * pr.x() + pr.z() * pr.z();
+    SegmentRow row;
+    row.depth = depth.data(), row.xhat = xhat.data(), row.yv = yv, row.radius2 = radius2;
+    row.code = code.data(), row.fg = fg.data();
+    for (int i = 0; i < 3; ++i) {
+      for (int j = 0; j < 3; ++j) row.R[i][j] = R(i, j);
+      row.t[i] = t[i], row.lo[i] = box.min()[i], row.hi[i] = box.max()[i];
+    }
+    for (int kernel = 0; kernel < (HaveAvx2() ? 2 : 1); ++kernel) {
+      SCOPED_TRACE(kernel ? "AVX2" : "scalar");
+      std::fill(code.begin(), code.end(), 7.f);
+      const int u0 = trial % 5, u1 = W - trial % 3;
+      const int64_t n = kernel ? SegmentRowAvx2(row, u0, u1) : SegmentRowScalar(row, u0, u1);
+      int64_t expected_n = 0;
+      for (int u = u0; u < u1; ++u) {
+        const bool in =
+            valid(u) && box.contains(p[u]) && (radius2 <= 0 || p[u].x() * p[u].x() + p[u].z() * p[u].z() <= radius2);
+        const float expected = !valid(u) ? 0.f : in ? depth[u] : -depth[u];
+        ASSERT_EQ(std::memcmp(&code[u], &expected, sizeof(float)), 0)
+            << "trial " << trial << " u " << u << ": " << code[u] << " vs " << expected << " depth " << depth[u];
+        ASSERT_EQ(fg[u], in) << "trial " << trial << " u " << u;
+        expected_n += in;
+      }
+      EXPECT_EQ(n, expected_n);
+    }
+  }
+}
+
+// The vectorised voxel updates against the scalar definition, bit for bit: random
+// blocks in front of a small camera (some voxels behind it or off the image), a code
+// image of foreground depths near the block, outside-the-box and no-data pixels, NaNs.
+TEST(Fusion, UpdateBlockKernelsMatchTheScalarOne) {
+  Rng rng(5);
+  const int W = 64, H = 48;
+  std::vector<float> code(W * H);
+  for (int trial = 0; trial < 300; ++trial) {
+    const Eigen::Quaterniond q(rng.Normal(), rng.Normal(), rng.Normal(), rng.Normal());
+    const Eigen::Matrix3f R = q.normalized().toRotationMatrix().cast<float>();
+    const float h = float(rng.Uniform(0.002, 0.02));
+    VoxelProjector p;
+    p.c0 =
+        Eigen::Vector3f(float(rng.Uniform(-0.1, 0.1)), float(rng.Uniform(-0.1, 0.1)), float(rng.Uniform(-0.02, 0.6)));
+    p.ex = R.col(0) * h, p.ey = R.col(1) * h, p.ez = R.col(2) * h;
+    p.fx = p.fy = float(rng.Uniform(40, 80));
+    p.cx = W / 2.f, p.cy = H / 2.f;
+    p.mu = 4 * h;
+    p.W = W, p.H = H;
+    const float centre = p.c0.z() + 4 * (p.ex + p.ey + p.ez).z();
+    for (float& c : code) {
+      const uint64_t kind = rng.Below(10);
+      const float d = float(centre + rng.Uniform(-8 * h, 8 * h));
+      c = kind == 0 ? 0.f : kind == 1 ? std::numeric_limits<float>::quiet_NaN() : kind == 2 ? -d : d;
+    }
+    FusionBlock start;
+    for (int o = 0; o < kBlockVoxels; ++o) {
+      start.weight[o] = float(rng.Below(4));
+      start.tsdf[o] = start.weight[o] > 0 ? float(rng.Uniform(-p.mu, p.mu)) : 0.f;
+    }
+    FusionBlock expected = start;
+    const int64_t n = UpdateBlockScalar(expected, p, code.data());
+    const std::pair<const char*, int64_t (*)(FusionBlock&, const VoxelProjector&, const float*)> kernels[] = {
+        {"AVX2", HaveAvx2() ? UpdateBlockAvx2 : nullptr}, {"AVX-512", HaveAvx512() ? UpdateBlockAvx512 : nullptr}};
+    for (const auto& [name, kernel] : kernels) {
+      if (!kernel) continue;
+      SCOPED_TRACE(std::string(name) + ", trial " + std::to_string(trial));
+      FusionBlock b = start;
+      EXPECT_EQ(kernel(b, p, code.data()), n);
+      EXPECT_EQ(std::memcmp(b.tsdf.data(), expected.tsdf.data(), sizeof(b.tsdf)), 0);
+      EXPECT_EQ(std::memcmp(b.weight.data(), expected.weight.data(), sizeof(b.weight)), 0);
+    }
+  }
 }
 
 }  // namespace

@@ -6,11 +6,13 @@
 #include <ctime>
 #include <limits>
 #include <sstream>
+#include <unordered_map>
 
 #if defined(__x86_64__)
 #include <immintrin.h>
 #endif
 
+#include "common/cpu_time.h"
 #include "common/error.h"
 #include "common/field_error.h"
 #include "common/parallel.h"
@@ -101,6 +103,9 @@ Tsdf::Tsdf(const FusionOptions& options) : impl_(std::make_unique<Impl>()) {
   const size_t cells = size_t(m.carve_dims.x()) * m.carve_dims.y() * m.carve_dims.z();
   m.free_count.assign(cells, 0);
   m.view_count.assign(cells, 0);
+  m.grid_lo = lo - Eigen::Vector3i::Constant(Impl::kGridMargin);
+  m.grid_dims = m.carve_dims + Eigen::Vector3i::Constant(2 * Impl::kGridMargin);
+  m.grid.assign(size_t(m.grid_dims.x()) * m.grid_dims.y() * m.grid_dims.z(), -1);
 }
 
 Tsdf::~Tsdf() = default;
@@ -109,7 +114,7 @@ const FusionOptions& Tsdf::options() const { return impl_->opt; }
 
 void Tsdf::Integrate(const DepthFrame& frame, const Intrinsics& K) {
   CheckFrame(frame.depth, K);
-  impl_->Integrate(frame.depth, frame.camera_to_object, K);
+  impl_->IntegrateBatch({{frame.depth.data(), frame.camera_to_object}}, K);
 }
 
 void Tsdf::IntegrateReference(const DepthFrame& frame, const Intrinsics& K) {
@@ -178,65 +183,104 @@ FrameView Tsdf::Impl::MakeView(const Eigen::Isometry3d& pose, const Intrinsics& 
   return view;
 }
 
-void Tsdf::Impl::Integrate(const std::vector<float>& depth, const Eigen::Isometry3d& pose, const Intrinsics& K) {
-  UpdateRays(K);
-  const FrameView view = MakeView(pose, K);
-  auto t0 = Clock::now();
-  double c0 = ProcessCpuSeconds();
-  const int64_t fg_count = Segment(depth, view);
-  times.segment += Lap(t0), times_cpu.segment += CpuLap(c0);
-  if (fg_count > 0) IgnoreDropouts(view);
-  times.dropouts += Lap(t0), times_cpu.dropouts += CpuLap(c0);
-  const std::vector<int> touched = AllocateBand(view, scratch.code, frames);
-  times.allocate += Lap(t0), times_cpu.allocate += CpuLap(c0);
-  voxel_updates += UpdateVoxels(view, touched);
-  times.update += Lap(t0), times_cpu.update += CpuLap(c0);
-  CarveBlocks(view);
-  times.carve += Lap(t0), times_cpu.carve += CpuLap(c0);
-  foreground_pixels += fg_count;
-  ++frames;
-  dirty.store(true);
+int Tsdf::Impl::FindOrCreateBlock(const Eigen::Vector3i& b) {
+  const int64_t g = GridIndex(b);
+  if (g >= 0 && grid[g] >= 0) return grid[g];
+  auto [it, inserted] = index.try_emplace(Key(b), static_cast<int>(blocks.size()));
+  if (inserted) {
+    auto blk = std::make_unique<FusionBlock>();
+    blk->coord = b;
+    blk->tsdf.fill(0.f);
+    blk->weight.fill(0.f);
+    blocks.push_back(std::move(blk));
+    if (g >= 0) grid[g] = it->second;
+  }
+  return it->second;
 }
 
-// 1. Segmentation of the frame's rectangle into scratch.code / scratch.fg.
-int64_t Tsdf::Impl::Segment(const std::vector<float>& depth, const FrameView& view) {
+// Frames of a batch whose frame-local steps run at once (their buffers are kept: ~2 MB
+// per frame at 640×480).
+constexpr int kBatchFrames = 8;
+
+void Tsdf::Impl::IntegrateBatch(const std::vector<FrameInput>& inputs, const Intrinsics& K) {
+  UpdateRays(K);
+  for (size_t first = 0; first < inputs.size(); first += kBatchFrames) {
+    const size_t n = std::min(inputs.size() - first, size_t(kBatchFrames));
+    while (prepared.size() < n) prepared.push_back(std::make_unique<PreparedFrame>());
+    std::vector<PreparedFrame*> batch(n);
+    for (size_t i = 0; i < n; ++i) batch[i] = prepared[i].get();
+    // 1. Frame-local steps, frames in parallel.
+    auto t0 = Clock::now();
+    double c0 = ProcessCpuSeconds();
+    ParallelFor(static_cast<int>(n), opt.threads,
+                [&](int i) { Prepare(inputs[first + i].depth, inputs[first + i].camera_to_object, K, *batch[i]); });
+    {
+      // Wall and process CPU of the phase, shared out by the threads' CPU per step.
+      const double wall = Lap(t0), cpu = CpuLap(c0);
+      double seg = 0, drop = 0, band = 0;
+      for (const PreparedFrame* f : batch) seg += f->cpu_segment, drop += f->cpu_dropouts, band += f->cpu_band;
+      const double sum = std::max(seg + drop + band, 1e-12);
+      times.segment += wall * seg / sum, times_cpu.segment += cpu * seg / sum;
+      times.dropouts += wall * drop / sum, times_cpu.dropouts += cpu * drop / sum;
+      times.allocate += wall * band / sum, times_cpu.allocate += cpu * band / sum;
+    }
+    // 2. The band's blocks allocated in frame order (block indices as frame by frame).
+    for (PreparedFrame* f : batch) {
+      f->touched.resize(f->band.size());
+      for (size_t k = 0; k < f->band.size(); ++k) f->touched[k] = FindOrCreateBlock(f->band[k]);
+      foreground_pixels += f->fg_count;
+    }
+    times.allocate += Lap(t0), times_cpu.allocate += CpuLap(c0);
+    // 3. Voxels, block by block over the batch's frames.
+    UpdateVoxels(batch);
+    times.update += Lap(t0), times_cpu.update += CpuLap(c0);
+    // 4. Carving, cell by cell over the batch's frames.
+    CarveBlocks(batch);
+    times.carve += Lap(t0), times_cpu.carve += CpuLap(c0);
+    frames += static_cast<int>(n);
+    dirty.store(true);
+  }
+}
+
+void Tsdf::Impl::Prepare(const float* depth, const Eigen::Isometry3d& pose, const Intrinsics& K,
+                         PreparedFrame& f) const {
+  double c0 = ThreadCpuSeconds();
+  f.view = MakeView(pose, K);
+  f.fg_count = Segment(depth, f.view, f.scratch);
+  double c1 = ThreadCpuSeconds();
+  f.cpu_segment = c1 - c0;
+  if (f.fg_count > 0) IgnoreDropouts(f.view, f.scratch);
+  c0 = ThreadCpuSeconds();
+  f.cpu_dropouts = c0 - c1;
+  BandBlocks(f.view, f.scratch, f.band);
+  f.cpu_band = ThreadCpuSeconds() - c0;
+}
+
+// 1. Segmentation of the frame's rectangle into s.code / s.fg, row by row.
+int64_t Tsdf::Impl::Segment(const float* depth, const FrameView& view, FrameScratch& s) const {
+  static const bool avx2 = HaveAvx2();
   const int W = view.W;
-  FrameScratch& s = scratch;
   s.code.resize(size_t(W) * view.H);
   s.fg.resize(size_t(W) * view.H);
-  const Eigen::AlignedBox3d& box = opt.box;
-  const double radius2 = opt.radius > 0 ? opt.radius * opt.radius : 0;
+  SegmentRow row;
+  row.xhat = xhat.data();
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) row.R[i][j] = view.R(i, j);
+    row.t[i] = view.t[i], row.lo[i] = opt.box.min()[i], row.hi[i] = opt.box.max()[i];
+  }
+  row.radius2 = opt.radius > 0 ? opt.radius * opt.radius : 0;
   int64_t fg_count = 0;
   for (int v = view.v0; v < view.v1; ++v) {
-    for (int u = view.u0; u < view.u1; ++u) {
-      const size_t i = size_t(v) * W + u;
-      const float d = depth[i];
-      s.fg[i] = 0;
-      if (!(d > 0) || !std::isfinite(d)) {
-        s.code[i] = 0;
-        continue;
-      }
-      const Vec3 p = view.R * Vec3(d * xhat[u], d * yhat[v], d) + view.t;
-      if (box.contains(p) && (radius2 <= 0 || p.x() * p.x() + p.z() * p.z() <= radius2)) {
-        s.code[i] = d;
-        s.fg[i] = 1;
-        ++fg_count;
-      } else {
-        s.code[i] = -d;
-      }
-    }
+    row.depth = depth + size_t(v) * W;
+    row.code = s.code.data() + size_t(v) * W;
+    row.fg = s.fg.data() + size_t(v) * W;
+    row.yv = yhat[v];
+    fg_count += avx2 ? SegmentRowAvx2(row, view.u0, view.u1) : SegmentRowScalar(row, view.u0, view.u1);
   }
   return fg_count;
 }
 
 namespace {
-
-// std::floor as an int without the libm call (no SSE4.1 in the baseline ISA); exact
-// for |x| < 2^31.
-int FloorInt(double x) {
-  const int i = static_cast<int>(x);
-  return x < i ? i - 1 : i;
-}
 
 int FindRoot(std::vector<int>& parent, int a) {
   while (parent[a] != a) a = parent[a] = parent[parent[a]];
@@ -252,15 +296,15 @@ int FindRoot(std::vector<int>& parent, int a) {
 // foreground pixel. Within the rectangle only: no pixel outside it is foreground, so
 // every non-foreground pixel on its edge reaches the image border. Connectivity by
 // union–find over the rows' runs of non-foreground pixels (4-neighbours).
-void Tsdf::Impl::IgnoreDropouts(const FrameView& view) {
-  FrameScratch& s = scratch;
+void Tsdf::Impl::IgnoreDropouts(const FrameView& view, FrameScratch& s) const {
   const int W = view.W;
   std::vector<int>& runs = s.runs;  // (row, u_begin, u_end) triples
   runs.clear();
   std::vector<int>& parent = s.parent;
   parent.clear();
-  std::vector<uint8_t> edge;  // run touches the rectangle's edge
-  int prev_begin = 0;         // first run of the previous row
+  std::vector<uint8_t>& edge = s.edge;  // run touches the rectangle's edge
+  edge.clear();
+  int prev_begin = 0;  // first run of the previous row
   for (int v = view.v0; v < view.v1; ++v) {
     const int row_begin = static_cast<int>(parent.size());
     const uint8_t* fg = &s.fg[size_t(v) * W];
@@ -287,7 +331,8 @@ void Tsdf::Impl::IgnoreDropouts(const FrameView& view) {
     prev_begin = row_begin;
   }
   const int n = static_cast<int>(parent.size());
-  std::vector<uint8_t> reaches(n, 0);
+  std::vector<uint8_t>& reaches = s.reaches;
+  reaches.assign(n, 0);
   for (int k = 0; k < n; ++k) reaches[FindRoot(parent, k)] |= edge[k];
   const float nan = std::numeric_limits<float>::quiet_NaN();
   for (int k = 0; k < n; ++k) {
@@ -296,20 +341,21 @@ void Tsdf::Impl::IgnoreDropouts(const FrameView& view) {
     for (int u = runs[3 * k + 1]; u < runs[3 * k + 2]; ++u)
       if (row[u] == 0) row[u] = nan;
   }
-  MarkNearForeground(view);
+  MarkNearForeground(view, s);
 }
 
 // Pixels without data within hole_radius_px (Chebyshev) of a foreground pixel → NaN:
-// separable distance to the nearest foreground pixel, rows then columns.
-void Tsdf::Impl::MarkNearForeground(const FrameView& view) {
-  FrameScratch& s = scratch;
+// the foreground dilated by a (2r+1)² square, rows (distance to the nearest foreground
+// pixel of the row) then columns (a running count of such rows within r), row-major.
+void Tsdf::Impl::MarkNearForeground(const FrameView& view, FrameScratch& s) const {
   const int W = view.W, r = opt.hole_radius_px;
   const int w = view.u1 - view.u0, hgt = view.v1 - view.v0;
   s.near_row.resize(size_t(w) * hgt);
-  s.dist.resize(std::max(w, hgt));
+  s.dist.resize(w);
   std::vector<int>& dist = s.dist;
   for (int v = 0; v < hgt; ++v) {
     const uint8_t* fg = &s.fg[size_t(v + view.v0) * W + view.u0];
+    uint8_t* near = &s.near_row[size_t(v) * w];
     int last = -1000000;  // last foreground column
     for (int u = 0; u < w; ++u) {
       if (fg[u]) last = u;
@@ -318,42 +364,48 @@ void Tsdf::Impl::MarkNearForeground(const FrameView& view) {
     last = 1000000;
     for (int u = w - 1; u >= 0; --u) {
       if (fg[u]) last = u;
-      s.near_row[size_t(v) * w + u] = std::min(dist[u], last - u) <= r;
+      near[u] = std::min(dist[u], last - u) <= r;
     }
   }
+  // count[u]: rows within [v - r, v + r] whose near_row is set at u.
+  std::vector<int>& count = s.near_count;
+  count.assign(w, 0);
+  for (int v = 0; v < std::min(r, hgt); ++v) {
+    const uint8_t* near = &s.near_row[size_t(v) * w];
+    for (int u = 0; u < w; ++u) count[u] += near[u];
+  }
   const float nan = std::numeric_limits<float>::quiet_NaN();
-  for (int u = 0; u < w; ++u) {
-    int last = -1000000;
-    for (int v = 0; v < hgt; ++v) {
-      if (s.near_row[size_t(v) * w + u]) last = v;
-      dist[v] = v - last;
+  for (int v = 0; v < hgt; ++v) {
+    if (v + r < hgt) {
+      const uint8_t* add = &s.near_row[size_t(v + r) * w];
+      for (int u = 0; u < w; ++u) count[u] += add[u];
     }
-    last = 1000000;
-    for (int v = hgt - 1; v >= 0; --v) {
-      if (s.near_row[size_t(v) * w + u]) last = v;
-      float& c = s.code[size_t(v + view.v0) * W + u + view.u0];
-      if (std::min(dist[v], last - v) <= r && c == 0) c = nan;
+    if (v - r - 1 >= 0) {
+      const uint8_t* sub = &s.near_row[size_t(v - r - 1) * w];
+      for (int u = 0; u < w; ++u) count[u] -= sub[u];
     }
+    float* c = &s.code[size_t(v + view.v0) * W + view.u0];
+    for (int u = 0; u < w; ++u)
+      if (count[u] > 0 && c[u] == 0) c[u] = nan;
   }
 }
 
-// 3. Allocate the blocks that the band [d - μ, d + μ] of each foreground pixel
-// crosses. Samples every half block along the ray, and every `stride` pixels with
-// stride ≤ a third of a block's footprint at the farthest foreground depth, so no
-// block the band crosses is skipped between samples. Returns the blocks touched.
-std::vector<int> Tsdf::Impl::AllocateBand(const FrameView& view, const std::vector<float>& code, int stamp) {
-  std::vector<int> touched;
+// 3. The blocks that the band [d - μ, d + μ] of each foreground pixel crosses.
+// Samples every half block along the ray, and every `stride` pixels with stride ≤ a
+// third of a block's footprint at the farthest foreground depth, so no block the band
+// crosses is skipped between samples. Each block listed once, at its first sample.
+void Tsdf::Impl::BandBlocks(const FrameView& view, FrameScratch& s, std::vector<Eigen::Vector3i>& band) const {
+  band.clear();
+  const std::vector<float>& code = s.code;
   float far = 0;
   for (int v = view.v0; v < view.v1; ++v)
     for (int u = view.u0; u < view.u1; ++u) far = std::max(far, std::max(code[size_t(v) * view.W + u], 0.f));
   const double block_px = far > 0 ? kBlockDim * h * std::min(view.K.fx, view.K.fy) / far : 1;
   const int stride = std::clamp(static_cast<int>(block_px / 3), 1, 8);
   const int steps = static_cast<int>(std::ceil(2 * mu / (0.5 * kBlockDim * h)));
-  // Direct-mapped cache of blocks already stamped this frame: most samples fall in a
-  // block a neighbouring sample has just found.
-  constexpr int kCache = 1024;
-  std::array<uint64_t, kCache> cache;
-  cache.fill(~uint64_t(0));
+  const size_t words = (grid.size() + 63) / 64;
+  if (s.seen.size() != words) s.seen.assign(words, 0);
+  std::unordered_map<uint64_t, bool> off_grid;  // blocks outside the grid (none expected)
   // The sample grid is anchored at pixel (0, 0) whatever the rectangle.
   const int ustart = (view.u0 + stride - 1) / stride * stride, vstart = (view.v0 + stride - 1) / stride * stride;
   for (int v = vstart; v < view.v1; v += stride) {
@@ -362,34 +414,29 @@ std::vector<int> Tsdf::Impl::AllocateBand(const FrameView& view, const std::vect
       if (!(d > 0)) continue;
       const double lambda = std::sqrt(1 + xhat[u] * xhat[u] + yhat[v] * yhat[v]);
       const Vec3 ray = view.R * Vec3(xhat[u], yhat[v], 1.0);
-      for (int s = 0; s <= steps; ++s) {
-        const double along = -mu + 2 * mu * s / steps;  // metres along the ray
+      for (int k = 0; k <= steps; ++k) {
+        const double along = -mu + 2 * mu * k / steps;  // metres along the ray
         const double z = d + along / lambda;
         if (z <= 0) continue;
         const Vec3 p = z * ray + view.t;
-        const Eigen::Vector3i b(FloorDiv8(FloorInt(p.x() / h + 0.5)), FloorDiv8(FloorInt(p.y() / h + 0.5)),
-                                FloorDiv8(FloorInt(p.z() / h + 0.5)));
-        const uint64_t key = Key(b);
-        uint64_t& slot = cache[(key * 0x9E3779B97F4A7C15ull) >> 54];
-        if (slot == key) continue;
-        slot = key;
-        auto [it, inserted] = index.try_emplace(key, static_cast<int>(blocks.size()));
-        if (inserted) {
-          auto blk = std::make_unique<FusionBlock>();
-          blk->coord = b;
-          blk->tsdf.fill(0.f);
-          blk->weight.fill(0.f);
-          blocks.push_back(std::move(blk));
+        const Eigen::Vector3i b = BandSampleBlock(p, h);
+        const int64_t g = GridIndex(b);
+        if (g >= 0) {
+          uint64_t& word = s.seen[size_t(g) >> 6];
+          const uint64_t bit = uint64_t(1) << (g & 63);
+          if (word & bit) continue;
+          word |= bit;
+        } else if (!off_grid.emplace(Key(b), true).second) {
+          continue;
         }
-        FusionBlock& blk = *blocks[it->second];
-        if (blk.stamp != stamp) {
-          blk.stamp = stamp;
-          touched.push_back(it->second);
-        }
+        band.push_back(b);
       }
     }
   }
-  return touched;
+  for (const Eigen::Vector3i& b : band) {
+    const int64_t g = GridIndex(b);
+    if (g >= 0) s.seen[size_t(g) >> 6] = 0;
+  }
 }
 
 VoxelProjector ProjectorFor(const FrameView& view, const Eigen::Vector3i& block, double h, double mu) {
@@ -448,6 +495,79 @@ int64_t UpdateBlockScalar(FusionBlock& blk, const VoxelProjector& p, const float
   }
   return n;
 }
+
+// Segment's box test, one row at a time (see SegmentRow in tsdf_impl.h).
+int64_t SegmentRowScalar(const SegmentRow& a, int u0, int u1) {
+  int64_t n = 0;
+  for (int u = u0; u < u1; ++u) {
+    const float d = a.depth[u];
+    a.fg[u] = 0;
+    if (!(d > 0) || !std::isfinite(d)) {
+      a.code[u] = 0;
+      continue;
+    }
+    const double x = d * a.xhat[u], y = d * a.yv, z = d;
+    double p[3];
+    for (int i = 0; i < 2; ++i) p[i] = ((a.R[i][0] * x + a.R[i][1] * y) + a.R[i][2] * z) + a.t[i];
+    p[2] = (a.R[2][0] * x + (a.R[2][1] * y + a.R[2][2] * z)) + a.t[2];
+    const bool in = a.lo[0] <= p[0] && a.lo[1] <= p[1] && a.lo[2] <= p[2] && p[0] <= a.hi[0] && p[1] <= a.hi[1] &&
+                    p[2] <= a.hi[2] && (a.radius2 <= 0 || p[0] * p[0] + p[2] * p[2] <= a.radius2);
+    a.code[u] = in ? d : -d;
+    a.fg[u] = in;
+    n += in;
+  }
+  return n;
+}
+
+#if defined(__x86_64__)
+// The same 4 pixels at a time (doubles; no FMA: the same bits).
+__attribute__((target("avx2"))) int64_t SegmentRowAvx2(const SegmentRow& a, int u0, int u1) {
+  int64_t n = 0;
+  const __m256d yv = _mm256_set1_pd(a.yv), r2 = _mm256_set1_pd(a.radius2);
+  __m256d R[3][3], t[3], lo[3], hi[3];
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) R[i][j] = _mm256_set1_pd(a.R[i][j]);
+    t[i] = _mm256_set1_pd(a.t[i]), lo[i] = _mm256_set1_pd(a.lo[i]), hi[i] = _mm256_set1_pd(a.hi[i]);
+  }
+  const bool radial = a.radius2 > 0;
+  const __m128 zero = _mm_setzero_ps(), inf = _mm_set1_ps(std::numeric_limits<float>::infinity());
+  const __m128 sign = _mm_set1_ps(-0.0f);
+  const __m256i low_halves = _mm256_setr_epi32(0, 2, 4, 6, 0, 2, 4, 6);
+  int u = u0;
+  for (; u + 4 <= u1; u += 4) {
+    const __m128 d = _mm_loadu_ps(a.depth + u);
+    // d > 0 and finite (NaN fails both).
+    const __m128 valid = _mm_and_ps(_mm_cmpgt_ps(d, zero), _mm_cmplt_ps(d, inf));
+    const __m256d dd = _mm256_cvtps_pd(d);
+    const __m256d x = _mm256_mul_pd(dd, _mm256_loadu_pd(a.xhat + u)), y = _mm256_mul_pd(dd, yv);
+    __m256d in = _mm256_castsi256_pd(_mm256_set1_epi64x(-1));
+    __m256d p[3];
+    for (int i = 0; i < 3; ++i) {
+      const __m256d a0 = _mm256_mul_pd(R[i][0], x), a1 = _mm256_mul_pd(R[i][1], y), a2 = _mm256_mul_pd(R[i][2], dd);
+      const __m256d sum = i < 2 ? _mm256_add_pd(_mm256_add_pd(a0, a1), a2) : _mm256_add_pd(a0, _mm256_add_pd(a1, a2));
+      p[i] = _mm256_add_pd(sum, t[i]);
+      in = _mm256_and_pd(in,
+                         _mm256_and_pd(_mm256_cmp_pd(lo[i], p[i], _CMP_LE_OQ), _mm256_cmp_pd(p[i], hi[i], _CMP_LE_OQ)));
+    }
+    if (radial) {
+      const __m256d rr = _mm256_add_pd(_mm256_mul_pd(p[0], p[0]), _mm256_mul_pd(p[2], p[2]));
+      in = _mm256_and_pd(in, _mm256_cmp_pd(rr, r2, _CMP_LE_OQ));
+    }
+    // 64-bit lane masks → 32-bit lane masks.
+    const __m128 in4 = _mm256_castps256_ps128(_mm256_permutevar8x32_ps(_mm256_castpd_ps(in), low_halves));
+    const __m128 fg = _mm_and_ps(valid, in4);
+    // valid: in ? d : -d; else 0.
+    const __m128 code = _mm_and_ps(valid, _mm_or_ps(d, _mm_andnot_ps(in4, sign)));
+    _mm_storeu_ps(a.code + u, code);
+    const int bits = _mm_movemask_ps(fg);
+    for (int k = 0; k < 4; ++k) a.fg[u + k] = (bits >> k) & 1;
+    n += __builtin_popcount(bits);
+  }
+  return n + SegmentRowScalar(a, u, u1);
+}
+#else
+int64_t SegmentRowAvx2(const SegmentRow& a, int u0, int u1) { return SegmentRowScalar(a, u0, u1); }
+#endif
 
 #if defined(__x86_64__)
 bool HaveAvx2() { return __builtin_cpu_supports("avx2"); }
@@ -508,58 +628,200 @@ __attribute__((target("avx2"))) int64_t UpdateBlockAvx2(FusionBlock& blk, const 
   }
   return n;
 }
+bool HaveAvx512() { return __builtin_cpu_supports("avx512f"); }
+
+// a in lanes 0-7, b in lanes 8-15.
+__attribute__((target("avx512f"))) inline __m512 Pair(float a, float b) {
+  return _mm512_mask_blend_ps(0xff00, _mm512_set1_ps(a), _mm512_set1_ps(b));
+}
+
+// UpdateBlockScalar on two z rows (16 voxels) at once: the same operations in the same
+// order (tsdf.cpp is compiled with -ffp-contract=off: no FMA), so the same bits. No
+// branch in the loop (masked gather and stores), so rows overlap in the pipeline.
+__attribute__((target("avx512f"))) int64_t UpdateBlockAvx512(FusionBlock& blk, const VoxelProjector& p,
+                                                             const float* code) {
+  const __m512 zi = _mm512_setr_ps(0, 1, 2, 3, 4, 5, 6, 7, 0, 1, 2, 3, 4, 5, 6, 7);
+  const __m512 ezx = _mm512_mul_ps(zi, _mm512_set1_ps(p.ez.x()));
+  const __m512 ezy = _mm512_mul_ps(zi, _mm512_set1_ps(p.ez.y()));
+  const __m512 ezz = _mm512_mul_ps(zi, _mm512_set1_ps(p.ez.z()));
+  const __m512 fx = _mm512_set1_ps(p.fx), fy = _mm512_set1_ps(p.fy), cx = _mm512_set1_ps(p.cx),
+               cy = _mm512_set1_ps(p.cy), half = _mm512_set1_ps(0.5f), one = _mm512_set1_ps(1.0f),
+               zero = _mm512_setzero_ps(), Wf = _mm512_set1_ps(float(p.W)), Hf = _mm512_set1_ps(float(p.H)),
+               mu = _mm512_set1_ps(p.mu), neg_mu = _mm512_set1_ps(-p.mu), eps = _mm512_set1_ps(1e-6f);
+  const __m512i Wi = _mm512_set1_epi32(p.W);
+  const __m512i abs_mask = _mm512_set1_epi32(0x7fffffff);
+  int64_t n = 0;
+  for (int x = 0; x < kBlockDim; ++x) {
+    for (int y = 0; y < kBlockDim; y += 2) {
+      const Eigen::Vector3f c_a = p.c0 + float(x) * p.ex + float(y) * p.ey;
+      const Eigen::Vector3f c_b = p.c0 + float(x) * p.ex + float(y + 1) * p.ey;
+      const __m512 cxv = _mm512_add_ps(Pair(c_a.x(), c_b.x()), ezx);
+      const __m512 cyv = _mm512_add_ps(Pair(c_a.y(), c_b.y()), ezy);
+      const __m512 zc = _mm512_add_ps(Pair(c_a.z(), c_b.z()), ezz);
+      __mmask16 keep = _mm512_cmp_ps_mask(zc, eps, _CMP_GT_OQ);
+      const __m512 inv = _mm512_div_ps(one, zc);
+      const __m512 uf = _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(_mm512_mul_ps(fx, cxv), inv), cx), half);
+      const __m512 vf = _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(_mm512_mul_ps(fy, cyv), inv), cy), half);
+      keep &= _mm512_cmp_ps_mask(uf, zero, _CMP_GE_OQ) & _mm512_cmp_ps_mask(vf, zero, _CMP_GE_OQ) &
+              _mm512_cmp_ps_mask(uf, Wf, _CMP_LT_OQ) & _mm512_cmp_ps_mask(vf, Hf, _CMP_LT_OQ);
+      // (maskz forms: GCC 12's unmasked ones read an uninitialised register and warn)
+      const __m512i pix = _mm512_add_epi32(_mm512_mullo_epi32(_mm512_maskz_cvttps_epi32(0xffff, vf), Wi),
+                                           _mm512_maskz_cvttps_epi32(0xffff, uf));
+      const __m512 d = _mm512_mask_i32gather_ps(zero, keep, pix, code, 4);
+      const __m512 len2 =
+          _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(cxv, cxv), _mm512_mul_ps(cyv, cyv)), _mm512_mul_ps(zc, zc));
+      const __m512 lambda = _mm512_mul_ps(_mm512_maskz_sqrt_ps(0xffff, len2), inv);
+      const __m512 sdf = _mm512_mul_ps(_mm512_sub_ps(d, zc), lambda);
+      const __mmask16 band = _mm512_cmp_ps_mask(d, zero, _CMP_GT_OQ) & _mm512_cmp_ps_mask(sdf, mu, _CMP_LE_OQ);
+      const __mmask16 band_keep = band & ~_mm512_cmp_ps_mask(sdf, neg_mu, _CMP_LT_OQ);
+      const __m512 ad = _mm512_castsi512_ps(_mm512_and_si512(_mm512_castps_si512(d), abs_mask));
+      const __mmask16 free_ = ~band & _mm512_cmp_ps_mask(ad, zero, _CMP_GT_OQ) &
+                              _mm512_cmp_ps_mask(_mm512_mul_ps(_mm512_sub_ps(ad, zc), lambda), mu, _CMP_NLE_UQ);
+      keep &= band_keep | free_;
+      const __m512 value = _mm512_mask_blend_ps(band, mu, sdf);
+      float* tp = &blk.tsdf[LocalOffset(x, y, 0)];
+      float* wp = &blk.weight[LocalOffset(x, y, 0)];
+      const __m512 w = _mm512_loadu_ps(wp), t = _mm512_loadu_ps(tp);
+      const __m512 w1 = _mm512_add_ps(w, one);
+      const __m512 tn = _mm512_div_ps(_mm512_add_ps(_mm512_mul_ps(t, w), value), w1);
+      _mm512_mask_storeu_ps(tp, keep, tn);
+      _mm512_mask_storeu_ps(wp, keep, w1);
+      n += __builtin_popcount(keep);
+    }
+  }
+  return n;
+}
 #else
 bool HaveAvx2() { return false; }
 int64_t UpdateBlockAvx2(FusionBlock& blk, const VoxelProjector& p, const float* code) {
   return UpdateBlockScalar(blk, p, code);
 }
+bool HaveAvx512() { return false; }
+int64_t UpdateBlockAvx512(FusionBlock& blk, const VoxelProjector& p, const float* code) {
+  return UpdateBlockScalar(blk, p, code);
+}
 #endif
 
-// 4. Projective TSDF update of every voxel of the touched blocks. Blocks are
-// independent, so any thread count gives the same values.
-int64_t Tsdf::Impl::UpdateVoxels(const FrameView& view, const std::vector<int>& touched) {
-  static const bool avx2 = HaveAvx2();
-  std::vector<int64_t> updates(touched.size(), 0);
-  const float* code = scratch.code.data();
-  ParallelFor(static_cast<int>(touched.size()), opt.threads, [&](int ti) {
-    FusionBlock& blk = *blocks[touched[ti]];
-    const VoxelProjector p = ProjectorFor(view, blk.coord, h, mu);
-    updates[ti] = avx2 ? UpdateBlockAvx2(blk, p, code) : UpdateBlockScalar(blk, p, code);
+// 4. Projective TSDF update of every voxel of the blocks the batch's frames touch,
+// block by block (a block's 4 KB stay in cache over the frames), each block's frames
+// in order. Blocks are independent, so any thread count gives the same values.
+void Tsdf::Impl::UpdateVoxels(const std::vector<PreparedFrame*>& batch) {
+  static const auto update = HaveAvx512() ? UpdateBlockAvx512 : HaveAvx2() ? UpdateBlockAvx2 : UpdateBlockScalar;
+  // The blocks in the order first touched, with the frames that touch each (CSR).
+  std::vector<int> slot_of(blocks.size(), -1), order, count;
+  for (const PreparedFrame* f : batch) {
+    for (int bi : f->touched) {
+      if (slot_of[bi] < 0) {
+        slot_of[bi] = static_cast<int>(order.size());
+        order.push_back(bi);
+        count.push_back(0);
+      }
+      ++count[slot_of[bi]];
+    }
+  }
+  const int slots = static_cast<int>(order.size());
+  std::vector<int> start(slots + 1, 0);
+  for (int k = 0; k < slots; ++k) start[k + 1] = start[k] + count[k];
+  std::vector<int> frame_of(start[slots]);
+  std::vector<int> fill(start.begin(), start.end() - 1);
+  for (size_t fi = 0; fi < batch.size(); ++fi)
+    for (int bi : batch[fi]->touched) frame_of[fill[slot_of[bi]]++] = static_cast<int>(fi);
+  constexpr int kChunk = 16;  // blocks per task
+  const int chunks = (slots + kChunk - 1) / kChunk;
+  std::vector<int64_t> updates(chunks, 0);
+  ParallelFor(chunks, opt.threads, [&](int c) {
+    int64_t n = 0;
+    for (int k = c * kChunk; k < std::min(slots, (c + 1) * kChunk); ++k) {
+      FusionBlock& blk = *blocks[order[k]];
+      for (int j = start[k]; j < start[k + 1]; ++j) {
+        const PreparedFrame& f = *batch[frame_of[j]];
+        const VoxelProjector p = ProjectorFor(f.view, blk.coord, h, mu);
+        const float* code = f.scratch.code.data();
+        n += update(blk, p, code);
+      }
+    }
+    updates[c] = n;
   });
-  int64_t n = 0;
-  for (int64_t u : updates) n += u;
-  return n;
+  for (int64_t u : updates) voxel_updates += u;
 }
 
 // 5. Space carving at block resolution (block centres), over the cells that can end
-// up inside (see MakeView).
-void Tsdf::Impl::CarveBlocks(const FrameView& view) {
+// up inside (see MakeView), cell by cell over the batch's frames in order (a cell's
+// counts decide whether a later frame still counts for it), slabs of cells in parallel.
+void Tsdf::Impl::CarveBlocks(const std::vector<PreparedFrame*>& batch) {
   const int cap = std::numeric_limits<uint16_t>::max();
   const Eigen::Vector3i& dims = carve_dims;
-  const std::vector<float>& code = scratch.code;
-  for (int bx = view.cell_lo.x(); bx <= view.cell_hi.x(); ++bx) {
-    for (int by = view.cell_lo.y(); by <= view.cell_hi.y(); ++by) {
-      for (int bz = view.cell_lo.z(); bz <= view.cell_hi.z(); ++bz) {
-        const size_t ci = (size_t(bx) * dims.y() + by) * dims.z() + bz;
-        // Free in half of 16+ views: outside for good, whatever follows.
-        if (view_count[ci] >= 16 && 2 * free_count[ci] >= view_count[ci]) continue;
-        const Eigen::Vector3i b = carve_lo + Eigen::Vector3i(bx, by, bz);
-        const Vec3 p = (b.cast<double>() * kBlockDim + Vec3::Constant(3.5)) * h;
-        const Vec3 c = view.Rt * (p - view.t);
-        if (c.z() <= 1e-6) continue;
-        const int iu = static_cast<int>(std::floor(view.K.fx * c.x() / c.z() + view.K.cx + 0.5));
-        const int iv = static_cast<int>(std::floor(view.K.fy * c.y() / c.z() + view.K.cy + 0.5));
-        if (iu < 0 || iv < 0 || iu >= view.W || iv >= view.H) continue;
-        if (view_count[ci] < cap) ++view_count[ci];
-        const float d = code[size_t(iv) * view.W + iu];
-        if (std::isnan(d)) continue;
-        const double lambda = c.norm() / c.z();
-        const bool free = d == 0 || (std::abs(d) - c.z()) * lambda > mu;
-        if (free && free_count[ci] < cap) ++free_count[ci];
+  Eigen::Vector3i lo = batch[0]->view.cell_lo, hi = batch[0]->view.cell_hi;
+  for (const PreparedFrame* f : batch) lo = lo.cwiseMin(f->view.cell_lo), hi = hi.cwiseMax(f->view.cell_hi);
+  ParallelFor(std::max(0, hi.x() - lo.x() + 1), opt.threads, [&](int i) {
+    const int bx = lo.x() + i;
+    for (int by = lo.y(); by <= hi.y(); ++by) {
+      for (const PreparedFrame* f : batch) {
+        const FrameView& view = f->view;
+        if (bx < view.cell_lo.x() || bx > view.cell_hi.x() || by < view.cell_lo.y() || by > view.cell_hi.y()) continue;
+        const std::vector<float>& code = f->scratch.code;
+        for (int bz = view.cell_lo.z(); bz <= view.cell_hi.z(); ++bz) {
+          const size_t ci = (size_t(bx) * dims.y() + by) * dims.z() + bz;
+          // Free in half of 16+ views: outside for good, whatever follows.
+          if (view_count[ci] >= 16 && 2 * free_count[ci] >= view_count[ci]) continue;
+          const Eigen::Vector3i b = carve_lo + Eigen::Vector3i(bx, by, bz);
+          const Vec3 p = (b.cast<double>() * kBlockDim + Vec3::Constant(3.5)) * h;
+          const Vec3 c = view.Rt * (p - view.t);
+          if (c.z() <= 1e-6) continue;
+          const int iu = static_cast<int>(std::floor(view.K.fx * c.x() / c.z() + view.K.cx + 0.5));
+          const int iv = static_cast<int>(std::floor(view.K.fy * c.y() / c.z() + view.K.cy + 0.5));
+          if (iu < 0 || iv < 0 || iu >= view.W || iv >= view.H) continue;
+          if (view_count[ci] < cap) ++view_count[ci];
+          const float d = code[size_t(iv) * view.W + iu];
+          if (std::isnan(d)) continue;
+          const double lambda = c.norm() / c.z();
+          const bool free = d == 0 || (std::abs(d) - c.z()) * lambda > mu;
+          if (free && free_count[ci] < cap) ++free_count[ci];
+        }
       }
     }
-  }
+  });
 }
+
+namespace {
+
+// Rule 2 of fusion.h in one block: observed voxels (weight >= min_weight) keep their
+// value, the others take ±μ with the sign of the nearest observed voxel (multi-source
+// BFS over 6-neighbours, sources in offset order: deterministic). Returns the number of
+// observed voxels (0: `out` is left for rule 3).
+int CompleteBlock(const FusionBlock& blk, float min_weight, float fmu, std::array<float, kBlockVoxels>& out) {
+  std::array<int8_t, kBlockVoxels> sign;
+  std::array<int, kBlockVoxels> queue;
+  int head = 0, tail = 0;
+  for (int o = 0; o < kBlockVoxels; ++o) {
+    if (blk.weight[o] >= min_weight) {
+      out[o] = blk.tsdf[o];
+      sign[o] = blk.tsdf[o] < 0 ? -1 : 1;
+      queue[tail++] = o;
+    } else {
+      sign[o] = 0;
+    }
+  }
+  const int observed = tail;
+  if (observed == 0) return 0;
+  while (head < tail) {
+    const int o = queue[head++];
+    const int x = o >> 6, y = (o >> 3) & 7, z = o & 7;
+    const int nb[6][3] = {{x - 1, y, z}, {x + 1, y, z}, {x, y - 1, z}, {x, y + 1, z}, {x, y, z - 1}, {x, y, z + 1}};
+    for (const auto& n : nb) {
+      if (n[0] < 0 || n[1] < 0 || n[2] < 0 || n[0] > 7 || n[1] > 7 || n[2] > 7) continue;
+      const int q = LocalOffset(n[0], n[1], n[2]);
+      if (sign[q] != 0) continue;
+      sign[q] = sign[o];
+      out[q] = sign[o] * fmu;
+      queue[tail++] = q;
+    }
+  }
+  return observed;
+}
+
+}  // namespace
+
 void Tsdf::Impl::EnsureComplete() const {
   if (!dirty.load(std::memory_order_acquire)) return;
   std::lock_guard<std::mutex> lock(complete_mutex);
@@ -571,42 +833,32 @@ void Tsdf::Impl::EnsureComplete() const {
   observed_voxels = 0;
   Eigen::Vector3i hull_lo = Eigen::Vector3i::Constant(std::numeric_limits<int>::max());
   Eigen::Vector3i hull_hi = Eigen::Vector3i::Constant(std::numeric_limits<int>::min());
-  // Rule 2: unobserved voxels of a block take the sign of the nearest observed voxel
-  // (multi-source BFS over 6-neighbours, sources in offset order: deterministic).
-  std::vector<int8_t> sign(kBlockVoxels);
-  std::vector<int> queue(kBlockVoxels);
-  for (size_t bi = 0; bi < blocks.size(); ++bi) {
-    const FusionBlock& blk = *blocks[bi];
-    auto& out = completed[bi];
-    int head = 0, tail = 0;
-    for (int o = 0; o < kBlockVoxels; ++o) {
-      if (blk.weight[o] >= min_weight) {
-        out[o] = blk.tsdf[o];
-        sign[o] = blk.tsdf[o] < 0 ? -1 : 1;
-        queue[tail++] = o;
-      } else {
-        sign[o] = 0;
-      }
+  // Rule 2 (CompleteBlock); blocks are independent: chunks of them in parallel.
+  constexpr int kChunk = 64;
+  const int nblocks = static_cast<int>(blocks.size());
+  const int chunks = (nblocks + kChunk - 1) / kChunk;
+  struct ChunkResult {
+    int observed = 0;
+    Eigen::Vector3i lo = Eigen::Vector3i::Constant(std::numeric_limits<int>::max());
+    Eigen::Vector3i hi = Eigen::Vector3i::Constant(std::numeric_limits<int>::min());
+  };
+  std::vector<ChunkResult> chunk_results(chunks);
+  ParallelFor(chunks, opt.threads, [&](int c) {
+    ChunkResult& res = chunk_results[c];
+    for (int bi = c * kChunk; bi < std::min(nblocks, (c + 1) * kChunk); ++bi) {
+      const FusionBlock& blk = *blocks[bi];
+      const int observed = CompleteBlock(blk, min_weight, fmu, completed[bi]);
+      res.observed += observed;
+      if (observed == 0) continue;
+      has_observed[bi] = 1;
+      res.lo = res.lo.cwiseMin(blk.coord);
+      res.hi = res.hi.cwiseMax(blk.coord);
     }
-    observed_voxels += tail;
-    if (tail == 0) continue;
-    has_observed[bi] = 1;
-    hull_lo = hull_lo.cwiseMin(blk.coord);
-    hull_hi = hull_hi.cwiseMax(blk.coord);
-    while (head < tail) {
-      const int o = queue[head++];
-      const int x = o >> 6, y = (o >> 3) & 7, z = o & 7;
-      const int nb[6][3] = {{x - 1, y, z}, {x + 1, y, z}, {x, y - 1, z},
-                            {x, y + 1, z}, {x, y, z - 1}, {x, y, z + 1}};
-      for (const auto& n : nb) {
-        if (n[0] < 0 || n[1] < 0 || n[2] < 0 || n[0] > 7 || n[1] > 7 || n[2] > 7) continue;
-        const int q = LocalOffset(n[0], n[1], n[2]);
-        if (sign[q] != 0) continue;
-        sign[q] = sign[o];
-        out[q] = sign[o] * fmu;
-        queue[tail++] = q;
-      }
-    }
+  });
+  for (const ChunkResult& r : chunk_results) {
+    observed_voxels += r.observed;
+    hull_lo = hull_lo.cwiseMin(r.lo);
+    hull_hi = hull_hi.cwiseMax(r.hi);
   }
   // Rule 3: block-level carving for blocks without observed voxels.
   inside.assign(free_count.size(), 0);
@@ -769,10 +1021,18 @@ class SurfaceScan {
 Points3 Tsdf::SurfacePoints() const {
   const Impl& m = *impl_;
   m.EnsureComplete();
+  // Chunks of blocks in parallel, their points concatenated in block order.
+  constexpr int kChunk = 64;
+  const int nblocks = static_cast<int>(m.blocks.size());
+  std::vector<std::vector<Vec3>> chunk_points((nblocks + kChunk - 1) / kChunk);
+  ParallelFor(static_cast<int>(chunk_points.size()), m.opt.threads, [&](int c) {
+    SurfaceScan chunk(m);
+    for (int bi = c * kChunk; bi < std::min(nblocks, (c + 1) * kChunk); ++bi)
+      chunk.Block(m.blocks[bi]->coord, {m.completed[bi].data(), 0.f, true});
+    chunk_points[c] = std::move(chunk.points);
+  });
   SurfaceScan scan(m);
-  for (size_t bi = 0; bi < m.blocks.size(); ++bi) {
-    scan.Block(m.blocks[bi]->coord, {m.completed[bi].data(), 0.f, true});
-  }
+  for (auto& pts : chunk_points) scan.points.insert(scan.points.end(), pts.begin(), pts.end());
   for (int bx = 0; bx < m.carve_dims.x(); ++bx)
     for (int by = 0; by < m.carve_dims.y(); ++by)
       for (int bz = 0; bz < m.carve_dims.z(); ++bz) {
@@ -809,6 +1069,7 @@ FusionResult FuseFrames(const std::vector<DepthFrame>& frames, const Intrinsics&
   FusionResult result;
   result.tsdf = std::make_shared<Tsdf>(options);
   const uint64_t pose_seed = DeriveSeed(seed, "fusion/pose");
+  std::vector<Tsdf::Impl::FrameInput> inputs;
   for (size_t i = 0; i < frames.size(); i += options.frames_stride) {
     Eigen::Isometry3d pose = frames[i].camera_to_object;
     if (options.pose_noise_degrees > 0) {
@@ -822,8 +1083,9 @@ FusionResult FuseFrames(const std::vector<DepthFrame>& frames, const Intrinsics&
     } catch (const Error& e) {
       throw Error("frame " + std::to_string(i) + ": " + e.what());
     }
-    result.tsdf->impl_->Integrate(frames[i].depth, pose, intrinsics);
+    inputs.push_back({frames[i].depth.data(), pose});
   }
+  result.tsdf->impl_->IntegrateBatch(inputs, intrinsics);
   if (extract_mesh) result.mesh = result.tsdf->ExtractMesh();
   result.stats = result.tsdf->Stats();
   result.stats.mesh_vertices = result.mesh.NumVertices();

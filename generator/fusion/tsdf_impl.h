@@ -46,8 +46,25 @@ struct FrameScratch {
   std::vector<float> code;
   std::vector<uint8_t> fg;
   std::vector<int> runs, parent;  // non-foreground runs of the dropout labelling
+  std::vector<uint8_t> edge, reaches;
   std::vector<uint8_t> near_row;
+  std::vector<int> near_count;
   std::vector<int> dist;
+  std::vector<uint64_t> seen;  // band blocks already listed this frame: a bit per block-grid cell
+};
+
+// One frame after its frame-local steps (segmentation, dropouts, the band's blocks),
+// which depend on nothing but the frame: several frames are prepared at once, then
+// applied to the volume in frame order (Tsdf::Impl::IntegrateBatch).
+struct PreparedFrame {
+  FrameView view;
+  FrameScratch scratch;  // scratch.code: the segmented frame
+  int64_t fg_count = 0;
+  // The blocks the band crosses, each once, in the order the samples first reach them
+  // (the order AllocateBand meets them: blocks are created in this order).
+  std::vector<Eigen::Vector3i> band;
+  std::vector<int> touched;                                // band's blocks' indices (Tsdf::Impl::blocks)
+  double cpu_segment = 0, cpu_dropouts = 0, cpu_band = 0;  // thread CPU seconds (timing only)
 };
 
 // A block's voxel centres in the camera frame of one view: voxel (x, y, z) is at
@@ -60,11 +77,31 @@ struct VoxelProjector {
 VoxelProjector ProjectorFor(const FrameView& view, const Eigen::Vector3i& block, double h, double mu);
 // Projective TSDF update of one block's voxels against `code` (FrameScratch::code
 // semantics); returns the number of voxels updated. The scalar loop is the definition;
-// the AVX2 one gives the same bits (no FMA contraction, IEEE div/sqrt).
+// the AVX2 and AVX-512 ones give the same bits (no FMA contraction, IEEE div/sqrt).
 int64_t UpdateBlockScalar(FusionBlock& blk, const VoxelProjector& p, const float* code);
 int64_t UpdateBlockAvx2(FusionBlock& blk, const VoxelProjector& p, const float* code);
+int64_t UpdateBlockAvx512(FusionBlock& blk, const VoxelProjector& p, const float* code);
 bool HaveAvx2();
+bool HaveAvx512();
 
+// One row of the segmentation: pixels [u0, u1) of a row (depth, code, fg point at the
+// row's pixel 0, xhat per column, yv the row's ŷ): code and fg as FrameScratch says,
+// for p = R·(d·x̂, d·ŷ, d) + t in the box [lo, hi] and within the radius (radius2 <= 0:
+// none), the sums in the order Eigen evaluates the reference's `R * Vec3(x, y, z) + t`
+// (SSE2: rows 0 and 1 as a packet, ((R₀x + R₁y) + R₂z) + t; row 2 by its unrolled
+// reduction, (R₀x + (R₁y + R₂z)) + t; a test pins that). Returns the foreground count.
+// The AVX2 one gives the same bits.
+struct SegmentRow {
+  const float* depth = nullptr;
+  const double* xhat = nullptr;
+  double yv = 0;
+  double R[3][3] = {}, t[3] = {}, lo[3] = {}, hi[3] = {};
+  double radius2 = 0;
+  float* code = nullptr;
+  uint8_t* fg = nullptr;
+};
+int64_t SegmentRowScalar(const SegmentRow& row, int u0, int u1);
+int64_t SegmentRowAvx2(const SegmentRow& row, int u0, int u1);
 
 struct Tsdf::Impl {
   FusionOptions opt;
@@ -72,6 +109,12 @@ struct Tsdf::Impl {
 
   std::unordered_map<uint64_t, int> index;  // packed block coord → blocks[i]
   std::vector<std::unique_ptr<FusionBlock>> blocks;
+  // The same for the blocks of a grid over the carving grid grown by kGridMargin blocks
+  // (every block the band can reach: foreground points lie in the box, the band within
+  // μ <= 2 blocks of them): a flat array, -1 = not allocated. `index` holds every block.
+  static constexpr int kGridMargin = 3;
+  Eigen::Vector3i grid_lo{0, 0, 0}, grid_dims{0, 0, 0};
+  std::vector<int32_t> grid;
 
   // Block-level carving grid over the segmentation box.
   Eigen::Vector3i carve_lo{0, 0, 0}, carve_dims{0, 0, 0};
@@ -79,7 +122,7 @@ struct Tsdf::Impl {
 
   int frames = 0;
   int64_t foreground_pixels = 0, voxel_updates = 0;
-  FrameScratch scratch;
+  std::vector<std::unique_ptr<PreparedFrame>> prepared;  // buffers of a batch, kept between batches
   FusionStats::Steps times;      // accumulated wall time of each step
   FusionStats::Steps times_cpu;  // and process CPU time
 
@@ -105,21 +148,44 @@ struct Tsdf::Impl {
     if ((r.array() < 0).any() || (r.array() >= carve_dims.array()).any()) return -1;
     return (r.x() * carve_dims.y() + r.y()) * carve_dims.z() + r.z();
   }
+  // Index of block b in `grid`, -1 outside it.
+  int64_t GridIndex(const Eigen::Vector3i& b) const {
+    const Eigen::Vector3i r = b - grid_lo;
+    if ((r.array() < 0).any() || (r.array() >= grid_dims.array()).any()) return -1;
+    return (int64_t(r.x()) * grid_dims.y() + r.y()) * grid_dims.z() + r.z();
+  }
   int FindBlock(const Eigen::Vector3i& b) const {
+    const int64_t g = GridIndex(b);
+    if (g >= 0) return grid[g];
     auto it = index.find(Key(b));
     return it == index.end() ? -1 : it->second;
   }
+  // The block's index, allocating it (zero values and weights) if new.
+  int FindOrCreateBlock(const Eigen::Vector3i& b);
 
-  // The steps of one Integrate (tsdf.cpp), in order.
+  // The steps of one Integrate (tsdf.cpp), in order. Frame-local steps (const, any
+  // thread): MakeView, Segment, IgnoreDropouts (+ MarkNearForeground), BandBlocks; then,
+  // on the volume in frame order: the band's blocks allocated, UpdateVoxels, CarveBlocks.
   FrameView MakeView(const Eigen::Isometry3d& camera_to_object, const Intrinsics& K) const;
-  int64_t Segment(const std::vector<float>& depth, const FrameView& view);
-  void IgnoreDropouts(const FrameView& view);
-  void MarkNearForeground(const FrameView& view);
+  int64_t Segment(const float* depth, const FrameView& view, FrameScratch& s) const;
+  void IgnoreDropouts(const FrameView& view, FrameScratch& s) const;
+  void MarkNearForeground(const FrameView& view, FrameScratch& s) const;
+  void BandBlocks(const FrameView& view, FrameScratch& s, std::vector<Eigen::Vector3i>& band) const;
+  void Prepare(const float* depth, const Eigen::Isometry3d& camera_to_object, const Intrinsics& K,
+               PreparedFrame& f) const;
+  // Frames fused in order, frame-local steps of up to `prepared.size()` frames at once
+  // on opt.threads threads, voxels block by block over those frames, carving cell by
+  // cell: the same values as Integrate frame by frame for any thread count.
+  struct FrameInput {
+    const float* depth;
+    Eigen::Isometry3d camera_to_object;
+  };
+  void IntegrateBatch(const std::vector<FrameInput>& inputs, const Intrinsics& K);
+  void UpdateVoxels(const std::vector<PreparedFrame*>& batch);
+  void CarveBlocks(const std::vector<PreparedFrame*>& batch);
+  // The reference's band allocation (tsdf_reference.cpp): allocates the blocks the
+  // band crosses and returns them in the order BandBlocks lists them.
   std::vector<int> AllocateBand(const FrameView& view, const std::vector<float>& code, int stamp);
-  int64_t UpdateVoxels(const FrameView& view, const std::vector<int>& touched);
-  void CarveBlocks(const FrameView& view);
-  void Integrate(const std::vector<float>& depth, const Eigen::Isometry3d& camera_to_object,
-                 const Intrinsics& K);
   // The straightforward path (tsdf_reference.cpp): whole-image segmentation, flood
   // fill and carving, scalar voxel update; the same values bit for bit (a test checks).
   void IntegrateReference(const std::vector<float>& depth, const Eigen::Isometry3d& camera_to_object,
@@ -132,5 +198,18 @@ struct Tsdf::Impl {
 };
 
 inline int FloorDiv8(int v) { return v >= 0 ? v / 8 : -((-v + 7) / 8); }
+
+// std::floor as an int without the libm call (no SSE4.1 in the baseline ISA); exact
+// for |x| < 2^31.
+inline int FloorInt(double x) {
+  const int i = static_cast<int>(x);
+  return x < i ? i - 1 : i;
+}
+
+// The block of the voxel nearest a band sample p (object frame, metres).
+inline Eigen::Vector3i BandSampleBlock(const Vec3& p, double h) {
+  return {FloorDiv8(FloorInt(p.x() / h + 0.5)), FloorDiv8(FloorInt(p.y() / h + 0.5)),
+          FloorDiv8(FloorInt(p.z() / h + 0.5))};
+}
 
 }  // namespace drape

@@ -107,6 +107,42 @@ void CarveWholeBox(Tsdf::Impl& m, const FrameView& view, const std::vector<float
 
 }  // namespace
 
+// The blocks that the band [d - μ, d + μ] of each foreground pixel crosses (the
+// sampling of BandBlocks, std::floor for the voxel), allocated on first sight; each
+// block listed once per frame (its stamp), at its first sample.
+std::vector<int> Tsdf::Impl::AllocateBand(const FrameView& view, const std::vector<float>& code, int stamp) {
+  std::vector<int> touched;
+  float far = 0;
+  for (int v = 0; v < view.H; ++v)
+    for (int u = 0; u < view.W; ++u) far = std::max(far, std::max(code[size_t(v) * view.W + u], 0.f));
+  const double block_px = far > 0 ? kBlockDim * h * std::min(view.K.fx, view.K.fy) / far : 1;
+  const int stride = std::clamp(static_cast<int>(block_px / 3), 1, 8);
+  const int steps = static_cast<int>(std::ceil(2 * mu / (0.5 * kBlockDim * h)));
+  for (int v = 0; v < view.H; v += stride) {
+    for (int u = 0; u < view.W; u += stride) {
+      const float d = code[size_t(v) * view.W + u];
+      if (!(d > 0)) continue;
+      const double lambda = std::sqrt(1 + xhat[u] * xhat[u] + yhat[v] * yhat[v]);
+      const Vec3 ray = view.R * Vec3(xhat[u], yhat[v], 1.0);
+      for (int s = 0; s <= steps; ++s) {
+        const double along = -mu + 2 * mu * s / steps;  // metres along the ray
+        const double z = d + along / lambda;
+        if (z <= 0) continue;
+        const Vec3 p = z * ray + view.t;
+        const Eigen::Vector3i b(FloorDiv8(static_cast<int>(std::floor(p.x() / h + 0.5))),
+                                FloorDiv8(static_cast<int>(std::floor(p.y() / h + 0.5))),
+                                FloorDiv8(static_cast<int>(std::floor(p.z() / h + 0.5))));
+        FusionBlock& blk = *blocks[FindOrCreateBlock(b)];
+        if (blk.stamp != stamp) {
+          blk.stamp = stamp;
+          touched.push_back(FindBlock(b));
+        }
+      }
+    }
+  }
+  return touched;
+}
+
 void Tsdf::Impl::IntegrateReference(const std::vector<float>& depth, const Eigen::Isometry3d& pose,
                                     const Intrinsics& K) {
   UpdateRays(K);
