@@ -523,7 +523,10 @@ TEST(Fusion, SegmentRowKernelsMatchTheReferenceExpression) {
       SCOPED_TRACE(kernel ? "AVX2" : "scalar");
       std::fill(code.begin(), code.end(), 7.f);
       const int u0 = trial % 5, u1 = W - trial % 3;
-      const int64_t n = kernel ? SegmentRowAvx2(row, u0, u1) : SegmentRowScalar(row, u0, u1);
+      float far = 0, expected_far = 0;
+      row.fg_lo = W, row.fg_hi = 0;
+      int expected_lo = W, expected_hi = 0;
+      const int64_t n = kernel ? SegmentRowAvx2(row, u0, u1, &far) : SegmentRowScalar(row, u0, u1, &far);
       int64_t expected_n = 0;
       for (int u = u0; u < u1; ++u) {
         const bool in =
@@ -533,8 +536,13 @@ TEST(Fusion, SegmentRowKernelsMatchTheReferenceExpression) {
             << "trial " << trial << " u " << u << ": " << code[u] << " vs " << expected << " depth " << depth[u];
         ASSERT_EQ(fg[u], in) << "trial " << trial << " u " << u;
         expected_n += in;
+        if (in)
+          expected_far = std::max(expected_far, depth[u]), expected_lo = std::min(expected_lo, u), expected_hi = u + 1;
       }
       EXPECT_EQ(n, expected_n);
+      EXPECT_EQ(far, expected_far);
+      EXPECT_EQ(row.fg_lo, expected_lo);
+      EXPECT_EQ(row.fg_hi, expected_hi);
     }
   }
 }
@@ -580,6 +588,24 @@ TEST(Fusion, UpdateBlockKernelsMatchTheScalarOne) {
       EXPECT_EQ(kernel(b, p, code.data()), n);
       EXPECT_EQ(std::memcmp(b.tsdf.data(), expected.tsdf.data(), sizeof(b.tsdf)), 0);
       EXPECT_EQ(std::memcmp(b.weight.data(), expected.weight.data(), sizeof(b.weight)), 0);
+    }
+  }
+}
+
+// The band's voxel rounding by multiplication equals the division's, also on the
+// values nearest the voxels' boundaries (x = (i - 0.5)·h and its neighbours).
+TEST(Fusion, FloorVoxelEqualsTheDivision) {
+  Rng rng(11);
+  for (const double vpm : {128.0, 256.0, 384.0, 1000.0, 4096.0}) {
+    const double h = 1 / vpm, inv_h = 1 / h;
+    for (int k = 0; k < 200000; ++k) {
+      double x = rng.Uniform(-3, 3);
+      if (k % 2) {
+        x = (std::floor(x / h) - 0.5) * h;
+        for (int step = static_cast<int>(rng.Below(5)) - 2; step != 0; step += step > 0 ? -1 : 1)
+          x = std::nextafter(x, step > 0 ? 10.0 : -10.0);
+      }
+      ASSERT_EQ(FloorVoxel(x, h, inv_h), FloorInt(x / h + 0.5)) << "x " << x << " h " << h;
     }
   }
 }

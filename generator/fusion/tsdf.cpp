@@ -270,13 +270,20 @@ int64_t Tsdf::Impl::Segment(const float* depth, const FrameView& view, FrameScra
   }
   row.radius2 = opt.radius > 0 ? opt.radius * opt.radius : 0;
   int64_t fg_count = 0;
+  s.far = 0;
+  row.fg_lo = view.u1, row.fg_hi = view.u0;
+  s.fg_v0 = view.v1, s.fg_v1 = view.v0;
   for (int v = view.v0; v < view.v1; ++v) {
     row.depth = depth + size_t(v) * W;
     row.code = s.code.data() + size_t(v) * W;
     row.fg = s.fg.data() + size_t(v) * W;
     row.yv = yhat[v];
-    fg_count += avx2 ? SegmentRowAvx2(row, view.u0, view.u1) : SegmentRowScalar(row, view.u0, view.u1);
+    const int64_t n =
+        avx2 ? SegmentRowAvx2(row, view.u0, view.u1, &s.far) : SegmentRowScalar(row, view.u0, view.u1, &s.far);
+    if (n > 0) s.fg_v0 = std::min(s.fg_v0, v), s.fg_v1 = v + 1;
+    fg_count += n;
   }
+  s.fg_u0 = row.fg_lo, s.fg_u1 = row.fg_hi;
   return fg_count;
 }
 
@@ -397,19 +404,19 @@ void Tsdf::Impl::MarkNearForeground(const FrameView& view, FrameScratch& s) cons
 void Tsdf::Impl::BandBlocks(const FrameView& view, FrameScratch& s, std::vector<Eigen::Vector3i>& band) const {
   band.clear();
   const std::vector<float>& code = s.code;
-  float far = 0;
-  for (int v = view.v0; v < view.v1; ++v)
-    for (int u = view.u0; u < view.u1; ++u) far = std::max(far, std::max(code[size_t(v) * view.W + u], 0.f));
+  const float far = s.far;  // the farthest foreground depth (Segment)
   const double block_px = far > 0 ? kBlockDim * h * std::min(view.K.fx, view.K.fy) / far : 1;
   const int stride = std::clamp(static_cast<int>(block_px / 3), 1, 8);
   const int steps = static_cast<int>(std::ceil(2 * mu / (0.5 * kBlockDim * h)));
+  const double inv_h = 1 / h;
   const size_t words = (grid.size() + 63) / 64;
   if (s.seen.size() != words) s.seen.assign(words, 0);
   std::unordered_map<uint64_t, bool> off_grid;  // blocks outside the grid (none expected)
-  // The sample grid is anchored at pixel (0, 0) whatever the rectangle.
-  const int ustart = (view.u0 + stride - 1) / stride * stride, vstart = (view.v0 + stride - 1) / stride * stride;
-  for (int v = vstart; v < view.v1; v += stride) {
-    for (int u = ustart; u < view.u1; u += stride) {
+  // The sample grid is anchored at pixel (0, 0) whatever the rectangle; only the
+  // foreground's bounding rectangle (Segment) holds samples.
+  const int ustart = (s.fg_u0 + stride - 1) / stride * stride, vstart = (s.fg_v0 + stride - 1) / stride * stride;
+  for (int v = vstart; v < s.fg_v1; v += stride) {
+    for (int u = ustart; u < s.fg_u1; u += stride) {
       const float d = code[size_t(v) * view.W + u];
       if (!(d > 0)) continue;
       const double lambda = std::sqrt(1 + xhat[u] * xhat[u] + yhat[v] * yhat[v]);
@@ -419,7 +426,7 @@ void Tsdf::Impl::BandBlocks(const FrameView& view, FrameScratch& s, std::vector<
         const double z = d + along / lambda;
         if (z <= 0) continue;
         const Vec3 p = z * ray + view.t;
-        const Eigen::Vector3i b = BandSampleBlock(p, h);
+        const Eigen::Vector3i b = BandSampleBlock(p, h, inv_h);
         const int64_t g = GridIndex(b);
         if (g >= 0) {
           uint64_t& word = s.seen[size_t(g) >> 6];
@@ -497,7 +504,7 @@ int64_t UpdateBlockScalar(FusionBlock& blk, const VoxelProjector& p, const float
 }
 
 // Segment's box test, one row at a time (see SegmentRow in tsdf_impl.h).
-int64_t SegmentRowScalar(const SegmentRow& a, int u0, int u1) {
+int64_t SegmentRowScalar(const SegmentRow& a, int u0, int u1, float* far) {
   int64_t n = 0;
   for (int u = u0; u < u1; ++u) {
     const float d = a.depth[u];
@@ -515,13 +522,17 @@ int64_t SegmentRowScalar(const SegmentRow& a, int u0, int u1) {
     a.code[u] = in ? d : -d;
     a.fg[u] = in;
     n += in;
+    if (in) {
+      *far = std::max(*far, d);
+      a.fg_lo = std::min(a.fg_lo, u), a.fg_hi = std::max(a.fg_hi, u + 1);
+    }
   }
   return n;
 }
 
 #if defined(__x86_64__)
 // The same 4 pixels at a time (doubles; no FMA: the same bits).
-__attribute__((target("avx2"))) int64_t SegmentRowAvx2(const SegmentRow& a, int u0, int u1) {
+__attribute__((target("avx2"))) int64_t SegmentRowAvx2(const SegmentRow& a, int u0, int u1, float* far) {
   int64_t n = 0;
   const __m256d yv = _mm256_set1_pd(a.yv), r2 = _mm256_set1_pd(a.radius2);
   __m256d R[3][3], t[3], lo[3], hi[3];
@@ -533,6 +544,7 @@ __attribute__((target("avx2"))) int64_t SegmentRowAvx2(const SegmentRow& a, int 
   const __m128 zero = _mm_setzero_ps(), inf = _mm_set1_ps(std::numeric_limits<float>::infinity());
   const __m128 sign = _mm_set1_ps(-0.0f);
   const __m256i low_halves = _mm256_setr_epi32(0, 2, 4, 6, 0, 2, 4, 6);
+  __m128 far4 = zero;  // per lane: the largest foreground depth
   int u = u0;
   for (; u + 4 <= u1; u += 4) {
     const __m128 d = _mm_loadu_ps(a.depth + u);
@@ -559,14 +571,22 @@ __attribute__((target("avx2"))) int64_t SegmentRowAvx2(const SegmentRow& a, int 
     // valid: in ? d : -d; else 0.
     const __m128 code = _mm_and_ps(valid, _mm_or_ps(d, _mm_andnot_ps(in4, sign)));
     _mm_storeu_ps(a.code + u, code);
+    far4 = _mm_max_ps(far4, _mm_and_ps(fg, d));
     const int bits = _mm_movemask_ps(fg);
+    if (bits) {
+      a.fg_lo = std::min(a.fg_lo, u + __builtin_ctz(bits));
+      a.fg_hi = std::max(a.fg_hi, u + 32 - __builtin_clz(bits));
+    }
     for (int k = 0; k < 4; ++k) a.fg[u + k] = (bits >> k) & 1;
     n += __builtin_popcount(bits);
   }
-  return n + SegmentRowScalar(a, u, u1);
+  alignas(16) float lanes[4];
+  _mm_store_ps(lanes, far4);
+  for (float f : lanes) *far = std::max(*far, f);
+  return n + SegmentRowScalar(a, u, u1, far);
 }
 #else
-int64_t SegmentRowAvx2(const SegmentRow& a, int u0, int u1) { return SegmentRowScalar(a, u0, u1); }
+int64_t SegmentRowAvx2(const SegmentRow& a, int u0, int u1, float* far) { return SegmentRowScalar(a, u0, u1, far); }
 #endif
 
 #if defined(__x86_64__)

@@ -4,6 +4,7 @@
 
 #include <array>
 #include <atomic>
+#include <cmath>
 #include <mutex>
 #include <unordered_map>
 #include <vector>
@@ -51,6 +52,8 @@ struct FrameScratch {
   std::vector<int> near_count;
   std::vector<int> dist;
   std::vector<uint64_t> seen;  // band blocks already listed this frame: a bit per block-grid cell
+  float far = 0;               // the largest foreground depth (0: none)
+  int fg_u0 = 0, fg_u1 = 0, fg_v0 = 0, fg_v1 = 0;  // the foreground's bounding rectangle [u0, u1) × [v0, v1)
 };
 
 // One frame after its frame-local steps (segmentation, dropouts, the band's blocks),
@@ -89,8 +92,8 @@ bool HaveAvx512();
 // for p = R·(d·x̂, d·ŷ, d) + t in the box [lo, hi] and within the radius (radius2 <= 0:
 // none), the sums in the order Eigen evaluates the reference's `R * Vec3(x, y, z) + t`
 // (SSE2: rows 0 and 1 as a packet, ((R₀x + R₁y) + R₂z) + t; row 2 by its unrolled
-// reduction, (R₀x + (R₁y + R₂z)) + t; a test pins that). Returns the foreground count.
-// The AVX2 one gives the same bits.
+// reduction, (R₀x + (R₁y + R₂z)) + t; a test pins that). Returns the foreground count;
+// *far = max(*far, the row's largest foreground depth). The AVX2 one gives the same bits.
 struct SegmentRow {
   const float* depth = nullptr;
   const double* xhat = nullptr;
@@ -99,9 +102,10 @@ struct SegmentRow {
   double radius2 = 0;
   float* code = nullptr;
   uint8_t* fg = nullptr;
+  mutable int fg_lo = 0, fg_hi = 0;  // columns [fg_lo, fg_hi) hold the foreground pixels seen (widened)
 };
-int64_t SegmentRowScalar(const SegmentRow& row, int u0, int u1);
-int64_t SegmentRowAvx2(const SegmentRow& row, int u0, int u1);
+int64_t SegmentRowScalar(const SegmentRow& row, int u0, int u1, float* far);
+int64_t SegmentRowAvx2(const SegmentRow& row, int u0, int u1, float* far);
 
 struct Tsdf::Impl {
   FusionOptions opt;
@@ -206,10 +210,24 @@ inline int FloorInt(double x) {
   return x < i ? i - 1 : i;
 }
 
+// floor(x / h + 0.5), exactly as computed with the division, by a multiplication with
+// inv_h = 1 / h: the two differ by < 6e-16·|q| (a few roundings), so where the product's
+// fraction is more than 1e-9 from an integer (and |q| < 1e6) its floor is the
+// division's; elsewhere (about 2 in 10⁹ samples) the division decides.
+inline int FloorVoxel(double x, double h, double inv_h) {
+  const double q = x * inv_h + 0.5;
+  if (std::abs(q) < 1e6) {
+    const int i = FloorInt(q);
+    const double f = q - i;  // exact
+    if (f > 1e-9 && f < 1 - 1e-9) return i;
+  }
+  return FloorInt(x / h + 0.5);
+}
+
 // The block of the voxel nearest a band sample p (object frame, metres).
-inline Eigen::Vector3i BandSampleBlock(const Vec3& p, double h) {
-  return {FloorDiv8(FloorInt(p.x() / h + 0.5)), FloorDiv8(FloorInt(p.y() / h + 0.5)),
-          FloorDiv8(FloorInt(p.z() / h + 0.5))};
+inline Eigen::Vector3i BandSampleBlock(const Vec3& p, double h, double inv_h) {
+  return {FloorDiv8(FloorVoxel(p.x(), h, inv_h)), FloorDiv8(FloorVoxel(p.y(), h, inv_h)),
+          FloorDiv8(FloorVoxel(p.z(), h, inv_h))};
 }
 
 }  // namespace drape
