@@ -86,6 +86,7 @@ void SimOptions::Validate() const {
   if (!(finger_width > 0 && finger_width < 0.5)) throw Error("sim.finger_width: must be in (0, 0.5) m");
   if (!(speed > 0)) throw Error("sim.speed: must be > 0 m/s");
   if (!(drag_coefficient >= 0 && drag_coefficient <= 10)) throw Error("sim.drag_coefficient: must be in [0, 10]");
+  if (!(strain_lead_weight >= 0 && strain_lead_weight <= 1)) throw Error("sim.strain_lead_weight: must be in [0, 1]");
   camera.Validate();
   ir.Validate();
   if (!ir_mount.allFinite()) throw Error("sim.ir_mount: must be finite");
@@ -398,8 +399,9 @@ std::shared_ptr<const ClothModel> ClothModelOf(const SimWorld::Impl& w, double d
   HangOptions o = w.o.hang;
   o.strain_monotone = w.o.strain_monotone;
   o.drag_coefficient = w.o.drag_coefficient;
-  return MakeClothModel(w.garment.mesh, w.garment.layer, ClothMaterialFor(w.material, w.fit, o),
-                        ClothOptionsFor(o, dt));
+  ClothOptions co = ClothOptionsFor(o, dt);
+  co.collision.strain_lead_weight = w.o.strain_lead_weight;
+  return MakeClothModel(w.garment.mesh, w.garment.layer, ClothMaterialFor(w.material, w.fit, o), co);
 }
 
 // Both grippers hold the garment and arm `let_go` opens: the cloth core runs from the
