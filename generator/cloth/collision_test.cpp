@@ -497,15 +497,32 @@ TEST(CollisionApply, StrainLimitingClampsEdges) {
   EXPECT_EQ(x1.row(0), m.V.row(0));
 }
 
-// Every edge's strain (l − L0)/L0, by brute force over the faces' edges.
-double MaxEdgeStrain(const Faces& F, const Points3& rest, const Points3& x) {
-  double worst = 0;
+// Per edge of F (each face edge once per face): its strain (l − L0)/L0 in x.
+std::vector<double> EdgeStrains(const Faces& F, const Points3& rest, const Points3& x) {
+  std::vector<double> s;
   for (int f = 0; f < F.rows(); ++f)
     for (int k = 0; k < 3; ++k) {
       const int i = F(f, k), j = F(f, (k + 1) % 3);
-      worst = std::max(worst, (x.row(i) - x.row(j)).norm() / (rest.row(i) - rest.row(j)).norm() - 1);
+      s.push_back((x.row(i) - x.row(j)).norm() / (rest.row(i) - rest.row(j)).norm() - 1);
     }
-  return worst;
+  return s;
+}
+
+// The largest of them (0 if none is stretched).
+double MaxEdgeStrain(const Faces& F, const Points3& rest, const Points3& x) {
+  const std::vector<double> s = EdgeStrains(F, rest, x);
+  return std::max(0.0, s.empty() ? 0.0 : *std::max_element(s.begin(), s.end()));
+}
+
+// One step of the drive the strain tests share (two 9×9 sheets of Layers(2, 9, 9, …)):
+// the upper layer (nodes 81…) driven down through the lower one and sideways, the lower
+// one sagging away from its held centre node, which stays put.
+Points3 DriveThroughLowerSheet(const Points3& x, const Points3& rest, int centre, Rng& rng) {
+  Points3 x1 = x + RandomMotion(x, rng, 0.006);
+  for (int i = 0; i < x1.rows(); ++i)
+    x1(i, 2) += i >= 81 ? -0.008 : -0.002 * (x.row(i) - rest.row(centre)).norm() / 0.01;
+  x1.row(centre) = x.row(centre);
+  return x1;
 }
 
 // A sheet held at its centre node with a second layer dropped through it: the impulses
@@ -526,10 +543,7 @@ TEST(CollisionApply, StrainBoundSurvivesImpulsesAndImpactZones) {
     int fail_safe = 0, merges = 0;
     double worst_before = 0;
     for (int step = 0; step < 12; ++step) {
-      // Upper layer driven down through the lower one and sideways, the lower one sagging.
-      Points3 x1 = x + RandomMotion(x, rng, 0.006);
-      for (int i = 0; i < x1.rows(); ++i) x1(i, 2) += i >= 81 ? -0.008 : -0.002 * (x.row(i) - m.V.row(centre)).norm() / 0.01;
-      x1.row(centre) = x.row(centre);
+      Points3 x1 = DriveThroughLowerSheet(x, m.V, centre, rng);
       worst_before = std::max(worst_before, MaxEdgeStrain(m.F, m.V, x1));
       const Points3 x0 = x;
       const CollisionReport rep = handler.Apply(x0, x1, inv_mass, 1.0 / 240, {});
@@ -570,34 +584,25 @@ TEST(CollisionApply, WithoutStrainZonesOnlyCollisionsMakeZones) {
     Points3 x = m.V;
     int violations = 0;
     for (int step = 0; step < 12; ++step) {
-      Points3 x1 = x + RandomMotion(x, rng, 0.006);
-      for (int i = 0; i < x1.rows(); ++i) x1(i, 2) += i >= 81 ? -0.008 : -0.002 * (x.row(i) - m.V.row(centre)).norm() / 0.01;
-      x1.row(centre) = x.row(centre);
+      Points3 x1 = DriveThroughLowerSheet(x, m.V, centre, rng);
       const Points3 x0 = x;
       const CollisionReport rep = handler.Apply(x0, x1, inv_mass, 1.0 / 240, {});
       ASSERT_EQ(rep.remaining_collisions, 0);
       ASSERT_EQ(PathIntersections(m.F, x0, x1, 8), 0) << "step " << step;
       ASSERT_NEAR(rep.max_strain, MaxEdgeStrain(m.F, m.V, x1), 1e-12);
-      if (!o.strain_zones) ASSERT_EQ(rep.strain_merges, 0);
+      if (!o.strain_zones) {
+        ASSERT_EQ(rep.strain_merges, 0);
+      }
       violations += rep.strain_violations > 0;
       fail_safe[zones] += rep.fail_safe_used;
       x = x1;
     }
-    if (o.strain_zones) EXPECT_EQ(violations, 0);
+    if (o.strain_zones) {
+      EXPECT_EQ(violations, 0);
+    }
     RecordProperty("fail_safe_steps_zones_" + std::to_string(zones), fail_safe[zones]);
   }
   EXPECT_LT(fail_safe[0], fail_safe[1]);
-}
-
-// Per edge of F (each face edge once per face): its strain (l − L0)/L0 in x.
-std::vector<double> EdgeStrains(const Faces& F, const Points3& rest, const Points3& x) {
-  std::vector<double> s;
-  for (int f = 0; f < F.rows(); ++f)
-    for (int k = 0; k < 3; ++k) {
-      const int i = F(f, k), j = F(f, (k + 1) % 3);
-      s.push_back((x.row(i) - x.row(j)).norm() / (rest.row(i) - rest.row(j)).norm() - 1);
-    }
-  return s;
 }
 
 // The hard case of a hand-over fall: a step starts with edges already far beyond the
@@ -626,10 +631,7 @@ TEST(CollisionApply, OverStretchedStartIsNeverHandedBackWorse) {
     ASSERT_GT(MaxEdgeStrain(m.F, m.V, x), 0.29);
     int merges = 0;
     for (int step = 0; step < 12; ++step) {
-      Points3 x1 = x + RandomMotion(x, rng, 0.006);
-      for (int i = 0; i < x1.rows(); ++i)
-        x1(i, 2) += i >= 81 ? -0.008 : -0.002 * (x.row(i) - m.V.row(centre)).norm() / 0.01;
-      x1.row(centre) = x.row(centre);
+      Points3 x1 = DriveThroughLowerSheet(x, m.V, centre, rng);
       const Points3 x0 = x;
       const CollisionReport rep = handler.Apply(x0, x1, inv_mass, 1.0 / 240, {});
       ASSERT_EQ(rep.remaining_collisions, 0);
@@ -638,7 +640,9 @@ TEST(CollisionApply, OverStretchedStartIsNeverHandedBackWorse) {
       bool worse = false;
       for (size_t e = 0; e < after.size(); ++e) worse |= after[e] > std::max(bound, before[e]) + 1e-12;
       worse_steps[monotone] += worse;
-      if (monotone) ASSERT_FALSE(worse) << "step " << step;
+      if (monotone) {
+        ASSERT_FALSE(worse) << "step " << step;
+      }
       merges += rep.strain_merges;
       x = x1;
     }
