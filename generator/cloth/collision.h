@@ -36,9 +36,9 @@
 // When in addition every edge of x0 is within the strain bound and strain_zones is on,
 // so is every edge of the returned x1 (report.strain_violations == 0; bound: (1 + max_strain +
 // strain_tolerance)·L0, and (1 − max_compression − strain_tolerance)·L0 below).
-// With strain_zones off and strain_monotone on, no edge of the returned x1 is beyond
-// the bound and further beyond it than at x0: an edge within the bound at x0 ends
-// within it, one beyond it ends no longer (no shorter, below it) than it started.
+// With strain_zones off and strain_monotone on, an edge within the bound at x0 ends
+// within it, and one beyond it ends no more than strain_tolerance longer (shorter,
+// below it) than it started.
 // Otherwise report.strain_violations counts the edges that could not be brought
 // within it (an edge of x0 already beyond it inside a zone, or between kinematic nodes
 // pulled apart): the caller decides (e.g. fails the job).
@@ -106,10 +106,11 @@ struct CollisionOptions {
   // had merged with onto it — a shirt held by its cuff kept its body bunched at the
   // cuff (fail-safe in 94 % of steps) instead of hanging 1.45 m below.
   bool strain_zones = true;
-  // With strain_zones off, edges that end the step beyond the bound AND further beyond
-  // it than they started (longer than at x0 above it, shorter below it) still merge
-  // into rigid impact zones, where they keep their x0 length: no edge leaves a step
-  // worse than it came in, so violations cannot compound. Why: a garment falling from
+  // With strain_zones off, edges that end the step beyond the bound after starting
+  // within it, or further beyond it than they started by more than strain_tolerance
+  // (longer than at x0 above it, shorter below it), still merge into rigid impact
+  // zones, where they keep their x0 length: no edge leaves a step worse than it came
+  // in, so violations cannot compound. Why: a garment falling from
   // two grippers (the unfolding hand-over) meets itself at 4–6 m/s; the impulses of
   // that burst re-stretch edges the clamp cannot bring back within the rounds, and
   // with nothing merging them each step started from the last one's violations and
