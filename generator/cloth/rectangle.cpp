@@ -4,8 +4,31 @@
 #include <cmath>
 
 #include "common/error.h"
+#include "common/format.h"
 
 namespace drape {
+namespace {
+
+// Two layers share (stitch) the grid points on the left, right and bottom sides.
+bool Stitched(int i, int j, int nx) { return i == 0 || i == nx || j == 0; }
+
+// Whether grid cell (i, j) is split along its b–d diagonal, (i + 1, j)–(i, j + 1),
+// rather than a–c. Diagonals alternate so the sheet has no preferred shear direction;
+// but two layers never take a diagonal between two stitched points (in the bottom
+// corner cells): its triangle would have three stitched corners, i.e. be the same
+// triangle in both layers, on an edge of four faces (not a manifold; CGAL counts the
+// doubled triangle as a self-intersecting pair).
+bool DiagonalBD(int i, int j, int nx, bool two_layers) {
+  bool bd = (i + j) % 2;
+  if (two_layers) {
+    const bool ac_stitched = Stitched(i, j, nx) && Stitched(i + 1, j + 1, nx);
+    const bool bd_stitched = Stitched(i + 1, j, nx) && Stitched(i, j + 1, nx);
+    if (ac_stitched != bd_stitched) bd = ac_stitched;
+  }
+  return bd;
+}
+
+}  // namespace
 
 Garment MakeRectangleGarment(double width, double height, double edge_length, bool two_layers,
                              double gap) {
@@ -13,6 +36,10 @@ Garment MakeRectangleGarment(double width, double height, double edge_length, bo
     throw Error("MakeRectangleGarment: sizes must be positive");
   const int nx = std::max(1, static_cast<int>(std::lround(width / edge_length)));
   const int ny = std::max(1, static_cast<int>(std::lround(height / edge_length)));
+  // One cell across: every grid point is on the left or right seam, the layers coincide.
+  if (two_layers && nx < 2)
+    throw Error("MakeRectangleGarment: two layers need at least two cells across (width " + FormatNumber(width) +
+                " m, edge_length " + FormatNumber(edge_length) + " m)");
   Garment g;
   g.category = "towel";
   g.instance = two_layers ? "rectangle-2" : "rectangle-1";
@@ -21,7 +48,7 @@ Garment MakeRectangleGarment(double width, double height, double edge_length, bo
   std::vector<int> layer;
   // id[l][j][i]: vertex of grid point (i, j) on layer l; stitched points share one id.
   std::vector<std::vector<std::vector<int>>> id(2, std::vector<std::vector<int>>(ny + 1, std::vector<int>(nx + 1, -1)));
-  auto stitched = [&](int i, int j) { return i == 0 || i == nx || j == 0; };
+  auto stitched = [&](int i, int j) { return Stitched(i, j, nx); };
   const int layers = two_layers ? 2 : 1;
   for (int l = 0; l < layers; ++l)
     for (int j = 0; j <= ny; ++j)
@@ -43,8 +70,7 @@ Garment MakeRectangleGarment(double width, double height, double edge_length, bo
     for (int j = 0; j < ny; ++j)
       for (int i = 0; i < nx; ++i) {
         const int a = id[l][j][i], b = id[l][j][i + 1], c = id[l][j + 1][i + 1], d = id[l][j + 1][i];
-        // Alternate diagonals so the sheet has no preferred shear direction.
-        const bool flip = (i + j) % 2;
+        const bool flip = DiagonalBD(i, j, nx, two_layers);
         std::array<int, 3> t1 = flip ? std::array<int, 3>{a, b, d} : std::array<int, 3>{a, b, c};
         std::array<int, 3> t2 = flip ? std::array<int, 3>{b, c, d} : std::array<int, 3>{a, c, d};
         if (l == 1) {  // back layer wound opposite: normals point outwards (−z)
