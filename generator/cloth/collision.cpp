@@ -23,6 +23,12 @@ constexpr double kMaxZoneAngle = 1.5;    // rad per step: keeps (1−t)I + tR in
 constexpr double kBroadSlack = 0.25;      // × thickness: how far x1 may move before a new CCD broad-phase search
 constexpr double kReuseMargin = 0.5;     // × thickness: broad-phase superset margin (BroadPhase::SetReuseMargin)
 constexpr double kRigidTolerance = 1e-7; // m: kinematic nodes further off a rigid fit are non-rigid
+constexpr long long kRepelSnapshotCalls = 4;  // Apply calls between repulsion snapshots
+// m: what a skipped repulsion pair must have to spare beyond thickness, far above the
+// closest-point routines' error (rounding; their near-parallel and near-degenerate
+// fallbacks are off the exact distance by at most ~1e-7 × an edge length: ~1e-8 m for
+// edges of 10 cm).
+constexpr double kRepelSkipMargin = 1e-6;
 
 // ---------------------------------------------------------------------------------
 // Pairs: a VF pair (vertex, face) or an EE pair (edge, edge) as four node indices and
@@ -437,6 +443,7 @@ struct ApplyContext {
   CollisionReport& rep;
   BroadPhase& broad;
   CollisionHandler::StrainOrder& strain_order;
+  CollisionHandler::RepelSnapshot& repel_snapshot;
   CandidatePairs near = {};  // repulsion's pairs: within thickness somewhere on x0 → x1
   CandidatePairs cand, next = {};
   Points3 box_ref = {};  // the x1 the candidates were found for
@@ -644,11 +651,33 @@ std::vector<int> EdgesToMerge(const ApplyContext& cx, const std::vector<int>& st
 }
 
 // ---- proximity repulsion (Bridson §7.2) -------------------------------------------
-bool RepelPair(ApplyContext& cx, const Stencil& s) {
-  const Quad q0 = Gather(s, cx.x0), q1 = Gather(s, cx.x1);
+// Whether the pair is surely at least `reach` apart at x0 and at x1, from its distance
+// d_snap at the snapshot xs: each node i has moved by at most
+// max(|x0_i − xs_i|, |x1_i − xs_i|) since (move0: |x0_i − xs_i|², per node), and a
+// distance changes by at most twice the largest move of the pair's nodes (the closest
+// points of the snapshot, carried by the same weights, move no further than that).
+bool FarSinceSnapshot(const ApplyContext& cx, const Stencil& s, double d_snap, const std::vector<double>& move0,
+                      double reach) {
+  if (!(d_snap > reach)) return false;  // also NaN: no snapshot distance
+  const Points3& xs = cx.repel_snapshot.x;
+  double m2 = 0;
+  for (int k = 0; k < 4; ++k) {
+    const int i = s.n[k];
+    m2 = std::max({m2, move0[i], (cx.x1.row(i) - xs.row(i)).squaredNorm()});
+  }
+  return d_snap - 2 * std::sqrt(m2) >= reach;
+}
+
+// d_snap: the pair's distance at the repulsion snapshot (NaN: none); *d0_out (if given)
+// gets its distance at x0. False when the pair is left alone (far, or touching at x0),
+// true when it was pushed apart.
+bool RepelPair(ApplyContext& cx, const Stencil& s, double d_snap, const std::vector<double>& move0, double* d0_out) {
   double h = cx.opt.thickness;
+  if (FarSinceSnapshot(cx, s, d_snap, move0, h + kRepelSkipMargin)) return false;  // as min(d0, d1) >= h below
+  const Quad q0 = Gather(s, cx.x0), q1 = Gather(s, cx.x1);
   Coeffs c0, c1;
   const double d0 = std::sqrt(Closest(s.vf, q0, &c0)), d1 = std::sqrt(Closest(s.vf, q1, &c1));
+  if (d0_out) *d0_out = d0;
   if (std::min(d0, d1) >= h || !(d0 > 0)) return false;  // far, or touching at x0 (the CCD's job)
   // Pairs closer than thickness in the flat garment (seams, small triangles) keep their rest distance.
   h = std::min(h, std::sqrt(Closest(s.vf, Gather(s, cx.rest), nullptr)));
@@ -674,8 +703,22 @@ bool RepelPair(ApplyContext& cx, const Stencil& s) {
   return true;
 }
 
+// The snapshot distance of every pair of `to` that is in `from` (both sorted), NaN for
+// the others.
+void SnapshotDistances(const std::vector<std::array<int, 2>>& from, const double* from_d,
+                       const std::vector<std::array<int, 2>>& to, double* to_d) {
+  size_t i = 0;
+  for (size_t j = 0; j < to.size(); ++j) {
+    while (i < from.size() && from[i] < to[j]) ++i;
+    to_d[j] = i < from.size() && from[i] == to[j] ? from_d[i] : std::numeric_limits<double>::quiet_NaN();
+  }
+}
+
 // Gauss–Seidel sweeps; a sweep after the first visits only the pairs with a node moved
 // in the sweep before (any other pair sees what it saw then and does nothing again).
+// Every kRepelSnapshotCalls-th call keeps x0 and the pairs' distances there (the first
+// sweep measures every pair at x0); the calls between skip the pairs that are surely
+// still beyond the thickness (FarSinceSnapshot): about half of them in a settling hang.
 void Repel(ApplyContext& cx) {
   auto t0 = ThreadCpuSeconds();
   cx.broad.FindClose(cx.x0, cx.x1, cx.opt.thickness, 0, &cx.near);
@@ -686,13 +729,31 @@ void Repel(ApplyContext& cx) {
   t0 = t1;
   const CandidatePairs& cand = cx.near;
   const int n = static_cast<int>(cx.x1.rows());
+  CollisionHandler::RepelSnapshot& snap = cx.repel_snapshot;
+  const bool take = snap.calls++ % kRepelSnapshotCalls == 0 || snap.x.rows() != n;
+  const size_t nvf = cand.vf.size();
+  std::vector<double> d_snap(nvf + cand.ee.size(), std::numeric_limits<double>::quiet_NaN());
+  std::vector<double> move0(n, 0.0);
+  if (!take) {
+    SnapshotDistances(snap.vf, snap.d.data(), cand.vf, d_snap.data());
+    SnapshotDistances(snap.ee, snap.d.data() + snap.vf.size(), cand.ee, d_snap.data() + nvf);
+    for (int i = 0; i < n; ++i) move0[i] = (cx.x0.row(i) - snap.x.row(i)).squaredNorm();
+  } else {
+    snap.x = cx.x0;
+    snap.vf = cand.vf;
+    snap.ee = cand.ee;
+    snap.d.assign(d_snap.size(), std::numeric_limits<double>::quiet_NaN());
+  }
   std::vector<char> moved_node(n, 1);
   Points3 before;
   for (int it = 0; it < cx.opt.proximity_iterations; ++it) {
     before = cx.x1;
     int moved = 0;
+    size_t k = 0;
     auto visit = [&](const Stencil& s) {
-      if (moved_node[s.n[0]] || moved_node[s.n[1]] || moved_node[s.n[2]] || moved_node[s.n[3]]) moved += RepelPair(cx, s);
+      const size_t pair = k++;  // the first sweep visits every pair; at a snapshot none is skipped
+      if (moved_node[s.n[0]] || moved_node[s.n[1]] || moved_node[s.n[2]] || moved_node[s.n[3]])
+        moved += RepelPair(cx, s, d_snap[pair], move0, take && it == 0 ? &snap.d[pair] : nullptr);
     };
     for (const auto& [v, f] : cand.vf) visit(cx.VF(v, f));
     for (const auto& [a, b] : cand.ee) visit(cx.EE(a, b));
@@ -1133,8 +1194,9 @@ CollisionReport CollisionHandler::Apply(const Points3& x0, Points3& x1, const Ei
 
   CollisionReport rep;
   const long long searches0 = broad_.searches();
-  ApplyContext cx{F_,  edges_, rest_, options_, x0,   x1,   inv_mass, rest_lengths_, adjacency_start_,
-                  adjacency_, dt, rep, broad_, strain_order_, {}, {}, {}};
+  ApplyContext cx{
+      F_,  edges_, rest_,         options_,        x0, x1, inv_mass, rest_lengths_, adjacency_start_, adjacency_, dt,
+      rep, broad_, strain_order_, repel_snapshot_, {}, {}, {}};
   LimitStrain(cx, inv_mass);
   Repel(cx);
   HandleColliders(cx, colliders);

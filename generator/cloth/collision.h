@@ -172,6 +172,16 @@ class CollisionHandler {
     bool valid = false;
     std::vector<int> stamp, checked;  // per-call scratch of the clamp (node, edge)
   };
+  // Repulsion's distances at a snapshot of x0, taken every kRepelSnapshotCalls calls:
+  // a pair's distance changes by at most twice the largest move of its nodes, so a
+  // pair that was far enough apart there is skipped without its closest points (the
+  // same answer, less work; see Repel in collision.cpp).
+  struct RepelSnapshot {
+    Points3 x;                               // x0 of the call that took it
+    std::vector<std::array<int, 2>> vf, ee;  // that call's repulsion pairs (sorted)
+    std::vector<double> d;                   // m, their distances at x: vf, then ee
+    long long calls = 0;                     // Apply calls so far
+  };
 
   // Topology and rest lengths fixed at construction (rest: the flat garment, metres).
   CollisionHandler(const Faces& F, const Points3& rest, const CollisionOptions& options);
@@ -203,6 +213,7 @@ class CollisionHandler {
   Eigen::VectorXd rest_lengths_;           // m, per edge
   BroadPhase broad_;                       // tree over the faces; its candidate superset is kept across calls
   StrainOrder strain_order_;
+  RepelSnapshot repel_snapshot_;
 };
 
 // Smallest distance (m) between mesh elements that share no vertex, over VF and EE
