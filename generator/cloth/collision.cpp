@@ -1085,6 +1085,7 @@ void ImpactZones(ApplyContext& cx, Pending pending, std::vector<int> stretched,
   std::vector<int> zone_of(n, -1);
   std::vector<std::vector<int>> zones;
   Eigen::VectorXd w = cx.inv_mass;  // the clamp's inverse masses: zone nodes frozen
+  std::vector<int> level;           // hop levels from the kinematic nodes (lead node of an edge: the lower)
   if (!pending.Empty()) stretched.clear();  // the clamp after the first zone move may fix them
   while (!pending.Empty() || !stretched.empty()) {
     if (cx.rep.zone_iterations == cx.opt.max_zone_iterations) {  // last resort: one zone
@@ -1107,11 +1108,24 @@ void ImpactZones(ApplyContext& cx, Pending pending, std::vector<int> stretched,
         uf.Unite(first, i);
       }
     }
+    // A stretched edge of two free nodes, neither in a zone, first freezes only its lead
+    // node (the one nearer the kinematic nodes; a zone of its own, which stays where the
+    // step left it), so that the clamp below shortens the edge by moving the other node
+    // alone. Merging both nodes keeps the edge's x0 length, which cannot help an edge
+    // already beyond the bound at x0: that is what an edge still stretched next round
+    // (or next to a zone, or a kinematic node) gets.
+    if (!stretched.empty() && level.empty()) level = HopLevels(cx.adj_start, cx.adj, cx.inv_mass);
+    const std::vector<char> was_in_zone = in_zone;
     for (int e : stretched) {
-      in_zone[cx.E[e][0]] = in_zone[cx.E[e][1]] = 1;
-      uf.Unite(cx.E[e][0], cx.E[e][1]);
+      const int a = cx.E[e][0], b = cx.E[e][1];
+      if (!was_in_zone[a] && !was_in_zone[b] && cx.inv_mass[a] != 0 && cx.inv_mass[b] != 0) {
+        in_zone[level[b] < level[a] ? b : a] = 1;
+        continue;
+      }
+      in_zone[a] = in_zone[b] = 1;
+      uf.Unite(a, b);
+      ++cx.rep.strain_merges;
     }
-    cx.rep.strain_merges += static_cast<int>(stretched.size());
     zones = BuildZones(uf, in_zone, &zone_of);
     for (const auto& zone : zones) {
       const bool pin = std::any_of(zone.begin(), zone.end(), [&](int i) { return pinned[i] != 0; });

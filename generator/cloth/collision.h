@@ -24,8 +24,13 @@
 //      again with the zones' nodes held (infinitely heavy), the colliders re-checked,
 //      and colliding pairs and still-violating edges (with strain_zones all of them,
 //      with strain_monotone those the step made worse) both merge into zones, until
-//      no pair collides and no such edge is left. Every round merges at least two
-//      components, so this ends; as the last resort the whole mesh becomes one zone.
+//      no pair collides and no such edge is left. A violating edge of two free nodes
+//      outside every zone first freezes only its lead node (nearer the kinematic
+//      nodes; a zone of its own, which stays where the step left it), so the next
+//      clamp shortens the edge by moving the other node; merged whole, an edge
+//      already beyond the bound at x0 would keep that length. Every round freezes a
+//      node or merges two components, so this ends; as the last resort the whole
+//      mesh becomes one zone.
 // The caller then uses x1 as the new state and (x1 − x0)/dt as the node velocities.
 //
 // Guarantee: when every kinematic node (inv_mass == 0) moves rigidly as a group over

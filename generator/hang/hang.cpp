@@ -152,8 +152,10 @@ Run RunHang(const Garment& garment, const Points3& start, const Material& materi
   run.settle = world.Settle(so);
   // Settled with stretched edges left to the next step: finish with strict steps (zones
   // for stretched edges too), which bring the mesh back within the clamp's bound where
-  // the clamp reaches it; an edge already over it inside a zone keeps its length, and
-  // the verdict's acceptance bounds decide (2 of 107 quickstart_ladder hangs failed).
+  // the clamp reaches it. The fail-safe holds an over-stretched edge's lead node where
+  // the step left it and clamps the other end to it; an edge that still cannot be
+  // brought within (both ends blocked) keeps its length inside a zone, and the
+  // verdict's acceptance bounds decide.
   if (run.settle.settled && !o.strain_zones && o.self_collision) {
     world.SetStrainZones(true);
     const int finish = static_cast<int>(std::lround(o.settle_window / dt));
