@@ -215,7 +215,8 @@ int RunUnfold(const std::vector<std::string>& argv) {
                      {"xi", lo.objective.xi},
                      {"success_distance_m", lo.success_distance},
                      {"log_sigma_samples", lo.refine.sigma_samples},
-                     {"ir_sample_spacing_m", lo.refine.sample_spacing}};
+                     {"ir_sample_spacing_m", lo.refine.sample_spacing},
+                     {"ir_search_half_width_m", lo.refine.search_half_width_samples * lo.refine.sample_spacing}};
     WriteFileAtomic(*out / "report.json", rj.dump(2) + "\n");
     WriteFileAtomic(*out / "report.md", "# Unfolding\n\n" + md);
     std::cout << "report: " << (*out / "report.md").string() << "\n";

@@ -570,6 +570,7 @@ Json TrialResult::ToJson() const {
            {"ir_ranges", s.ir_ranges},
            {"ir_response", s.refine.response},
            {"ir_best_offset", s.refine.offset},
+           {"ir_fold_found", s.refine.fold_found},
            {"regrasp",
             {{"outcome", hw::GraspOutcomeName(s.regrasp.outcome)},
              {"captured", s.regrasp.captured},

@@ -11,6 +11,8 @@ void RefineOptions::Validate() const {
   if (!(sigma_samples >= 0.5 && sigma_samples <= 1000)) throw Error("refine.sigma_samples: must be in [0.5, 1000]");
   if (!(sample_spacing > 0 && sample_spacing < 1)) throw Error("refine.sample_spacing: must be in (0, 1) m");
   if (half_width_samples < 1 || half_width_samples > 100000) throw Error("refine.half_width_samples: must be in 1..100000");
+  if (search_half_width_samples < 0 || search_half_width_samples > half_width_samples)
+    throw Error("refine.search_half_width_samples: must be in 0..half_width_samples");
 }
 
 std::vector<double> LaplacianOfGaussian(double sigma) {
@@ -66,7 +68,20 @@ RefineResult RefineScan(const std::vector<double>& ranges, const RefineOptions& 
   r.valid = true;
   for (int i = 0; i < n; ++i) r.height[i] = -ranges[src[i]];
   r.response = Convolve(r.height, LaplacianOfGaussian(options.sigma_samples));
-  r.best = static_cast<int>(std::min_element(r.response.begin(), r.response.end()) - r.response.begin());
+  // Lowest local minimum within the search window (strictly below its left neighbour, not
+  // above its right one, so a flat stretch counts once; the scan's ends are no minima: the
+  // response there is shaped by the end extension). A window edge can be one.
+  const int mid = n / 2;
+  const int lo = std::max(1, mid - options.search_half_width_samples);
+  const int hi = std::min(n - 2, mid + options.search_half_width_samples);
+  r.best = mid;
+  for (int i = lo; i <= hi; ++i) {
+    const double v = r.response[i];
+    if (v < r.response[i - 1] && v <= r.response[i + 1] && (!r.fold_found || v < r.response[r.best])) {
+      r.best = i;
+      r.fold_found = true;
+    }
+  }
   r.offset = (r.best - centre) * options.sample_spacing;
   r.range = -r.height[r.best];
   r.measured = ok(r.best);

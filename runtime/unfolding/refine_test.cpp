@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -49,24 +50,60 @@ std::vector<double> RidgeScan(double x0, const RefineOptions& o, uint64_t seed, 
 
 TEST(Refine, FindsTheCrestOfAKnownRidge) {
   RefineOptions o;
-  for (double x0 : {-0.05, -0.013, 0.0, 0.021, 0.06}) {
+  for (double x0 : {-0.04, -0.013, 0.0, 0.021, 0.035}) {
     for (uint64_t seed = 1; seed <= 5; ++seed) {
       const RefineResult r = RefineScan(RidgeScan(x0, o, seed), o);
       // Within 8 mm (two samples) of the crest, noise and all.
+      EXPECT_TRUE(r.fold_found) << "x0 " << x0 << " seed " << seed;
       EXPECT_NEAR(r.offset, x0, 0.008) << "x0 " << x0 << " seed " << seed;
       EXPECT_NEAR(r.range, 0.12, 0.004);
     }
-    // Noise-free: within one sample (the end of the scan, 4 cm beyond x0 = 6 cm, shifts it).
+    // Noise-free: within one sample.
     EXPECT_NEAR(RefineScan(RidgeScan(x0, o, 1, 0.0), o).offset, x0, o.sample_spacing + 1e-12);
   }
 }
 
+TEST(Refine, ARidgeBeyondHalfTheGripperOpeningLeavesThePrediction) {
+  RefineOptions o;
+  ASSERT_DOUBLE_EQ(o.search_half_width_samples * o.sample_spacing, 0.04);
+  for (double x0 : {-0.08, -0.06, 0.06, 0.08}) {
+    for (uint64_t seed = 1; seed <= 3; ++seed) {
+      const RefineResult r = RefineScan(RidgeScan(x0, o, seed, 0.0), o);
+      // The response falls all the way out to the crest: no minimum within ±4 cm.
+      EXPECT_FALSE(r.fold_found) << "x0 " << x0;
+      EXPECT_DOUBLE_EQ(r.offset, 0.0) << "x0 " << x0;
+      // The depth still comes from the reading at the prediction.
+      EXPECT_DOUBLE_EQ(r.range, RidgeScan(x0, o, seed, 0.0)[o.half_width_samples]);
+    }
+  }
+  // A searched window as wide as the scan finds the far crest again (the rule as first
+  // built, the paper's "lowest point" over the whole scan).
+  o.search_half_width_samples = o.half_width_samples;
+  EXPECT_NEAR(RefineScan(RidgeScan(0.06, o, 1, 0.0), o).offset, 0.06, o.sample_spacing + 1e-12);
+}
+
+TEST(Refine, TakesTheFoldWithinReachOverAHigherOneFarther) {
+  RefineOptions o;
+  // A 2 cm fold 7 cm to one side and a 1 cm fold 2 cm to the other: the far one has the
+  // lower response over the whole scan, the near one is what the jaws can reach.
+  std::vector<double> r;
+  for (int i = -o.half_width_samples; i <= o.half_width_samples; ++i) {
+    const double x = i * o.sample_spacing;
+    r.push_back(0.14 - 0.02 * std::exp(-(x - 0.07) * (x - 0.07) / (2 * 0.03 * 0.03)) -
+                0.01 * std::exp(-(x + 0.02) * (x + 0.02) / (2 * 0.03 * 0.03)));
+  }
+  const RefineResult res = RefineScan(r, o);
+  EXPECT_TRUE(res.fold_found);
+  EXPECT_NEAR(res.offset, -0.02, 0.008);
+  EXPECT_LT(*std::min_element(res.response.begin() + 30, res.response.end()), res.response[res.best]);
+}
+
 TEST(Refine, PrefersAGripperWideFoldToANarrowSpike) {
   RefineOptions o;
-  std::vector<double> r = RidgeScan(0.05, o, 3);
-  // A 1-sample spike 3 cm out at −6 cm: nearer than the fold, but not graspable.
-  r[o.half_width_samples - 15] = 0.11;
-  EXPECT_NEAR(RefineScan(r, o).offset, 0.05, 0.008);
+  std::vector<double> r = RidgeScan(0.03, o, 3);
+  // A 1-sample spike 3 cm out at −3.2 cm: nearer than the fold, but not graspable.
+  r[o.half_width_samples - 8] = 0.11;
+  EXPECT_NEAR(RefineScan(r, o).offset, 0.03, 0.008);
 }
 
 TEST(Refine, MissingReadingsAndBadInput) {
@@ -86,6 +123,9 @@ TEST(Refine, MissingReadingsAndBadInput) {
   EXPECT_EQ(none.best, 5);
   EXPECT_THROW(RefineScan({}, o), Error);
   o.sample_spacing = 0;
+  EXPECT_THROW(RefineScan(r, o), Error);
+  o = RefineOptions();
+  o.search_half_width_samples = o.half_width_samples + 1;
   EXPECT_THROW(RefineScan(r, o), Error);
 }
 
