@@ -51,6 +51,8 @@ const char* kUsage =
     "  --max-regrasps K  give up after K regrasps (default 4)\n"
     "  --jobs N          trials run side by side on N threads (default 1; same results for any N)\n"
     "  --category-known  tell recognition the category\n"
+    "  --plan-prior K    after a regrasp keep the anchor it aimed at (or its twin) when recognition\n"
+    "                    ranks it among its top K (default 3; 0 = recognise afresh, as the paper)\n"
     "  --no-ir           ablation: grasp the registered point without IR refinement\n"
     "  --rigid           ablation: rigid-only registration\n"
     "  --unweighted      ablation: unweighted recognition (Eq. match)\n"
@@ -162,8 +164,9 @@ TableRow RunTrials(const ReleaseModel& model, const Variant& v, const std::strin
 }
 
 int RunUnfold(const std::vector<std::string>& argv) {
-  Args a(argv, {"--no-ir", "--rigid", "--unweighted", "--ablations", "--no-figures", "--category-known"},
-         {"--category", "--trials", "--seed", "-o", "--weights", "--frames", "--max-regrasps", "--jobs"});
+  Args a(
+      argv, {"--no-ir", "--rigid", "--unweighted", "--ablations", "--no-figures", "--category-known"},
+      {"--category", "--trials", "--seed", "-o", "--weights", "--frames", "--max-regrasps", "--jobs", "--plan-prior"});
   if (a.help()) {
     std::cout << kUsage;
     return 0;
@@ -184,6 +187,8 @@ int RunUnfold(const std::vector<std::string>& argv) {
   lo.capture.frames = static_cast<int>(a.GetInt("--frames").value_or(550));
   lo.max_regrasps = static_cast<int>(a.GetInt("--max-regrasps").value_or(4));
   lo.category_known = a.Flag("--category-known");
+  lo.plan_prior_top_k = static_cast<int>(a.GetInt("--plan-prior").value_or(lo.plan_prior_top_k));
+  if (lo.plan_prior_top_k < 0 || lo.plan_prior_top_k > 5) throw Error("--plan-prior: must be in 0..5");
   const int jobs = static_cast<int>(a.GetInt("--jobs").value_or(1));
   if (jobs < 1) throw Error("--jobs: must be >= 1");
   if (jobs > 1) lo.fusion_threads = 1;  // the trials share the cores instead
@@ -216,7 +221,8 @@ int RunUnfold(const std::vector<std::string>& argv) {
                      {"success_distance_m", lo.success_distance},
                      {"log_sigma_samples", lo.refine.sigma_samples},
                      {"ir_sample_spacing_m", lo.refine.sample_spacing},
-                     {"ir_search_half_width_m", lo.refine.search_half_width_samples * lo.refine.sample_spacing}};
+                     {"ir_search_half_width_m", lo.refine.search_half_width_samples * lo.refine.sample_spacing},
+                     {"plan_prior_top_k", lo.plan_prior_top_k}};
     WriteFileAtomic(*out / "report.json", rj.dump(2) + "\n");
     WriteFileAtomic(*out / "report.md", "# Unfolding\n\n" + md);
     std::cout << "report: " << (*out / "report.md").string() << "\n";

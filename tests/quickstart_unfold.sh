@@ -15,6 +15,7 @@ done
 grep -q '"regrasps"' "$t/trace.json" || fail "trace has no regrasp count"
 grep -q '"predicted_error_m"' "$t/trace.json" || fail "trace has no truth errors per step"
 grep -q '"retries"' "$t/trace.json" || fail "trace has no count of half-step retries"
+grep -q '"aimed_anchor"' "$t/trace.json" || fail "trace has no aimed anchor per step (plan prior)"
 grep -q 'successful unfolding' "$WORK/out/report.md" || fail "report has no table"
 
 # drape fold takes the garment as the trial left it: placed flat, its key points on the
@@ -45,3 +46,4 @@ expect_error "no desired anchor pair" --weights "$w" --category tshirt
 expect_error "database has no 'pants'" --weights "$w" --category pants
 expect_error "weights" --weights "$WORK/none/weights.json" --category towel
 expect_error "\-\-jobs: must be >= 1" --weights "$w" --category towel --jobs 0
+expect_error "\-\-plan-prior: must be in 0..5" --weights "$w" --category towel --plan-prior 6

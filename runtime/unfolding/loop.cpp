@@ -39,6 +39,7 @@ void LoopOptions::Validate() const {
   if (!(grasp_depth >= 0 && grasp_depth < 0.1)) throw Error("unfold.grasp_depth: must be in [0, 0.1) m");
   if (!(sensing_height > 0.5 && sensing_height < 3)) throw Error("unfold.sensing_height: must be in (0.5, 3) m");
   if (!(success_distance > 0)) throw Error("unfold.success_distance: must be > 0 m");
+  if (plan_prior_top_k < 0 || plan_prior_top_k > 5) throw Error("unfold.plan_prior_top_k: must be in 0..5");
 }
 
 double Coverage(const TriMesh& lying, const Garment& garment, double mpp) {
@@ -52,6 +53,16 @@ double Coverage(const TriMesh& lying, const Garment& garment, double mpp) {
   const double a = area(flat);
   DRAPE_CHECK(a > 0, "the flat garment has no top-down area");
   return area(lying) / a;
+}
+
+int PlanPriorRank(const rec::Recognition& r, const std::string& aimed, int top_k) {
+  if (aimed.empty()) return -1;
+  std::vector<std::string> accept = rec::SymmetryTwins(aimed);
+  accept.push_back(aimed);
+  const int k = std::min<int>(top_k, static_cast<int>(r.top.size()));
+  for (int i = 0; i < k; ++i)
+    if (std::find(accept.begin(), accept.end(), r.top[i].anchor) != accept.end()) return i;
+  return -1;
 }
 
 std::string NearestAnchor(const Garment& g, const Vec2& uv) {
@@ -238,6 +249,7 @@ struct TrialRun {
   const std::function<void(const std::string&)>& progress;
   int holder = 0;
   std::string trial_category;  // decided by the first recognition (see SenseAndRecognise)
+  std::string aimed;           // anchor the holding gripper was sent to ("" before a regrasp)
 
   void Say(const std::string& s) const {
     if (progress) progress(s);
@@ -297,11 +309,25 @@ struct TrialRun {
     ro.category = o.category_known ? category : trial_category;
     ro.weighted = o.weighted;
     ro.query_height = fused.mesh.V.col(1).maxCoeff() - fused.mesh.V.col(1).minCoeff();  // height gates
+    ro.top_k = std::max(ro.top_k, o.plan_prior_top_k);
     s.recognition = model.recognizer(o.weighted).Recognize(code, ro);
+    s.recognised_anchor = s.recognition.anchor;
+    ApplyPlanPrior(s);
     res.times.recognition += Since(t0);
     s.recognised_right = s.recognition.category == category && s.recognition.anchor == s.held_true_anchor;
     if (trial_category.empty()) trial_category = s.recognition.category;
     return true;
+  }
+
+  // One hang tells neighbouring anchors apart poorly (a trouser leg's inner and outer
+  // corner hang alike), while the arm knows where it was sent: the aimed anchor, or its
+  // twin, is kept when recognition ranks it among its top k.
+  void ApplyPlanPrior(Step& s) const {
+    s.aimed_anchor = aimed;
+    s.prior_rank = PlanPriorRank(s.recognition, aimed, o.plan_prior_top_k);
+    if (s.prior_rank < 0) return;
+    s.recognition.best = s.recognition.top[s.prior_rank];
+    s.recognition.anchor = s.recognition.best.anchor;
   }
 
   // The next anchor by the objective f over the recognised category's desired pairs.
@@ -465,6 +491,7 @@ struct TrialRun {
       s.regrasp = fa.Close();
       ++res.regrasps;
       if (s.regrasp.outcome == hw::GraspOutcome::kMiss) {
+        aimed = s.current_anchor;  // the holder still holds what this step took it for
         fa.Open();
         fa.Move(hw::StraightPath(fa.pose(), Home(free_arm)));
         res.steps.push_back(std::move(s));
@@ -485,6 +512,7 @@ struct TrialRun {
       s.released_other = true;
       world.arm(holder).Move(hw::StraightPath(world.arm(holder).pose(), Home(holder)));
       fa.Move(hw::StraightPath(fa.pose(), SensingPose(o.sensing_height)));
+      aimed = s.next_anchor;
       res.steps.push_back(std::move(s));
       holder = free_arm;
       if (world.state() == hw::ClothState::kLost) {
@@ -515,7 +543,7 @@ TrialResult RunTrial(const ReleaseModel& model, const std::string& category, con
   res.instance = tg.instance;
   res.seed = seed;
   hw::SimWorld world(tg.garment, tg.material, tg.fit, so, DeriveSeed(seed, "world"));
-  TrialRun run{model, options, category, seed, world, res, progress, 0, ""};
+  TrialRun run{model, options, category, seed, world, res, progress, 0, "", ""};
   try {
     run.Run();
   } catch (const NumericalError& e) {
@@ -560,6 +588,9 @@ Json TrialResult::ToJson() const {
            {"recon_vertices", s.recon.NumVertices()},
            {"recognition", rec::ToJson(s.recognition)},
            {"recognised_right", s.recognised_right},
+           {"aimed_anchor", s.aimed_anchor},
+           {"recognised_anchor", s.recognised_anchor},
+           {"prior_rank", s.prior_rank},
            {"icp_rms", s.icp_rms},
            {"current_anchor", s.current_anchor},
            {"next_anchor", s.next_anchor},

@@ -45,6 +45,11 @@ struct LoopOptions {
   bool nonrigid = true;         // ablation: false = rigid-only registration (R)
   bool weighted = true;         // ablation: false = unweighted recognition (Eq. match)
   bool category_known = false;  // true: recognition is told the category
+  // After a regrasp the held point is where the plan aimed: keep that anchor (or its
+  // symmetry twin) when recognition of the new hang ranks it among its top k anchors,
+  // else take recognition's answer. 0 = recognise every hang afresh, as the paper's
+  // Algorithm does. Must be in 0..5 (recognition lists 5).
+  int plan_prior_top_k = 3;
   hardware::CaptureOptions capture;  // frames per turn (paper ~550 both ways)
   int fusion_threads = 0;            // TSDF fusion threads (<= 0: all cores); no effect on results
   double standoff = 0.12;       // m: the IR scan runs this far before the predicted point
@@ -113,6 +118,10 @@ struct Step {
   TriMesh recon;                // object frame of the holder
   recognition::Recognition recognition;
   bool recognised_right = false;  // category right and anchor = the nearest true anchor
+                                  // (of the anchor used, after the plan prior)
+  std::string aimed_anchor;       // where the last regrasp aimed ("" at the first step)
+  std::string recognised_anchor;  // recognition's own answer, before the plan prior
+  int prior_rank = -1;            // rank of the aimed anchor (or twin) kept; -1: not kept
   // Registration of the matched database mesh.
   TriMesh registered;           // the database mesh after R (+N), object frame
   std::vector<double> point_score;  // per registered vertex: ScoreTable::PointScore of its uv
@@ -183,5 +192,9 @@ double Coverage(const TriMesh& lying, const Garment& garment, double metres_per_
 
 // The test garment's labelled anchor nearest a pattern point.
 std::string NearestAnchor(const Garment& g, const Vec2& uv);
+
+// Rank (0-based) of the first of recognition's top `top_k` anchors that is `aimed` or a
+// symmetry twin of it; -1 if none is, or `aimed` is empty (LoopOptions::plan_prior_top_k).
+int PlanPriorRank(const recognition::Recognition& r, const std::string& aimed, int top_k);
 
 }  // namespace drape::unfolding
