@@ -9,6 +9,7 @@
 #include "common/error.h"
 #include "common/format.h"
 #include "common/rng.h"
+#include "generator/cloth/measure.h"
 #include "generator/cloth/world.h"
 
 namespace drape::hardware {
@@ -480,6 +481,27 @@ double SetPlacePaths(ClothWorld& cw, const SimWorld::Impl& w, const PlaceFlatOpt
 }  // namespace
 
 namespace {
+// Why the garment as it lies may not be reported as placed ("" = it may): it passes
+// through itself (CGAL's exact test) or breaks the release's strain acceptance bounds,
+// the verdict a database hang gets.
+std::string LyingFailure(const SimWorld::Impl& w, const Points3& x) {
+  TriMesh lying;
+  lying.V = x;
+  lying.F = w.garment.mesh.F;
+  const ClothMeasurement m = MeasureCloth(lying, w.garment.mesh.V);
+  if (m.intersecting_pairs > 0)
+    return "the garment laid on the table intersects itself: " + std::to_string(m.intersecting_pairs) +
+           " triangle pairs (CGAL exact test)";
+  const double stretch = w.material.stretch_percent / 100;
+  const HangOptions& o = w.o.hang;
+  if (m.strain.max > o.accept_strain_max * stretch || m.strain.p99 > o.accept_strain_p99 * stretch)
+    return "the garment laid on the table is over-stretched: edge strain max " + FormatFixed(100 * m.strain.max, 2) +
+           " %, p99 " + FormatFixed(100 * m.strain.p99, 2) + " % (bounds " + FormatFixed(o.accept_strain_max, 2) +
+           " and " + FormatFixed(o.accept_strain_p99, 2) + " x the material's stretch, " +
+           FormatFixed(w.material.stretch_percent, 2) + " %)";
+  return "";
+}
+
 // One attempt at placing flat at time step dt (see SimWorld::PlaceFlat); the cloth as it
 // ended and the grippers' last positions go to x and ends.
 PlaceFlatReport PlaceOnce(const SimWorld::Impl& w, const PlaceFlatOptions& po, double dt, Points3& x, Vec3 ends[2]) {
@@ -521,6 +543,7 @@ PlaceFlatReport PlaceOnce(const SimWorld::Impl& w, const PlaceFlatOptions& po, d
   if (!sr.failure.empty() && !sr.timed_out) rep.failure = "cloth world: " + sr.failure;
   rep.sim_time = cw.time();
   x = cw.positions();
+  if (rep.failure.empty()) rep.failure = LyingFailure(w, x);
   for (int k = 0; k < 2; ++k) ends[k] = cw.GripperPose(g[k]).translation();
   rep.ok = rep.failure.empty();
   return rep;

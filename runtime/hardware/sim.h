@@ -110,7 +110,10 @@ class SimWorld {
 
   // Both grippers hold the garment (ClothState::kHeldByTwo): lay it on the table (see
   // PlaceFlatOptions); afterwards the state is kOnTable, both grippers open, and mesh()
-  // is the garment as it lies. Throws drape::Error in another state.
+  // is the garment as it lies. A placing that blows up, or leaves the garment passing
+  // through itself or beyond the release's strain acceptance bounds (a database hang's
+  // verdict), is tried once more at half the time step and otherwise reported failed
+  // (ok false, failure says why). Throws drape::Error in another state.
   PlaceFlatReport PlaceFlat(const PlaceFlatOptions& options = {});
 
   // Ground truth, for evaluation and pictures (the loop never decides on it).
