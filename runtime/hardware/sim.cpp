@@ -450,6 +450,10 @@ void FallFrom(SimWorld::Impl& w, int let_go) {
   ++w.version;
 }
 
+// m: the lowest held node is lowered no closer than this to the table top (a few layer
+// thicknesses: the cloth already lying there passes beneath it).
+constexpr double kPlaceClearance = 0.01;
+
 // The grippers' paths (g: their ids in cw): spread above the near edge of the table, then
 // lower while carrying across it. Returns the time (s) at which both paths end.
 double SetPlacePaths(ClothWorld& cw, const SimWorld::Impl& w, const PlaceFlatOptions& po, const int g[2]) {
@@ -469,11 +473,24 @@ double SetPlacePaths(ClothWorld& cw, const SimWorld::Impl& w, const PlaceFlatOpt
     p.position = c + Vec3((k == 0 ? -0.5 : 0.5) * sx * d, 0, 0);
     return JawFrame(p);
   };
+  // Lowered to 3 cm above the top, or higher when a held node would otherwise come
+  // closer to it than kPlaceClearance: the pads of a coarse mesh reach further (1.5 mean
+  // edges), and a held node carried down onto the cloth lying on the table pushes it
+  // through itself (the cloth core moves neither a held node nor cloth pinned on a box).
+  double y1 = top + 0.03;
+  for (int k = 0; k < 2; ++k) {
+    const Eigen::Isometry3d to_jaw = JawFrame(w.arms[k].pose).inverse();
+    const Eigen::Isometry3d end = key(k, Vec3(x0, top + 0.03, z1));
+    for (int i : cw.HeldNodes(g[k])) {
+      const double low = (end * (to_jaw * Vec3(cw.positions().row(i).transpose()))).y();  // at top + 0.03
+      y1 = std::max(y1, top + 0.03 + (top + kPlaceClearance - low));
+    }
+  }
   const double T0 = cw.time(), T1 = T0 + po.lift_time, T2 = T1 + po.lay_time;
   for (int k = 0; k < 2; ++k) {
     GripperPath path;
     path.times = {T0, T1, T2};
-    path.poses = {JawFrame(w.arms[k].pose), key(k, Vec3(x0, top + hang + 0.05, z0)), key(k, Vec3(x0, top + 0.03, z1))};
+    path.poses = {JawFrame(w.arms[k].pose), key(k, Vec3(x0, top + hang + 0.05, z0)), key(k, Vec3(x0, y1, z1))};
     cw.SetPath(g[k], path);
   }
   return T2;

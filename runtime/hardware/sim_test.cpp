@@ -232,7 +232,11 @@ TEST(SimHardware, HeldByTwoCornersItIsPlacedFlatOnTheTable) {
   const int retries = w.retries();
   const PlaceFlatReport r = w.PlaceFlat();
   ASSERT_TRUE(r.ok) << r.failure;
-  EXPECT_EQ(w.retries(), retries + 1);  // the first attempt intersected itself (below)
+  // At the release's step, not retried: the grippers end high enough that no held node
+  // is carried down through the cloth already lying on the table (on this coarse mesh the
+  // pads reach 4.2 cm below the gripper; lowered to 3 cm above the top, a held node
+  // pushed the towel through itself, 12 pairs by CGAL, and only the retry lay clean).
+  EXPECT_EQ(w.retries(), retries);
   EXPECT_GT(r.held_nodes[0], 0);
   EXPECT_GT(r.held_nodes[1], 0);
   EXPECT_EQ(w.state(), ClothState::kOnTable);
@@ -247,9 +251,7 @@ TEST(SimHardware, HeldByTwoCornersItIsPlacedFlatOnTheTable) {
   for (int i = 0; i < w.mesh().NumVertices(); ++i) y.push_back(w.mesh().V(i, 1));
   std::nth_element(y.begin(), y.begin() + y.size() / 2, y.end());
   EXPECT_LT(y[y.size() / 2], top + 0.02);
-  // Spread: most of its flat area seen from above. (At the release's time step this
-  // placing leaves the towel passing through itself, 12 pairs by CGAL, and is refused;
-  // the retry at half the step lies intersection-free and covers 0.64.)
+  // Spread: most of its flat area seen from above (0.79).
   const double coverage = unfolding::Coverage(w.mesh(), f.garment);
   EXPECT_GT(coverage, 0.6);
   EXPECT_LT(coverage, 1.1);
