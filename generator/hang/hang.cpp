@@ -211,19 +211,24 @@ double ComOffset(const TriMesh& hung) {
 std::string Verdict(const SettleReport& settle, const ClothMeasurement& m, const Material& material,
                     const HangOptions& o) {
   if (!settle.settled) return settle.failure;
+  return MeasurementVerdict(m, material, o, "hung mesh");
+}
+
+}  // namespace
+
+std::string MeasurementVerdict(const ClothMeasurement& m, const Material& material, const HangOptions& o,
+                               const std::string& what) {
   if (m.intersecting_pairs > 0)
-    return "hung mesh intersects itself: " + std::to_string(m.intersecting_pairs) + " triangle pairs (CGAL exact test)";
-  auto over = [&](const char* what, double strain, double bound) {
-    return "edge strain " + std::string(what) + " " + FormatFixed(100 * strain, 2) + " % exceeds " + FormatFixed(bound, 2) +
-           " × the material's stretch (" + FormatFixed(material.stretch_percent, 2) + " %)";
+    return what + " intersects itself: " + std::to_string(m.intersecting_pairs) + " triangle pairs (CGAL exact test)";
+  auto over = [&](const char* which, double strain, double bound) {
+    return "edge strain " + std::string(which) + " " + FormatFixed(100 * strain, 2) + " % exceeds " +
+           FormatFixed(bound, 2) + " × the material's stretch (" + FormatFixed(material.stretch_percent, 2) + " %)";
   };
   const double stretch = material.stretch_percent / 100;
   if (m.strain.max > o.accept_strain_max * stretch) return over("max", m.strain.max, o.accept_strain_max);
   if (m.strain.p99 > o.accept_strain_p99 * stretch) return over("p99", m.strain.p99, o.accept_strain_p99);
   return "";
 }
-
-}  // namespace
 
 ClothMaterial ClothMaterialFor(const Material& material, const MaterialFit& fit, const HangOptions& o) {
   ClothMaterial cm;

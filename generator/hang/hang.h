@@ -21,6 +21,7 @@
 
 #include "common/mesh.h"
 #include "garments/garment.h"
+#include "generator/cloth/measure.h"
 #include "generator/cloth/rectangle.h"
 #include "generator/cloth/world.h"
 #include "generator/hang/material.h"
@@ -187,6 +188,13 @@ HangResult Hang(const Garment& garment, int anchor_vertex, const Vec3& grasp_off
 // retry halves it): one model for hanging and the material fits' reference runs.
 ClothMaterial ClothMaterialFor(const Material& material, const MaterialFit& fit, const HangOptions& options);
 ClothOptions ClothOptionsFor(const HangOptions& options, double dt);
+
+// Why a simulated state measured as `m` may not be published ("" = it may): `what`
+// (e.g. "hung mesh") intersects itself, or an edge strain breaks the options'
+// acceptance bounds (accept_strain_max, accept_strain_p99 × the material's stretch).
+// A hang's verdict; placings on a table get the same one.
+std::string MeasurementVerdict(const ClothMeasurement& m, const Material& material, const HangOptions& options,
+                               const std::string& what);
 
 // shear_frac = (L1 − L2)/L2 of a hung mesh (object frame: grasp at origin):
 // L1 = |lowest vertex|, L2 = flat distance from the grasp point to that vertex.

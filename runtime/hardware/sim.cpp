@@ -498,25 +498,14 @@ double SetPlacePaths(ClothWorld& cw, const SimWorld::Impl& w, const PlaceFlatOpt
 }  // namespace
 
 namespace {
-// Why the garment as it lies may not be reported as placed ("" = it may): it passes
-// through itself (CGAL's exact test) or breaks the release's strain acceptance bounds,
-// the verdict a database hang gets.
+// Why the garment as it lies may not be reported as placed ("" = it may): the verdict a
+// database hang gets (hang.h MeasurementVerdict: CGAL's exact test, strain bounds).
 std::string LyingFailure(const SimWorld::Impl& w, const Points3& x) {
   TriMesh lying;
   lying.V = x;
   lying.F = w.garment.mesh.F;
-  const ClothMeasurement m = MeasureCloth(lying, w.garment.mesh.V);
-  if (m.intersecting_pairs > 0)
-    return "the garment laid on the table intersects itself: " + std::to_string(m.intersecting_pairs) +
-           " triangle pairs (CGAL exact test)";
-  const double stretch = w.material.stretch_percent / 100;
-  const HangOptions& o = w.o.hang;
-  if (m.strain.max > o.accept_strain_max * stretch || m.strain.p99 > o.accept_strain_p99 * stretch)
-    return "the garment laid on the table is over-stretched: edge strain max " + FormatFixed(100 * m.strain.max, 2) +
-           " %, p99 " + FormatFixed(100 * m.strain.p99, 2) + " % (bounds " + FormatFixed(o.accept_strain_max, 2) +
-           " and " + FormatFixed(o.accept_strain_p99, 2) + " x the material's stretch, " +
-           FormatFixed(w.material.stretch_percent, 2) + " %)";
-  return "";
+  const std::string v = MeasurementVerdict(MeasureCloth(lying, w.garment.mesh.V), w.material, w.o.hang, "the garment");
+  return v.empty() ? v : "placed flat: " + v;
 }
 
 // One attempt at placing flat at time step dt (see SimWorld::PlaceFlat); the cloth as it
