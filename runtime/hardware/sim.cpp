@@ -421,8 +421,10 @@ void FallFrom(SimWorld::Impl& w, int let_go) {
   so.min_time = w.o.hang.min_time;
   so.time_cap = w.o.hang.time_cap;
   double dt = w.o.hang.time_step;
+  const std::string side = keep ? "right" : "left";
   SettleReport sr;
   Points3 x;
+  std::string verdict;
   for (int attempt = 0; attempt < 2; ++attempt) {
     if (attempt > 0) dt /= 2, ++w.retries;
     ClothWorld cw(ClothModelOf(w, dt), w.mesh.V);
@@ -435,14 +437,22 @@ void FallFrom(SimWorld::Impl& w, int let_go) {
     }
     sr = cw.Settle(so);
     x = cw.positions();
-    if (sr.settled || sr.timed_out) break;
+    if (!sr.settled && !sr.timed_out) continue;
+    // The database hang's verdict on where it came to rest (CGAL's exact test, strain bounds).
+    TriMesh fallen;
+    fallen.V = x;
+    fallen.F = w.garment.mesh.F;
+    verdict = MeasurementVerdict(MeasureCloth(fallen, w.garment.mesh.V), w.material, w.o.hang, "the garment");
+    if (verdict.empty()) break;
+    verdict = "fallen to hang from the " + side + " gripper: " + verdict;
   }
   w.sim_seconds += Since(t0);
   ++w.hangs;
+  const std::string retried = "; after a retry at time_step " + FormatNumber(dt) + " s";
   if (!sr.settled && !sr.timed_out)
-    throw NumericalError(std::string("cloth simulation: the garment falling to hang from the ") +
-                         (keep ? "right" : "left") + " gripper blew up (" + sr.failure +
-                         "; after a retry at time_step " + FormatNumber(dt) + " s)");
+    throw NumericalError("cloth simulation: the garment falling to hang from the " + side + " gripper blew up (" +
+                         sr.failure + retried + ")");
+  if (!verdict.empty()) throw NumericalError("cloth simulation: " + verdict + " (" + retried.substr(2) + ")");
   w.unsettled += sr.timed_out;
   w.mesh.V = x;
   w.state = ClothState::kHanging;
@@ -532,10 +542,17 @@ PlaceFlatReport PlaceOnce(const SimWorld::Impl& w, const PlaceFlatOptions& po, d
   // Spread above the near edge of the table, then lower while carrying across it.
   const double T2 = SetPlacePaths(cw, w, po, g);
   while (cw.time() < T2) {
-    cw.Step();
+    const CollisionReport cr = cw.Step();
     const std::string h = cw.Health();
     if (!h.empty()) {
       rep.failure = "cloth world: " + h;
+      return rep;
+    }
+    // A held node carried into cloth pinned on the table forces a crossing the core can
+    // only report (collision.h): from here on the cloth is no longer intersection-free.
+    if (cr.remaining_collisions > 0) {
+      rep.failure = "cloth world: a gripper pushed the cloth through itself at t = " + FormatNumber(cw.time()) +
+                    " s (" + std::to_string(cr.remaining_collisions) + " crossings left)";
       return rep;
     }
   }
