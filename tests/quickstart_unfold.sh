@@ -16,6 +16,7 @@ grep -q '"regrasps"' "$t/trace.json" || fail "trace has no regrasp count"
 grep -q '"predicted_error_m"' "$t/trace.json" || fail "trace has no truth errors per step"
 grep -q '"retries"' "$t/trace.json" || fail "trace has no count of half-step retries"
 grep -q '"aimed_anchor"' "$t/trace.json" || fail "trace has no aimed anchor per step (plan prior)"
+grep -q '"e_pinch_error_m"' "$t/trace.json" || fail "trace has no error ladder per step"
 grep -q 'successful unfolding' "$WORK/out/report.md" || fail "report has no table"
 
 # drape fold takes the garment as the trial left it: placed flat, its key points on the

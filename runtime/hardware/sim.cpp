@@ -201,21 +201,29 @@ struct SimWorld::Impl {
     ++version;
   }
 
-  // Cloth inside arm k's jaws: face samples (barycentric step 1/8) in the jaw box.
-  GraspReport PinchAt(int k) {
-    ArmState& a = arms[k];
-    GraspReport rep;
-    rep.point = a.pose.position;
+  // What jaws at `pose` would close on (const: nothing changes). Face samples
+  // (barycentric step 1/8) in the jaw box; the pinch is the sample nearest the jaw centre.
+  struct Capture {
+    GraspReport report;
+    Pinch pinch;
+    Vec3 centroid = Vec3::Zero();  // mean of the face samples in the jaw box (world)
+  };
+  Capture CaptureAt(const GripperPose& pose) const {
+    Capture out;
+    GraspReport& rep = out.report;
+    rep.point = pose.position;
     if (state == ClothState::kLost) {
       rep.note = "the garment is lost (on the floor)";
-      return rep;
+      return out;
     }
-    const Eigen::Matrix3d Rt = GripperAxes(a.pose).transpose();
+    const Eigen::Matrix3d Rt = GripperAxes(pose).transpose();
     const Vec3 half(o.jaw_opening / 2, o.finger_width / 2, o.finger_depth / 2);
     const int n = 8;
     double best = std::numeric_limits<double>::infinity();
     bool front = false, back = false;
     const bool layered = int(garment.layer.size()) == garment.mesh.NumVertices();
+    Pinch& pin = out.pinch;
+    int samples = 0;
     for (int f = 0; f < mesh.NumFaces(); ++f) {
       const Vec3 A = mesh.V.row(mesh.F(f, 0)), B = mesh.V.row(mesh.F(f, 1)), C = mesh.V.row(mesh.F(f, 2));
       bool hit = false;
@@ -223,14 +231,16 @@ struct SimWorld::Impl {
         for (int j = 0; i + j <= n; ++j) {
           const Vec3 bary(double(n - i - j) / n, double(i) / n, double(j) / n);
           const Vec3 p = bary[0] * A + bary[1] * B + bary[2] * C;
-          const Vec3 q = Rt * (p - a.pose.position);
+          const Vec3 q = Rt * (p - pose.position);
           if (std::abs(q.x()) > half.x() || std::abs(q.y()) > half.y() || std::abs(q.z()) > half.z()) continue;
           hit = true;
+          out.centroid += p;
+          ++samples;
           const double d = q.squaredNorm();
           if (d < best) {
             best = d;
-            a.pinch.face = f;
-            a.pinch.bary = bary;
+            pin.face = f;
+            pin.bary = bary;
           }
         }
       if (!hit) continue;
@@ -242,19 +252,37 @@ struct SimWorld::Impl {
     }
     if (rep.captured == 0) {
       rep.note = "no cloth between the jaws";
-      return rep;
+      return out;
     }
-    Pinch& p = a.pinch;
+    out.centroid /= samples;
     int m = 0;
     for (int c = 1; c < 3; ++c)
-      if (p.bary[c] > p.bary[m]) m = c;
-    p.vertex = mesh.F(p.face, m);
-    p.rest = Vec3::Zero();
-    for (int c = 0; c < 3; ++c) p.rest += p.bary[c] * garment.mesh.V.row(mesh.F(p.face, c)).transpose();
-    a.holds = true;
+      if (pin.bary[c] > pin.bary[m]) m = c;
+    pin.vertex = mesh.F(pin.face, m);
+    pin.rest = Vec3::Zero();
+    for (int c = 0; c < 3; ++c) pin.rest += pin.bary[c] * garment.mesh.V.row(mesh.F(pin.face, c)).transpose();
     rep.outcome = front && back ? GraspOutcome::kBothLayers : GraspOutcome::kOneLayer;
     rep.note = std::to_string(rep.captured) + " faces between the jaws";
-    return rep;
+    return out;
+  }
+
+  // Pattern point (uv, m) of a pinch.
+  Vec2 PinchUv(const Pinch& p) const {
+    const Garment& g = garment;
+    if (g.uv.rows() != g.mesh.NumVertices()) return Vec2(p.rest.x(), p.rest.y());
+    Vec2 uv = Vec2::Zero();
+    for (int c = 0; c < 3; ++c) uv += p.bary[c] * g.uv.row(g.mesh.F(p.face, c)).transpose();
+    return uv;
+  }
+
+  // Cloth inside arm k's jaws: it now holds what CaptureAt finds there.
+  GraspReport PinchAt(int k) {
+    ArmState& a = arms[k];
+    Capture c = CaptureAt(a.pose);
+    if (c.report.captured == 0) return c.report;
+    a.pinch = c.pinch;
+    a.holds = true;
+    return c.report;
   }
 };
 
@@ -654,11 +682,20 @@ int SimWorld::HeldVertex(int i) const { return impl_->arms[i].holds ? impl_->arm
 std::optional<Vec2> SimWorld::HeldUv(int i) const {
   const auto& a = impl_->arms[i];
   if (!a.holds) return std::nullopt;
-  const Garment& g = impl_->garment;
-  if (g.uv.rows() != g.mesh.NumVertices()) return Vec2(a.pinch.rest.x(), a.pinch.rest.y());
-  Vec2 uv = Vec2::Zero();
-  for (int c = 0; c < 3; ++c) uv += a.pinch.bary[c] * g.uv.row(g.mesh.F(a.pinch.face, c)).transpose();
-  return uv;
+  return impl_->PinchUv(a.pinch);
+}
+
+GraspProbe SimWorld::ProbeGrasp(const GripperPose& pose) const {
+  const Impl::Capture c = impl_->CaptureAt(pose);
+  GraspProbe p;
+  p.report = c.report;
+  if (c.report.captured == 0) return p;
+  p.centroid = c.centroid;
+  p.pinch = Vec3::Zero();
+  for (int k = 0; k < 3; ++k)
+    p.pinch += c.pinch.bary[k] * impl_->mesh.V.row(impl_->mesh.F(c.pinch.face, k)).transpose();
+  p.uv = impl_->PinchUv(c.pinch);
+  return p;
 }
 const SimOptions& SimWorld::options() const { return impl_->o; }
 int SimWorld::hangs() const { return impl_->hangs; }

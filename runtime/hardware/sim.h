@@ -90,6 +90,15 @@ struct PlaceFlatReport {
   bool settled = false;
 };
 
+// What a gripper closing at a pose would take (SimWorld::ProbeGrasp; ground truth, for
+// evaluation only: nothing changes).
+struct GraspProbe {
+  GraspReport report;            // as Close() there would report it
+  Vec3 centroid = Vec3::Zero();  // world: mean of the cloth samples between the jaws
+  Vec3 pinch = Vec3::Zero();     // world: the pinched point (the sample nearest the jaw centre)
+  std::optional<Vec2> uv;        // its point on the flat pattern (m); none on a miss
+};
+
 // Where the garment is.
 enum class ClothState { kOnTable, kHanging, kHeldByTwo, kLost };
 const char* ClothStateName(ClothState s);
@@ -122,6 +131,9 @@ class SimWorld {
   const Garment& garment() const;
   int HeldVertex(int arm) const;  // pinched node of the garment, -1 if none
   std::optional<Vec2> HeldUv(int arm) const;  // pinched point on the flat pattern (m)
+  // What a gripper closing at `pose` on the cloth as it is now would take (as
+  // Arm::Close() would, without closing anything).
+  GraspProbe ProbeGrasp(const GripperPose& pose) const;
   const SimOptions& options() const;
   // Hangs and let-go falls so far: their count and wall seconds in the cloth simulation.
   int hangs() const;

@@ -397,7 +397,10 @@ struct TrialRun {
     const Vec3 p_obj = onto.Query(s.registered.V.row(v).transpose()).point;
     res.times.registration += Since(t0);
     const hw::GripperPose hp = world.arm(holder).pose();
-    s.predicted = Eigen::AngleAxisd(hp.wrist, Vec3::UnitY()).toRotationMatrix() * p_obj + hp.position;
+    const Eigen::Matrix3d to_world = Eigen::AngleAxisd(hp.wrist, Vec3::UnitY()).toRotationMatrix();
+    s.predicted = to_world * p_obj + hp.position;
+    s.ladder.rigid = to_world * reg.rigid.V.row(v).transpose() + hp.position;
+    s.ladder.nonrigid = to_world * s.registered.V.row(v).transpose() + hp.position;
     return true;
   }
 
@@ -420,6 +423,7 @@ struct TrialRun {
     std::vector<std::string> labels = rec::SymmetryTwins(s.next_anchor);
     labels.insert(labels.begin(), s.next_anchor);
     double best = std::numeric_limits<double>::infinity();
+    Vec3 target = Vec3::Zero();
     for (const std::string& l : labels) {
       const Anchor* a = g.FindAnchor(l);
       if (!a || a->vertex < 0 || a->vertex >= world.mesh().NumVertices()) continue;
@@ -429,8 +433,45 @@ struct TrialRun {
         s.target_true_anchor = l;
         s.predicted_error = best;
         s.grasp_error = (s.grasp - p).norm();
+        target = p;
       }
     }
+    if (s.target_true_anchor.empty()) return;
+    Step::Ladder& L = s.ladder;
+    L.rigid_error = (L.rigid - target).norm();
+    L.nonrigid_error = (L.nonrigid - target).norm();
+    L.mapped_error = s.predicted_error;
+    L.refined_error = s.grasp_error;
+    const Vec3 c = Vec3::UnitY().cross(s.approach).normalized();
+    auto frame = [&](const Vec3& d) { return Vec3(d.dot(c), d.y(), d.dot(s.approach)); };
+    L.mapped_offset = frame(s.predicted - target);
+    L.refined_offset = frame(s.grasp - target);
+    // What the jaws would take at the registered point without IR refinement.
+    hw::GripperPose at;
+    at.approach = s.approach;
+    at.closing = c;
+    at.position = s.predicted + s.approach * o.grasp_depth;
+    const hw::GraspProbe p = world.ProbeGrasp(at);
+    L.no_ir_outcome = hw::GraspOutcomeName(p.report.outcome);
+    if (p.uv) {
+      L.no_ir_pinch_error = (p.pinch - target).norm();
+      if (const Anchor* t = g.FindAnchor(s.target_true_anchor)) L.no_ir_pattern_error = (*p.uv - t->uv).norm();
+    }
+  }
+
+  // Evaluation only: rung (e) of the ladder, where the jaws at `g` close (probed just
+  // before they do).
+  void MeasureClosing(Step& s, const hw::GripperPose& g) const {
+    if (s.target_true_anchor.empty()) return;
+    const Anchor* a = world.garment().FindAnchor(s.target_true_anchor);
+    if (!a || a->vertex < 0 || a->vertex >= world.mesh().NumVertices()) return;
+    const Vec3 target = world.mesh().V.row(a->vertex);
+    const hw::GraspProbe p = world.ProbeGrasp(g);
+    if (!p.uv) return;
+    s.ladder.closed = p.centroid;
+    s.ladder.pinch = p.pinch;
+    s.ladder.closed_error = (p.centroid - target).norm();
+    s.ladder.pinch_error = (p.pinch - target).norm();
   }
 
   // IR scan across the predicted point with the free gripper; returns the grasp pose.
@@ -488,6 +529,7 @@ struct TrialRun {
       const hw::GripperPose g = Refine(s, free_arm);
       MeasureAgainstTruth(s);
       fa.Move(hw::StraightPath(fa.pose(), g));
+      MeasureClosing(s, g);
       s.regrasp = fa.Close();
       ++res.regrasps;
       if (s.regrasp.outcome == hw::GraspOutcome::kMiss) {
@@ -613,7 +655,23 @@ Json TrialResult::ToJson() const {
             {{"target_anchor", s.target_true_anchor},
              {"predicted_error_m", s.predicted_error},
              {"grasp_error_m", s.grasp_error},
-             {"regrasp_pattern_error_m", s.regrasp_pattern_error}}},
+             {"regrasp_pattern_error_m", s.regrasp_pattern_error},
+             {"ladder",
+              {{"rigid", J(s.ladder.rigid)},
+               {"nonrigid", J(s.ladder.nonrigid)},
+               {"closed", J(s.ladder.closed)},
+               {"pinch", J(s.ladder.pinch)},
+               {"a_rigid_error_m", s.ladder.rigid_error},
+               {"b_nonrigid_error_m", s.ladder.nonrigid_error},
+               {"c_mapped_error_m", s.ladder.mapped_error},
+               {"d_refined_error_m", s.ladder.refined_error},
+               {"e_closed_error_m", s.ladder.closed_error},
+               {"e_pinch_error_m", s.ladder.pinch_error},
+               {"mapped_offset_m", J(s.ladder.mapped_offset)},
+               {"refined_offset_m", J(s.ladder.refined_offset)},
+               {"no_ir_outcome", s.ladder.no_ir_outcome},
+               {"no_ir_pinch_error_m", s.ladder.no_ir_pinch_error},
+               {"no_ir_pattern_error_m", s.ladder.no_ir_pattern_error}}}}},
            {"note", s.note}};
     // No reading (nothing in range) → null.
     for (size_t i = 0; i < s.ir_ranges.size(); ++i)

@@ -147,6 +147,26 @@ struct Step {
   // without a pinch).
   std::string target_true_anchor;
   double predicted_error = -1, grasp_error = -1, regrasp_pattern_error = -1;
+  // Truth, evaluation only: the error ladder of the regrasp point, each rung's world point
+  // and its distance (m, -1 when not reached) to the target anchor's vertex on the cloth
+  // as it hangs now (target_true_anchor): (a) the matched database anchor after rigid
+  // registration, (b) after non-rigid registration (= a with --rigid), (c) mapped onto the
+  // reconstruction (= predicted), (d) after IR refinement (= grasp: the jaw centre sent
+  // to), (e) where the jaws closed: the centroid of the cloth between them, and the
+  // pinched point (the sample nearest the jaw centre, whose pattern point is judged).
+  // Offsets of (c) and (d) from the target in the approach frame: along the closing
+  // direction, up, and along the approach (+ = past the target).
+  struct Ladder {
+    Vec3 rigid = Vec3::Zero(), nonrigid = Vec3::Zero(), closed = Vec3::Zero(), pinch = Vec3::Zero();
+    double rigid_error = -1, nonrigid_error = -1, mapped_error = -1, refined_error = -1, closed_error = -1,
+           pinch_error = -1;
+    Vec3 mapped_offset = Vec3::Zero(), refined_offset = Vec3::Zero();
+    // The jaws closed at the registered point without IR refinement (what --no-ir would
+    // have grasped on this same cloth; probed, nothing closes): outcome, distance of the
+    // pinch to the target (world) and on the pattern.
+    std::string no_ir_outcome;
+    double no_ir_pinch_error = -1, no_ir_pattern_error = -1;
+  } ladder;
   std::string note;
 };
 
