@@ -54,10 +54,15 @@ const char* kUsage =
     "  --plan-prior K    after a regrasp keep the anchor it aimed at (or its twin) when recognition\n"
     "                    ranks it among its top K (default 3; 0 = recognise afresh, as the paper)\n"
     "  --no-ir           ablation: grasp the registered point without IR refinement\n"
+    "  --ir-above-jaws   the IR scan as first built: the jaw centre crosses the prediction and\n"
+    "                    the beam (3 cm above the jaws) reads the cloth above it (default: the\n"
+    "                    beam crosses the prediction, at the jaws' height)\n"
     "  --rigid           ablation: rigid-only registration\n"
     "  --unweighted      ablation: unweighted recognition (Eq. match)\n"
     "  --ablations       also run the three ablations (4x the trials)\n"
-    "  --no-figures      traces only\n";
+    "  --no-figures      traces only\n"
+    "  --no-place        do not lay the garment flat once f >= xi (no coverage; success is judged\n"
+    "                    before placing, so it is the same; the placing is a long cloth simulation)\n";
 
 struct Variant {
   std::string name;
@@ -165,7 +170,9 @@ TableRow RunTrials(const ReleaseModel& model, const Variant& v, const std::strin
 
 int RunUnfold(const std::vector<std::string>& argv) {
   Args a(
-      argv, {"--no-ir", "--rigid", "--unweighted", "--ablations", "--no-figures", "--category-known"},
+      argv,
+      {"--no-ir", "--ir-above-jaws", "--rigid", "--unweighted", "--ablations", "--no-figures", "--no-place",
+       "--category-known"},
       {"--category", "--trials", "--seed", "-o", "--weights", "--frames", "--max-regrasps", "--jobs", "--plan-prior"});
   if (a.help()) {
     std::cout << kUsage;
@@ -187,6 +194,8 @@ int RunUnfold(const std::vector<std::string>& argv) {
   lo.capture.frames = static_cast<int>(a.GetInt("--frames").value_or(550));
   lo.max_regrasps = static_cast<int>(a.GetInt("--max-regrasps").value_or(4));
   lo.category_known = a.Flag("--category-known");
+  lo.ir_at_jaw_line = !a.Flag("--ir-above-jaws");
+  lo.place_flat = !a.Flag("--no-place");
   lo.plan_prior_top_k = static_cast<int>(a.GetInt("--plan-prior").value_or(lo.plan_prior_top_k));
   if (lo.plan_prior_top_k < 0 || lo.plan_prior_top_k > 5) throw Error("--plan-prior: must be in 0..5");
   const int jobs = static_cast<int>(a.GetInt("--jobs").value_or(1));
@@ -222,7 +231,9 @@ int RunUnfold(const std::vector<std::string>& argv) {
                      {"log_sigma_samples", lo.refine.sigma_samples},
                      {"ir_sample_spacing_m", lo.refine.sample_spacing},
                      {"ir_search_half_width_m", lo.refine.search_half_width_samples * lo.refine.sample_spacing},
-                     {"plan_prior_top_k", lo.plan_prior_top_k}};
+                     {"plan_prior_top_k", lo.plan_prior_top_k},
+                     {"ir_at_jaw_line", lo.ir_at_jaw_line},
+                     {"place_flat", lo.place_flat}};
     WriteFileAtomic(*out / "report.json", rj.dump(2) + "\n");
     WriteFileAtomic(*out / "report.md", "# Unfolding\n\n" + md);
     std::cout << "report: " << (*out / "report.md").string() << "\n";

@@ -490,17 +490,23 @@ struct TrialRun {
     if (o.ir_refinement) {
       hw::Arm& arm = world.arm(free_arm);
       hw::RangeSensor& ir = world.ir(free_arm);
-      const Vec3 base = s.predicted - a * o.standoff;
+      IrScanPlan plan;
+      plan.predicted = s.predicted;
+      plan.approach = a;
+      plan.closing = c;
+      plan.mount = ir.mount();
+      plan.standoff = o.standoff;
+      plan.grasp_depth = o.grasp_depth;
+      plan.at_jaw_line = o.ir_at_jaw_line;
       hw::GripperPose scan = g;
       for (int i = -o.refine.half_width_samples; i <= o.refine.half_width_samples; ++i) {
-        scan.position = base + c * (i * o.refine.sample_spacing);
+        scan.position = plan.JawDuringScan(i * o.refine.sample_spacing);
         arm.Move(i == -o.refine.half_width_samples ? hw::StraightPath(arm.pose(), scan) : hw::Path{{0.016, scan}});
         s.ir_ranges.push_back(ir.Read());
       }
       s.refine = RefineScan(s.ir_ranges, o.refine);
       if (s.refine.valid) {
-        // Surface at range + mount.z along the approach from the jaw centre.
-        g.position = base + c * s.refine.offset + a * (s.refine.range + ir.mount().z() + o.grasp_depth);
+        g.position = plan.Grasp(s.refine);
       } else {
         s.note += (s.note.empty() ? "" : "; ") + std::string("no IR reading in the whole scan: registered point used");
       }

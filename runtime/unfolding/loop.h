@@ -54,6 +54,10 @@ struct LoopOptions {
   int fusion_threads = 0;            // TSDF fusion threads (<= 0: all cores); no effect on results
   double standoff = 0.12;       // m: the IR scan runs this far before the predicted point
   double grasp_depth = 0.01;    // m: jaws go this far past the surface reading
+  // The IR scan's beam crosses the predicted point, so it reads the cloth at the jaws'
+  // height (IrScanPlan::at_jaw_line); false: the jaw centre crosses it and the beam reads
+  // the cloth 3 cm above (as first built).
+  bool ir_at_jaw_line = true;
   double sensing_height = 1.5;  // m: the holding gripper's height while the garment turns
   // Evaluation only: unfolded when each gripper pinches within this distance (m, on the
   // flat pattern) of the desired pair's anchors.

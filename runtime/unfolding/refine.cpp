@@ -88,4 +88,16 @@ RefineResult RefineScan(const std::vector<double>& ranges, const RefineOptions& 
   return r;
 }
 
+Vec3 IrScanPlan::JawDuringScan(double offset) const {
+  const Vec3 a = approach.normalized(), c = closing.normalized();
+  Vec3 p = predicted - a * standoff + c * offset;
+  if (at_jaw_line) p -= c * mount.x() + a.cross(c) * mount.y();
+  return p;
+}
+
+Vec3 IrScanPlan::Grasp(const RefineResult& r) const {
+  const Vec3 a = approach.normalized(), c = closing.normalized();
+  return predicted + c * r.offset + a * (r.range + mount.z() - standoff + grasp_depth);
+}
+
 }  // namespace drape::unfolding

@@ -27,6 +27,8 @@
 
 #include <vector>
 
+#include "common/mesh.h"
+
 namespace drape::unfolding {
 
 struct RefineOptions {
@@ -66,5 +68,37 @@ struct RefineResult {
 // Throws drape::Error on an empty scan; with no reading at all, valid = false and best
 // is the centre.
 RefineResult RefineScan(const std::vector<double>& ranges, const RefineOptions& options);
+
+// Where the free gripper scans and where it closes (world frame, m). The gripper faces
+// `approach` (unit), its fingers close along `closing` (unit, ⊥ approach); the IR sensor
+// sits at `mount` in the gripper frame (x = closing, y = approach × closing, z = approach;
+// hardware::RangeSensor::mount), so its beam runs along the approach at mount.x, mount.y
+// off the jaw centre.
+//
+// The scan runs across the predicted point `standoff` before it along the approach; the
+// grasp goes to the surface the beam saw at the chosen sample, `grasp_depth` past it.
+// With `at_jaw_line` (default) the jaw centre scans mount.x, mount.y off the line through
+// the prediction so that the beam crosses the prediction: the sensor reads the cloth where
+// the jaws will close. Without it (as first built) the jaw centre scans through the
+// prediction and the beam, 3 cm above the jaws on the simulated hand, reads cloth 3 cm
+// above where the jaws close: under a fold or above a leg's end that is other cloth, and
+// the jaws stopped short of the target (on the paper release 6.4–7.6 cm short of a
+// prediction 1–2 cm from the anchor: two misses in a row).
+struct IrScanPlan {
+  Vec3 predicted = Vec3::Zero();
+  Vec3 approach = Vec3::UnitZ();
+  Vec3 closing = Vec3::UnitX();
+  Vec3 mount = Vec3::Zero();
+  double standoff = 0.12;
+  double grasp_depth = 0.01;
+  bool at_jaw_line = true;
+  // The jaw centre while the sensor reads at `offset` (m along the closing direction from
+  // the scan's centre).
+  Vec3 JawDuringScan(double offset) const;
+  // The jaw centre to close at: the point the beam hit at the best sample of `r`, plus
+  // grasp_depth along the approach (along the beam's line through the jaw line either way:
+  // the grasp does not rise to where the beam ran when at_jaw_line is false).
+  Vec3 Grasp(const RefineResult& r) const;
+};
 
 }  // namespace drape::unfolding
