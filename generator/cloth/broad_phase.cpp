@@ -224,14 +224,7 @@ void BroadPhase::SetBoxes(const std::vector<Aabb>& vbox) {
 }
 
 bool BroadPhase::InsideGrown(const std::vector<Aabb>& vbox) const {
-  if (!have_superset_) return false;
-  bool inside = true;
-  for (size_t i = 0; i < vbox.size() && inside; ++i) {
-    const Aabb &b = vbox[i], &g = grown_[i];
-    inside = (g.lo[0] <= b.lo[0]) & (g.lo[1] <= b.lo[1]) & (g.lo[2] <= b.lo[2]) & (b.hi[0] <= g.hi[0]) &
-             (b.hi[1] <= g.hi[1]) & (b.hi[2] <= g.hi[2]);
-  }
-  return inside;
+  return have_superset_ && BoxesInside(vbox, grown_);
 }
 
 bool BroadPhase::InsideGrownMoved(const std::vector<Aabb>& vbox, const Points3& points) const {
@@ -280,9 +273,13 @@ void BroadPhase::Query(const std::vector<Aabb>& vbox, const Points3* points, Can
     for (size_t i = 0; i < vbox.size(); ++i)
       grown_[i] = {vbox[i].lo.array() - reuse_margin_, vbox[i].hi.array() + reuse_margin_};
     SetBoxes(grown_);
-    std::vector<Vec3> centre(fbox_.size());
-    for (size_t f = 0; f < fbox_.size(); ++f) centre[f] = 0.5 * (fbox_[f].lo + fbox_[f].hi);
-    BuildTree(centre);
+    // A new tree every kRebuildSearches searches; refitted in between (the tree's shape
+    // never changes an answer, and the cloth moves little between two searches).
+    if (searches_ % kRebuildSearches == 0 || nodes_.empty()) {
+      std::vector<Vec3> centre(fbox_.size());
+      for (size_t f = 0; f < fbox_.size(); ++f) centre[f] = 0.5 * (fbox_[f].lo + fbox_[f].hi);
+      BuildTree(centre);
+    }
     Search(&superset_);
     have_superset_ = true;
     if (points)
@@ -292,21 +289,44 @@ void BroadPhase::Query(const std::vector<Aabb>& vbox, const Points3* points, Can
   }
   // The superset is sorted: filtering keeps the order.
   SetBoxes(vbox);
+  FilterBoxes(superset_, out);
+}
+
+void BroadPhase::FilterBoxes(const CandidatePairs& from, CandidatePairs* out) const {
   // Branch-free: every pair is written, the count advances only past those that overlap.
-  out->vf.resize(superset_.vf.size());
+  out->vf.resize(from.vf.size());
   size_t k = 0;
-  for (const auto& p : superset_.vf) {
+  for (const auto& p : from.vf) {
     out->vf[k] = p;
     k += vbox_[p[0]].Overlaps(fbox_[p[1]]);
   }
   out->vf.resize(k);
-  out->ee.resize(superset_.ee.size());
+  out->ee.resize(from.ee.size());
   k = 0;
-  for (const auto& p : superset_.ee) {
+  for (const auto& p : from.ee) {
     out->ee[k] = p;
     k += ebox_[p[0]].Overlaps(ebox_[p[1]]);
   }
   out->ee.resize(k);
+}
+
+void BroadPhase::Filter(const std::vector<Aabb>& vbox, const CandidatePairs& from, CandidatePairs* out) {
+  if (static_cast<int>(vbox.size()) != num_vertices_)
+    throw Error("broad phase: " + std::to_string(vbox.size()) + " vertex boxes for " + std::to_string(num_vertices_) +
+                " vertices");
+  SetBoxes(vbox);
+  FilterBoxes(from, out);
+}
+
+bool BoxesInside(const std::vector<Aabb>& inner, const std::vector<Aabb>& outer) {
+  if (inner.size() != outer.size()) return false;
+  bool inside = true;
+  for (size_t i = 0; i < inner.size() && inside; ++i) {
+    const Aabb &b = inner[i], &g = outer[i];
+    inside = (g.lo[0] <= b.lo[0]) & (g.lo[1] <= b.lo[1]) & (g.lo[2] <= b.lo[2]) & (b.hi[0] <= g.hi[0]) &
+             (b.hi[1] <= g.hi[1]) & (b.hi[2] <= g.hi[2]);
+  }
+  return inside;
 }
 
 void BroadPhase::Search(CandidatePairs* out) {
@@ -364,6 +384,12 @@ void BroadPhase::FindClose(const Points3& x0, const Points3& x1, double dist, do
     throw Error("broad phase: FindClose expects " + std::to_string(num_vertices_) + " positions");
   PathBoxes(x0, x1, dist, slack, &path_boxes_);
   Query(path_boxes_, &x0, out);
+}
+
+void BroadPhase::FindClosePaths(const std::vector<Aabb>& path_boxes, const Points3& x0, CandidatePairs* out) {
+  if (x0.rows() != num_vertices_)
+    throw Error("broad phase: FindClosePaths expects " + std::to_string(num_vertices_) + " positions");
+  Query(path_boxes, &x0, out);
 }
 
 CandidatePairs BruteForceClose(const Faces& F, const std::vector<std::array<int, 2>>& E, const Points3& x0,

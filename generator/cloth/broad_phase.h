@@ -60,8 +60,8 @@ class BroadPhase {
   // FindClose also keeps the superset while the boxes, carried by the rigid motion that
   // best fits x0 to the x0 of the last search, lie inside the grown boxes (a swinging
   // garment moves much more than it deforms).
-  // Each search first rebuilds the tree around the grown boxes (the tree's shape never
-  // changes an answer), so Relayout is not needed with reuse on.
+  // Every kRebuildSearches-th search first rebuilds the tree around the grown boxes (the
+  // tree's shape never changes an answer), so Relayout is not needed with reuse on.
   void SetReuseMargin(double margin);
   long long searches() const { return searches_; }  // tree searches run (work counter)
 
@@ -76,10 +76,20 @@ class BroadPhase {
   // within slack: Find on the boxes of the paths with their common motion taken out
   // (PathBoxes).
   void FindClose(const Points3& x0, const Points3& x1, double dist, double slack, CandidatePairs* out);
+  // FindClose on path boxes already made by PathBoxes(x0, x1, dist, slack, ...).
+  void FindClosePaths(const std::vector<Aabb>& path_boxes, const Points3& x0, CandidatePairs* out);
+
+  // The pairs of `from` (sorted, e.g. an earlier answer) whose boxes overlap for the
+  // vertex boxes vbox, in from's order. When every box of vbox lies inside the vertex
+  // box from was found for (BoxesInside), that is Find's answer for vbox: boxes inside
+  // overlap only where the outer ones do. Same test, no tree or superset.
+  void Filter(const std::vector<Aabb>& vbox, const CandidatePairs& from, CandidatePairs* out);
 
  private:
   // Leaves hold up to kLeafFaces faces: fewer nodes to refit and visit, the same pairs.
   static constexpr int kLeafFaces = 4;
+  // Superset searches between two builds of the tree (refitted in between).
+  static constexpr long long kRebuildSearches = 4;
   struct Node {
     Aabb box;
     int left = -1, right = -1;  // children; leaves: left = -1, right = first index in leaf_faces_
@@ -96,6 +106,7 @@ class BroadPhase {
   // a garment swinging as a whole keeps its superset.
   bool InsideGrownMoved(const std::vector<Aabb>& vbox, const Points3& points) const;
   void Query(const std::vector<Aabb>& vbox, const Points3* points, CandidatePairs* out);  // Find; points: x0
+  void FilterBoxes(const CandidatePairs& from, CandidatePairs* out) const;                // on vbox_, ebox_, fbox_
   void LeavesPair(const Node& a, const Node& b);
   void LeafPair(int fa, int fb);
   void QueryVertex(int v);
@@ -121,6 +132,9 @@ class BroadPhase {
   Points3 search_points_;  // FindClose's x0 at the last search (empty: that search had none)
   long long searches_ = 0;
 };
+
+// True when every box of `inner` lies inside the box of the same index in `outer` (same size).
+bool BoxesInside(const std::vector<Aabb>& inner, const std::vector<Aabb>& outer);
 
 // The same pairs as Find (FindClose) by testing every VF and EE pair (O(n²)): the
 // references for tests.

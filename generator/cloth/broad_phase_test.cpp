@@ -196,6 +196,49 @@ TEST(BroadPhase, ReuseMatchesBruteForceOverAMotion) {
   EXPECT_GE(reuse.searches(), 4);            // and the jumps forced new searches
 }
 
+// The CCD takes its candidates from the repulsion's answer when its boxes lie inside the
+// repulsion's (BoxesInside, then Filter): the same pairs as a search, over a motion where
+// the narrow boxes are mostly inside the wide ones and sometimes (a jump) are not.
+TEST(BroadPhase, FilterOfAnEnclosingAnswerIsTheSearch) {
+  const Garment g = MakeRectangleGarment(0.3, 0.2, 0.03, /*two_layers=*/true, 0.01);
+  const auto E = UniqueEdges(g.mesh);
+  BroadPhase broad(g.mesh.F, E, g.mesh.V);
+  broad.SetReuseMargin(0.004);
+  Rng rng(DeriveSeed(7, "broad_phase/filter"));
+  Points3 x0 = g.mesh.V, x1 = g.mesh.V;
+  int inside = 0, outside = 0;
+  size_t total = 0;
+  for (int step = 0; step < 30; ++step) {
+    x0 = x1;
+    for (int i = 0; i < x1.rows(); ++i) x1.row(i) += RandomVec(rng, 0.002).transpose();
+    std::vector<Aabb> wide, narrow;
+    PathBoxes(x0, x1, 0.008, 0, &wide);
+    CandidatePairs near;
+    broad.FindClosePaths(wide, x0, &near);
+    ExpectSame(near, BruteForceCandidates(g.mesh.F, E, wide), "wide, step " + std::to_string(step));
+    for (int k = 0; k < 3; ++k) {  // corrections of x1: small, then (every third step) one node far
+      Points3 y1 = x1;
+      for (int i = 0; i < y1.rows(); ++i) y1.row(i) += RandomVec(rng, 0.0005).transpose();
+      if (k == 2 && step % 3 == 0) y1.row(step % y1.rows()) += Vec3(0.01, 0, 0).transpose();
+      PathBoxes(x0, y1, 0.0001, 0.001, &narrow);
+      const CandidatePairs want = BruteForceCandidates(g.mesh.F, E, narrow);
+      if (!BoxesInside(narrow, wide)) {
+        ++outside;
+        continue;
+      }
+      ++inside;
+      CandidatePairs got;
+      broad.Filter(narrow, near, &got);
+      ExpectSame(got, want, "step " + std::to_string(step) + " correction " + std::to_string(k));
+      total += want.vf.size() + want.ee.size();
+    }
+  }
+  EXPECT_GT(inside, 40);
+  EXPECT_GT(outside, 5);
+  EXPECT_GT(total, 1000u);
+  EXPECT_FALSE(BoxesInside(std::vector<Aabb>(2), std::vector<Aabb>(3)));
+}
+
 // Superset reuse under whole-garment motion: the same garment at rigid poses far apart
 // (turned by up to 0.25 rad, moved by up to 0.5 m: far more than the margin) keeps the
 // superset of the first search, since FindClose compares boxes in the frame that best

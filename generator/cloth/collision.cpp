@@ -118,7 +118,10 @@ bool ApartBeyond(bool vf, const Quad& q, double d) {
 
 // ---------------------------------------------------------------------------------
 // Additive CCD (Li, Kaufman & Jiang 2021, Algorithm 1) on the straight path q0 → q1.
-bool AdditiveCCD(bool vf, const Quad& q0, const Quad& q1, double min_separation, double* toi) {
+// d0_memo (optional): the pair's distance at q0 when known (NaN: not yet, then stored):
+// the same value the closest points give, for a pair tested again on the same q0.
+bool AdditiveCCD(bool vf, const Quad& q0, const Quad& q1, double min_separation, double* toi,
+                 double* d0_memo = nullptr) {
   Quad p;
   Vec3 mean = Vec3::Zero();
   for (int k = 0; k < 4; ++k) {
@@ -133,7 +136,13 @@ bool AdditiveCCD(bool vf, const Quad& q0, const Quad& q1, double min_separation,
   // without the closest points: the same answer for the many candidates that are far
   // apart for their motion.
   if (ApartBeyond(vf, q0, min_separation + lp / (1 - kAccdShrink))) return false;
-  const double d0 = std::sqrt(Closest(vf, q0, nullptr));
+  double d0;
+  if (d0_memo && !std::isnan(*d0_memo)) {
+    d0 = *d0_memo;
+  } else {
+    d0 = std::sqrt(Closest(vf, q0, nullptr));
+    if (d0_memo) *d0_memo = d0;
+  }
   if (!(d0 > 0)) {  // touching at the start (or NaN): conservative
     *toi = 0;
     return true;
@@ -445,35 +454,47 @@ struct ApplyContext {
   CollisionHandler::StrainOrder& strain_order;
   CollisionHandler::RepelSnapshot& repel_snapshot;
   CandidatePairs near = {};  // repulsion's pairs: within thickness somewhere on x0 → x1
-  CandidatePairs cand, next = {};
+  std::vector<Aabb> near_boxes = {};   // the path boxes they were found for (empty: none yet)
+  std::vector<Aabb> fresh_boxes = {};  // the CCD's path boxes (scratch)
+  CandidatePairs cand = {}, next = {};
   Points3 box_ref = {};  // the x1 the candidates were found for
   bool have_cand = false;
   // Detect's results per candidate for the x1 in detect_ref (toi < 0: no hit; NaN:
   // not known), reused for pairs none of whose nodes moved since.
   std::vector<double> cand_toi = {}, next_toi = {};
+  // Per candidate: its distance at x0 (NaN: not measured yet). x0 is fixed for the call,
+  // so a pair's distance there, once measured, is reused by every later test.
+  std::vector<double> cand_d0 = {}, next_d0 = {};
   Points3 detect_ref = {};
   std::vector<char> dirty = {};
+  bool shortcuts = true;  // CollisionHandler::SetShortcuts
 
   // cand_toi for the pairs of `next`: the known results of pairs also in `cand` (both
   // lists sorted), NaN for the others. A kept result stays valid: it was found for the
   // positions in detect_ref, and Detect retests a pair whose nodes moved since.
+  // cand_d0 likewise (a distance at x0 stays valid for the whole call).
   void CarryResults() {
-    next_toi.assign(next.vf.size() + next.ee.size(), std::numeric_limits<double>::quiet_NaN());
-    if (!have_cand) {
-      cand_toi.swap(next_toi);
-      return;
+    const size_t size = next.vf.size() + next.ee.size();
+    next_toi.assign(size, std::numeric_limits<double>::quiet_NaN());
+    next_d0.assign(size, std::numeric_limits<double>::quiet_NaN());
+    if (have_cand) {
+      auto carry = [](const std::vector<std::array<int, 2>>& from, const double* from_toi, const double* from_d0,
+                      const std::vector<std::array<int, 2>>& to, double* to_toi, double* to_d0) {
+        size_t i = 0;
+        for (size_t j = 0; j < to.size(); ++j) {
+          while (i < from.size() && from[i] < to[j]) ++i;
+          if (i < from.size() && from[i] == to[j]) {
+            to_toi[j] = from_toi[i];
+            to_d0[j] = from_d0[i];
+          }
+        }
+      };
+      const size_t cvf = cand.vf.size(), nvf = next.vf.size();
+      carry(cand.vf, cand_toi.data(), cand_d0.data(), next.vf, next_toi.data(), next_d0.data());
+      carry(cand.ee, cand_toi.data() + cvf, cand_d0.data() + cvf, next.ee, next_toi.data() + nvf, next_d0.data() + nvf);
     }
-    auto carry = [](const std::vector<std::array<int, 2>>& from, const double* from_toi,
-                    const std::vector<std::array<int, 2>>& to, double* to_toi) {
-      size_t i = 0;
-      for (size_t j = 0; j < to.size(); ++j) {
-        while (i < from.size() && from[i] < to[j]) ++i;
-        if (i < from.size() && from[i] == to[j]) to_toi[j] = from_toi[i];
-      }
-    };
-    carry(cand.vf, cand_toi.data(), next.vf, next_toi.data());
-    carry(cand.ee, cand_toi.data() + cand.vf.size(), next.ee, next_toi.data() + next.vf.size());
     cand_toi.swap(next_toi);
+    cand_d0.swap(next_d0);
   }
 
   Stencil VF(int v, int f) const { return {{v, F(f, 0), F(f, 1), F(f, 2)}, true}; }
@@ -489,7 +510,13 @@ struct ApplyContext {
     bool valid = have_cand;
     for (int i = 0; valid && i < x1.rows(); ++i) valid = (x1.row(i) - box_ref.row(i)).squaredNorm() <= slack * slack;
     if (!valid) {
-      broad.FindClose(x0, x1, opt.min_separation, slack, &next);
+      // The repulsion's pairs hold every pair whose boxes overlap inside its boxes: when
+      // these boxes lie inside them (x1 moved little since), filtering them is FindClose.
+      PathBoxes(x0, x1, opt.min_separation, slack, &fresh_boxes);
+      if (shortcuts && !near_boxes.empty() && BoxesInside(fresh_boxes, near_boxes))
+        broad.Filter(fresh_boxes, near, &next);
+      else
+        broad.FindClosePaths(fresh_boxes, x0, &next);
       ++rep.broad_builds;
       rep.broad_candidates += static_cast<long long>(next.vf.size() + next.ee.size());
       box_ref = x1;
@@ -721,7 +748,8 @@ void SnapshotDistances(const std::vector<std::array<int, 2>>& from, const double
 // still beyond the thickness (FarSinceSnapshot): about half of them in a settling hang.
 void Repel(ApplyContext& cx) {
   auto t0 = ThreadCpuSeconds();
-  cx.broad.FindClose(cx.x0, cx.x1, cx.opt.thickness, 0, &cx.near);
+  PathBoxes(cx.x0, cx.x1, cx.opt.thickness, 0, &cx.near_boxes);
+  cx.broad.FindClosePaths(cx.near_boxes, cx.x0, &cx.near);
   ++cx.rep.broad_builds;
   cx.rep.broad_candidates += static_cast<long long>(cx.near.vf.size() + cx.near.ee.size());
   const double t1 = ThreadCpuSeconds();
@@ -730,7 +758,7 @@ void Repel(ApplyContext& cx) {
   const CandidatePairs& cand = cx.near;
   const int n = static_cast<int>(cx.x1.rows());
   CollisionHandler::RepelSnapshot& snap = cx.repel_snapshot;
-  const bool take = snap.calls++ % kRepelSnapshotCalls == 0 || snap.x.rows() != n;
+  const bool take = snap.calls++ % kRepelSnapshotCalls == 0 || snap.x.rows() != n || !cx.shortcuts;
   const size_t nvf = cand.vf.size();
   std::vector<double> d_snap(nvf + cand.ee.size(), std::numeric_limits<double>::quiet_NaN());
   std::vector<double> move0(n, 0.0);
@@ -962,13 +990,14 @@ std::vector<Hit> Detect(ApplyContext& cx, const std::vector<int>* zone_of) {
   auto t0 = ThreadCpuSeconds();
   const CandidatePairs& cand = cx.Fresh(&t0);
   const int n = static_cast<int>(cx.x1.rows());
-  const bool have_ref = cx.detect_ref.rows() == n;
+  const bool have_ref = cx.detect_ref.rows() == n && cx.shortcuts;
   cx.dirty.resize(n);
   for (int i = 0; i < n; ++i) cx.dirty[i] = !have_ref || cx.x1.row(i) != cx.detect_ref.row(i);
   cx.detect_ref = cx.x1;
   std::vector<Hit> hits;
   size_t k = 0;  // candidate index: VF pairs, then EE pairs
   auto test = [&](const Stencil& s) {
+    double& d0 = cx.cand_d0[k];
     double& cached = cx.cand_toi[k++];
     if (zone_of) {
       const int z = (*zone_of)[s.n[0]];
@@ -981,7 +1010,10 @@ std::vector<Hit> Detect(ApplyContext& cx, const std::vector<int>* zone_of) {
     if (std::isnan(cached) || cx.dirty[s.n[0]] || cx.dirty[s.n[1]] || cx.dirty[s.n[2]] || cx.dirty[s.n[3]]) {
       double toi = 0;
       ++cx.rep.ccd_tests;
-      cached = AdditiveCCD(s.vf, Gather(s, cx.x0), Gather(s, cx.x1), cx.opt.min_separation, &toi) ? toi : -1.0;
+      cached = AdditiveCCD(s.vf, Gather(s, cx.x0), Gather(s, cx.x1), cx.opt.min_separation, &toi,
+                           cx.shortcuts ? &d0 : nullptr)
+                   ? toi
+                   : -1.0;
     }
     if (cached >= 0) hits.push_back({s, cached});
   };
@@ -1193,6 +1225,11 @@ CollisionHandler::CollisionHandler(const Faces& F, const Points3& rest, const Co
   for (const auto& e : edges_) adjacency_[fill[e[0]]++] = e[1], adjacency_[fill[e[1]]++] = e[0];
 }
 
+void CollisionHandler::SetShortcuts(bool on) {
+  shortcuts_ = on;
+  broad_.SetReuseMargin(on ? kReuseMargin * options_.thickness : 0.0);
+}
+
 CollisionReport CollisionHandler::Apply(const Points3& x0, Points3& x1, const Eigen::VectorXd& inv_mass, double dt,
                                         const std::vector<BoxCollider>& colliders) {
   const int n = num_vertices_;
@@ -1208,9 +1245,10 @@ CollisionReport CollisionHandler::Apply(const Points3& x0, Points3& x1, const Ei
 
   CollisionReport rep;
   const long long searches0 = broad_.searches();
-  ApplyContext cx{
-      F_,  edges_, rest_,         options_,        x0, x1, inv_mass, rest_lengths_, adjacency_start_, adjacency_, dt,
-      rep, broad_, strain_order_, repel_snapshot_, {}, {}, {}};
+  ApplyContext cx{F_, edges_,   rest_,         options_,         x0,
+                  x1, inv_mass, rest_lengths_, adjacency_start_, adjacency_,
+                  dt, rep,      broad_,        strain_order_,    repel_snapshot_};
+  cx.shortcuts = shortcuts_;
   LimitStrain(cx, inv_mass);
   Repel(cx);
   HandleColliders(cx, colliders);

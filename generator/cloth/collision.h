@@ -204,6 +204,12 @@ class CollisionHandler {
   // Switches CollisionOptions::strain_zones for the following calls (e.g. strict steps
   // to finish a run that settled with it off).
   void SetStrainZones(bool on) { options_.strain_zones = on; }
+  // Off: every result the handler keeps or skips work by (the broad phase's superset
+  // and the CCD's candidates taken from the repulsion's pairs, the CCD's results and
+  // distances at x0 kept per pair, the repulsion's snapshot skips) is computed anew in
+  // every call. The same output bytes, slower: the reference the tests hold the
+  // shortcuts to. On by default.
+  void SetShortcuts(bool on);
   int NumVertices() const { return num_vertices_; }
   const std::vector<std::array<int, 2>>& edges() const { return edges_; }
   const Eigen::VectorXd& rest_lengths() const { return rest_lengths_; }
@@ -219,6 +225,7 @@ class CollisionHandler {
   BroadPhase broad_;                       // tree over the faces; its candidate superset is kept across calls
   StrainOrder strain_order_;
   RepelSnapshot repel_snapshot_;
+  bool shortcuts_ = true;
 };
 
 // Smallest distance (m) between mesh elements that share no vertex, over VF and EE

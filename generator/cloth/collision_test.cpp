@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <functional>
 #include <limits>
 
 #include "common/error.h"
@@ -862,6 +863,94 @@ TEST(CollisionApply, BoxesAreRecheckedAfterTheFailSafe) {
   EXPECT_EQ(rep.collider_violations, 0);
   EXPECT_EQ(PathBoxIntersections(m.F, m.V, x1, box, 64), 0);
   EXPECT_EQ(PathIntersections(m.F, m.V, x1, 16), 0);
+}
+
+// The shortcuts (CollisionHandler::SetShortcuts: the broad phase's kept superset and
+// rebuilt-every-few-searches tree, the CCD's candidates filtered from the repulsion's
+// pairs, the CCD's per-pair results and distances at x0, the repulsion's snapshot
+// skips) change no output byte: two handlers, shortcuts on and off, get the same
+// proposals step after step and must hand back the same positions and counts. Hard
+// cases: two layers squashed and shaken through each other (impulses, fail-safe zones),
+// and two layers hanging from a held corner under gravity (the strain clamp at the
+// grip, layers resting on each other, a cloth that falls, swings, then settles).
+void ExpectShortcutsChangeNothing(const TriMesh& m, const CollisionOptions& o, const Eigen::VectorXd& inv_mass,
+                                  int steps,
+                                  const std::function<Points3(const Points3&, const Points3&, int)>& propose) {
+  CollisionHandler fast(m.F, m.V, o), slow(m.F, m.V, o);
+  slow.SetShortcuts(false);
+  Points3 x = m.V, prev = m.V;
+  long long searches_fast = 0, searches_slow = 0, tests_fast = 0, tests_slow = 0;
+  int collisions = 0, zones = 0, corrections = 0, repelled = 0;
+  for (int step = 0; step < steps; ++step) {
+    const Points3 proposed = propose(x, prev, step);
+    Points3 a = proposed, b = proposed;
+    const CollisionReport ra = fast.Apply(x, a, inv_mass, 1.0 / 240, {});
+    const CollisionReport rb = slow.Apply(x, b, inv_mass, 1.0 / 240, {});
+    ASSERT_EQ(0, std::memcmp(a.data(), b.data(), sizeof(double) * a.size())) << "step " << step;
+    ASSERT_EQ(ra.ccd_collisions, rb.ccd_collisions) << "step " << step;
+    ASSERT_EQ(ra.proximity_pairs, rb.proximity_pairs) << "step " << step;
+    ASSERT_EQ(ra.strain_corrections, rb.strain_corrections) << "step " << step;
+    ASSERT_EQ(ra.zone_iterations, rb.zone_iterations) << "step " << step;
+    ASSERT_EQ(ra.strain_violations, rb.strain_violations) << "step " << step;
+    searches_fast += ra.broad_searches;
+    searches_slow += rb.broad_searches;
+    tests_fast += ra.ccd_tests;
+    tests_slow += rb.ccd_tests;
+    collisions += ra.ccd_collisions;
+    zones += ra.fail_safe_used;
+    corrections += ra.strain_corrections;
+    repelled += ra.proximity_pairs;
+    prev = x;
+    x = a;
+  }
+  EXPECT_LT(searches_fast, searches_slow);  // the shortcuts did cut work
+  EXPECT_LT(tests_fast, tests_slow);
+  ::testing::Test::RecordProperty("ccd_collisions", collisions);
+  ::testing::Test::RecordProperty("fail_safe_steps", zones);
+  ::testing::Test::RecordProperty("strain_corrections", corrections);
+  ::testing::Test::RecordProperty("proximity_pairs", repelled);
+  EXPECT_GT(collisions + repelled, 0);
+}
+
+TEST(CollisionApply, ShortcutsChangeNoByteWhenCrumpling) {
+  const TriMesh m = Layers(2, 8, 8, 0.01, 0.006);
+  CollisionOptions o = TestOptions();
+  o.max_strain = 0.1;
+  Eigen::VectorXd inv_mass = Eigen::VectorXd::Ones(m.V.rows());
+  inv_mass[0] = 0;
+  Rng rng(DeriveSeed(5, "shortcuts-crumple"));
+  ExpectShortcutsChangeNothing(m, o, inv_mass, 20, [&](const Points3& x, const Points3&, int) {
+    Points3 x1 = x + RandomMotion(x, rng, 0.012);
+    const Vec3 centre = x.colwise().mean().transpose();
+    for (int i = 0; i < x.rows(); ++i) x1.row(i) += 0.15 * (centre - x.row(i).transpose()).transpose();
+    x1.row(0) = x.row(0);
+    return x1;
+  });
+}
+
+TEST(CollisionApply, ShortcutsChangeNoByteWhenHanging) {
+  // Two 12 × 12 layers 3 mm apart (within the thickness), standing in the x–z plane,
+  // held at a top corner of both: they fall, swing and settle against each other.
+  TriMesh m = Layers(2, 12, 12, 0.01, 0.003);
+  for (int i = 0; i < m.V.rows(); ++i) m.V.row(i) = Vec3(m.V(i, 0), m.V(i, 2), m.V(i, 1)).transpose();
+  CollisionOptions o = TestOptions();
+  o.max_strain = 0.03;
+  Eigen::VectorXd inv_mass = Eigen::VectorXd::Ones(m.V.rows());
+  const int top = 11 * 12;  // node (0, 11) of the first layer; 144 + that of the second
+  inv_mass[top] = inv_mass[144 + top] = 0;
+  const double dt = 1.0 / 240;
+  ExpectShortcutsChangeNothing(m, o, inv_mass, 120, [&](const Points3& x, const Points3& prev, int step) {
+    Points3 x1 = x + 0.99 * (x - prev);
+    for (int i = 0; i < x1.rows(); ++i) {
+      if (inv_mass[i] == 0)
+        x1.row(i) = x.row(i);
+      else
+        x1(i, 2) -= 9.81 * dt * dt;
+    }
+    if (step == 60)  // a push across the layers halfway
+      for (int i = 0; i < 144; ++i) x1(i, 1) += 0.004;
+    return x1;
+  });
 }
 
 TEST(CollisionApply, Deterministic) {
