@@ -89,15 +89,19 @@ RefineResult RefineScan(const std::vector<double>& ranges, const RefineOptions& 
 }
 
 Vec3 IrScanPlan::JawDuringScan(double offset) const {
-  const Vec3 a = approach.normalized(), c = closing.normalized();
+  const Vec3& a = approach;
+  const Vec3& c = closing;
   Vec3 p = predicted - a * standoff + c * offset;
   if (at_jaw_line) p -= c * mount.x() + a.cross(c) * mount.y();
   return p;
 }
 
 Vec3 IrScanPlan::Grasp(const RefineResult& r) const {
-  const Vec3 a = approach.normalized(), c = closing.normalized();
-  return predicted + c * r.offset + a * (r.range + mount.z() - standoff + grasp_depth);
+  const Vec3& a = approach;
+  const Vec3& c = closing;
+  // Grouped as the first build computed it (--ir-above-jaws: the same rounding).
+  const Vec3 base = predicted - a * standoff;
+  return base + c * r.offset + a * (r.range + mount.z() + grasp_depth);
 }
 
 }  // namespace drape::unfolding

@@ -70,7 +70,7 @@ struct RefineResult {
 RefineResult RefineScan(const std::vector<double>& ranges, const RefineOptions& options);
 
 // Where the free gripper scans and where it closes (world frame, m). The gripper faces
-// `approach` (unit), its fingers close along `closing` (unit, ⊥ approach); the IR sensor
+// `approach` (unit, used as given), its fingers close along `closing` (unit, ⊥ approach); the IR sensor
 // sits at `mount` in the gripper frame (x = closing, y = approach × closing, z = approach;
 // hardware::RangeSensor::mount), so its beam runs along the approach at mount.x, mount.y
 // off the jaw centre.
