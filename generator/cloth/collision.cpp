@@ -29,6 +29,8 @@ constexpr long long kRepelSnapshotCalls = 4;  // Apply calls between repulsion s
 // fallbacks are off the exact distance by at most ~1e-7 × an edge length: ~1e-8 m for
 // edges of 10 cm).
 constexpr double kRepelSkipMargin = 1e-6;
+// The strain clamp's squared-length test (LimitStrain): squared bounds pulled in by these.
+constexpr double kSquaredBelow = 1 - 1e-12, kSquaredAbove = 1 + 1e-12;
 
 // ---------------------------------------------------------------------------------
 // Pairs: a VF pair (vertex, face) or an EE pair (edge, edge) as four node indices and
@@ -607,7 +609,15 @@ void LimitStrain(ApplyContext& cx, const Eigen::VectorXd& w) {
       const double L0 = cx.rest_lengths[e];
       if (!(L0 > 0) || !(wi + wj > 0)) continue;
       const Vec3 d = (cx.x1.row(j) - cx.x1.row(i)).transpose();
-      const double l = d.norm();
+      // Surely within the bounds from the squared length (bounds squared, pulled in by a
+      // relative 1e-12, far beyond the few ulps of rounding either side): the root below
+      // would find it so too, so it is not taken (its latency held up every edge measured).
+      const double l2 = d.squaredNorm(), hi_l = b.hi * L0, lo_l = b.lo * L0;
+      if (cx.shortcuts && l2 < hi_l * hi_l * kSquaredBelow && l2 > lo_l * lo_l * kSquaredAbove) {
+        checked[e] = tick;
+        continue;
+      }
+      const double l = std::sqrt(l2);
       double target = l;
       if (l > b.hi * L0) target = b.hi * L0;
       else if (l < b.lo * L0 && l > 0) target = b.lo * L0;

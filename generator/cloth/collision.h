@@ -206,7 +206,8 @@ class CollisionHandler {
   void SetStrainZones(bool on) { options_.strain_zones = on; }
   // Off: every result the handler keeps or skips work by (the broad phase's superset
   // and the CCD's candidates taken from the repulsion's pairs, the CCD's results and
-  // distances at x0 kept per pair, the repulsion's snapshot skips) is computed anew in
+  // distances at x0 kept per pair, the repulsion's snapshot skips, the strain clamp's
+  // squared-length test before the root) is computed anew in
   // every call. The same output bytes, slower: the reference the tests hold the
   // shortcuts to. On by default.
   void SetShortcuts(bool on);
