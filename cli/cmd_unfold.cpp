@@ -53,6 +53,12 @@ const char* kUsage =
     "  --category-known  tell recognition the category\n"
     "  --plan-prior K    after a regrasp keep the anchor it aimed at (or its twin) when recognition\n"
     "                    ranks it among its top K (default 3; 0 = recognise afresh, as the paper)\n"
+    "  --candidates K    register recognition's top K database entries (its answer first; after a\n"
+    "                    kept plan prior only that anchor's or its twin's) and predict from the\n"
+    "                    best fit: symmetric mean surface distance to the reconstruction\n"
+    "                    (default 1 = recognition's answer alone)\n"
+    "  --candidate-fit F the fit after the 'rigid' registration or after the 'final' one used\n"
+    "                    (R + N unless --rigid; default final)\n"
     "  --no-ir           ablation: grasp the registered point without IR refinement\n"
     "  --ir-above-jaws   the IR scan as first built: the jaw centre crosses the prediction and\n"
     "                    the beam (3 cm above the jaws) reads the cloth above it (default: the\n"
@@ -169,11 +175,11 @@ TableRow RunTrials(const ReleaseModel& model, const Variant& v, const std::strin
 }
 
 int RunUnfold(const std::vector<std::string>& argv) {
-  Args a(
-      argv,
-      {"--no-ir", "--ir-above-jaws", "--rigid", "--unweighted", "--ablations", "--no-figures", "--no-place",
-       "--category-known"},
-      {"--category", "--trials", "--seed", "-o", "--weights", "--frames", "--max-regrasps", "--jobs", "--plan-prior"});
+  Args a(argv,
+         {"--no-ir", "--ir-above-jaws", "--rigid", "--unweighted", "--ablations", "--no-figures", "--no-place",
+          "--category-known"},
+         {"--category", "--trials", "--seed", "-o", "--weights", "--frames", "--max-regrasps", "--jobs", "--plan-prior",
+          "--candidates", "--candidate-fit"});
   if (a.help()) {
     std::cout << kUsage;
     return 0;
@@ -198,6 +204,13 @@ int RunUnfold(const std::vector<std::string>& argv) {
   lo.place_flat = !a.Flag("--no-place");
   lo.plan_prior_top_k = static_cast<int>(a.GetInt("--plan-prior").value_or(lo.plan_prior_top_k));
   if (lo.plan_prior_top_k < 0 || lo.plan_prior_top_k > 5) throw Error("--plan-prior: must be in 0..5");
+  lo.candidates = static_cast<int>(a.GetInt("--candidates").value_or(lo.candidates));
+  if (lo.candidates < 1 || lo.candidates > 10) throw Error("--candidates: must be in 1..10");
+  if (const auto fit = a.Get("--candidate-fit")) {
+    if (*fit != "rigid" && *fit != "final")
+      throw Error("--candidate-fit: must be 'rigid' or 'final' (got '" + *fit + "')");
+    lo.fit_after_rigid = *fit == "rigid";
+  }
   const int jobs = static_cast<int>(a.GetInt("--jobs").value_or(1));
   if (jobs < 1) throw Error("--jobs: must be >= 1");
   if (jobs > 1) lo.fusion_threads = 1;  // the trials share the cores instead
@@ -232,6 +245,8 @@ int RunUnfold(const std::vector<std::string>& argv) {
                      {"ir_sample_spacing_m", lo.refine.sample_spacing},
                      {"ir_search_half_width_m", lo.refine.search_half_width_samples * lo.refine.sample_spacing},
                      {"plan_prior_top_k", lo.plan_prior_top_k},
+                     {"candidates", lo.candidates},
+                     {"candidate_fit", lo.fit_after_rigid ? "rigid" : "final"},
                      {"ir_at_jaw_line", lo.ir_at_jaw_line},
                      {"place_flat", lo.place_flat}};
     WriteFileAtomic(*out / "report.json", rj.dump(2) + "\n");

@@ -169,6 +169,18 @@ TEST(RecognitionRecognizer, FindsAnchorCategoryAndRotation) {
   EXPECT_EQ(r.top[0].anchor, "b");
   EXPECT_NE(r.top[1].anchor, "b");
   EXPECT_NE(r.top[2].anchor, r.top[1].anchor);
+  EXPECT_TRUE(r.entries.empty());  // listed only when asked for
+  // The ranked entries: any anchor or instance, best first, the best one leading.
+  o.top_entries = 4;
+  const Recognition e = rec.Recognize(Rotate(FlipBits(protos[1], rng, 2), 5), o);
+  ASSERT_EQ(e.entries.size(), 4u);
+  EXPECT_EQ(e.entries[0].entry, e.best.entry);
+  for (size_t i = 1; i < e.entries.size(); ++i) EXPECT_LE(e.entries[i - 1].score, e.entries[i].score);
+  o.top_entries = 100;  // more than the pose pool: all of it (the 6 pants entries)
+  EXPECT_EQ(rec.Recognize(protos[1], o).entries.size(), 6u);
+  o.top_entries = -1;
+  EXPECT_THROW(rec.Recognize(protos[1], o), Error);
+  o.top_entries = 0;
   // Restricting to one instance keeps the answer inside it.
   o.instance = "pants-2";
   EXPECT_EQ(rec.Recognize(protos[1], o).best.instance, "pants-2");

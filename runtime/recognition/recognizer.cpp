@@ -57,6 +57,8 @@ const std::vector<int>& Database::EntriesOf(const std::string& category) const {
 
 void RecognizeOptions::Validate() const {
   if (top_k < 1) throw Error("recognize options: top_k must be >= 1 (got " + std::to_string(top_k) + ")");
+  if (top_entries < 0)
+    throw Error("recognize options: top_entries must be >= 0 (got " + std::to_string(top_entries) + ")");
   if (!(query_height >= 0)) throw Error("recognize options: query_height must be >= 0 m (0 = unknown)");
   if (gates && !(gates->category >= 0 && gates->pose >= 0)) {
     throw Error("recognize options: height gates must be >= 0 (0 = no gate)");
@@ -195,6 +197,7 @@ Recognition Recognizer::Rank(const PreparedQuery& q, const std::vector<Match>& m
   });
   r.best = cands.front();
   r.anchor = r.best.anchor;
+  for (size_t i = 0; i < cands.size() && static_cast<int>(i) < options.top_entries; ++i) r.entries.push_back(cands[i]);
   std::set<std::string> seen;
   for (const auto& c : cands) {
     if (static_cast<int>(r.top.size()) >= options.top_k) break;
@@ -211,14 +214,23 @@ Json ToJson(const Recognition& r) {
   };
   Json top = Json::array();
   for (const auto& c : r.top) top.push_back(cand(c));
-  return Json{{"category", r.category}, {"category_source", r.category_source},
-              {"anchor", r.anchor},     {"weighted", r.weighted},
-              {"best", cand(r.best)},   {"top", top},
-              {"compared", r.compared},
-              {"query_height", r.query_height},
-              {"height_gates", {{"category", r.gates.category}, {"pose", r.gates.pose}}},
-              {"category_pool", r.category_pool},
-              {"pose_pool", r.pose_pool}};
+  Json out{{"category", r.category},
+           {"category_source", r.category_source},
+           {"anchor", r.anchor},
+           {"weighted", r.weighted},
+           {"best", cand(r.best)},
+           {"top", top},
+           {"compared", r.compared},
+           {"query_height", r.query_height},
+           {"height_gates", {{"category", r.gates.category}, {"pose", r.gates.pose}}},
+           {"category_pool", r.category_pool},
+           {"pose_pool", r.pose_pool}};
+  if (!r.entries.empty()) {  // only when asked for (RecognizeOptions::top_entries)
+    Json entries = Json::array();
+    for (const auto& c : r.entries) entries.push_back(cand(c));
+    out["entries"] = std::move(entries);
+  }
+  return out;
 }
 
 }  // namespace drape::recognition

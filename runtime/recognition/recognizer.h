@@ -113,6 +113,7 @@ struct Weights {
 
 struct RecognizeOptions {
   int top_k = 5;             // distinct (category, anchor) labels listed
+  int top_entries = 0;       // database entries listed in Recognition::entries (0 = none)
   std::string category;      // known category ("" = predict by unweighted NN)
   std::string instance;      // restrict the pose search to one database garment instance ("" = all)
   bool weighted = true;      // use the category's learned w when there is one
@@ -136,6 +137,7 @@ struct Recognition {
   std::string anchor;               // predicted anchor label
   Candidate best;                   // the matched database entry
   std::vector<Candidate> top;       // best entry of each of the top_k distinct anchors, best first
+  std::vector<Candidate> entries;   // the top_entries entries of the pose pool, best first (any anchor)
   bool weighted = false;            // whether a learned w ranked the pose
   double query_height = 0;          // as given (m)
   HeightGates gates;                // the gates applied (0: none)

@@ -16,6 +16,7 @@
 #include "runtime/recognition/calibrate.h"
 #include "runtime/recognition/evaluate.h"
 #include "runtime/recognition/release_source.h"
+#include "runtime/unfolding/candidates.h"
 
 namespace drape::unfolding {
 
@@ -40,6 +41,7 @@ void LoopOptions::Validate() const {
   if (!(sensing_height > 0.5 && sensing_height < 3)) throw Error("unfold.sensing_height: must be in (0.5, 3) m");
   if (!(success_distance > 0)) throw Error("unfold.success_distance: must be > 0 m");
   if (plan_prior_top_k < 0 || plan_prior_top_k > 5) throw Error("unfold.plan_prior_top_k: must be in 0..5");
+  if (candidates < 1 || candidates > 10) throw Error("unfold.candidates: must be in 1..10");
 }
 
 double Coverage(const TriMesh& lying, const Garment& garment, double mpp) {
@@ -310,6 +312,7 @@ struct TrialRun {
     ro.weighted = o.weighted;
     ro.query_height = fused.mesh.V.col(1).maxCoeff() - fused.mesh.V.col(1).minCoeff();  // height gates
     ro.top_k = std::max(ro.top_k, o.plan_prior_top_k);
+    if (o.candidates > 1) ro.top_entries = model.database().size();  // RegistrationCandidates filters them
     s.recognition = model.recognizer(o.weighted).Recognize(code, ro);
     s.recognised_anchor = s.recognition.anchor;
     ApplyPlanPrior(s);
@@ -330,21 +333,20 @@ struct TrialRun {
     s.recognition.anchor = s.recognition.best.anchor;
   }
 
-  // The next anchor by the objective f over the recognised category's desired pairs.
-  bool PlanNext(Step& s, const std::vector<DesiredPair>& pairs) {
-    const rec::Recognition& r = s.recognition;
-    const ScoreTable table(model.InstanceAnchors(r.best.instance), pairs, o.objective);
-    const int current = table.IndexOf(r.anchor);
+  // The next anchor by the objective f over the recognised category's desired pairs, from
+  // candidate `c`'s anchor on its instance. "" (with `why`) when no anchor is far enough.
+  std::string PlanFrom(const rec::Candidate& c, const std::vector<DesiredPair>& pairs, double* f,
+                       std::string* why) const {
+    const ScoreTable table(model.InstanceAnchors(c.instance), pairs, o.objective);
+    const int current = table.IndexOf(c.anchor);
     DRAPE_CHECK(current >= 0, "recognised anchor not among its instance's anchors");
     const ScoreTable::Next next = table.BestNext(current);
     if (next.anchor < 0) {
-      res.failure = "no anchor of " + r.best.instance + " is far enough from " + r.anchor + " to regrasp";
-      return false;
+      *why = "no anchor of " + c.instance + " is far enough from " + c.anchor + " to regrasp";
+      return "";
     }
-    s.current_anchor = r.anchor;
-    s.next_anchor = table.anchor(next.anchor).label;
-    s.f = next.f;
-    return true;
+    *f = next.f;
+    return table.anchor(next.anchor).label;
   }
 
   // Score colouring of the registered mesh: each vertex's pattern point is unknown
@@ -365,46 +367,84 @@ struct TrialRun {
     }
   }
 
-  // Registration of the matched database mesh (turned by the recognised rotation) onto
-  // the reconstruction; the next anchor's point predicted in the world frame.
-  bool RegisterAndPredict(Step& s, const rec::Database& db, const std::vector<DesiredPair>& pairs) {
-    const rec::Recognition& r = s.recognition;
+  // Registration of each candidate's database mesh (turned by its recognised rotation)
+  // onto the reconstruction, its plan and its next anchor mapped onto the reconstruction;
+  // the best fit is kept (candidates.h) and the regrasp point predicted in the world frame.
+  bool PlanRegisterAndPredict(Step& s, const rec::Database& db, const std::vector<DesiredPair>& pairs) {
     const auto t0 = Clock::now();
-    TriMesh src = model.HungMesh(r.best.entry);
-    const double yaw = 2 * M_PI * r.best.rotation / db.sectors();
-    const Eigen::Matrix3d R = Eigen::AngleAxisd(yaw, Vec3::UnitY()).toRotationMatrix();
-    for (int i = 0; i < src.NumVertices(); ++i) src.V.row(i) = (R * src.V.row(i).transpose()).transpose();
-    registration::RegistrationOptions rgo;
-    rgo.nonrigid = o.nonrigid;
-    registration::RegistrationResult reg;
-    try {
-      reg = registration::Register(src, s.recon, rgo);
-    } catch (const NumericalError& e) {
-      rgo.nonrigid = false;  // fall back to the rigid result
-      reg = registration::Register(src, s.recon, rgo);
-      s.note = std::string("non-rigid registration failed (") + e.what() + "); rigid used";
-    }
-    s.registered = o.nonrigid ? reg.nonrigid : reg.rigid;
-    s.icp_rms = reg.report.icp.rms_after;
-    const int v = model.AnchorVertex(r.best.instance, s.next_anchor);
-    if (v < 0 || v >= s.registered.NumVertices()) {
-      res.failure = "the database has no vertex for anchor " + s.next_anchor + " of " + r.best.instance;
-      return false;
-    }
-    ColourByScore(s, pairs);
-    // Map onto the reconstruction: the closest point of the fused surface.
+    const std::vector<rec::Candidate> cands = RegistrationCandidates(s.recognition, s.prior_rank >= 0, o.candidates);
+    s.recognition.entries.clear();  // the trace lists the candidates
     const ExactClosestPoint onto(s.recon);
-    const Vec3 p_obj = onto.Query(s.registered.V.row(v).transpose()).point;
-    res.times.registration += Since(t0);
     const hw::GripperPose hp = world.arm(holder).pose();
     const Eigen::Matrix3d to_world = Eigen::AngleAxisd(hp.wrist, Vec3::UnitY()).toRotationMatrix();
-    s.predicted = to_world * p_obj + hp.position;
-    s.ladder.rigid = to_world * reg.rigid.V.row(v).transpose() + hp.position;
+    std::vector<CandidateRegistration> regs(cands.size());
+    std::vector<int> vertex(cands.size(), -1);
+    std::vector<double> fits(cands.size(), -1);
+    std::string first_failure;
+    for (size_t i = 0; i < cands.size(); ++i) {
+      const auto tc = Clock::now();
+      Step::CandidateTrace t;
+      t.candidate = cands[i];
+      t.right = cands[i].category == category && cands[i].anchor == s.held_true_anchor;
+      const std::vector<std::string> twins = rec::SymmetryTwins(s.held_true_anchor);
+      t.twin = cands[i].category == category && std::find(twins.begin(), twins.end(), cands[i].anchor) != twins.end();
+      if (t.right && s.true_rank < 0) s.true_rank = static_cast<int>(i);
+      std::string why;
+      t.next_anchor = PlanFrom(cands[i], pairs, &t.f, &why);
+      if (t.next_anchor.empty()) {
+        t.note = why;
+        if (first_failure.empty()) first_failure = why;
+        s.candidates.push_back(std::move(t));
+        continue;
+      }
+      TriMesh src = model.HungMesh(cands[i].entry);
+      const double yaw = 2 * M_PI * cands[i].rotation / db.sectors();
+      const Eigen::Matrix3d R = Eigen::AngleAxisd(yaw, Vec3::UnitY()).toRotationMatrix();
+      for (int j = 0; j < src.NumVertices(); ++j) src.V.row(j) = (R * src.V.row(j).transpose()).transpose();
+      regs[i] = RegisterCandidate(src, s.recon, onto, o.nonrigid);
+      t.note = regs[i].note;
+      t.icp_rms = regs[i].reg.report.icp.rms_after;
+      t.fit_rigid = regs[i].fit_rigid;
+      t.fit_final = regs[i].fit_final;
+      const int v = model.AnchorVertex(cands[i].instance, t.next_anchor);
+      if (v < 0 || v >= regs[i].final_mesh().NumVertices()) {
+        t.note = "the database has no vertex for anchor " + t.next_anchor + " of " + cands[i].instance;
+        if (first_failure.empty()) first_failure = t.note;
+      } else {
+        vertex[i] = v;
+        t.usable = true;
+        fits[i] = o.fit_after_rigid ? t.fit_rigid : t.fit_final;
+        t.predicted = to_world * onto.Query(regs[i].final_mesh().V.row(v).transpose()).point + hp.position;
+      }
+      t.seconds = Since(tc);
+      s.candidates.push_back(std::move(t));
+    }
+    res.times.registration += Since(t0);
+    s.kept = KeepCandidate(fits);
+    if (s.kept < 0) {
+      res.failure = first_failure;
+      return false;
+    }
+    const Step::CandidateTrace& k = s.candidates[s.kept];
+    const CandidateRegistration& reg = regs[s.kept];
+    s.kept_right = k.right;
+    s.recognition.best = k.candidate;
+    s.recognition.anchor = k.candidate.anchor;
+    s.current_anchor = k.candidate.anchor;
+    s.next_anchor = k.next_anchor;
+    s.f = k.f;
+    s.registered = reg.final_mesh();
+    s.icp_rms = k.icp_rms;
+    if (!reg.note.empty()) s.note = reg.note;
+    ColourByScore(s, pairs);
+    const int v = vertex[s.kept];
+    s.predicted = k.predicted;
+    s.ladder.rigid = to_world * reg.reg.rigid.V.row(v).transpose() + hp.position;
     s.ladder.nonrigid = to_world * s.registered.V.row(v).transpose() + hp.position;
     return true;
   }
 
-  // Sweep → fusion → feature → recognition → plan → registration; fills `s`.
+  // Sweep → fusion → feature → recognition → candidates: plan + registration; fills `s`.
   // Returns false (with res.failure) when no plan can be made.
   bool SenseAndPlan(Step& s, int iteration, const rec::Database& db) {
     if (!SenseAndRecognise(s, iteration)) return false;
@@ -413,13 +453,25 @@ struct TrialRun {
       res.failure = "recognised as '" + s.recognition.category + "', which has no desired anchor pair";
       return false;
     }
-    return PlanNext(s, pairs) && RegisterAndPredict(s, db, pairs);
+    return PlanRegisterAndPredict(s, db, pairs);
   }
 
   // Evaluation only: how far the predicted and grasp points are from the real garment's
   // next anchor (or its twin, whichever is nearer the prediction) as it hangs now.
   void MeasureAgainstTruth(Step& s) const {
     const Garment& g = world.garment();
+    // Each candidate's prediction against its own next anchor (or a twin, nearer).
+    for (Step::CandidateTrace& t : s.candidates) {
+      if (!t.usable) continue;
+      std::vector<std::string> ls = rec::SymmetryTwins(t.next_anchor);
+      ls.insert(ls.begin(), t.next_anchor);
+      for (const std::string& l : ls) {
+        const Anchor* a = g.FindAnchor(l);
+        if (!a || a->vertex < 0 || a->vertex >= world.mesh().NumVertices()) continue;
+        const double d = (t.predicted - Vec3(world.mesh().V.row(a->vertex))).norm();
+        if (t.predicted_error < 0 || d < t.predicted_error) t.predicted_error = d;
+      }
+    }
     std::vector<std::string> labels = rec::SymmetryTwins(s.next_anchor);
     labels.insert(labels.begin(), s.next_anchor);
     double best = std::numeric_limits<double>::infinity();
@@ -627,6 +679,35 @@ TrialResult RunTrial(const ReleaseModel& model, const std::string& category, con
   return res;
 }
 
+namespace {
+// The registration candidates of a step, the one kept and its truth, into its trace `j`.
+void AddCandidates(const Step& s, Json& j) {
+  Json cands = Json::array();
+  for (const Step::CandidateTrace& t : s.candidates) {
+    const rec::Candidate& c = t.candidate;
+    cands.push_back({{"entry", c.id},
+                     {"instance", c.instance},
+                     {"anchor", c.anchor},
+                     {"rotation", c.rotation},
+                     {"score", c.score},
+                     {"usable", t.usable},
+                     {"next_anchor", t.next_anchor},
+                     {"f", t.f},
+                     {"fit_rigid_m", t.fit_rigid},
+                     {"fit_final_m", t.fit_final},
+                     {"icp_rms", t.icp_rms},
+                     {"predicted", J(t.predicted)},
+                     {"note", t.note},
+                     {"seconds", t.seconds},
+                     {"truth", {{"right", t.right}, {"twin", t.twin}, {"predicted_error_m", t.predicted_error}}}});
+  }
+  j["candidates"] = std::move(cands);
+  j["kept_candidate"] = s.kept;
+  j["truth"]["kept_right"] = s.kept_right;
+  j["truth"]["true_rank"] = s.true_rank;
+}
+}  // namespace
+
 Json TrialResult::ToJson() const {
   Json steps_j = Json::array();
   for (const Step& s : steps) {
@@ -679,6 +760,7 @@ Json TrialResult::ToJson() const {
                {"no_ir_pinch_error_m", s.ladder.no_ir_pinch_error},
                {"no_ir_pattern_error_m", s.ladder.no_ir_pattern_error}}}}},
            {"note", s.note}};
+    AddCandidates(s, j);
     // No reading (nothing in range) → null.
     for (size_t i = 0; i < s.ir_ranges.size(); ++i)
       if (!std::isfinite(s.ir_ranges[i])) j["ir_ranges"][i] = nullptr;

@@ -50,6 +50,13 @@ struct LoopOptions {
   // else take recognition's answer. 0 = recognise every hang afresh, as the paper's
   // Algorithm does. Must be in 0..5 (recognition lists 5).
   int plan_prior_top_k = 3;
+  // Registration candidates (candidates.h): register recognition's top `candidates`
+  // database entries (its answer first; after a kept plan prior only entries of that
+  // anchor or its twin) and predict from the one that fits the reconstruction best
+  // (SymmetricFit after the rigid registration when `fit_after_rigid`, else after the
+  // registration used, R + N by default). 1 = recognition's answer alone. Must be in 1..10.
+  int candidates = 1;
+  bool fit_after_rigid = false;
   hardware::CaptureOptions capture;  // frames per turn (paper ~550 both ways)
   int fusion_threads = 0;            // TSDF fusion threads (<= 0: all cores); no effect on results
   double standoff = 0.12;       // m: the IR scan runs this far before the predicted point
@@ -126,7 +133,29 @@ struct Step {
   std::string aimed_anchor;       // where the last regrasp aimed ("" at the first step)
   std::string recognised_anchor;  // recognition's own answer, before the plan prior
   int prior_rank = -1;            // rank of the aimed anchor (or twin) kept; -1: not kept
-  // Registration of the matched database mesh.
+  // Registration candidates (LoopOptions::candidates), in recognition's order, and the
+  // one kept (index; its entry is then recognition.best and its anchor the current one).
+  struct CandidateTrace {
+    recognition::Candidate candidate;
+    std::string next_anchor;  // the plan from this candidate's anchor
+    double f = 0;
+    double fit_rigid = -1, fit_final = -1;  // SymmetricFit (m) after R and after the registration used
+    double icp_rms = 0;
+    double seconds = 0;             // registration + fit (timing only)
+    Vec3 predicted = Vec3::Zero();  // world: its next anchor mapped onto the reconstruction
+    bool usable = false;            // registered and planned (its fit can be kept)
+    std::string note;               // why it could not be used, or the non-rigid fallback
+    // Truth, evaluation only: the candidate's anchor is the held one / a twin of it; the
+    // distance of its prediction to its next anchor (or a twin, nearer) as the cloth hangs
+    // (m, -1 when not planned).
+    bool right = false, twin = false;
+    double predicted_error = -1;
+  };
+  std::vector<CandidateTrace> candidates;
+  int kept = -1;
+  bool kept_right = false;  // truth: the kept candidate's anchor is the held true anchor
+  int true_rank = -1;       // truth: first candidate whose anchor is the held true anchor
+  // Registration of the kept candidate.
   TriMesh registered;           // the database mesh after R (+N), object frame
   std::vector<double> point_score;  // per registered vertex: ScoreTable::PointScore of its uv
   double icp_rms = 0;

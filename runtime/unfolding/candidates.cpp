@@ -1,0 +1,60 @@
+// Registration against recognition's top-k candidates (see candidates.h).
+#include "runtime/unfolding/candidates.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "common/error.h"
+#include "runtime/recognition/evaluate.h"
+
+namespace drape::unfolding {
+
+namespace rec = drape::recognition;
+
+std::vector<rec::Candidate> RegistrationCandidates(const rec::Recognition& r, bool prior_kept, int k) {
+  if (k < 1) throw Error("registration candidates: k must be >= 1 (got " + std::to_string(k) + ")");
+  std::vector<rec::Candidate> out{r.best};
+  std::vector<std::string> accept = rec::SymmetryTwins(r.anchor);
+  accept.push_back(r.anchor);
+  for (const rec::Candidate& c : r.entries) {
+    if (static_cast<int>(out.size()) >= k) break;
+    if (c.entry == r.best.entry) continue;
+    if (prior_kept && std::find(accept.begin(), accept.end(), c.anchor) == accept.end()) continue;
+    out.push_back(c);
+  }
+  return out;
+}
+
+double SymmetricFit(const TriMesh& registered, const TriMesh& recon, const ExactClosestPoint& onto_recon) {
+  const ExactClosestPoint onto_registered(registered);
+  return 0.5 * (registration::MeasureDirected(registered, onto_recon).mean +
+                registration::MeasureDirected(recon, onto_registered).mean);
+}
+
+CandidateRegistration RegisterCandidate(const TriMesh& source, const TriMesh& recon,
+                                        const ExactClosestPoint& onto_recon, bool nonrigid) {
+  CandidateRegistration c;
+  registration::RegistrationOptions o;
+  o.nonrigid = nonrigid;
+  try {
+    c.reg = registration::Register(source, recon, o);
+  } catch (const NumericalError& e) {
+    o.nonrigid = false;  // fall back to the rigid result
+    c.reg = registration::Register(source, recon, o);
+    c.note = std::string("non-rigid registration failed (") + e.what() + "); rigid used";
+  }
+  c.fit_rigid = SymmetricFit(c.reg.rigid, recon, onto_recon);
+  c.fit_final = o.nonrigid ? SymmetricFit(c.reg.nonrigid, recon, onto_recon) : c.fit_rigid;
+  return c;
+}
+
+int KeepCandidate(const std::vector<double>& fits) {
+  int best = -1;
+  for (int i = 0; i < static_cast<int>(fits.size()); ++i) {
+    if (!(std::isfinite(fits[i]) && fits[i] >= 0)) continue;
+    if (best < 0 || fits[i] < fits[best]) best = i;
+  }
+  return best;
+}
+
+}  // namespace drape::unfolding

@@ -1,0 +1,51 @@
+// Registration against recognition's top-k candidates (docs/unfolding.md, "Top-k
+// registration candidates"): the regrasp point is predicted from the database entry
+// whose registration fits the reconstruction best, not from recognition's first entry
+// alone. One hang tells a garment's left/right twins, neighbouring anchors and database
+// instances apart poorly (strict pose accuracy ~40–47 % on the paper release), while a
+// wrong entry registered onto the reconstruction carries its anchor elsewhere.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "common/closest_point.h"
+#include "common/mesh.h"
+#include "runtime/recognition/recognizer.h"
+#include "runtime/registration/registration.h"
+
+namespace drape::unfolding {
+
+// The database entries to register, best first: recognition's answer `r.best` (after the
+// plan prior), then the next entries of `r.entries` (ranked by recognition's weighted
+// Hamming distance, any anchor or instance, the twin included) up to `k` in all. When
+// `prior_kept` (the plan prior chose the anchor), only entries of r.anchor or a symmetry
+// twin of it follow: the arm knows where it was sent, the candidates decide the database
+// instance and the side. k = 1 is recognition's answer alone. Throws drape::Error if
+// k < 1.
+std::vector<recognition::Candidate> RegistrationCandidates(const recognition::Recognition& r, bool prior_kept, int k);
+
+// How well a registered database mesh fits the reconstruction: the symmetric mean of the
+// paper's two directed errors (registration.h MeasureDirected: area-weighted mean
+// distance from each mesh's triangle barycentres to the other surface), metres.
+double SymmetricFit(const TriMesh& registered, const TriMesh& recon, const ExactClosestPoint& onto_recon);
+
+// One candidate registered: `Register` (rigid, then non-rigid when `nonrigid`; a
+// non-rigid breakdown falls back to the rigid result with `note` set) and the fit of the
+// rigid and of the final mesh (= rigid when rigid-only).
+struct CandidateRegistration {
+  registration::RegistrationResult reg;
+  const TriMesh& final_mesh() const { return reg.nonrigid; }  // == reg.rigid when rigid-only
+  double fit_rigid = -1, fit_final = -1;                      // SymmetricFit, m
+  std::string note;
+};
+// `source` is the database mesh already turned by the candidate's rotation.
+CandidateRegistration RegisterCandidate(const TriMesh& source, const TriMesh& recon,
+                                        const ExactClosestPoint& onto_recon, bool nonrigid);
+
+// Index of the smallest fit (ties: the earlier, i.e. recognition's better rank); fits
+// < 0 or not finite are skipped (a candidate that could not be registered or planned).
+// -1 if none is usable.
+int KeepCandidate(const std::vector<double>& fits);
+
+}  // namespace drape::unfolding

@@ -1,0 +1,119 @@
+#include "runtime/unfolding/candidates.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "common/error.h"
+#include "runtime/registration/test_meshes.h"
+
+namespace drape::unfolding {
+namespace {
+
+namespace rec = drape::recognition;
+namespace rt = drape::registration::testing;
+
+// A recognition whose ranked entries are (instance, anchor) pairs, best first; `best` is
+// entry `best` (the plan prior may have chosen one below the first).
+rec::Recognition Entries(const std::vector<std::pair<std::string, std::string>>& e, int best = 0) {
+  rec::Recognition r;
+  for (size_t i = 0; i < e.size(); ++i) {
+    rec::Candidate c;
+    c.entry = static_cast<int>(i);
+    c.category = "pants";
+    c.instance = e[i].first;
+    c.anchor = e[i].second;
+    c.score = static_cast<double>(i);
+    r.entries.push_back(c);
+  }
+  r.best = r.entries[best];
+  r.anchor = r.best.anchor;
+  return r;
+}
+
+TEST(RegistrationCandidates, RecognitionsAnswerFirstThenItsRankedEntries) {
+  const auto r = Entries({{"i0", "left_leg_inner"},
+                          {"i1", "left_leg_inner"},
+                          {"i0", "right_leg_inner"},
+                          {"i1", "left_leg_outer"},
+                          {"i0", "crotch"}});
+  const auto one = RegistrationCandidates(r, false, 1);  // today's loop: the answer alone
+  ASSERT_EQ(one.size(), 1u);
+  EXPECT_EQ(one[0].entry, 0);
+  const auto three = RegistrationCandidates(r, false, 3);
+  ASSERT_EQ(three.size(), 3u);
+  EXPECT_EQ(three[1].instance, "i1");                          // the other database instance
+  EXPECT_EQ(three[2].anchor, "right_leg_inner");               // the twin
+  EXPECT_EQ(RegistrationCandidates(r, false, 10).size(), 5u);  // fewer ranked than k
+  EXPECT_THROW(RegistrationCandidates(r, false, 0), Error);
+}
+
+TEST(RegistrationCandidates, AKeptPlanPriorKeepsItsAnchorOrTwin) {
+  // The plan prior took the outer corner ranked fourth: the candidates are that entry,
+  // then only entries of the outer corners (either side, any instance).
+  const auto r = Entries({{"i0", "left_leg_inner"},
+                          {"i1", "right_leg_outer"},
+                          {"i0", "right_leg_inner"},
+                          {"i0", "left_leg_outer"},
+                          {"i1", "left_leg_outer"}},
+                         3);
+  const auto c = RegistrationCandidates(r, true, 3);
+  ASSERT_EQ(c.size(), 3u);
+  EXPECT_EQ(c[0].entry, 3);
+  EXPECT_EQ(c[1].entry, 1);  // right_leg_outer: its twin
+  EXPECT_EQ(c[2].entry, 4);  // the other instance
+}
+
+TEST(KeepCandidate, SmallestUsableFitEarlierOnTies) {
+  EXPECT_EQ(KeepCandidate({0.03, 0.01, 0.02}), 1);
+  EXPECT_EQ(KeepCandidate({0.02, 0.02}), 0);
+  EXPECT_EQ(KeepCandidate({-1, 0.05, std::numeric_limits<double>::quiet_NaN()}), 1);
+  EXPECT_EQ(KeepCandidate({-1, -1}), -1);
+  EXPECT_EQ(KeepCandidate({}), -1);
+}
+
+// The hand-made case: the reconstruction is a hanging tube, slightly deformed;
+// recognition ranks a wide, short tube first (another anchor's hang) and the right shape,
+// turned by a quarter turn and moved, second. Registered, the right one fits best and is
+// kept, after rigid registration and after the non-rigid one.
+TEST(KeepCandidate, TheRightShapeRankedSecondFitsBest) {
+  const TriMesh tube = rt::FlatTube(24, 18, 0.35, 0.8, 0.06);
+  const TriMesh recon{rt::SmoothDeform(tube.V, 0.01, 5.0), tube.F};
+  const TriMesh wrong = rt::FlatTube(24, 18, 0.8, 0.35, 0.06);
+  TriMesh right = tube;
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(M_PI / 2, Vec3::UnitY()).toRotationMatrix();
+  for (int i = 0; i < right.NumVertices(); ++i)
+    right.V.row(i) = (R * right.V.row(i).transpose() + Vec3(0.05, -0.03, 0.02)).transpose();
+  const ExactClosestPoint onto(recon);
+  for (const bool nonrigid : {false, true}) {
+    const CandidateRegistration a = RegisterCandidate(wrong, recon, onto, nonrigid);
+    const CandidateRegistration b = RegisterCandidate(right, recon, onto, nonrigid);
+    EXPECT_TRUE(a.note.empty()) << a.note;
+    EXPECT_TRUE(b.note.empty()) << b.note;
+    EXPECT_LT(b.fit_rigid, 0.01) << "nonrigid " << nonrigid;  // the right shape lands on it
+    EXPECT_GT(a.fit_rigid, 2 * b.fit_rigid) << "nonrigid " << nonrigid;
+    EXPECT_EQ(KeepCandidate({a.fit_rigid, b.fit_rigid}), 1);
+    EXPECT_EQ(KeepCandidate({a.fit_final, b.fit_final}), 1) << "nonrigid " << nonrigid;
+    if (!nonrigid) {
+      EXPECT_EQ(a.fit_final, a.fit_rigid);
+    } else {
+      EXPECT_LE(b.fit_final, b.fit_rigid + 1e-9);
+    }
+  }
+}
+
+TEST(SymmetricFit, ZeroOnItselfAndTheMeanOfBothDirections) {
+  const TriMesh sheet = rt::WavySheet(12, 10, 0.5, 0.4, 0.0);  // flat, z = 0
+  const ExactClosestPoint onto(sheet);
+  EXPECT_NEAR(SymmetricFit(sheet, sheet, onto), 0.0, 1e-12);
+  // The same sheet 2 cm off: 2 cm both ways.
+  TriMesh off = sheet;
+  off.V.col(2).array() += 0.02;
+  EXPECT_NEAR(SymmetricFit(off, sheet, onto), 0.02, 1e-9);
+}
+
+}  // namespace
+}  // namespace drape::unfolding
