@@ -131,6 +131,34 @@ Recognition Recognizer::Recognize(const Code& query, const RecognizeOptions& opt
   return r;
 }
 
+namespace {
+// `entries` scored (weighted by `w` if given, else Eq. match's distance) and sorted, best
+// first (ties: the lower entry).
+std::vector<Candidate> Ranked(const Database& db, const std::vector<int>& entries, const PreparedQuery& q,
+                              const std::vector<Match>& matches, const PreparedWeights* w) {
+  std::vector<Candidate> cands;
+  cands.reserve(entries.size());
+  for (int i : entries) {
+    Candidate c;
+    c.entry = i;
+    const EntryLabel& l = db.label(i);
+    c.id = l.id;
+    c.category = l.category;
+    c.instance = l.instance;
+    c.anchor = l.anchor;
+    c.distance = matches[i].distance;
+    c.rotation = matches[i].rotation;
+    c.score = w ? db.matcher().Weighted(i, q, c.rotation, *w) : double(c.distance);
+    cands.push_back(std::move(c));
+  }
+  std::stable_sort(cands.begin(), cands.end(), [](const Candidate& a, const Candidate& b) {
+    if (a.score != b.score) return a.score < b.score;
+    return a.entry < b.entry;
+  });
+  return cands;
+}
+}  // namespace
+
 Recognition Recognizer::Rank(const PreparedQuery& q, const std::vector<Match>& matches,
                              const RecognizeOptions& options) const {
   options.Validate();
@@ -168,6 +196,7 @@ Recognition Recognizer::Rank(const PreparedQuery& q, const std::vector<Match>& m
     throw Error("recognize: database instance '" + options.instance + "' has no entries of category '" +
                 r.category + "' (instances: " + JoinNames(db_.instances(r.category)) + ")");
   }
+  const std::vector<int> ungated = pool;
   pool = HeightGated(db_, pool, options.query_height, r.gates.pose);
   r.pose_pool = static_cast<int>(pool.size());
   const PreparedWeights* w = nullptr;
@@ -176,28 +205,14 @@ Recognition Recognizer::Rank(const PreparedQuery& q, const std::vector<Match>& m
     if (it != weights_.end()) w = &it->second;
   }
   r.weighted = w != nullptr;
-  std::vector<Candidate> cands;
-  cands.reserve(pool.size());
-  for (int i : pool) {
-    Candidate c;
-    c.entry = i;
-    const EntryLabel& l = db_.label(i);
-    c.id = l.id;
-    c.category = l.category;
-    c.instance = l.instance;
-    c.anchor = l.anchor;
-    c.distance = matches[i].distance;
-    c.rotation = matches[i].rotation;
-    c.score = w ? db_.matcher().Weighted(i, q, c.rotation, *w) : double(c.distance);
-    cands.push_back(std::move(c));
-  }
-  std::stable_sort(cands.begin(), cands.end(), [](const Candidate& a, const Candidate& b) {
-    if (a.score != b.score) return a.score < b.score;
-    return a.entry < b.entry;
-  });
+  const std::vector<Candidate> cands = Ranked(db_, pool, q, matches, w);
   r.best = cands.front();
   r.anchor = r.best.anchor;
-  for (size_t i = 0; i < cands.size() && static_cast<int>(i) < options.top_entries; ++i) r.entries.push_back(cands[i]);
+  if (options.top_entries > 0) {
+    std::vector<Candidate> all = Ranked(db_, ungated, q, matches, w);
+    if (static_cast<int>(all.size()) > options.top_entries) all.resize(options.top_entries);
+    r.entries = std::move(all);
+  }
   std::set<std::string> seen;
   for (const auto& c : cands) {
     if (static_cast<int>(r.top.size()) >= options.top_k) break;

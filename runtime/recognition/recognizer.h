@@ -137,7 +137,10 @@ struct Recognition {
   std::string anchor;               // predicted anchor label
   Candidate best;                   // the matched database entry
   std::vector<Candidate> top;       // best entry of each of the top_k distinct anchors, best first
-  std::vector<Candidate> entries;   // the top_entries entries of the pose pool, best first (any anchor)
+  // The top_entries entries of the category (any anchor; the instance restriction kept,
+  // the pose height gate not applied), best first by the same score: the registration
+  // candidates (runtime/unfolding/candidates.h) are checked by their fit instead.
+  std::vector<Candidate> entries;
   bool weighted = false;            // whether a learned w ranked the pose
   double query_height = 0;          // as given (m)
   HeightGates gates;                // the gates applied (0: none)

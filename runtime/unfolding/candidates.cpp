@@ -11,14 +11,30 @@ namespace drape::unfolding {
 
 namespace rec = drape::recognition;
 
-std::vector<rec::Candidate> RegistrationCandidates(const rec::Recognition& r, bool prior_kept, int k) {
+std::vector<rec::Candidate> RegistrationCandidates(const rec::Recognition& r, bool prior_kept, const std::string& aimed,
+                                                   int k) {
   if (k < 1) throw Error("registration candidates: k must be >= 1 (got " + std::to_string(k) + ")");
   std::vector<rec::Candidate> out{r.best};
-  std::vector<std::string> accept = rec::SymmetryTwins(r.anchor);
-  accept.push_back(r.anchor);
+  auto listed = [&out](const rec::Candidate& c) {
+    return std::any_of(out.begin(), out.end(), [&c](const rec::Candidate& o) { return o.entry == c.entry; });
+  };
+  auto of = [](const std::string& anchor) {
+    std::vector<std::string> a = rec::SymmetryTwins(anchor);
+    a.push_back(anchor);
+    return a;
+  };
+  if (!prior_kept && !aimed.empty() && k > 1) {
+    const std::vector<std::string> a = of(aimed);
+    for (const rec::Candidate& c : r.entries) {
+      if (std::find(a.begin(), a.end(), c.anchor) == a.end() || listed(c)) continue;
+      out.push_back(c);
+      break;
+    }
+  }
+  const std::vector<std::string> accept = of(r.anchor);
   for (const rec::Candidate& c : r.entries) {
     if (static_cast<int>(out.size()) >= k) break;
-    if (c.entry == r.best.entry) continue;
+    if (listed(c)) continue;
     if (prior_kept && std::find(accept.begin(), accept.end(), c.anchor) == accept.end()) continue;
     out.push_back(c);
   }

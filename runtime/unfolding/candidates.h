@@ -17,13 +17,17 @@
 namespace drape::unfolding {
 
 // The database entries to register, best first: recognition's answer `r.best` (after the
-// plan prior), then the next entries of `r.entries` (ranked by recognition's weighted
-// Hamming distance, any anchor or instance, the twin included) up to `k` in all. When
-// `prior_kept` (the plan prior chose the anchor), only entries of r.anchor or a symmetry
-// twin of it follow: the arm knows where it was sent, the candidates decide the database
-// instance and the side. k = 1 is recognition's answer alone. Throws drape::Error if
-// k < 1.
-std::vector<recognition::Candidate> RegistrationCandidates(const recognition::Recognition& r, bool prior_kept, int k);
+// plan prior), then the next entries of `r.entries` (the category's entries ranked by
+// recognition's weighted Hamming distance, any anchor or instance, the twin included,
+// without the pose height gate) up to `k` in all. When `prior_kept` (the plan prior chose
+// the anchor), only entries of r.anchor or a symmetry twin of it follow: the arm knows
+// where it was sent, the candidates decide the database instance and the side. When the
+// last regrasp aimed at `aimed` but the prior was not kept (recognition did not rank it
+// among its top anchors), the best entry of `aimed` or its twin comes second: the fit
+// decides between recognition and the arm. k = 1 is recognition's answer alone. Throws
+// drape::Error if k < 1.
+std::vector<recognition::Candidate> RegistrationCandidates(const recognition::Recognition& r, bool prior_kept,
+                                                           const std::string& aimed, int k);
 
 // How well a registered database mesh fits the reconstruction: the symmetric mean of the
 // paper's two directed errors (registration.h MeasureDirected: area-weighted mean

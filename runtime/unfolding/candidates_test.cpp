@@ -40,15 +40,15 @@ TEST(RegistrationCandidates, RecognitionsAnswerFirstThenItsRankedEntries) {
                           {"i0", "right_leg_inner"},
                           {"i1", "left_leg_outer"},
                           {"i0", "crotch"}});
-  const auto one = RegistrationCandidates(r, false, 1);  // today's loop: the answer alone
+  const auto one = RegistrationCandidates(r, false, "", 1);  // today's loop: the answer alone
   ASSERT_EQ(one.size(), 1u);
   EXPECT_EQ(one[0].entry, 0);
-  const auto three = RegistrationCandidates(r, false, 3);
+  const auto three = RegistrationCandidates(r, false, "", 3);
   ASSERT_EQ(three.size(), 3u);
   EXPECT_EQ(three[1].instance, "i1");                          // the other database instance
   EXPECT_EQ(three[2].anchor, "right_leg_inner");               // the twin
-  EXPECT_EQ(RegistrationCandidates(r, false, 10).size(), 5u);  // fewer ranked than k
-  EXPECT_THROW(RegistrationCandidates(r, false, 0), Error);
+  EXPECT_EQ(RegistrationCandidates(r, false, "", 10).size(), 5u);  // fewer ranked than k
+  EXPECT_THROW(RegistrationCandidates(r, false, "", 0), Error);
 }
 
 TEST(RegistrationCandidates, AKeptPlanPriorKeepsItsAnchorOrTwin) {
@@ -60,11 +60,26 @@ TEST(RegistrationCandidates, AKeptPlanPriorKeepsItsAnchorOrTwin) {
                           {"i0", "left_leg_outer"},
                           {"i1", "left_leg_outer"}},
                          3);
-  const auto c = RegistrationCandidates(r, true, 3);
+  const auto c = RegistrationCandidates(r, true, "right_leg_outer", 3);
   ASSERT_EQ(c.size(), 3u);
   EXPECT_EQ(c[0].entry, 3);
   EXPECT_EQ(c[1].entry, 1);  // right_leg_outer: its twin
   EXPECT_EQ(c[2].entry, 4);  // the other instance
+}
+
+TEST(RegistrationCandidates, AnAimedAnchorRecognitionDidNotRankComesSecond) {
+  // The regrasp aimed at a leg's outer corner; recognition (height-gated) answered crotch
+  // and did not rank the outer corners among its top anchors: the outer corner's best
+  // entry (here its twin's) is registered second, then the ranked entries.
+  const auto r = Entries(
+      {{"i1", "crotch"}, {"i0", "crotch"}, {"i0", "left_knee"}, {"i0", "left_leg_outer"}, {"i1", "right_leg_outer"}});
+  const auto c = RegistrationCandidates(r, false, "right_leg_outer", 4);
+  ASSERT_EQ(c.size(), 4u);
+  EXPECT_EQ(c[0].entry, 0);
+  EXPECT_EQ(c[1].entry, 3);
+  EXPECT_EQ(c[2].entry, 1);
+  EXPECT_EQ(c[3].entry, 2);
+  EXPECT_EQ(RegistrationCandidates(r, false, "right_leg_outer", 1).size(), 1u);  // k = 1: the answer alone
 }
 
 TEST(KeepCandidate, SmallestUsableFitEarlierOnTies) {

@@ -372,7 +372,8 @@ struct TrialRun {
   // the best fit is kept (candidates.h) and the regrasp point predicted in the world frame.
   bool PlanRegisterAndPredict(Step& s, const rec::Database& db, const std::vector<DesiredPair>& pairs) {
     const auto t0 = Clock::now();
-    const std::vector<rec::Candidate> cands = RegistrationCandidates(s.recognition, s.prior_rank >= 0, o.candidates);
+    const std::vector<rec::Candidate> cands =
+        RegistrationCandidates(s.recognition, s.prior_rank >= 0, s.aimed_anchor, o.candidates);
     s.recognition.entries.clear();  // the trace lists the candidates
     const ExactClosestPoint onto(s.recon);
     const hw::GripperPose hp = world.arm(holder).pose();
