@@ -12,8 +12,13 @@ namespace drape {
 namespace {
 
 bool FaceHas(const Faces& F, int f, int v) { return F(f, 0) == v || F(f, 1) == v || F(f, 2) == v; }
+bool Has(const std::array<int, 3>& f, int v) { return (f[0] == v) | (f[1] == v) | (f[2] == v); }
+// Whether two faces share a vertex (branch-free).
+bool ShareVertex(const std::array<int, 3>& a, const std::array<int, 3>& b) {
+  return Has(b, a[0]) | Has(b, a[1]) | Has(b, a[2]);
+}
 bool EdgesShare(const std::array<int, 2>& a, const std::array<int, 2>& b) {
-  return a[0] == b[0] || a[0] == b[1] || a[1] == b[0] || a[1] == b[1];
+  return (a[0] == b[0]) | (a[0] == b[1]) | (a[1] == b[0]) | (a[1] == b[1]);
 }
 
 // Lexicographic order of pairs with entries in [0, n): two stable counting passes
@@ -106,7 +111,50 @@ BroadPhase::BroadPhase(const Faces& F, const std::vector<std::array<int, 2>>& E,
   csr(eowner, owned_start_e_, owned_e_);
   for (int v = 0; v < num_vertices_; ++v)
     if (vowner[v] < 0) orphan_vertices_.push_back(v);
+  ListAdjacentPairs();
   Relayout(layout);
+}
+
+// The pairs of faces sharing a vertex (their boxes always overlap: both hold that
+// vertex's box) and every VF and EE pair LeafPair would test for them, sorted.
+void BroadPhase::ListAdjacentPairs() {
+  const Faces& F = F_;
+  const auto& E = E_;
+  const int nf = static_cast<int>(F.rows());
+  fverts_.resize(nf);
+  for (int f = 0; f < nf; ++f) fverts_[f] = {F(f, 0), F(f, 1), F(f, 2)};
+  std::vector<int> start(static_cast<size_t>(num_vertices_) + 1, 0), faces_of(3 * static_cast<size_t>(nf));
+  for (int f = 0; f < nf; ++f)
+    for (int k = 0; k < 3; ++k) ++start[F(f, k) + 1];
+  for (int v = 0; v < num_vertices_; ++v) start[v + 1] += start[v];
+  {
+    std::vector<int> fill(start.begin(), start.end() - 1);
+    for (int f = 0; f < nf; ++f)
+      for (int k = 0; k < 3; ++k) faces_of[fill[F(f, k)]++] = f;
+  }
+  std::vector<int> adjacent;
+  for (int fa = 0; fa < nf; ++fa) {
+    adjacent.clear();
+    for (int k = 0; k < 3; ++k)
+      for (int i = start[F(fa, k)]; i < start[F(fa, k) + 1]; ++i)
+        if (faces_of[i] > fa) adjacent.push_back(faces_of[i]);
+    std::sort(adjacent.begin(), adjacent.end());
+    adjacent.erase(std::unique(adjacent.begin(), adjacent.end()), adjacent.end());
+    for (const int fb : adjacent) {
+      for (int side = 0; side < 2; ++side) {
+        const int owner = side ? fb : fa, f = side ? fa : fb;
+        for (int k = owned_start_v_[owner]; k < owned_start_v_[owner + 1]; ++k)
+          if (!FaceHas(F, f, owned_v_[k])) adjacent_vf_.push_back({owned_v_[k], f});
+      }
+      for (int i = owned_start_e_[fa]; i < owned_start_e_[fa + 1]; ++i)
+        for (int j = owned_start_e_[fb]; j < owned_start_e_[fb + 1]; ++j) {
+          const int a = owned_e_[i], b = owned_e_[j];
+          if (!EdgesShare(E[a], E[b])) adjacent_ee_.push_back({std::min(a, b), std::max(a, b)});
+        }
+    }
+  }
+  std::sort(adjacent_vf_.begin(), adjacent_vf_.end());
+  std::sort(adjacent_ee_.begin(), adjacent_ee_.end());
 }
 
 void BroadPhase::Relayout(const Points3& layout) {
@@ -130,6 +178,8 @@ void BroadPhase::BuildTree(const std::vector<Vec3>& centroid) {
   nodes_.reserve(2 * static_cast<size_t>(nf));
   Build(faces, 0, nf, centroid);
   leaf_faces_ = std::move(faces);
+  leaf_verts_.resize(nf);
+  for (int k = 0; k < nf; ++k) leaf_verts_[k] = fverts_[leaf_faces_[k]];
 }
 
 void BroadPhase::SetReuseMargin(double margin) {
@@ -168,31 +218,54 @@ int BroadPhase::Build(std::vector<int>& faces, int begin, int end, const std::ve
   return id;
 }
 
-// Every overlapping pair of faces from two leaves (a == b: every pair inside the leaf).
+// Every overlapping pair of faces from two leaves (a == b: every pair inside the leaf)
+// that shares no vertex: those that do are in adjacent_vf_ and adjacent_ee_.
 void BroadPhase::LeavesPair(const Node& a, const Node& b) {
   const int* fa = leaf_faces_.data() + a.right;
   const int* fb = leaf_faces_.data() + b.right;
+  const Aabb* ba = leaf_boxes_.data() + a.right;
+  const Aabb* bb = leaf_boxes_.data() + b.right;
+  const std::array<int, 3>* va = leaf_verts_.data() + a.right;
+  const std::array<int, 3>* vb = leaf_verts_.data() + b.right;
+  // Branch-free: every face pair is written, the count advances past those to test.
+  std::array<std::array<int, 2>, kLeafFaces * kLeafFaces> pairs;
+  int m = 0;
   for (int i = 0; i < a.faces; ++i)
-    for (int j = &a == &b ? i + 1 : 0; j < b.faces; ++j)
-      if (fbox_[fa[i]].Overlaps(fbox_[fb[j]])) LeafPair(fa[i], fb[j]);
+    for (int j = &a == &b ? i + 1 : 0; j < b.faces; ++j) {
+      pairs[m] = {fa[i], fb[j]};
+      m += ba[i].Overlaps(bb[j]) & !ShareVertex(va[i], vb[j]);
+    }
+  for (int k = 0; k < m; ++k) LeafPair(pairs[k][0], pairs[k][1]);
 }
 
+// Branch-free like FilterBoxes: every pair is written at the end of raw_vf_ (raw_ee_),
+// the count num_vf_ (num_ee_) advances past those that overlap. A face owns at most 3
+// vertices and 3 edges: at most 6 VF and 9 EE pairs per call.
 void BroadPhase::LeafPair(int fa, int fb) {
+  if (raw_vf_.size() < num_vf_ + 6) raw_vf_.resize(2 * raw_vf_.size() + 64);
+  if (raw_ee_.size() < num_ee_ + 9) raw_ee_.resize(2 * raw_ee_.size() + 64);
+  std::array<int, 2>* vf = raw_vf_.data();
+  size_t n = num_vf_;
   for (int side = 0; side < 2; ++side) {
     const int owner = side ? fb : fa, f = side ? fa : fb;
     for (int k = owned_start_v_[owner]; k < owned_start_v_[owner + 1]; ++k) {
       const int v = owned_v_[k];
-      if (!FaceHas(F_, f, v) && vbox_[v].Overlaps(fbox_[f])) raw_vf_.push_back({v, f});
+      vf[n] = {v, f};
+      n += !Has(fverts_[f], v) & vbox_[v].Overlaps(fbox_[f]);
     }
   }
+  num_vf_ = n;
+  std::array<int, 2>* ee = raw_ee_.data();
+  n = num_ee_;
   for (int i = owned_start_e_[fa]; i < owned_start_e_[fa + 1]; ++i) {
     const int a = owned_e_[i];
     for (int j = owned_start_e_[fb]; j < owned_start_e_[fb + 1]; ++j) {
       const int b = owned_e_[j];
-      if (!EdgesShare(E_[a], E_[b]) && ebox_[a].Overlaps(ebox_[b]))
-        raw_ee_.push_back({std::min(a, b), std::max(a, b)});
+      ee[n] = {std::min(a, b), std::max(a, b)};
+      n += !EdgesShare(E_[a], E_[b]) & ebox_[a].Overlaps(ebox_[b]);
     }
   }
+  num_ee_ = n;
 }
 
 void BroadPhase::QueryVertex(int v) {
@@ -333,17 +406,34 @@ void BroadPhase::Search(CandidatePairs* out) {
   ++searches_;
   const int nf = static_cast<int>(F_.rows()), ne = static_cast<int>(E_.size());
   // Refit: children come after their parent.
+  leaf_boxes_.resize(leaf_faces_.size());
+  for (size_t k = 0; k < leaf_faces_.size(); ++k) leaf_boxes_[k] = fbox_[leaf_faces_[k]];
   for (int i = static_cast<int>(nodes_.size()) - 1; i >= 0; --i) {
     Node& n = nodes_[i];
     if (n.left >= 0) {
       n.box = Aabb::Union(nodes_[n.left].box, nodes_[n.right].box);
       continue;
     }
-    n.box = fbox_[leaf_faces_[n.right]];
-    for (int k = n.right + 1; k < n.right + n.faces; ++k) n.box = Aabb::Union(n.box, fbox_[leaf_faces_[k]]);
+    n.box = leaf_boxes_[n.right];
+    for (int k = n.right + 1; k < n.right + n.faces; ++k) n.box = Aabb::Union(n.box, leaf_boxes_[k]);
   }
   raw_vf_.clear();
   raw_ee_.clear();
+  // The pairs of faces sharing a vertex: LeafPair's tests on the list made up front.
+  auto filter = [](const std::vector<std::array<int, 2>>& from, const std::vector<Aabb>& first,
+                   const std::vector<Aabb>& second, std::vector<std::array<int, 2>>& to) {
+    size_t k = to.size();
+    to.resize(k + from.size());
+    for (const auto& p : from) {
+      to[k] = p;
+      k += first[p[0]].Overlaps(second[p[1]]);
+    }
+    to.resize(k);
+  };
+  filter(adjacent_vf_, vbox_, fbox_, raw_vf_);
+  filter(adjacent_ee_, ebox_, ebox_, raw_ee_);
+  num_vf_ = raw_vf_.size();
+  num_ee_ = raw_ee_.size();
   // Self-traversal: (a, a) means "pairs inside subtree a".
   stack_.clear();
   if (!nodes_.empty()) stack_.push_back({0, 0});
@@ -372,6 +462,8 @@ void BroadPhase::Search(CandidatePairs* out) {
       stack_.push_back({a, nb.right});
     }
   }
+  raw_vf_.resize(num_vf_);
+  raw_ee_.resize(num_ee_);
   for (int v : orphan_vertices_) QueryVertex(v);
   out->vf.swap(raw_vf_);
   out->ee.swap(raw_ee_);

@@ -10,6 +10,9 @@
 // for EE. No pair is emitted twice and nothing needs deduplicating; the lists are put
 // in lexicographic order by a counting sort, so the result (and every computation that
 // walks it) does not depend on the tree's shape.
+// Faces that share a vertex always have overlapping boxes (both hold that vertex's
+// box): the VF and EE pairs of those face pairs are listed once, at construction, and
+// a search tests them from that list; the tree traversal skips such face pairs.
 #pragma once
 
 #include <array>
@@ -97,6 +100,7 @@ class BroadPhase {
   };
   int Build(std::vector<int>& faces, int begin, int end, const std::vector<Vec3>& centroid);
   void BuildTree(const std::vector<Vec3>& centroid);
+  void ListAdjacentPairs();  // fverts_, adjacent_vf_, adjacent_ee_
   void SetBoxes(const std::vector<Aabb>& vbox);  // vbox_, ebox_, fbox_
   void Search(CandidatePairs* out);              // tree search on vbox_, ebox_, fbox_
   bool InsideGrown(const std::vector<Aabb>& vbox) const;
@@ -119,10 +123,17 @@ class BroadPhase {
   std::vector<int> owned_start_v_, owned_v_;             // face → vertices it owns (CSR)
   std::vector<int> owned_start_e_, owned_e_;             // face → edges it owns (CSR)
   std::vector<int> orphan_vertices_;                     // vertices in no face
+  std::vector<std::array<int, 3>> fverts_;               // per face: its vertices
+  // The VF and EE pairs LeafPair tests for the pairs of faces that share a vertex (boxes
+  // that always overlap): tested from these lists, the search skips those face pairs.
+  std::vector<std::array<int, 2>> adjacent_vf_, adjacent_ee_;
+  std::vector<std::array<int, 3>> leaf_verts_;  // fverts_ in leaf_faces_ order
   // Per-query scratch (kept to avoid reallocations).
   std::vector<Aabb> vbox_, ebox_, fbox_;
+  std::vector<Aabb> leaf_boxes_;  // fbox_ in leaf_faces_ order (Search)
   std::vector<Aabb> path_boxes_;
   std::vector<std::array<int, 2>> stack_, raw_vf_, raw_ee_, tmp_;
+  size_t num_vf_ = 0, num_ee_ = 0;  // pairs found in raw_vf_, raw_ee_ (LeafPair)
   std::vector<int> count_;
   // Superset reuse.
   double reuse_margin_ = 0;         // m
