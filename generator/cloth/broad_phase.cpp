@@ -49,15 +49,48 @@ void SweptVertexBoxes(const Points3& x0, const Points3& x1, double pad, std::vec
   }
 }
 
+namespace {
+
+// The k-th smallest of d (what nth_element puts at k; d is reordered). A strided sample
+// brackets it: one branch-free pass counts the values below the bracket and gathers
+// those inside into buf, and nth_element runs on those few; when the bracket misses k,
+// on all of d. Either way the answer is the k-th smallest value.
+double KthSmallest(std::vector<double>& d, size_t k, std::vector<double>& buf) {
+  const size_t n = d.size();
+  constexpr int kSample = 63, kReach = 8;  // bracket: sample ranks q ± kReach
+  if (n >= 4 * kSample) {
+    std::array<double, kSample> sample;
+    for (int s = 0; s < kSample; ++s) sample[s] = d[(2 * static_cast<size_t>(s) + 1) * n / (2 * kSample)];
+    std::sort(sample.begin(), sample.end());
+    const int q = static_cast<int>(static_cast<double>(k) / static_cast<double>(n) * kSample);
+    const double lo = sample[std::max(0, q - kReach)], hi = sample[std::min(kSample - 1, q + kReach)];
+    buf.resize(n);
+    size_t below = 0, m = 0;
+    for (size_t i = 0; i < n; ++i) {
+      const double v = d[i];
+      buf[m] = v;
+      m += (v >= lo) & (v <= hi);
+      below += v < lo;
+    }
+    if (below <= k && k < below + m) {
+      std::nth_element(buf.begin(), buf.begin() + static_cast<std::ptrdiff_t>(k - below), buf.begin() + m);
+      return buf[k - below];
+    }
+  }
+  std::nth_element(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(k), d.end());
+  return d[k];
+}
+
+}  // namespace
+
 Vec3 MedianDisplacement(const Points3& x0, const Points3& x1) {
   Vec3 out = Vec3::Zero();
   const Eigen::Index n = x0.rows();
   if (n == 0) return out;
-  std::vector<double> d(static_cast<size_t>(n));
+  std::vector<double> d(static_cast<size_t>(n)), buf;
   for (int k = 0; k < 3; ++k) {
     for (Eigen::Index i = 0; i < n; ++i) d[i] = x1(i, k) - x0(i, k);
-    std::nth_element(d.begin(), d.begin() + n / 2, d.end());
-    out[k] = d[n / 2];
+    out[k] = KthSmallest(d, static_cast<size_t>(n / 2), buf);
   }
   return out;
 }

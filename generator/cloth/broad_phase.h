@@ -100,7 +100,7 @@ class BroadPhase {
   };
   int Build(std::vector<int>& faces, int begin, int end, const std::vector<Vec3>& centroid);
   void BuildTree(const std::vector<Vec3>& centroid);
-  void ListAdjacentPairs();  // fverts_, adjacent_vf_, adjacent_ee_
+  void ListAdjacentPairs();                      // fverts_, adjacent_vf_, adjacent_ee_
   void SetBoxes(const std::vector<Aabb>& vbox);  // vbox_, ebox_, fbox_
   void Search(CandidatePairs* out);              // tree search on vbox_, ebox_, fbox_
   bool InsideGrown(const std::vector<Aabb>& vbox) const;

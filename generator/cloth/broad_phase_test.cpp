@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <string>
 
 #include "common/error.h"
@@ -106,6 +107,31 @@ void RandomPaths(Rng& rng, const Points3& rest, double scale, Points3* x0, Point
 
 bool Contains(const std::vector<std::array<int, 2>>& sorted, std::array<int, 2> p) {
   return std::binary_search(sorted.begin(), sorted.end(), p);
+}
+
+// MedianDisplacement's selection is exactly nth_element's middle value, also with many
+// ties (nodes moving alike), outliers that throw its sample's bracket off, and sizes
+// below the sample's.
+TEST(BroadPhase, MedianDisplacementIsTheMiddleValue) {
+  for (uint64_t seed = 1; seed <= 40; ++seed) {
+    Rng rng(DeriveSeed(seed, "broad_phase/median"));
+    const int n = 1 + static_cast<int>(rng.Below(seed % 4 == 0 ? 200 : 3000));
+    const int kind = static_cast<int>(seed % 5);  // 0: spread, 1: ties, 2: all equal, 3: sorted, 4: outliers
+    Points3 x0 = Points3::Zero(n, 3), x1(n, 3);
+    for (int i = 0; i < n; ++i)
+      for (int k = 0; k < 3; ++k) {
+        const double u = rng.Uniform(-1, 1);
+        x1(i, k) = kind == 1 ? std::round(4 * u) : kind == 2 ? 0.25 : kind == 3 ? i * 1e-3 : u;
+        if (kind == 4 && i % 7 == 0) x1(i, k) = 1e6 * (i % 2 ? 1 : -1);
+      }
+    const Vec3 got = MedianDisplacement(x0, x1);
+    for (int k = 0; k < 3; ++k) {
+      std::vector<double> d(n);
+      for (int i = 0; i < n; ++i) d[i] = x1(i, k) - x0(i, k);
+      std::nth_element(d.begin(), d.begin() + n / 2, d.end());
+      EXPECT_EQ(got[k], d[n / 2]) << "seed " << seed << ", axis " << k << ", " << n << " values";
+    }
+  }
 }
 
 TEST(BroadPhase, FindCloseMatchesBruteForce) {

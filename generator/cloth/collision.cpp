@@ -434,6 +434,9 @@ void CollisionOptions::Validate() const {
 // One Apply call.
 namespace {
 
+// std::array's == compiles to a call of memcmp here.
+bool SamePair(const std::array<int, 2>& a, const std::array<int, 2>& b) { return (a[0] == b[0]) & (a[1] == b[1]); }
+
 struct Hit {
   Stencil s;
   double toi;
@@ -485,7 +488,7 @@ struct ApplyContext {
         size_t i = 0;
         for (size_t j = 0; j < to.size(); ++j) {
           while (i < from.size() && from[i] < to[j]) ++i;
-          if (i < from.size() && from[i] == to[j]) {
+          if (i < from.size() && SamePair(from[i], to[j])) {
             to_toi[j] = from_toi[i];
             to_d0[j] = from_d0[i];
           }
@@ -747,7 +750,7 @@ void SnapshotDistances(const std::vector<std::array<int, 2>>& from, const double
   size_t i = 0;
   for (size_t j = 0; j < to.size(); ++j) {
     while (i < from.size() && from[i] < to[j]) ++i;
-    to_d[j] = i < from.size() && from[i] == to[j] ? from_d[i] : std::numeric_limits<double>::quiet_NaN();
+    to_d[j] = i < from.size() && SamePair(from[i], to[j]) ? from_d[i] : std::numeric_limits<double>::quiet_NaN();
   }
 }
 
