@@ -138,12 +138,15 @@ std::vector<Job> ExpandJobs(const Recipe& recipe) {
         for (const auto& mname : materials) {
           double jitter[4] = {0, 0, 0, 0};
           const Material m = JitteredMaterial(recipe, pt, iname, mname, jitter);
+          const Material plain = recipe.materials.at(mname);
           for (const auto& anchor : anchors) {
-            for (int rep = 0; rep < split.repeats; ++rep) {
+            // rep < 0: the split's unperturbed job of this anchor (SplitSpec::unperturbed).
+            for (int rep = split.unperturbed ? -1 : 0; rep < split.repeats; ++rep) {
+              const bool perturbed = rep >= 0;
               Job j;
               j.index = static_cast<int>(jobs.size());
-              const std::string base =
-                  iname + "/" + mname + "/" + anchor + (split.repeats > 1 ? "/p" + std::to_string(rep) : "");
+              const bool suffix = perturbed && (split.repeats > 1 || split.unperturbed);
+              const std::string base = iname + "/" + mname + "/" + anchor + (suffix ? "/p" + std::to_string(rep) : "");
               const bool ladder = split.name.rfind("test_", 0) == 0;
               j.key = ladder ? split.name + "/" + base : base;
               j.split = split.name;
@@ -153,11 +156,16 @@ std::vector<Job> ExpandJobs(const Recipe& recipe) {
               j.instance_name = iname;
               j.instance_seed = InstanceSeed(recipe, g->name, inst);
               j.material_name = mname;
-              j.material = m;
               j.anchor = anchor;
-              j.repeat = rep;
+              j.repeat = std::max(rep, 0);
               j.seed = DeriveSeed(recipe.seed, j.key);
               j.hang_seed = DeriveSeed(DeriveSeed(recipe.seed, base), "hang");
+              if (!perturbed) {
+                j.material = plain;
+                jobs.push_back(std::move(j));
+                continue;
+              }
+              j.material = m;
               j.size_scale = size_scale;
               std::copy(jitter, jitter + 4, j.material_jitter);
               if (pt.grasp_offset > 0) {

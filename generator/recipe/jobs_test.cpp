@@ -178,5 +178,57 @@ TEST(Jobs, LadderRungsReuseTheDatabaseHang) {
   EXPECT_THROW(Parse(std::string(kRecipe) + "  test_x:\n    garments: [{garment: pants, instances: [0]}]\n    perturbation: {gripper_pose_noise: 50}\n"), Error);
 }
 
+// A split with `unperturbed: true` holds each anchor's job of the unperturbed split (same
+// key, seeds, material, no offset) followed by its perturbed repeats, all keyed /p<r>.
+TEST(Jobs, UnperturbedJobPrecedesTheRepeatsAndHangsLikeThePlainSplit) {
+  const std::string head = R"(
+name: aug
+version: 1.0.0
+seed: 5
+garments:
+  - template: towel
+    instances: 2
+    materials: [towel_a]
+splits:
+  train:
+    garments: [{garment: towel, instances: [0]}]
+)";
+  const auto plain = ExpandJobs(Parse(head));
+  const Recipe r = Parse(head +
+                         "    perturbation: {grasp_offset: 0.03, material_jitter: 0.1, size_scale: [0.9, 1.1]}\n"
+                         "    repeats: 2\n    unperturbed: true\n");
+  const auto jobs = ExpandJobs(r);
+  ASSERT_EQ(jobs.size(), 3 * plain.size());
+  for (size_t a = 0; a < plain.size(); ++a) {
+    const Job& exact = jobs[3 * a];
+    EXPECT_EQ(exact.key, plain[a].key);
+    EXPECT_EQ(exact.seed, plain[a].seed);
+    EXPECT_EQ(exact.hang_seed, plain[a].hang_seed);
+    EXPECT_EQ(exact.grasp_offset, Vec2::Zero());
+    EXPECT_EQ(exact.size_scale, 1.0);
+    EXPECT_EQ(exact.material.stretch_percent, plain[a].material.stretch_percent);
+    for (int rep = 0; rep < 2; ++rep) {
+      const Job& p = jobs[3 * a + 1 + rep];
+      EXPECT_EQ(p.key, plain[a].key + "/p" + std::to_string(rep));
+      EXPECT_EQ(p.anchor, plain[a].anchor);
+      EXPECT_EQ(p.repeat, rep);
+      EXPECT_NEAR(p.grasp_offset.norm(), 0.03, 1e-12);
+      EXPECT_NE(p.size_scale, 1.0);
+      EXPECT_NE(p.material.stretch_percent, plain[a].material.stretch_percent);
+    }
+  }
+  // One repeat still gets its /p0, so it never shares the unperturbed job's key.
+  const auto one = ExpandJobs(Parse(head + "    perturbation: {grasp_offset: 0.03}\n    unperturbed: true\n"));
+  ASSERT_EQ(one.size(), 2 * plain.size());
+  EXPECT_EQ(one[1].key, plain[0].key + "/p0");
+  // Without a perturbation the option would only duplicate jobs: an error naming it.
+  try {
+    Parse(head + "    unperturbed: true\n");
+    ADD_FAILURE() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("splits.train.unperturbed"), std::string::npos) << e.what();
+  }
+}
+
 }  // namespace
 }  // namespace drape

@@ -135,6 +135,9 @@ const std::vector<OptionKey<SplitSpec>>& SplitKeys() {
       {"sensing", {}, "`database` or `sensed`", "defaults: train → database, others → sensed"},
       {"perturbation", {}, "mapping", "perturbations of this split (below)"},
       {"repeats", Ref(&SplitSpec::repeats), "count", "perturbed repetitions per anchor (keys get `/p<r>`)"},
+      {"unperturbed", Ref(&SplitSpec::unperturbed), "bool",
+       "also one unperturbed job per anchor (key without `/p<r>`, hung as in a split without perturbation), before its "
+       "repeats"},
   };
   return t;
 }

@@ -599,6 +599,9 @@ void ParseSplits(const Parser& P, const YAML::Node& n, Recipe& r) {
              "unknown sensing kind '" + sp.sensing + "'" + Suggest(sp.sensing, {"database", "sensed"}) +
                  "; kinds: database, sensed");
     if (s["perturbation"].IsDefined()) ParsePerturbation(P, s["perturbation"], path + ".perturbation", sp.perturbation);
+    if (sp.unperturbed && !sp.perturbation.Any())
+      P.Fail(s["unperturbed"], path + ".unperturbed",
+             "'unperturbed: true' needs a perturbation: without one every repeat is unperturbed too");
     const YAML::Node gl = s["garments"];
     if (!gl.IsDefined()) P.Fail(s, path, "missing key 'garments' (a list of {garment, instances, ...})");
     if (!gl.IsSequence()) P.Fail(gl, path + ".garments", "expected a list, got " + P.Describe(gl));

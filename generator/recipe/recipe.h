@@ -78,6 +78,11 @@ struct SplitSpec {
   std::vector<SplitSelector> selectors;
   Perturbation perturbation;
   int repeats = 1;  // perturbed repetitions per anchor (keys get "/p<r>" when > 1)
+  // Also one unperturbed job per anchor, before its perturbed repeats (which then all
+  // get "/p<r>"): its key, seeds and hang are those of the same anchor in a split
+  // without perturbation, so e.g. a database can hold the exact anchors and grasps
+  // offset from them. Needs a perturbation.
+  bool unperturbed = false;
   void Validate() const;  // throws drape::FieldError
 };
 
