@@ -3,6 +3,7 @@
 #include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <numeric>
 #include <string>
@@ -132,8 +133,12 @@ bool AdditiveCCD(bool vf, const Quad& q0, const Quad& q1, double min_separation,
   }
   for (auto& v : p) v -= mean;
   // l_p bounds |relative displacement of the closest points| over the whole path.
-  const double lp = vf ? p[0].norm() + std::max({p[1].norm(), p[2].norm(), p[3].norm()})
-                       : std::max(p[0].norm(), p[1].norm()) + std::max(p[2].norm(), p[3].norm());
+  // (The root of the largest squared norm is the largest norm, bit for bit: the root is
+  // rounded correctly and never decreasing; two roots instead of four.)
+  const double lp = vf ? std::sqrt(p[0].squaredNorm()) +
+                             std::sqrt(std::max({p[1].squaredNorm(), p[2].squaredNorm(), p[3].squaredNorm()}))
+                       : std::sqrt(std::max(p[0].squaredNorm(), p[1].squaredNorm())) +
+                             std::sqrt(std::max(p[2].squaredNorm(), p[3].squaredNorm()));
   // The first test below (tl >= 1, i.e. lp <= 0.9·(d0 − ξ)) on a lower bound of d0,
   // without the closest points: the same answer for the many candidates that are far
   // apart for their motion.
@@ -569,6 +574,112 @@ struct StrainBounds {
         active(std::isfinite(hi) || lo > 0) {}
 };
 
+// The clamp's sweeps as written (SetShortcuts(false): the reference for ClampSweeps).
+void ClampSweepsReference(ApplyContext& cx, const Eigen::VectorXd& w, const StrainBounds& b) {
+  const CollisionHandler::StrainOrder& so = cx.strain_order;
+  const std::vector<int>& level = so.level;
+  const std::vector<int>& order = so.order;
+  for (int it = 0; it < cx.opt.strain_iterations; ++it) {
+    double worst = 0;  // largest relative violation corrected in this sweep
+    for (const int e : order) {
+      const int i = cx.E[e][0], j = cx.E[e][1];
+      double wi = w[i], wj = w[j];
+      if (level[i] < level[j]) wi *= cx.opt.strain_lead_weight;
+      if (level[j] < level[i]) wj *= cx.opt.strain_lead_weight;
+      const double L0 = cx.rest_lengths[e];
+      if (!(L0 > 0) || !(wi + wj > 0)) continue;
+      const Vec3 d = (cx.x1.row(j) - cx.x1.row(i)).transpose();
+      const double l = d.norm();
+      double target = l;
+      if (l > b.hi * L0)
+        target = b.hi * L0;
+      else if (l < b.lo * L0 && l > 0)
+        target = b.lo * L0;
+      else
+        continue;
+      worst = std::max(worst, std::abs(l - target) / L0);
+      const Vec3 corr = d * ((l - target) / l);
+      cx.x1.row(i) += (wi / (wi + wj)) * corr.transpose();
+      cx.x1.row(j) -= (wj / (wi + wj)) * corr.transpose();
+      ++cx.rep.strain_corrections;
+    }
+    if (worst < 1e-6) break;
+  }
+}
+
+// so.edges for w: the same products and quotients the reference computes per visit.
+void PrepareClampEdges(ApplyContext& cx, const Eigen::VectorXd& w, const StrainBounds& b) {
+  CollisionHandler::StrainOrder& so = cx.strain_order;
+  if (so.edges_valid && so.w.size() == w.size() &&
+      std::memcmp(so.w.data(), w.data(), sizeof(double) * static_cast<size_t>(w.size())) == 0)
+    return;
+  so.edges.clear();
+  for (const int e : so.order) {
+    const int i = cx.E[e][0], j = cx.E[e][1];
+    double wi = w[i], wj = w[j];
+    if (so.level[i] < so.level[j]) wi *= cx.opt.strain_lead_weight;
+    if (so.level[j] < so.level[i]) wj *= cx.opt.strain_lead_weight;
+    const double L0 = cx.rest_lengths[e];
+    if (!(L0 > 0) || !(wi + wj > 0)) continue;
+    const double hi_l = b.hi * L0, lo_l = b.lo * L0;
+    so.edges.push_back({i, j, L0, hi_l, lo_l, hi_l * hi_l * kSquaredBelow, lo_l * lo_l * kSquaredAbove, wi / (wi + wj),
+                        wj / (wi + wj)});
+  }
+  so.w = w;
+  so.edges_valid = true;
+}
+
+// The reference's sweeps on so.edges, with two savings that change no result: an edge
+// found within the bounds stays so until a node of it is corrected, so it is not
+// measured again until then (stamp: tick of a node's last correction; checked: tick at
+// which the edge was last found within, −1: not yet); and an edge surely within the
+// bounds from its squared length (bounds squared, pulled in by a relative 1e-12, far
+// beyond the few ulps of rounding either side) is not measured by the root (its
+// latency held up every edge measured).
+void ClampSweeps(ApplyContext& cx, const Eigen::VectorXd& w, const StrainBounds& b) {
+  PrepareClampEdges(cx, w, b);
+  CollisionHandler::StrainOrder& so = cx.strain_order;
+  const std::vector<CollisionHandler::StrainOrder::Edge>& edges = so.edges;
+  const int ne = static_cast<int>(edges.size());
+  int tick = 0;
+  std::vector<int>& stamp = so.stamp;
+  std::vector<int>& checked = so.checked;
+  stamp.assign(w.size(), 0);
+  checked.assign(ne, -1);
+  Points3& x1 = cx.x1;
+  for (int it = 0; it < cx.opt.strain_iterations; ++it) {
+    double worst = 0;  // largest relative violation corrected in this sweep
+    for (int p = 0; p < ne; ++p) {
+      const CollisionHandler::StrainOrder::Edge& r = edges[p];
+      const int i = r.i, j = r.j;
+      if (checked[p] >= 0 && stamp[i] <= checked[p] && stamp[j] <= checked[p]) continue;
+      const Vec3 d = (x1.row(j) - x1.row(i)).transpose();
+      const double l2 = d.squaredNorm();
+      if (l2 < r.hi2 && l2 > r.lo2) {
+        checked[p] = tick;
+        continue;
+      }
+      const double l = std::sqrt(l2);
+      double target = l;
+      if (l > r.hi)
+        target = r.hi;
+      else if (l < r.lo && l > 0)
+        target = r.lo;
+      else {
+        checked[p] = tick;
+        continue;
+      }
+      worst = std::max(worst, std::abs(l - target) / r.L0);
+      const Vec3 corr = d * ((l - target) / l);
+      x1.row(i) += r.fi * corr.transpose();
+      x1.row(j) -= r.fj * corr.transpose();
+      stamp[i] = stamp[j] = ++tick;
+      ++cx.rep.strain_corrections;
+    }
+    if (worst < 1e-6) break;
+  }
+}
+
 // Gauss–Seidel clamp of the edges of x1 into [lo, hi]·L0, sweeping outwards from the
 // nodes with w == 0 (kinematic, or frozen in an impact zone): w is the inverse mass
 // the clamp uses.
@@ -590,53 +701,12 @@ void LimitStrain(ApplyContext& cx, const Eigen::VectorXd& w) {
     auto edge_level = [&](int e) { return std::min(so.level[cx.E[e][0]], so.level[cx.E[e][1]]); };
     std::stable_sort(so.order.begin(), so.order.end(), [&](int a, int c) { return edge_level(a) < edge_level(c); });
     so.valid = true;
+    so.edges_valid = false;
   }
-  const std::vector<int>& level = so.level;
-  const std::vector<int>& order = so.order;
-  // An edge found within the bounds stays so until a node of it is corrected: it is not
-  // measured again until then (stamp: tick of a node's last correction; checked: tick
-  // at which the edge was last found within, −1: not yet). Same sweeps, fewer roots.
-  int tick = 0;
-  std::vector<int>& stamp = so.stamp;
-  std::vector<int>& checked = so.checked;
-  stamp.assign(w.size(), 0);
-  checked.assign(cx.E.size(), -1);
-  for (int it = 0; it < cx.opt.strain_iterations; ++it) {
-    double worst = 0;  // largest relative violation corrected in this sweep
-    for (const int e : order) {
-      const int i = cx.E[e][0], j = cx.E[e][1];
-      if (checked[e] >= 0 && stamp[i] <= checked[e] && stamp[j] <= checked[e]) continue;
-      double wi = w[i], wj = w[j];
-      if (level[i] < level[j]) wi *= cx.opt.strain_lead_weight;
-      if (level[j] < level[i]) wj *= cx.opt.strain_lead_weight;
-      const double L0 = cx.rest_lengths[e];
-      if (!(L0 > 0) || !(wi + wj > 0)) continue;
-      const Vec3 d = (cx.x1.row(j) - cx.x1.row(i)).transpose();
-      // Surely within the bounds from the squared length (bounds squared, pulled in by a
-      // relative 1e-12, far beyond the few ulps of rounding either side): the root below
-      // would find it so too, so it is not taken (its latency held up every edge measured).
-      const double l2 = d.squaredNorm(), hi_l = b.hi * L0, lo_l = b.lo * L0;
-      if (cx.shortcuts && l2 < hi_l * hi_l * kSquaredBelow && l2 > lo_l * lo_l * kSquaredAbove) {
-        checked[e] = tick;
-        continue;
-      }
-      const double l = std::sqrt(l2);
-      double target = l;
-      if (l > b.hi * L0) target = b.hi * L0;
-      else if (l < b.lo * L0 && l > 0) target = b.lo * L0;
-      else {
-        checked[e] = tick;
-        continue;
-      }
-      worst = std::max(worst, std::abs(l - target) / L0);
-      const Vec3 corr = d * ((l - target) / l);
-      cx.x1.row(i) += (wi / (wi + wj)) * corr.transpose();
-      cx.x1.row(j) -= (wj / (wi + wj)) * corr.transpose();
-      stamp[i] = stamp[j] = ++tick;
-      ++cx.rep.strain_corrections;
-    }
-    if (worst < 1e-6) break;
-  }
+  if (cx.shortcuts)
+    ClampSweeps(cx, w, b);
+  else
+    ClampSweepsReference(cx, w, b);
   cx.rep.strain_seconds += Since(t0);
 }
 

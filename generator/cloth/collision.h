@@ -176,6 +176,18 @@ class CollisionHandler {
     std::vector<int> level, order;  // hop level per node; edges by level
     bool valid = false;
     std::vector<int> stamp, checked;  // per-call scratch of the clamp (node, edge)
+    // With shortcuts: what the clamp computes per edge from w, the levels, L0 and the
+    // bounds, computed once for the w in `w` (bit for bit) and kept in sweep order.
+    struct Edge {
+      int i, j;         // nodes
+      double L0;        // m, rest length
+      double hi, lo;    // m: the bounds (upper, lower) times L0
+      double hi2, lo2;  // m²: the squared-length test's bounds
+      double fi, fj;    // the shares of a correction that move i and j
+    };
+    std::vector<Edge> edges;  // edges with L0 > 0 and a movable node, in `order`
+    Eigen::VectorXd w;        // the w they were computed for
+    bool edges_valid = false;
   };
   // Repulsion's distances at a snapshot of x0, taken every kRepelSnapshotCalls calls:
   // a pair's distance changes by at most twice the largest move of its nodes, so a
@@ -207,9 +219,9 @@ class CollisionHandler {
   // Off: every result the handler keeps or skips work by (the broad phase's superset
   // and the CCD's candidates taken from the repulsion's pairs, the CCD's results and
   // distances at x0 kept per pair, the repulsion's snapshot skips, the strain clamp's
-  // squared-length test before the root) is computed anew in
-  // every call. The same output bytes, slower: the reference the tests hold the
-  // shortcuts to. On by default.
+  // per-edge factors kept across calls, its skip of edges found within the bound and its
+  // squared-length test before the root) is computed anew in every call. The same output bytes, slower: the reference
+  // the tests hold the shortcuts to. On by default.
   void SetShortcuts(bool on);
   int NumVertices() const { return num_vertices_; }
   const std::vector<std::array<int, 2>>& edges() const { return edges_; }
