@@ -763,27 +763,23 @@ std::vector<int> EdgesToMerge(const ApplyContext& cx, const std::vector<int>& st
 // ---- proximity repulsion (Bridson §7.2) -------------------------------------------
 // Whether the pair is surely at least `reach` apart at x0 and at x1, from its distance
 // d_snap at the snapshot xs: each node i has moved by at most
-// max(|x0_i − xs_i|, |x1_i − xs_i|) since (move0: |x0_i − xs_i|², per node), and a
-// distance changes by at most twice the largest move of the pair's nodes (the closest
-// points of the snapshot, carried by the same weights, move no further than that).
-bool FarSinceSnapshot(const ApplyContext& cx, const Stencil& s, double d_snap, const std::vector<double>& move0,
-                      double reach) {
+// max(|x0_i − xs_i|, |x1_i − xs_i|) since (moves: the square of that per node, kept
+// up to date with x1 by Repel), and a distance changes by at most twice the largest
+// move of the pair's nodes (the closest points of the snapshot, carried by the same
+// weights, move no further than that).
+bool FarSinceSnapshot(const Stencil& s, double d_snap, const std::vector<double>& moves, double reach) {
   if (!(d_snap > reach)) return false;  // also NaN: no snapshot distance
-  const Points3& xs = cx.repel_snapshot.x;
-  double m2 = 0;
-  for (int k = 0; k < 4; ++k) {
-    const int i = s.n[k];
-    m2 = std::max({m2, move0[i], (cx.x1.row(i) - xs.row(i)).squaredNorm()});
-  }
+  const double m2 = std::max({moves[s.n[0]], moves[s.n[1]], moves[s.n[2]], moves[s.n[3]]});
   return d_snap - 2 * std::sqrt(m2) >= reach;
 }
 
 // d_snap: the pair's distance at the repulsion snapshot (NaN: none); *d0_out (if given)
 // gets its distance at x0. False when the pair is left alone (far, or touching at x0),
 // true when it was pushed apart.
-bool RepelPair(ApplyContext& cx, const Stencil& s, double d_snap, const std::vector<double>& move0, double* d0_out) {
+// x1 changes only when it returns true.
+bool RepelPair(ApplyContext& cx, const Stencil& s, double d_snap, const std::vector<double>& moves, double* d0_out) {
   double h = cx.opt.thickness;
-  if (FarSinceSnapshot(cx, s, d_snap, move0, h + kRepelSkipMargin)) return false;  // as min(d0, d1) >= h below
+  if (FarSinceSnapshot(s, d_snap, moves, h + kRepelSkipMargin)) return false;  // as min(d0, d1) >= h below
   const Quad q0 = Gather(s, cx.x0), q1 = Gather(s, cx.x1);
   Coeffs c0, c1;
   const double d0 = std::sqrt(Closest(s.vf, q0, &c0)), d1 = std::sqrt(Closest(s.vf, q1, &c1));
@@ -844,11 +840,17 @@ void Repel(ApplyContext& cx) {
   const bool take = snap.calls++ % kRepelSnapshotCalls == 0 || snap.x.rows() != n || !cx.shortcuts;
   const size_t nvf = cand.vf.size();
   std::vector<double> d_snap(nvf + cand.ee.size(), std::numeric_limits<double>::quiet_NaN());
-  std::vector<double> move0(n, 0.0);
+  // Per node: |x0_i − xs_i|² (move0) and max(that, |x1_i − xs_i|²) (moves, updated for
+  // the nodes of every pair that moves x1).
+  std::vector<double> move0(n, 0.0), moves(n, 0.0);
+  auto update_move = [&](int i) { moves[i] = std::max(move0[i], (cx.x1.row(i) - snap.x.row(i)).squaredNorm()); };
   if (!take) {
     SnapshotDistances(snap.vf, snap.d.data(), cand.vf, d_snap.data());
     SnapshotDistances(snap.ee, snap.d.data() + snap.vf.size(), cand.ee, d_snap.data() + nvf);
-    for (int i = 0; i < n; ++i) move0[i] = (cx.x0.row(i) - snap.x.row(i)).squaredNorm();
+    for (int i = 0; i < n; ++i) {
+      move0[i] = (cx.x0.row(i) - snap.x.row(i)).squaredNorm();
+      update_move(i);
+    }
   } else {
     snap.x = cx.x0;
     snap.vf = cand.vf;
@@ -863,8 +865,11 @@ void Repel(ApplyContext& cx) {
     size_t k = 0;
     auto visit = [&](const Stencil& s) {
       const size_t pair = k++;  // the first sweep visits every pair; at a snapshot none is skipped
-      if (moved_node[s.n[0]] || moved_node[s.n[1]] || moved_node[s.n[2]] || moved_node[s.n[3]])
-        moved += RepelPair(cx, s, d_snap[pair], move0, take && it == 0 ? &snap.d[pair] : nullptr);
+      if (!(moved_node[s.n[0]] || moved_node[s.n[1]] || moved_node[s.n[2]] || moved_node[s.n[3]])) return;
+      if (!RepelPair(cx, s, d_snap[pair], moves, take && it == 0 ? &snap.d[pair] : nullptr)) return;
+      ++moved;
+      if (!take)
+        for (const int i : s.n) update_move(i);
     };
     for (const auto& [v, f] : cand.vf) visit(cx.VF(v, f));
     for (const auto& [a, b] : cand.ee) visit(cx.EE(a, b));
