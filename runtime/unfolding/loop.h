@@ -55,8 +55,9 @@ struct LoopOptions {
   // anchor or its twin) and predict from the one that fits the reconstruction best
   // (SymmetricFit after the rigid registration when `fit_after_rigid`, else after the
   // registration used, R + N by default). 1 = recognition's answer alone. Must be in 1..10.
-  int candidates = 1;
-  bool fit_after_rigid = false;
+  // Defaults measured on the paper release (docs/unfolding.md): 5, the rigid fit.
+  int candidates = 5;
+  bool fit_after_rigid = true;
   hardware::CaptureOptions capture;  // frames per turn (paper ~550 both ways)
   int fusion_threads = 0;            // TSDF fusion threads (<= 0: all cores); no effect on results
   double standoff = 0.12;       // m: the IR scan runs this far before the predicted point
