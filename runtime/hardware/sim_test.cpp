@@ -128,6 +128,19 @@ void HoldByCornerAndLowestPoint(SimWorld& w, const Fixture& f) {
   ASSERT_NE(right.Close().outcome, GraspOutcome::kMiss);
 }
 
+// Opening the left gripper lets the cloth fall onto the right one; that fall must fail
+// after its retry at half the time step, with `reason` in the message.
+void ExpectLetGoFails(SimWorld& w, const std::string& reason, const std::string& if_accepted) {
+  try {
+    w.arm(0).Open();
+    FAIL() << if_accepted;
+  } catch (const NumericalError& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find(reason), std::string::npos) << m;
+    EXPECT_NE(m.find("after a retry at time_step"), std::string::npos) << m;
+  }
+}
+
 // A let-go fall that blows up is run once more at half the time step, and if that blows
 // up too the reason names both. "Blows up" here: a speed bound the pick-up hang (which
 // starts hanging) stays under and the fall (the cloth flips over the new grasp, ~0.3 m
@@ -137,16 +150,8 @@ TEST(SimHardware, LetGoFallThatBlowsUpIsRetriedAtHalfTheTimeStep) {
   f.options.hang.max_speed = 1.0;
   SimWorld w(f.garment, f.material, f.fit, f.options, 2);
   ASSERT_NO_FATAL_FAILURE(HoldByCornerAndLowestPoint(w, f));
-  Arm& left = w.arm(0);
   EXPECT_EQ(w.retries(), 0);
-  try {
-    left.Open();
-    FAIL() << "the fall did not blow up at max_speed 1 m/s";
-  } catch (const NumericalError& e) {
-    const std::string m = e.what();
-    EXPECT_NE(m.find("blew up"), std::string::npos) << m;
-    EXPECT_NE(m.find("after a retry at time_step"), std::string::npos) << m;
-  }
+  ASSERT_NO_FATAL_FAILURE(ExpectLetGoFails(w, "blew up", "the fall did not blow up at max_speed 1 m/s"));
   EXPECT_EQ(w.retries(), 1);
 }
 
@@ -159,15 +164,8 @@ TEST(SimHardware, LetGoFallBeyondTheStrainBoundIsAFailureNotAState) {
   f.options.hang.accept_strain_p99 = 1.5;
   SimWorld w(f.garment, f.material, f.fit, f.options, 2);
   ASSERT_NO_FATAL_FAILURE(HoldByCornerAndLowestPoint(w, f));
-  Arm& left = w.arm(0);
-  try {
-    left.Open();
-    FAIL() << "the fall was accepted beyond the strain bound";
-  } catch (const NumericalError& e) {
-    const std::string m = e.what();
-    EXPECT_NE(m.find("fallen to hang from the right gripper: edge strain p99"), std::string::npos) << m;
-    EXPECT_NE(m.find("after a retry at time_step"), std::string::npos) << m;
-  }
+  ASSERT_NO_FATAL_FAILURE(ExpectLetGoFails(w, "fallen to hang from the right gripper: edge strain p99",
+                                           "the fall was accepted beyond the strain bound"));
   EXPECT_EQ(w.retries(), 1);
 }
 
