@@ -592,6 +592,63 @@ TEST(Fusion, UpdateBlockKernelsMatchTheScalarOne) {
   }
 }
 
+// The band's samples rounded to blocks 8 pixels at a time against the definition
+// (BandSampleBlockAt, Eigen's expressions): random poses, depths in front of and behind
+// the camera's band, grids that miss some samples, voxel sizes down to the millimetre.
+TEST(Fusion, BandSampleKernelsMatchTheDefinition) {
+  Rng rng(13);
+  const int n = 61;  // not a multiple of 8: a partial last group too
+  std::vector<double> xhat(64), d(64);
+  for (int trial = 0; trial < 400; ++trial) {
+    BandSamples a;
+    const Eigen::Quaterniond q(rng.Normal(), rng.Normal(), rng.Normal(), rng.Normal());
+    a.R = q.normalized().toRotationMatrix();
+    a.t = Vec3(rng.Uniform(-1, 1), rng.Uniform(-1, 1), rng.Uniform(-2, 2));
+    a.yv = rng.Uniform(-0.5, 0.5);
+    a.h = 1 / rng.Uniform(100, 1000), a.inv_h = 1 / a.h;
+    const double mu = (1 + rng.Below(16)) * a.h;
+    const int steps = static_cast<int>(std::ceil(2 * mu / (0.5 * kBlockDim * a.h)));
+    std::array<double, 64> along;
+    for (int k = 0; k <= steps; ++k) along[k] = -mu + 2 * mu * k / steps;
+    a.along = along.data(), a.samples = steps + 1;
+    for (int i = 0; i < 64; ++i) {
+      xhat[i] = rng.Uniform(-0.6, 0.6);
+      d[i] = double(float(i % 17 == 0 ? rng.Uniform(0.001, 0.02) : rng.Uniform(0.3, 3.0)));
+    }
+    a.xhat = xhat.data(), a.d = d.data(), a.n = n;
+    const int cells = static_cast<int>(std::ceil(2.0 / (8 * a.h)));
+    a.grid_lo = Eigen::Vector3i::Constant(-cells) + Eigen::Vector3i(int(rng.Below(5)), 0, int(rng.Below(5)));
+    a.grid_dims = Eigen::Vector3i::Constant(2 * cells - int(rng.Below(cells)));
+    auto resolve = [&](int i, int k, int32_t g) -> int64_t {
+      if (g != -2) return g;
+      Eigen::Vector3i b;
+      if (!BandSampleBlockAt(a, i, k, &b)) return -1;
+      const Eigen::Vector3i r = b - a.grid_lo;
+      if ((r.array() < 0).any() || (r.array() >= a.grid_dims.array()).any()) return -3;  // off the grid
+      return (int64_t(r.x()) * a.grid_dims.y() + r.y()) * a.grid_dims.z() + r.z();
+    };
+    std::vector<int32_t> scalar(64 * a.samples, 7), fast(64 * a.samples, 7);
+    BandSamplesScalar(a, scalar.data());
+    if (HaveAvx512Vl()) BandSamplesAvx512(a, fast.data());
+    for (int i = 0; i < n; ++i) {
+      for (int k = 0; k < a.samples; ++k) {
+        const size_t o = size_t(i / 8) * 8 * a.samples + 8 * k + i % 8;
+        Eigen::Vector3i b;
+        const bool sampled = BandSampleBlockAt(a, i, k, &b);
+        ASSERT_EQ(scalar[o] != -1, sampled) << "trial " << trial << " pixel " << i << " sample " << k;
+        const int64_t expected = resolve(i, k, scalar[o]);
+        if (sampled && scalar[o] != -2) {
+          const Eigen::Vector3i r = b - a.grid_lo;
+          ASSERT_EQ(scalar[o], (int64_t(r.x()) * a.grid_dims.y() + r.y()) * a.grid_dims.z() + r.z());
+        }
+        if (HaveAvx512Vl()) {
+          ASSERT_EQ(resolve(i, k, fast[o]), expected) << "trial " << trial << " pixel " << i;
+        }
+      }
+    }
+  }
+}
+
 // The band's voxel rounding by multiplication equals the division's, also on the
 // values nearest the voxels' boundaries (x = (i - 0.5)·h and its neighbours).
 TEST(Fusion, FloorVoxelEqualsTheDivision) {

@@ -401,38 +401,65 @@ void Tsdf::Impl::MarkNearForeground(const FrameView& view, FrameScratch& s) cons
 // Samples every half block along the ray, and every `stride` pixels with stride ≤ a
 // third of a block's footprint at the farthest foreground depth, so no block the band
 // crosses is skipped between samples. Each block listed once, at its first sample.
+// A row's samples are rounded to blocks 8 pixels at a time (BandSamples*), then listed
+// in order (pixel by pixel, along each ray).
 void Tsdf::Impl::BandBlocks(const FrameView& view, FrameScratch& s, std::vector<Eigen::Vector3i>& band) const {
+  static const auto samples_kernel = HaveAvx512Vl() ? BandSamplesAvx512 : BandSamplesScalar;
   band.clear();
   const std::vector<float>& code = s.code;
   const float far = s.far;  // the farthest foreground depth (Segment)
   const double block_px = far > 0 ? kBlockDim * h * std::min(view.K.fx, view.K.fy) / far : 1;
   const int stride = std::clamp(static_cast<int>(block_px / 3), 1, 8);
   const int steps = static_cast<int>(std::ceil(2 * mu / (0.5 * kBlockDim * h)));
-  const double inv_h = 1 / h;
+  std::array<double, 64> along;  // metres along the ray (steps <= 8: truncation <= 2 blocks)
+  for (int k = 0; k <= steps; ++k) along[k] = -mu + 2 * mu * k / steps;
   const size_t words = (grid.size() + 63) / 64;
   if (s.seen.size() != words) s.seen.assign(words, 0);
   std::unordered_map<uint64_t, bool> off_grid;  // blocks outside the grid (none expected)
+  BandSamples a;
+  a.R = view.R, a.t = view.t;
+  a.along = along.data(), a.samples = steps + 1;
+  a.h = h, a.inv_h = 1 / h;
+  a.grid_lo = grid_lo, a.grid_dims = grid_dims;
+  const size_t max_pixels = size_t(std::max(0, s.fg_u1 - s.fg_u0)) / stride + 9;
+  if (s.band_xhat.size() < max_pixels) {
+    s.band_xhat.resize(max_pixels), s.band_d.resize(max_pixels);
+    s.band_out.resize(max_pixels * a.samples);
+  }
+  if (s.band_out.size() < max_pixels * a.samples) s.band_out.resize(max_pixels * a.samples);
   // The sample grid is anchored at pixel (0, 0) whatever the rectangle; only the
   // foreground's bounding rectangle (Segment) holds samples.
   const int ustart = (s.fg_u0 + stride - 1) / stride * stride, vstart = (s.fg_v0 + stride - 1) / stride * stride;
   for (int v = vstart; v < s.fg_v1; v += stride) {
+    const float* row = &code[size_t(v) * view.W];
+    int n = 0;
     for (int u = ustart; u < s.fg_u1; u += stride) {
-      const float d = code[size_t(v) * view.W + u];
+      const float d = row[u];
       if (!(d > 0)) continue;
-      const double lambda = std::sqrt(1 + xhat[u] * xhat[u] + yhat[v] * yhat[v]);
-      const Vec3 ray = view.R * Vec3(xhat[u], yhat[v], 1.0);
-      for (int k = 0; k <= steps; ++k) {
-        const double along = -mu + 2 * mu * k / steps;  // metres along the ray
-        const double z = d + along / lambda;
-        if (z <= 0) continue;
-        const Vec3 p = z * ray + view.t;
-        const Eigen::Vector3i b = BandSampleBlock(p, h, inv_h);
-        const int64_t g = GridIndex(b);
+      s.band_xhat[n] = xhat[u], s.band_d[n] = d;
+      ++n;
+    }
+    if (n == 0) continue;
+    for (int i = n; i % 8; ++i) s.band_xhat[i] = s.band_xhat[n - 1], s.band_d[i] = s.band_d[n - 1];
+    a.xhat = s.band_xhat.data(), a.d = s.band_d.data(), a.n = n, a.yv = yhat[v];
+    samples_kernel(a, s.band_out.data());
+    for (int i = 0; i < n; ++i) {
+      const int32_t* out = &s.band_out[size_t(i / 8) * 8 * a.samples + i % 8];
+      for (int k = 0; k < a.samples; ++k) {
+        int64_t g = out[8 * k];
+        if (g == -1) continue;
+        Eigen::Vector3i b(0, 0, 0);
+        if (g == -2) {
+          if (!BandSampleBlockAt(a, i, k, &b)) continue;
+          g = GridIndex(b);
+        }
         if (g >= 0) {
           uint64_t& word = s.seen[size_t(g) >> 6];
           const uint64_t bit = uint64_t(1) << (g & 63);
           if (word & bit) continue;
           word |= bit;
+          b = grid_lo + Eigen::Vector3i(int(g / (int64_t(grid_dims.y()) * grid_dims.z())),
+                                        int(g / grid_dims.z() % grid_dims.y()), int(g % grid_dims.z()));
         } else if (!off_grid.emplace(Key(b), true).second) {
           continue;
         }
@@ -445,6 +472,99 @@ void Tsdf::Impl::BandBlocks(const FrameView& view, FrameScratch& s, std::vector<
     if (g >= 0) s.seen[size_t(g) >> 6] = 0;
   }
 }
+
+bool BandSampleBlockAt(const BandSamples& a, int i, int k, Eigen::Vector3i* b) {
+  const double lambda = std::sqrt(1 + a.xhat[i] * a.xhat[i] + a.yv * a.yv);
+  const Vec3 ray = a.R * Vec3(a.xhat[i], a.yv, 1.0);
+  const double z = a.d[i] + a.along[k] / lambda;
+  if (z <= 0) return false;
+  const Vec3 p = z * ray + a.t;
+  *b = BandSampleBlock(p, a.h, a.inv_h);
+  return true;
+}
+
+namespace {
+
+int32_t BandGridIndex(const BandSamples& a, const Eigen::Vector3i& b) {
+  const Eigen::Vector3i r = b - a.grid_lo;
+  if ((r.array() < 0).any() || (r.array() >= a.grid_dims.array()).any()) return -2;
+  return (r.x() * a.grid_dims.y() + r.y()) * a.grid_dims.z() + r.z();
+}
+
+}  // namespace
+
+void BandSamplesScalar(const BandSamples& a, int32_t* out) {
+  for (int i = 0; i < a.n; ++i) {
+    int32_t* o = out + size_t(i / 8) * 8 * a.samples + i % 8;
+    // BandSampleBlockAt with the pixel's λ and ray computed once.
+    const double lambda = std::sqrt(1 + a.xhat[i] * a.xhat[i] + a.yv * a.yv);
+    const Vec3 ray = a.R * Vec3(a.xhat[i], a.yv, 1.0);
+    for (int k = 0; k < a.samples; ++k) {
+      const double z = a.d[i] + a.along[k] / lambda;
+      o[8 * k] = z <= 0 ? -1 : BandGridIndex(a, BandSampleBlock(z * ray + a.t, a.h, a.inv_h));
+    }
+  }
+}
+
+#if defined(__x86_64__)
+bool HaveAvx512Vl() { return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl"); }
+
+// BandSamplesScalar on 8 pixels at a time (doubles, the same operations in the same
+// order; no FMA: tsdf.cpp is compiled with -ffp-contract=off). The voxel's rounding
+// by the multiplication (FloorVoxel) where it is decided, -2 where the division decides.
+__attribute__((target("avx512f,avx512vl"))) void BandSamplesAvx512(const BandSamples& a, int32_t* out) {
+  const __m512d one = _mm512_set1_pd(1.0), half = _mm512_set1_pd(0.5), inv_h = _mm512_set1_pd(a.inv_h);
+  const __m512d yv = _mm512_set1_pd(a.yv), zero = _mm512_setzero_pd();
+  const __m512d qmax = _mm512_set1_pd(1e6), flo = _mm512_set1_pd(1e-9), fhi = _mm512_set1_pd(1 - 1e-9);
+  __m512d R[3][3], t[3];
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) R[r][c] = _mm512_set1_pd(a.R(r, c));
+    t[r] = _mm512_set1_pd(a.t[r]);
+  }
+  const __m256i lo[3] = {_mm256_set1_epi32(a.grid_lo.x()), _mm256_set1_epi32(a.grid_lo.y()),
+                         _mm256_set1_epi32(a.grid_lo.z())};
+  const __m256i dims[3] = {_mm256_set1_epi32(a.grid_dims.x()), _mm256_set1_epi32(a.grid_dims.y()),
+                           _mm256_set1_epi32(a.grid_dims.z())};
+  const __m256i none = _mm256_set1_epi32(-1), undecided = _mm256_set1_epi32(-2);
+  for (int i0 = 0; i0 < a.n; i0 += 8) {
+    const __m512d x = _mm512_loadu_pd(a.xhat + i0), d = _mm512_loadu_pd(a.d + i0);
+    const __m512d lambda =
+        _mm512_maskz_sqrt_pd(0xff, _mm512_add_pd(_mm512_add_pd(one, _mm512_mul_pd(x, x)), _mm512_mul_pd(yv, yv)));
+    __m512d ray[3];
+    for (int r = 0; r < 3; ++r) {
+      const __m512d a0 = _mm512_mul_pd(R[r][0], x), a1 = _mm512_mul_pd(R[r][1], yv), a2 = _mm512_mul_pd(R[r][2], one);
+      ray[r] = r < 2 ? _mm512_add_pd(_mm512_add_pd(a0, a1), a2) : _mm512_add_pd(a0, _mm512_add_pd(a1, a2));
+    }
+    int32_t* o = out + size_t(i0) * a.samples;
+    for (int k = 0; k < a.samples; ++k) {
+      const __m512d z = _mm512_add_pd(d, _mm512_div_pd(_mm512_set1_pd(a.along[k]), lambda));
+      const __mmask8 sample = _mm512_cmp_pd_mask(z, zero, _CMP_NLE_UQ);  // !(z <= 0)
+      __mmask8 decided = 0xff, inside = 0xff;
+      __m256i r[3];
+      for (int c = 0; c < 3; ++c) {
+        const __m512d p = _mm512_add_pd(_mm512_mul_pd(z, ray[c]), t[c]);
+        const __m512d q = _mm512_add_pd(_mm512_mul_pd(p, inv_h), half);
+        const __m512d fl = _mm512_maskz_roundscale_pd(0xff, q, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
+        const __m512d f = _mm512_sub_pd(q, fl);
+        decided &= _mm512_cmp_pd_mask(_mm512_abs_pd(q), qmax, _CMP_LT_OQ) & _mm512_cmp_pd_mask(f, flo, _CMP_GT_OQ) &
+                   _mm512_cmp_pd_mask(f, fhi, _CMP_LT_OQ);
+        // The voxel, its block (floor division by 8), relative to the grid.
+        const __m256i voxel = _mm512_maskz_cvttpd_epi32(0xff, fl);
+        r[c] = _mm256_sub_epi32(_mm256_srai_epi32(voxel, 3), lo[c]);
+        inside &= _mm256_cmpge_epi32_mask(r[c], _mm256_setzero_si256()) & _mm256_cmplt_epi32_mask(r[c], dims[c]);
+      }
+      const __m256i g = _mm256_add_epi32(
+          _mm256_mullo_epi32(_mm256_add_epi32(_mm256_mullo_epi32(r[0], dims[1]), r[1]), dims[2]), r[2]);
+      __m256i res = _mm256_mask_mov_epi32(undecided, decided & inside, g);
+      res = _mm256_mask_mov_epi32(none, sample, res);
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(o + 8 * k), res);
+    }
+  }
+}
+#else
+bool HaveAvx512Vl() { return false; }
+void BandSamplesAvx512(const BandSamples& a, int32_t* out) { BandSamplesScalar(a, out); }
+#endif
 
 VoxelProjector ProjectorFor(const FrameView& view, const Eigen::Vector3i& block, double h, double mu) {
   VoxelProjector p;

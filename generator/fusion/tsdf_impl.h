@@ -52,6 +52,8 @@ struct FrameScratch {
   std::vector<int> near_count;
   std::vector<int> dist;
   std::vector<uint64_t> seen;  // band blocks already listed this frame: a bit per block-grid cell
+  std::vector<double> band_xhat, band_d;  // a row's foreground samples (BandSamples)
+  std::vector<int32_t> band_out;
   float far = 0;               // the largest foreground depth (0: none)
   int fg_u0 = 0, fg_u1 = 0, fg_v0 = 0, fg_v1 = 0;  // the foreground's bounding rectangle [u0, u1) × [v0, v1)
 };
@@ -106,6 +108,35 @@ struct SegmentRow {
 };
 int64_t SegmentRowScalar(const SegmentRow& row, int u0, int u1, float* far);
 int64_t SegmentRowAvx2(const SegmentRow& row, int u0, int u1, float* far);
+
+// The band's samples of one row's foreground pixels (BandBlocks): pixel i (x̂ of its
+// column xhat[i], depth d[i]; both arrays padded to a multiple of 8) has the samples
+// z = d + along[k] / λ (k < samples, λ = √(1 + x̂² + ŷ²)) on its ray R·(x̂, ŷ, 1), in
+// the object frame p = z·ray + t; each is rounded to its voxel (FloorVoxel) and block.
+struct BandSamples {
+  const double* xhat = nullptr;
+  const double* d = nullptr;
+  int n = 0;
+  double yv = 0;
+  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+  Vec3 t = Vec3::Zero();
+  const double* along = nullptr;
+  int samples = 0;
+  double h = 0, inv_h = 0;
+  Eigen::Vector3i grid_lo{0, 0, 0}, grid_dims{0, 0, 0};  // Tsdf::Impl's block grid
+};
+// Sample k of pixel i by the definition (the Eigen expressions BandBlocks always used):
+// false if z <= 0, else its block.
+bool BandSampleBlockAt(const BandSamples& a, int i, int k, Eigen::Vector3i* b);
+// out[(i / 8)·8·samples + 8k + i % 8] for pixel i < n, sample k: the grid index of the
+// sample's block (Tsdf::Impl::GridIndex), -1 for no sample (z <= 0), -2 for a block off
+// the grid, or (AVX-512 only) a voxel whose rounding the division decides: the caller
+// takes those from BandSampleBlockAt. The AVX-512 one gives the scalar one's bits (same
+// operations in the same order, Eigen's: the ray's rows 0 and 1 ((R₀x + R₁y) + R₂),
+// row 2 (R₀x + (R₁y + R₂)); a test pins it). out holds 8·samples per 8 pixels.
+void BandSamplesScalar(const BandSamples& a, int32_t* out);
+void BandSamplesAvx512(const BandSamples& a, int32_t* out);
+bool HaveAvx512Vl();
 
 struct Tsdf::Impl {
   FusionOptions opt;
