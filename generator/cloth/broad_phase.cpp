@@ -12,13 +12,13 @@ namespace drape {
 namespace {
 
 bool FaceHas(const Faces& F, int f, int v) { return F(f, 0) == v || F(f, 1) == v || F(f, 2) == v; }
-bool Has(const std::array<int, 3>& f, int v) { return (f[0] == v) | (f[1] == v) | (f[2] == v); }
+bool Has(const std::array<int, 3>& f, int v) { return int(f[0] == v) | int(f[1] == v) | int(f[2] == v); }
 // Whether two faces share a vertex (branch-free).
 bool ShareVertex(const std::array<int, 3>& a, const std::array<int, 3>& b) {
-  return Has(b, a[0]) | Has(b, a[1]) | Has(b, a[2]);
+  return int(Has(b, a[0])) | int(Has(b, a[1])) | int(Has(b, a[2]));
 }
 bool EdgesShare(const std::array<int, 2>& a, const std::array<int, 2>& b) {
-  return (a[0] == b[0]) | (a[0] == b[1]) | (a[1] == b[0]) | (a[1] == b[1]);
+  return int(a[0] == b[0]) | int(a[0] == b[1]) | int(a[1] == b[0]) | int(a[1] == b[1]);
 }
 
 // Lexicographic order of pairs with entries in [0, n): two stable counting passes
@@ -266,7 +266,7 @@ void BroadPhase::LeavesPair(const Node& a, const Node& b) {
   for (int i = 0; i < a.faces; ++i)
     for (int j = &a == &b ? i + 1 : 0; j < b.faces; ++j) {
       pairs[m] = {fa[i], fb[j]};
-      m += ba[i].Overlaps(bb[j]) & !ShareVertex(va[i], vb[j]);
+      m += int(ba[i].Overlaps(bb[j])) & int(!ShareVertex(va[i], vb[j]));
     }
   for (int k = 0; k < m; ++k) LeafPair(pairs[k][0], pairs[k][1]);
 }
@@ -284,7 +284,7 @@ void BroadPhase::LeafPair(int fa, int fb) {
     for (int k = owned_start_v_[owner]; k < owned_start_v_[owner + 1]; ++k) {
       const int v = owned_v_[k];
       vf[n] = {v, f};
-      n += !Has(fverts_[f], v) & vbox_[v].Overlaps(fbox_[f]);
+      n += int(!Has(fverts_[f], v)) & int(vbox_[v].Overlaps(fbox_[f]));
     }
   }
   num_vf_ = n;
@@ -295,7 +295,7 @@ void BroadPhase::LeafPair(int fa, int fb) {
     for (int j = owned_start_e_[fb]; j < owned_start_e_[fb + 1]; ++j) {
       const int b = owned_e_[j];
       ee[n] = {std::min(a, b), std::max(a, b)};
-      n += !EdgesShare(E_[a], E_[b]) & ebox_[a].Overlaps(ebox_[b]);
+      n += int(!EdgesShare(E_[a], E_[b])) & int(ebox_[a].Overlaps(ebox_[b]));
     }
   }
   num_ee_ = n;
@@ -429,8 +429,8 @@ bool BoxesInside(const std::vector<Aabb>& inner, const std::vector<Aabb>& outer)
   bool inside = true;
   for (size_t i = 0; i < inner.size() && inside; ++i) {
     const Aabb &b = inner[i], &g = outer[i];
-    inside = (g.lo[0] <= b.lo[0]) & (g.lo[1] <= b.lo[1]) & (g.lo[2] <= b.lo[2]) & (b.hi[0] <= g.hi[0]) &
-             (b.hi[1] <= g.hi[1]) & (b.hi[2] <= g.hi[2]);
+    inside = int(g.lo[0] <= b.lo[0]) & int(g.lo[1] <= b.lo[1]) & int(g.lo[2] <= b.lo[2]) & int(b.hi[0] <= g.hi[0]) &
+             int(b.hi[1] <= g.hi[1]) & int(b.hi[2] <= g.hi[2]);
   }
   return inside;
 }

@@ -24,9 +24,9 @@ namespace drape {
 
 struct Aabb {
   Vec3 lo, hi;
-  bool Overlaps(const Aabb& o) const {  // bitwise &: no branch to mispredict in the hot loops
-    return (lo[0] <= o.hi[0]) & (o.lo[0] <= hi[0]) & (lo[1] <= o.hi[1]) & (o.lo[1] <= hi[1]) & (lo[2] <= o.hi[2]) &
-           (o.lo[2] <= hi[2]);
+  bool Overlaps(const Aabb& o) const {  // bitwise & on ints: no branch to mispredict in the hot loops
+    return int(lo[0] <= o.hi[0]) & int(o.lo[0] <= hi[0]) & int(lo[1] <= o.hi[1]) & int(o.lo[1] <= hi[1]) &
+           int(lo[2] <= o.hi[2]) & int(o.lo[2] <= hi[2]);
   }
   static Aabb Union(const Aabb& a, const Aabb& b) { return {a.lo.cwiseMin(b.lo), a.hi.cwiseMax(b.hi)}; }
 };

@@ -440,7 +440,9 @@ void CollisionOptions::Validate() const {
 namespace {
 
 // std::array's == compiles to a call of memcmp here.
-bool SamePair(const std::array<int, 2>& a, const std::array<int, 2>& b) { return (a[0] == b[0]) & (a[1] == b[1]); }
+bool SamePair(const std::array<int, 2>& a, const std::array<int, 2>& b) {
+  return int(a[0] == b[0]) & int(a[1] == b[1]);
+}
 
 struct Hit {
   Stencil s;

@@ -30,6 +30,7 @@ namespace fs = std::filesystem;
 namespace drape::release_detail {
 namespace {
 
+#if DRAPE_GALLERY_3D  // only the 3D gallery's mesh scripts encode
 std::string Base64(const std::string& bytes) {
   std::string out(4 * ((bytes.size() + 2) / 3) + 1, '\0');
   const int n = EVP_EncodeBlock(reinterpret_cast<unsigned char*>(out.data()),
@@ -53,6 +54,7 @@ std::string Gzip(const std::string& bytes) {
   out.resize(z.total_out);
   return out;
 }
+#endif
 
 bool Has(const Release::EntryInfo& e, const std::string& path) {
   for (const auto& f : e.files)

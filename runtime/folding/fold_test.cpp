@@ -104,7 +104,9 @@ TEST(Fold, OptimisationNeverEndsWorse) {
   EXPECT_DOUBLE_EQ(r.evaluated.front(), r.before.cost);  // the optimiser starts at h = 1/3
   // The best simulated point is kept, probes included.
   for (double c : r.evaluated)
-    if (std::isfinite(c)) EXPECT_LE(r.after.cost, c + 1e-12);
+    if (std::isfinite(c)) {
+      EXPECT_LE(r.after.cost, c + 1e-12);
+    }
   EXPECT_LE(r.after.cost, std::sqrt(2 * r.lm.final_cost) + 1e-9);  // deterministic simulations
 }
 

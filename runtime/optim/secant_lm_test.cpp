@@ -41,7 +41,9 @@ TEST(SecantLm, SolvesRosenbrockWithAndWithoutSecantUpdates) {
     EXPECT_NEAR(x[0], 1, 1e-6) << (secant ? "secant" : "plain") << " " << rep.termination;
     EXPECT_NEAR(x[1], 1, 1e-6);
     EXPECT_LT(rep.final_cost, 1e-12);
-    if (secant) EXPECT_GT(rep.secant_updates, 0);
+    if (secant) {
+      EXPECT_GT(rep.secant_updates, 0);
+    }
     std::printf("Rosenbrock %s: %d iterations, %d fresh Jacobians, %d secant updates, %s\n",
                 secant ? "secant" : "plain", rep.iterations, rep.fresh_jacobians, rep.secant_updates,
                 rep.termination.c_str());

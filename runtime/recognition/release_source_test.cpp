@@ -96,9 +96,7 @@ fs::path BuildRelease(const fs::path& dir, const std::vector<Spec>& specs, const
   for (size_t i = 0; i < specs.size(); ++i) {
     const Spec& s = specs[i];
     Entry e;
-    char id[16];
-    std::snprintf(id, sizeof id, "e%03zu", i);
-    e.id = id;
+    e.id = "e" + std::string(i < 10 ? "00" : i < 100 ? "0" : "") + std::to_string(i);
     e.key = m.job_keys[i];
     e.split = s.split;
     const int a = s.anchor.back() - '0';
