@@ -629,7 +629,7 @@ TEST(Fusion, BandSampleKernelsMatchTheDefinition) {
     };
     std::vector<int32_t> scalar(64 * a.samples, 7), fast(64 * a.samples, 7);
     BandSamplesScalar(a, scalar.data());
-    if (HaveAvx512Vl()) BandSamplesAvx512(a, fast.data());
+    if (HaveAvx512VlBw()) BandSamplesAvx512(a, fast.data());
     for (int i = 0; i < n; ++i) {
       for (int k = 0; k < a.samples; ++k) {
         const size_t o = size_t(i / 8) * 8 * a.samples + 8 * k + i % 8;
@@ -641,12 +641,65 @@ TEST(Fusion, BandSampleKernelsMatchTheDefinition) {
           const Eigen::Vector3i r = b - a.grid_lo;
           ASSERT_EQ(scalar[o], (int64_t(r.x()) * a.grid_dims.y() + r.y()) * a.grid_dims.z() + r.z());
         }
-        if (HaveAvx512Vl()) {
+        if (HaveAvx512VlBw()) {
           ASSERT_EQ(resolve(i, k, fast[o]), expected) << "trial " << trial << " pixel " << i;
         }
       }
     }
   }
+}
+
+// Carving 8 cells at a time against the scalar definition: random poses in front of a
+// small camera (cells behind it and off the image too), codes near each cell's depth
+// ± μ, no-data and NaN pixels, counts at the settled threshold and at the cap.
+TEST(Fusion, CarveRunKernelsMatchTheScalarOne) {
+  if (!HaveAvx512VlBw()) GTEST_SKIP() << "no AVX-512VL/BW";
+  Rng rng(17);
+  const int W = 64, H = 48;
+  std::vector<float> code(W * H);
+  int64_t viewed = 0, freed = 0;  // cells whose counts grew: the test is not vacuous
+  for (int trial = 0; trial < 500; ++trial) {
+    CarveRun a;
+    const Eigen::Quaterniond q(rng.Normal(), rng.Normal(), rng.Normal(), rng.Normal());
+    a.Rt = q.normalized().toRotationMatrix();
+    a.h = 1 / rng.Uniform(100, 500), a.mu = 4 * a.h;
+    a.n = 1 + static_cast<int>(rng.Below(40));
+    a.bz0 = static_cast<int>(rng.Below(40)) - 20;
+    // The run's middle cell lies 0.1-0.8 m in front of the camera (some cells behind it).
+    const Vec3 mid(0, 0, (a.bz0 + a.n / 2) * kBlockDim * a.h);
+    a.t = mid - a.Rt.transpose() * Vec3(rng.Uniform(-0.2, 0.2), rng.Uniform(-0.2, 0.2), rng.Uniform(-0.05, 0.8));
+    a.px = rng.Uniform(-0.05, 0.05), a.py = rng.Uniform(-0.05, 0.05);
+    a.fx = a.fy = rng.Uniform(40, 80), a.cx = W / 2.0, a.cy = H / 2.0, a.W = W, a.H = H;
+    a.code = code.data();
+    for (float& c : code) {
+      const uint64_t kind = rng.Below(8);
+      const float d = float(rng.Uniform(0.0, 0.9));
+      c = kind == 0 ? 0.f : kind == 1 ? std::numeric_limits<float>::quiet_NaN() : kind == 2 ? -d : d;
+    }
+    std::vector<uint16_t> views(a.n), frees(a.n);
+    for (int i = 0; i < a.n; ++i) {
+      const uint64_t kind = rng.Below(4);
+      views[i] = kind == 0 ? 65535 : kind == 1 ? uint16_t(14 + rng.Below(5)) : uint16_t(rng.Below(40));
+      frees[i] = kind == 0 && rng.Below(2) ? 65535 : uint16_t(rng.Below(views[i] + 1));
+      if (kind == 1) frees[i] = uint16_t(views[i] / 2 - rng.Below(2));
+    }
+    std::vector<uint16_t> ev = views, ef = frees;
+    for (int frame = 0; frame < 3; ++frame) {  // counts carried over a few views
+      CarveRun s = a;
+      s.view_count = ev.data(), s.free_count = ef.data();
+      CarveRunScalar(s);
+      CarveRun f = a;
+      f.view_count = views.data(), f.free_count = frees.data();
+      const std::vector<uint16_t> views_before = views, frees_before = frees;
+      CarveRunAvx512(f);
+      for (int i = 0; i < a.n; ++i) viewed += views[i] != views_before[i], freed += frees[i] != frees_before[i];
+      ASSERT_EQ(views, ev) << "trial " << trial << " frame " << frame;
+      ASSERT_EQ(frees, ef) << "trial " << trial << " frame " << frame;
+      a.t += Vec3(rng.Uniform(-0.01, 0.01), 0, rng.Uniform(-0.01, 0.01));
+    }
+  }
+  EXPECT_GT(viewed, 2000);
+  EXPECT_GT(freed, 500);
 }
 
 // The band's voxel rounding by multiplication equals the division's, also on the

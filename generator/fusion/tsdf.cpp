@@ -404,7 +404,7 @@ void Tsdf::Impl::MarkNearForeground(const FrameView& view, FrameScratch& s) cons
 // A row's samples are rounded to blocks 8 pixels at a time (BandSamples*), then listed
 // in order (pixel by pixel, along each ray).
 void Tsdf::Impl::BandBlocks(const FrameView& view, FrameScratch& s, std::vector<Eigen::Vector3i>& band) const {
-  static const auto samples_kernel = HaveAvx512Vl() ? BandSamplesAvx512 : BandSamplesScalar;
+  static const auto samples_kernel = HaveAvx512VlBw() ? BandSamplesAvx512 : BandSamplesScalar;
   band.clear();
   const std::vector<float>& code = s.code;
   const float far = s.far;  // the farthest foreground depth (Segment)
@@ -507,12 +507,14 @@ void BandSamplesScalar(const BandSamples& a, int32_t* out) {
 }
 
 #if defined(__x86_64__)
-bool HaveAvx512Vl() { return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl"); }
+bool HaveAvx512VlBw() {
+  return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("avx512bw");
+}
 
 // BandSamplesScalar on 8 pixels at a time (doubles, the same operations in the same
 // order; no FMA: tsdf.cpp is compiled with -ffp-contract=off). The voxel's rounding
 // by the multiplication (FloorVoxel) where it is decided, -2 where the division decides.
-__attribute__((target("avx512f,avx512vl"))) void BandSamplesAvx512(const BandSamples& a, int32_t* out) {
+__attribute__((target("avx512f,avx512vl,avx512bw"))) void BandSamplesAvx512(const BandSamples& a, int32_t* out) {
   const __m512d one = _mm512_set1_pd(1.0), half = _mm512_set1_pd(0.5), inv_h = _mm512_set1_pd(a.inv_h);
   const __m512d yv = _mm512_set1_pd(a.yv), zero = _mm512_setzero_pd();
   const __m512d qmax = _mm512_set1_pd(1e6), flo = _mm512_set1_pd(1e-9), fhi = _mm512_set1_pd(1 - 1e-9);
@@ -562,7 +564,7 @@ __attribute__((target("avx512f,avx512vl"))) void BandSamplesAvx512(const BandSam
   }
 }
 #else
-bool HaveAvx512Vl() { return false; }
+bool HaveAvx512VlBw() { return false; }
 void BandSamplesAvx512(const BandSamples& a, int32_t* out) { BandSamplesScalar(a, out); }
 #endif
 
@@ -889,39 +891,117 @@ void Tsdf::Impl::UpdateVoxels(const std::vector<PreparedFrame*>& batch) {
 // up inside (see MakeView), cell by cell over the batch's frames in order (a cell's
 // counts decide whether a later frame still counts for it), slabs of cells in parallel.
 void Tsdf::Impl::CarveBlocks(const std::vector<PreparedFrame*>& batch) {
-  const int cap = std::numeric_limits<uint16_t>::max();
+  static const auto carve_run = HaveAvx512VlBw() ? CarveRunAvx512 : CarveRunScalar;
   const Eigen::Vector3i& dims = carve_dims;
   Eigen::Vector3i lo = batch[0]->view.cell_lo, hi = batch[0]->view.cell_hi;
   for (const PreparedFrame* f : batch) lo = lo.cwiseMin(f->view.cell_lo), hi = hi.cwiseMax(f->view.cell_hi);
   ParallelFor(std::max(0, hi.x() - lo.x() + 1), opt.threads, [&](int i) {
     const int bx = lo.x() + i;
+    CarveRun a;
+    a.h = h, a.mu = mu;
     for (int by = lo.y(); by <= hi.y(); ++by) {
       for (const PreparedFrame* f : batch) {
         const FrameView& view = f->view;
         if (bx < view.cell_lo.x() || bx > view.cell_hi.x() || by < view.cell_lo.y() || by > view.cell_hi.y()) continue;
-        const std::vector<float>& code = f->scratch.code;
-        for (int bz = view.cell_lo.z(); bz <= view.cell_hi.z(); ++bz) {
-          const size_t ci = (size_t(bx) * dims.y() + by) * dims.z() + bz;
-          // Free in half of 16+ views: outside for good, whatever follows.
-          if (view_count[ci] >= 16 && 2 * free_count[ci] >= view_count[ci]) continue;
-          const Eigen::Vector3i b = carve_lo + Eigen::Vector3i(bx, by, bz);
-          const Vec3 p = (b.cast<double>() * kBlockDim + Vec3::Constant(3.5)) * h;
-          const Vec3 c = view.Rt * (p - view.t);
-          if (c.z() <= 1e-6) continue;
-          const int iu = static_cast<int>(std::floor(view.K.fx * c.x() / c.z() + view.K.cx + 0.5));
-          const int iv = static_cast<int>(std::floor(view.K.fy * c.y() / c.z() + view.K.cy + 0.5));
-          if (iu < 0 || iv < 0 || iu >= view.W || iv >= view.H) continue;
-          if (view_count[ci] < cap) ++view_count[ci];
-          const float d = code[size_t(iv) * view.W + iu];
-          if (std::isnan(d)) continue;
-          const double lambda = c.norm() / c.z();
-          const bool free = d == 0 || (std::abs(d) - c.z()) * lambda > mu;
-          if (free && free_count[ci] < cap) ++free_count[ci];
-        }
+        if (view.cell_lo.z() > view.cell_hi.z()) continue;
+        const size_t ci = (size_t(bx) * dims.y() + by) * dims.z() + view.cell_lo.z();
+        const Eigen::Vector3i b = carve_lo + Eigen::Vector3i(bx, by, view.cell_lo.z());
+        const Vec3 p = (b.cast<double>() * kBlockDim + Vec3::Constant(3.5)) * h;
+        a.px = p.x(), a.py = p.y(), a.bz0 = b.z(), a.n = view.cell_hi.z() - view.cell_lo.z() + 1;
+        a.Rt = view.Rt, a.t = view.t;
+        a.fx = view.K.fx, a.fy = view.K.fy, a.cx = view.K.cx, a.cy = view.K.cy, a.W = view.W, a.H = view.H;
+        a.code = f->scratch.code.data();
+        a.view_count = &view_count[ci], a.free_count = &free_count[ci];
+        carve_run(a);
       }
     }
   });
 }
+
+void CarveRunScalar(const CarveRun& a) {
+  const int cap = std::numeric_limits<uint16_t>::max();
+  for (int i = 0; i < a.n; ++i) {
+    uint16_t& views = a.view_count[i];
+    uint16_t& frees = a.free_count[i];
+    // Free in half of 16+ views: outside for good, whatever follows.
+    if (views >= 16 && 2 * frees >= views) continue;
+    const Vec3 p(a.px, a.py, (double(a.bz0 + i) * kBlockDim + 3.5) * a.h);
+    const Vec3 c = a.Rt * (p - a.t);
+    if (c.z() <= 1e-6) continue;
+    const int iu = static_cast<int>(std::floor(a.fx * c.x() / c.z() + a.cx + 0.5));
+    const int iv = static_cast<int>(std::floor(a.fy * c.y() / c.z() + a.cy + 0.5));
+    if (iu < 0 || iv < 0 || iu >= a.W || iv >= a.H) continue;
+    if (views < cap) ++views;
+    const float d = a.code[size_t(iv) * a.W + iu];
+    if (std::isnan(d)) continue;
+    const double lambda = c.norm() / c.z();
+    const bool free = d == 0 || (std::abs(d) - c.z()) * lambda > a.mu;
+    if (free && frees < cap) ++frees;
+  }
+}
+
+#if defined(__x86_64__)
+// CarveRunScalar on 8 cells at a time.
+__attribute__((target("avx512f,avx512vl,avx512bw"))) void CarveRunAvx512(const CarveRun& a) {
+  const __m512d zi = _mm512_setr_pd(0, 1, 2, 3, 4, 5, 6, 7);
+  const __m512d eight = _mm512_set1_pd(kBlockDim), c35 = _mm512_set1_pd(3.5), h = _mm512_set1_pd(a.h);
+  const __m512d half = _mm512_set1_pd(0.5), eps = _mm512_set1_pd(1e-6), mu = _mm512_set1_pd(a.mu);
+  const __m512d fx = _mm512_set1_pd(a.fx), fy = _mm512_set1_pd(a.fy), cx = _mm512_set1_pd(a.cx),
+                cy = _mm512_set1_pd(a.cy);
+  __m512d R[3][3];
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) R[r][c] = _mm512_set1_pd(a.Rt(r, c));
+  const __m512d x = _mm512_sub_pd(_mm512_set1_pd(a.px), _mm512_set1_pd(a.t.x()));
+  const __m512d y = _mm512_sub_pd(_mm512_set1_pd(a.py), _mm512_set1_pd(a.t.y()));
+  const __m512d tz = _mm512_set1_pd(a.t.z());
+  const __m256i W = _mm256_set1_epi32(a.W), H = _mm256_set1_epi32(a.H), zero = _mm256_setzero_si256();
+  const __m256i sixteen = _mm256_set1_epi32(16);
+  const __m128i one16 = _mm_set1_epi16(1);
+  for (int i0 = 0; i0 < a.n; i0 += 8) {
+    const __mmask8 lanes = a.n - i0 >= 8 ? 0xff : __mmask8((1u << (a.n - i0)) - 1);
+    const __m128i views16 = _mm_maskz_loadu_epi16(lanes, a.view_count + i0);
+    const __m128i frees16 = _mm_maskz_loadu_epi16(lanes, a.free_count + i0);
+    const __m256i views = _mm256_cvtepu16_epi32(views16), frees = _mm256_cvtepu16_epi32(frees16);
+    const __mmask8 settled =
+        _mm256_cmpge_epi32_mask(views, sixteen) & _mm256_cmpge_epi32_mask(_mm256_add_epi32(frees, frees), views);
+    __mmask8 live = lanes & ~settled;
+    if (!live) continue;
+    const __m512d bz = _mm512_add_pd(_mm512_set1_pd(double(a.bz0 + i0)), zi);  // exact integers
+    const __m512d z = _mm512_sub_pd(_mm512_mul_pd(_mm512_add_pd(_mm512_mul_pd(bz, eight), c35), h), tz);
+    __m512d c[3];
+    for (int r = 0; r < 3; ++r) {
+      const __m512d a0 = _mm512_mul_pd(R[r][0], x), a1 = _mm512_mul_pd(R[r][1], y), a2 = _mm512_mul_pd(R[r][2], z);
+      c[r] = r < 2 ? _mm512_add_pd(_mm512_add_pd(a0, a1), a2) : _mm512_add_pd(a0, _mm512_add_pd(a1, a2));
+    }
+    live &= _mm512_cmp_pd_mask(c[2], eps, _CMP_NLE_UQ);
+    if (!live) continue;
+    const __m512d fu = _mm512_add_pd(_mm512_add_pd(_mm512_div_pd(_mm512_mul_pd(fx, c[0]), c[2]), cx), half);
+    const __m512d fv = _mm512_add_pd(_mm512_add_pd(_mm512_div_pd(_mm512_mul_pd(fy, c[1]), c[2]), cy), half);
+    const int floor_mode = _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC;
+    const __m256i iu = _mm512_maskz_cvttpd_epi32(0xff, _mm512_maskz_roundscale_pd(0xff, fu, floor_mode));
+    const __m256i iv = _mm512_maskz_cvttpd_epi32(0xff, _mm512_maskz_roundscale_pd(0xff, fv, floor_mode));
+    live &= _mm256_cmpge_epi32_mask(iu, zero) & _mm256_cmpge_epi32_mask(iv, zero) & _mm256_cmplt_epi32_mask(iu, W) &
+            _mm256_cmplt_epi32_mask(iv, H);
+    if (!live) continue;
+    const __m128i views_new = _mm_mask_adds_epu16(views16, live, views16, one16);
+    _mm_mask_storeu_epi16(a.view_count + i0, lanes, views_new);
+    const __m256i pix = _mm256_add_epi32(_mm256_mullo_epi32(iv, W), iu);
+    const __m256 d = _mm256_mmask_i32gather_ps(_mm256_setzero_ps(), live, pix, a.code, 4);
+    live &= _mm256_cmp_ps_mask(d, d, _CMP_ORD_Q);
+    const __m512d len2 =
+        _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(c[0], c[0]), _mm512_mul_pd(c[1], c[1])), _mm512_mul_pd(c[2], c[2]));
+    const __m512d lambda = _mm512_div_pd(_mm512_maskz_sqrt_pd(0xff, len2), c[2]);
+    const __m512d ad = _mm512_maskz_cvtps_pd(
+        0xff, _mm256_castsi256_ps(_mm256_and_si256(_mm256_castps_si256(d), _mm256_set1_epi32(0x7fffffff))));
+    const __mmask8 free_ = _mm256_cmp_ps_mask(d, _mm256_setzero_ps(), _CMP_EQ_OQ) |
+                           _mm512_cmp_pd_mask(_mm512_mul_pd(_mm512_sub_pd(ad, c[2]), lambda), mu, _CMP_GT_OQ);
+    const __m128i frees_new = _mm_mask_adds_epu16(frees16, live & free_, frees16, one16);
+    _mm_mask_storeu_epi16(a.free_count + i0, lanes, frees_new);
+  }
+}
+#else
+void CarveRunAvx512(const CarveRun& a) { CarveRunScalar(a); }
+#endif
 
 namespace {
 

@@ -136,7 +136,31 @@ bool BandSampleBlockAt(const BandSamples& a, int i, int k, Eigen::Vector3i* b);
 // row 2 (R₀x + (R₁y + R₂)); a test pins it). out holds 8·samples per 8 pixels.
 void BandSamplesScalar(const BandSamples& a, int32_t* out);
 void BandSamplesAvx512(const BandSamples& a, int32_t* out);
-bool HaveAvx512Vl();
+bool HaveAvx512VlBw();
+
+// Space carving of one run of carving cells along z (CarveBlocks) in one view: cells
+// (bx, by, bz), bz = bz0 + i for i < n, with their counts at view_count[i] and
+// free_count[i]. Per cell, as the reference carves (tsdf_reference.cpp): a cell free in
+// half of 16+ views is left alone; else its block centre p = (8b + 3.5)·h in the
+// camera, c = Rt·(p - t), rounds to the pixel (floor(f c / c_z + c_0 + 0.5)); in front
+// of the camera and on the image, the view counts; unless the pixel is NaN, it is
+// free if no data (0) or (|d| - c_z)·|c|/c_z > μ (counts saturate at 65535).
+struct CarveRun {
+  double px = 0, py = 0;  // p.x, p.y of the run's cells
+  int bz0 = 0, n = 0;     // absolute block z of cell 0, cells
+  Eigen::Matrix3d Rt = Eigen::Matrix3d::Identity();
+  Vec3 t = Vec3::Zero();
+  double h = 0, mu = 0, fx = 0, fy = 0, cx = 0, cy = 0;
+  int W = 0, H = 0;
+  const float* code = nullptr;
+  uint16_t* view_count = nullptr;
+  uint16_t* free_count = nullptr;
+};
+// The scalar one is the definition; the AVX-512 one (8 cells at a time, doubles, the
+// same operations in Eigen's order: c's rows 0 and 1 ((R₀x + R₁y) + R₂z), row 2
+// (R₀x + (R₁y + R₂z)), |c|² = (x² + y²) + z²) gives the same counts.
+void CarveRunScalar(const CarveRun& a);
+void CarveRunAvx512(const CarveRun& a);
 
 struct Tsdf::Impl {
   FusionOptions opt;
