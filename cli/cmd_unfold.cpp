@@ -59,6 +59,10 @@ const char* kUsage =
     "                    (default 5; 1 = recognition's answer alone)\n"
     "  --candidate-fit F the fit after the 'rigid' registration or after the 'final' one used\n"
     "                    (R + N unless --rigid; default rigid)\n"
+    "  --candidate-point P  where the regrasp goes: 'fit' (default: the kept candidate's own\n"
+    "                    point) or 'consensus' (the kept candidate's plan, the point of the\n"
+    "                    candidate aiming at its target or the twin with the most others\n"
+    "                    within 3 cm, ties by fit)\n"
     "  --no-ir           ablation: grasp the registered point without IR refinement\n"
     "  --ir-above-jaws   the IR scan as first built: the jaw centre crosses the prediction and\n"
     "                    the beam (3 cm above the jaws) reads the cloth above it (default: the\n"
@@ -174,12 +178,28 @@ TableRow RunTrials(const ReleaseModel& model, const Variant& v, const std::strin
   return Summarise(c, v.name, results);
 }
 
+// --candidates, --candidate-fit, --candidate-point into `lo`.
+void CandidateOptions(const Args& a, LoopOptions& lo) {
+  lo.candidates = static_cast<int>(a.GetInt("--candidates").value_or(lo.candidates));
+  if (lo.candidates < 1 || lo.candidates > 10) throw Error("--candidates: must be in 1..10");
+  if (const auto fit = a.Get("--candidate-fit")) {
+    if (*fit != "rigid" && *fit != "final")
+      throw Error("--candidate-fit: must be 'rigid' or 'final' (got '" + *fit + "')");
+    lo.fit_after_rigid = *fit == "rigid";
+  }
+  if (const auto point = a.Get("--candidate-point")) {
+    if (*point != "consensus" && *point != "fit")
+      throw Error("--candidate-point: must be 'consensus' or 'fit' (got '" + *point + "')");
+    lo.consensus_radius = *point == "consensus" ? kConsensusRadius : 0;
+  }
+}
+
 int RunUnfold(const std::vector<std::string>& argv) {
   Args a(argv,
          {"--no-ir", "--ir-above-jaws", "--rigid", "--unweighted", "--ablations", "--no-figures", "--no-place",
           "--category-known"},
          {"--category", "--trials", "--seed", "-o", "--weights", "--frames", "--max-regrasps", "--jobs", "--plan-prior",
-          "--candidates", "--candidate-fit"});
+          "--candidates", "--candidate-fit", "--candidate-point"});
   if (a.help()) {
     std::cout << kUsage;
     return 0;
@@ -204,13 +224,7 @@ int RunUnfold(const std::vector<std::string>& argv) {
   lo.place_flat = !a.Flag("--no-place");
   lo.plan_prior_top_k = static_cast<int>(a.GetInt("--plan-prior").value_or(lo.plan_prior_top_k));
   if (lo.plan_prior_top_k < 0 || lo.plan_prior_top_k > 5) throw Error("--plan-prior: must be in 0..5");
-  lo.candidates = static_cast<int>(a.GetInt("--candidates").value_or(lo.candidates));
-  if (lo.candidates < 1 || lo.candidates > 10) throw Error("--candidates: must be in 1..10");
-  if (const auto fit = a.Get("--candidate-fit")) {
-    if (*fit != "rigid" && *fit != "final")
-      throw Error("--candidate-fit: must be 'rigid' or 'final' (got '" + *fit + "')");
-    lo.fit_after_rigid = *fit == "rigid";
-  }
+  CandidateOptions(a, lo);
   const int jobs = static_cast<int>(a.GetInt("--jobs").value_or(1));
   if (jobs < 1) throw Error("--jobs: must be >= 1");
   if (jobs > 1) lo.fusion_threads = 1;  // the trials share the cores instead
@@ -247,6 +261,8 @@ int RunUnfold(const std::vector<std::string>& argv) {
                      {"plan_prior_top_k", lo.plan_prior_top_k},
                      {"candidates", lo.candidates},
                      {"candidate_fit", lo.fit_after_rigid ? "rigid" : "final"},
+                     {"candidate_point", lo.consensus_radius > 0 ? "consensus" : "fit"},
+                     {"consensus_radius_m", lo.consensus_radius},
                      {"ir_at_jaw_line", lo.ir_at_jaw_line},
                      {"place_flat", lo.place_flat}};
     WriteFileAtomic(*out / "report.json", rj.dump(2) + "\n");

@@ -18,6 +18,7 @@ grep -q '"retries"' "$t/trace.json" || fail "trace has no count of half-step ret
 grep -q '"aimed_anchor"' "$t/trace.json" || fail "trace has no aimed anchor per step (plan prior)"
 grep -q '"e_pinch_error_m"' "$t/trace.json" || fail "trace has no error ladder per step"
 grep -q '"kept_candidate"' "$t/trace.json" || fail "trace has no registration candidates per step"
+grep -q '"point_candidate"' "$t/trace.json" || fail "trace has no regrasp point's candidate per step"
 grep -q 'successful unfolding' "$WORK/out/report.md" || fail "report has no table"
 
 # drape fold takes the garment as the trial left it: placed flat, its key points on the
@@ -51,3 +52,4 @@ expect_error "\-\-jobs: must be >= 1" --weights "$w" --category towel --jobs 0
 expect_error "\-\-plan-prior: must be in 0..5" --weights "$w" --category towel --plan-prior 6
 expect_error "\-\-candidates: must be in 1..10" --weights "$w" --category towel --candidates 0
 expect_error "\-\-candidate-fit: must be 'rigid' or 'final'" --weights "$w" --category towel --candidate-fit best
+expect_error "\-\-candidate-point: must be 'consensus' or 'fit'" --weights "$w" --category towel --candidate-point mean

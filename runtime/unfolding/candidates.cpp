@@ -73,4 +73,28 @@ int KeepCandidate(const std::vector<double>& fits) {
   return best;
 }
 
+int ConsensusCandidate(const std::vector<CandidatePrediction>& c, int kept, double radius, std::vector<int>* votes) {
+  const int n = static_cast<int>(c.size());
+  if (votes) votes->assign(n, -1);
+  if (kept < 0 || kept >= n || !c[kept].usable) return -1;
+  std::vector<std::string> targets = rec::SymmetryTwins(c[kept].target);
+  targets.push_back(c[kept].target);
+  std::vector<int> pool;
+  for (int i = 0; i < n; ++i)
+    if (c[i].usable && std::find(targets.begin(), targets.end(), c[i].target) != targets.end()) pool.push_back(i);
+  std::vector<int> count(n, -1);
+  for (const int i : pool) {
+    count[i] = 0;
+    for (const int j : pool)
+      if (j != i && (c[i].point - c[j].point).norm() < radius) ++count[i];
+  }
+  if (votes) *votes = count;
+  if (!(radius > 0)) return kept;
+  int best = -1;
+  for (const int i : pool) {
+    if (best < 0 || count[i] > count[best] || (count[i] == count[best] && c[i].fit < c[best].fit)) best = i;
+  }
+  return best;
+}
+
 }  // namespace drape::unfolding

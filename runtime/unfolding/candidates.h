@@ -52,4 +52,25 @@ CandidateRegistration RegisterCandidate(const TriMesh& source, const TriMesh& re
 // -1 if none is usable.
 int KeepCandidate(const std::vector<double>& fits);
 
+// What the choice of the regrasp point needs of each candidate.
+struct CandidatePrediction {
+  bool usable = false;        // registered and planned
+  std::string target;         // its next anchor
+  Vec3 point = Vec3::Zero();  // its prediction (any common frame)
+  double fit = -1;            // the fit that selects (m)
+};
+
+// The candidate whose prediction the regrasp goes to (docs/unfolding.md, "The regrasp
+// point by consensus"). The kept candidate (KeepCandidate) decides the plan: the held
+// anchor, f and the target. Its point is taken from the usable candidates that aim at
+// that target or a symmetry twin of it (a twin's registration maps onto the real other
+// side, so twins predict the same physical point): the one with the most others of them
+// within `radius` of its prediction, ties by the smaller fit, then the earlier. Wrong
+// entries registered onto the same hang scatter, entries that fit the garment's real
+// shape agree; the fit alone differs between them by millimetres. radius <= 0: the kept
+// candidate itself. `votes` (optional) gets each candidate's count (-1 when it is not in
+// the pool). Returns -1 when `kept` is not a usable candidate.
+int ConsensusCandidate(const std::vector<CandidatePrediction>& c, int kept, double radius,
+                       std::vector<int>* votes = nullptr);
+
 }  // namespace drape::unfolding

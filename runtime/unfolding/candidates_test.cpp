@@ -90,6 +90,52 @@ TEST(KeepCandidate, SmallestUsableFitEarlierOnTies) {
   EXPECT_EQ(KeepCandidate({}), -1);
 }
 
+CandidatePrediction P(const std::string& target, const Vec3& p, double fit, bool usable = true) {
+  CandidatePrediction c;
+  c.usable = usable, c.target = target, c.point = p, c.fit = fit;
+  return c;
+}
+
+// Three wrong entries agree on the leg end within 2 cm (one aims at its twin: the same
+// physical point); the best-fitting candidate predicts 12 cm away, alone. Its plan is kept,
+// the point is the consensus (the agreeing one that fits best).
+TEST(ConsensusCandidate, AConsensusOutvotesABetterFittingOutlier) {
+  const std::vector<CandidatePrediction> c = {
+      P("left_leg_outer", Vec3(0.12, 0.0, 0.0), 0.015), P("left_leg_outer", Vec3(0.0, 0.0, 0.0), 0.024),
+      P("right_leg_outer", Vec3(0.01, 0.01, 0.0), 0.022), P("left_leg_outer", Vec3(0.0, 0.015, 0.005), 0.026)};
+  std::vector<int> votes;
+  EXPECT_EQ(ConsensusCandidate(c, 0, 0.03, &votes), 2);
+  EXPECT_EQ(votes, (std::vector<int>{0, 2, 2, 2}));
+  EXPECT_EQ(ConsensusCandidate(c, 0, 0.0), 0);    // radius 0: the fit rule, the kept one's point
+  EXPECT_EQ(ConsensusCandidate(c, 0, 0.005), 0);  // nobody within 5 mm: ties by fit
+}
+
+// Candidates aiming at another target do not vote, however close their points; unusable
+// ones neither.
+TEST(ConsensusCandidate, OnlyTheKeptTargetOrItsTwinVotes) {
+  const std::vector<CandidatePrediction> c = {
+      P("left_elbow", Vec3(0.0, 0.0, 0.0), 0.012), P("hem_center", Vec3(0.3, 0.0, 0.0), 0.020),
+      P("collar", Vec3(0.3, 0.01, 0.0), 0.021), P("right_elbow", Vec3(0.3, 0.0, 0.01), 0.030, false),
+      P("right_elbow", Vec3(0.02, 0.0, 0.0), 0.025)};
+  std::vector<int> votes;
+  EXPECT_EQ(ConsensusCandidate(c, 0, 0.03, &votes), 0);  // 1 vote each: ties by fit
+  EXPECT_EQ(votes, (std::vector<int>{1, -1, -1, -1, 1}));
+  EXPECT_EQ(ConsensusCandidate(c, 3, 0.03), -1);  // the kept one must be usable
+  EXPECT_EQ(ConsensusCandidate(c, 7, 0.03), -1);
+  EXPECT_EQ(ConsensusCandidate({}, 0, 0.03), -1);
+}
+
+// Equal votes and equal fits: the earlier (recognition's better rank).
+TEST(ConsensusCandidate, TiesByFitThenRank) {
+  const std::vector<CandidatePrediction> c = {P("crotch", Vec3(0.0, 0.0, 0.0), 0.02),
+                                              P("crotch", Vec3(0.5, 0.0, 0.0), 0.02),
+                                              P("crotch", Vec3(0.0, 0.5, 0.0), 0.01)};
+  EXPECT_EQ(ConsensusCandidate(c, 0, 0.03), 2);
+  const std::vector<CandidatePrediction> same = {P("crotch", Vec3(0.0, 0.0, 0.0), 0.02),
+                                                 P("crotch", Vec3(0.5, 0.0, 0.0), 0.02)};
+  EXPECT_EQ(ConsensusCandidate(same, 1, 0.03), 0);
+}
+
 // The hand-made case: the reconstruction is a hanging tube, slightly deformed;
 // recognition ranks a wide, short tube first (another anchor's hang) and the right shape,
 // turned by a quarter turn and moved, second. Registered, the right one fits best and is

@@ -42,6 +42,7 @@ void LoopOptions::Validate() const {
   if (!(success_distance > 0)) throw Error("unfold.success_distance: must be > 0 m");
   if (plan_prior_top_k < 0 || plan_prior_top_k > 5) throw Error("unfold.plan_prior_top_k: must be in 0..5");
   if (candidates < 1 || candidates > 10) throw Error("unfold.candidates: must be in 1..10");
+  if (!(consensus_radius >= 0 && consensus_radius < 0.5)) throw Error("unfold.consensus_radius: must be in [0, 0.5) m");
 }
 
 double Coverage(const TriMesh& lying, const Garment& garment, double mpp) {
@@ -367,6 +368,24 @@ struct TrialRun {
     }
   }
 
+  // The regrasp point (candidates.h ConsensusCandidate): the consensus of the candidates
+  // aiming at the kept target or its twin; the ladder's first rungs from its registration.
+  void PointFromConsensus(Step& s, const std::vector<double>& fits, const std::vector<CandidateRegistration>& regs,
+                          const std::vector<int>& vertex, const Eigen::Matrix3d& to_world, const Vec3& origin) const {
+    std::vector<CandidatePrediction> preds(s.candidates.size());
+    for (size_t i = 0; i < s.candidates.size(); ++i)
+      preds[i] = {s.candidates[i].usable, s.candidates[i].next_anchor, s.candidates[i].predicted, fits[i]};
+    std::vector<int> votes;
+    s.point = ConsensusCandidate(preds, s.kept, o.consensus_radius, &votes);
+    DRAPE_CHECK(s.point >= 0, "the kept candidate is not usable");
+    for (size_t i = 0; i < s.candidates.size(); ++i) s.candidates[i].votes = votes[i];
+    const CandidateRegistration& preg = regs[s.point];
+    const int v = vertex[s.point];
+    s.predicted = s.candidates[s.point].predicted;
+    s.ladder.rigid = to_world * preg.reg.rigid.V.row(v).transpose() + origin;
+    s.ladder.nonrigid = to_world * preg.final_mesh().V.row(v).transpose() + origin;
+  }
+
   // Registration of each candidate's database mesh (turned by its recognised rotation)
   // onto the reconstruction, its plan and its next anchor mapped onto the reconstruction;
   // the best fit is kept (candidates.h) and the regrasp point predicted in the world frame.
@@ -438,10 +457,7 @@ struct TrialRun {
     s.icp_rms = k.icp_rms;
     if (!reg.note.empty()) s.note = reg.note;
     ColourByScore(s, pairs);
-    const int v = vertex[s.kept];
-    s.predicted = k.predicted;
-    s.ladder.rigid = to_world * reg.reg.rigid.V.row(v).transpose() + hp.position;
-    s.ladder.nonrigid = to_world * s.registered.V.row(v).transpose() + hp.position;
+    PointFromConsensus(s, fits, regs, vertex, to_world, hp.position);
     return true;
   }
 
@@ -700,10 +716,12 @@ void AddCandidates(const Step& s, Json& j) {
                      {"predicted", J(t.predicted)},
                      {"note", t.note},
                      {"seconds", t.seconds},
+                     {"votes", t.votes},
                      {"truth", {{"right", t.right}, {"twin", t.twin}, {"predicted_error_m", t.predicted_error}}}});
   }
   j["candidates"] = std::move(cands);
   j["kept_candidate"] = s.kept;
+  j["point_candidate"] = s.point;
   j["truth"]["kept_right"] = s.kept_right;
   j["truth"]["true_rank"] = s.true_rank;
 }

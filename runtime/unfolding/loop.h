@@ -37,6 +37,9 @@
 
 namespace drape::unfolding {
 
+// The consensus radius of `--candidate-point consensus` (LoopOptions::consensus_radius), m.
+inline constexpr double kConsensusRadius = 0.03;
+
 struct LoopOptions {
   ObjectiveOptions objective;
   RefineOptions refine;
@@ -58,6 +61,12 @@ struct LoopOptions {
   // Defaults measured on the paper release (docs/unfolding.md): 5, the rigid fit.
   int candidates = 5;
   bool fit_after_rigid = true;
+  // The regrasp point (candidates.h ConsensusCandidate): the kept candidate's plan, the
+  // point of the candidate aiming at its target (or the twin) with the most others within
+  // this radius (m; kConsensusRadius, chosen on seed-1 traces of the paper release,
+  // docs/unfolding.md). 0: the kept candidate's own point (the fit rule, as first built).
+  // Must be in [0, 0.5).
+  double consensus_radius = 0;
   hardware::CaptureOptions capture;  // frames per turn (paper ~550 both ways)
   int fusion_threads = 0;            // TSDF fusion threads (<= 0: all cores); no effect on results
   double standoff = 0.12;       // m: the IR scan runs this far before the predicted point
@@ -151,9 +160,12 @@ struct Step {
     // (m, -1 when not planned).
     bool right = false, twin = false;
     double predicted_error = -1;
+    int votes = -1;  // others aiming at the kept target (or twin) within the radius; -1: not
+                     // in that pool
   };
   std::vector<CandidateTrace> candidates;
   int kept = -1;
+  int point = -1;           // the candidate whose prediction the regrasp goes to (== kept by the fit rule)
   bool kept_right = false;  // truth: the kept candidate's anchor is the held true anchor
   int true_rank = -1;       // truth: first candidate whose anchor is the held true anchor
   // Registration of the kept candidate.
