@@ -300,33 +300,36 @@ int FindRoot(std::vector<int>& parent, int a) {
 // border through non-foreground pixels) are dropouts on the garment (grazing angles,
 // folds), not background → ignored (NaN); without this, dropouts carve the unobserved
 // interior over a long sweep. So are pixels without data within hole_radius_px of a
-// foreground pixel. Within the rectangle only: no pixel outside it is foreground, so
-// every non-foreground pixel on its edge reaches the image border. Connectivity by
-// union–find over the rows' runs of non-foreground pixels (4-neighbours).
+// foreground pixel. Within the foreground's bounding rectangle only (Segment): no
+// pixel outside it is foreground, so every pixel outside it reaches the image border
+// straight along its row or column, and so does every non-foreground pixel on its
+// edge. Connectivity by union–find over the rows' runs of non-foreground pixels
+// (4-neighbours).
 void Tsdf::Impl::IgnoreDropouts(const FrameView& view, FrameScratch& s) const {
   const int W = view.W;
   std::vector<int>& runs = s.runs;  // (row, u_begin, u_end) triples
   runs.clear();
   std::vector<int>& parent = s.parent;
   parent.clear();
-  std::vector<uint8_t>& edge = s.edge;  // run touches the rectangle's edge
+  std::vector<uint8_t>& edge = s.edge;  // run touches the bounding rectangle's edge
   edge.clear();
   int prev_begin = 0;  // first run of the previous row
-  for (int v = view.v0; v < view.v1; ++v) {
+  const int u0 = s.fg_u0, u1 = s.fg_u1, v0 = s.fg_v0, v1 = s.fg_v1;
+  for (int v = v0; v < v1; ++v) {
     const int row_begin = static_cast<int>(parent.size());
     const uint8_t* fg = &s.fg[size_t(v) * W];
     int q = prev_begin;  // runs of the previous row, scanned left to right
-    for (int u = view.u0; u < view.u1;) {
+    for (int u = u0; u < u1;) {
       if (fg[u]) {
         ++u;
         continue;
       }
       int e = u;
-      while (e < view.u1 && !fg[e]) ++e;
+      while (e < u1 && !fg[e]) ++e;
       const int id = static_cast<int>(parent.size());
       parent.push_back(id);
       runs.insert(runs.end(), {v, u, e});
-      edge.push_back(v == view.v0 || v == view.v1 - 1 || u == view.u0 || e == view.u1);
+      edge.push_back(v == v0 || v == v1 - 1 || u == u0 || e == u1);
       // Overlapping runs of the previous row: [b, c) ∩ [u, e) ≠ ∅.
       while (q < row_begin && runs[3 * q + 2] <= u) ++q;
       for (int k = q; k < row_begin && runs[3 * k + 1] < e; ++k) {
@@ -356,12 +359,15 @@ void Tsdf::Impl::IgnoreDropouts(const FrameView& view, FrameScratch& s) const {
 // pixel of the row) then columns (a running count of such rows within r), row-major.
 void Tsdf::Impl::MarkNearForeground(const FrameView& view, FrameScratch& s) const {
   const int W = view.W, r = opt.hole_radius_px;
-  const int w = view.u1 - view.u0, hgt = view.v1 - view.v0;
+  // Only pixels within r of the foreground's bounding rectangle can be near it.
+  const int u0 = std::max(view.u0, s.fg_u0 - r), u1 = std::min(view.u1, s.fg_u1 + r);
+  const int v0 = std::max(view.v0, s.fg_v0 - r), v1 = std::min(view.v1, s.fg_v1 + r);
+  const int w = u1 - u0, hgt = v1 - v0;
   s.near_row.resize(size_t(w) * hgt);
   s.dist.resize(w);
   std::vector<int>& dist = s.dist;
   for (int v = 0; v < hgt; ++v) {
-    const uint8_t* fg = &s.fg[size_t(v + view.v0) * W + view.u0];
+    const uint8_t* fg = &s.fg[size_t(v + v0) * W + u0];
     uint8_t* near = &s.near_row[size_t(v) * w];
     int last = -1000000;  // last foreground column
     for (int u = 0; u < w; ++u) {
@@ -391,7 +397,7 @@ void Tsdf::Impl::MarkNearForeground(const FrameView& view, FrameScratch& s) cons
       const uint8_t* sub = &s.near_row[size_t(v - r - 1) * w];
       for (int u = 0; u < w; ++u) count[u] -= sub[u];
     }
-    float* c = &s.code[size_t(v + view.v0) * W + view.u0];
+    float* c = &s.code[size_t(v + v0) * W + u0];
     for (int u = 0; u < w; ++u)
       if (count[u] > 0 && c[u] == 0) c[u] = nan;
   }
