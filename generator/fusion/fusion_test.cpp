@@ -519,14 +519,17 @@ TEST(Fusion, SegmentRowKernelsMatchTheReferenceExpression) {
       for (int j = 0; j < 3; ++j) row.R[i][j] = R(i, j);
       row.t[i] = t[i], row.lo[i] = box.min()[i], row.hi[i] = box.max()[i];
     }
-    for (int kernel = 0; kernel < (HaveAvx2() ? 2 : 1); ++kernel) {
-      SCOPED_TRACE(kernel ? "AVX2" : "scalar");
+    for (int kernel = 0; kernel < 3; ++kernel) {
+      if ((kernel == 1 && !HaveAvx2()) || (kernel == 2 && !HaveAvx512VlBw())) continue;
+      SCOPED_TRACE(kernel == 2 ? "AVX-512" : kernel ? "AVX2" : "scalar");
       std::fill(code.begin(), code.end(), 7.f);
       const int u0 = trial % 5, u1 = W - trial % 3;
       float far = 0, expected_far = 0;
       row.fg_lo = W, row.fg_hi = 0;
       int expected_lo = W, expected_hi = 0;
-      const int64_t n = kernel ? SegmentRowAvx2(row, u0, u1, &far) : SegmentRowScalar(row, u0, u1, &far);
+      const int64_t n = kernel == 2 ? SegmentRowAvx512(row, u0, u1, &far)
+                        : kernel    ? SegmentRowAvx2(row, u0, u1, &far)
+                                    : SegmentRowScalar(row, u0, u1, &far);
       int64_t expected_n = 0;
       for (int u = u0; u < u1; ++u) {
         const bool in =

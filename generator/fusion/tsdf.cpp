@@ -258,7 +258,7 @@ void Tsdf::Impl::Prepare(const float* depth, const Eigen::Isometry3d& pose, cons
 
 // 1. Segmentation of the frame's rectangle into s.code / s.fg, row by row.
 int64_t Tsdf::Impl::Segment(const float* depth, const FrameView& view, FrameScratch& s) const {
-  static const bool avx2 = HaveAvx2();
+  static const auto segment_row = HaveAvx512VlBw() ? SegmentRowAvx512 : HaveAvx2() ? SegmentRowAvx2 : SegmentRowScalar;
   const int W = view.W;
   s.code.resize(size_t(W) * view.H);
   s.fg.resize(size_t(W) * view.H);
@@ -278,8 +278,7 @@ int64_t Tsdf::Impl::Segment(const float* depth, const FrameView& view, FrameScra
     row.code = s.code.data() + size_t(v) * W;
     row.fg = s.fg.data() + size_t(v) * W;
     row.yv = yhat[v];
-    const int64_t n =
-        avx2 ? SegmentRowAvx2(row, view.u0, view.u1, &s.far) : SegmentRowScalar(row, view.u0, view.u1, &s.far);
+    const int64_t n = segment_row(row, view.u0, view.u1, &s.far);
     if (n > 0) s.fg_v0 = std::min(s.fg_v0, v), s.fg_v1 = v + 1;
     fg_count += n;
   }
@@ -713,8 +712,63 @@ __attribute__((target("avx2"))) int64_t SegmentRowAvx2(const SegmentRow& a, int 
   for (float f : lanes) *far = std::max(*far, f);
   return n + SegmentRowScalar(a, u, u1, far);
 }
+
+// The same 8 pixels at a time (AVX-512 doubles; no FMA: the same bits).
+__attribute__((target("avx512f,avx512vl,avx512bw"))) int64_t SegmentRowAvx512(const SegmentRow& a, int u0, int u1,
+                                                                              float* far) {
+  int64_t n = 0;
+  const __m512d yv = _mm512_set1_pd(a.yv), r2 = _mm512_set1_pd(a.radius2);
+  __m512d R[3][3], t[3], lo[3], hi[3];
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) R[i][j] = _mm512_set1_pd(a.R[i][j]);
+    t[i] = _mm512_set1_pd(a.t[i]), lo[i] = _mm512_set1_pd(a.lo[i]), hi[i] = _mm512_set1_pd(a.hi[i]);
+  }
+  const bool radial = a.radius2 > 0;
+  const __m256 zero = _mm256_setzero_ps(), inf = _mm256_set1_ps(std::numeric_limits<float>::infinity());
+  const __m256 sign = _mm256_set1_ps(-0.0f);
+  const __m128i ones = _mm_set1_epi8(1);
+  __m256 far8 = zero;  // per lane: the largest foreground depth
+  int u = u0;
+  for (; u + 8 <= u1; u += 8) {
+    const __m256 d = _mm256_loadu_ps(a.depth + u);
+    // d > 0 and finite (NaN fails both).
+    const __mmask8 valid = _mm256_cmp_ps_mask(d, zero, _CMP_GT_OQ) & _mm256_cmp_ps_mask(d, inf, _CMP_LT_OQ);
+    const __m512d dd = _mm512_maskz_cvtps_pd(0xff, d);
+    const __m512d x = _mm512_mul_pd(dd, _mm512_loadu_pd(a.xhat + u)), y = _mm512_mul_pd(dd, yv);
+    __mmask8 in = 0xff;
+    __m512d p[3];
+    for (int i = 0; i < 3; ++i) {
+      const __m512d a0 = _mm512_mul_pd(R[i][0], x), a1 = _mm512_mul_pd(R[i][1], y), a2 = _mm512_mul_pd(R[i][2], dd);
+      const __m512d sum = i < 2 ? _mm512_add_pd(_mm512_add_pd(a0, a1), a2) : _mm512_add_pd(a0, _mm512_add_pd(a1, a2));
+      p[i] = _mm512_add_pd(sum, t[i]);
+      in &= _mm512_cmp_pd_mask(lo[i], p[i], _CMP_LE_OQ) & _mm512_cmp_pd_mask(p[i], hi[i], _CMP_LE_OQ);
+    }
+    if (radial) {
+      const __m512d rr = _mm512_add_pd(_mm512_mul_pd(p[0], p[0]), _mm512_mul_pd(p[2], p[2]));
+      in &= _mm512_cmp_pd_mask(rr, r2, _CMP_LE_OQ);
+    }
+    const __mmask8 fg = valid & in;
+    // valid: in ? d : -d; else 0.
+    const __m256i di = _mm256_castps_si256(d);
+    const __m256i negated = _mm256_mask_or_epi32(di, __mmask8(~in), di, _mm256_castps_si256(sign));
+    _mm256_storeu_ps(a.code + u, _mm256_maskz_mov_ps(valid, _mm256_castsi256_ps(negated)));
+    far8 = _mm256_max_ps(far8, _mm256_maskz_mov_ps(fg, d));
+    const int bits = fg;
+    if (bits) {
+      a.fg_lo = std::min(a.fg_lo, u + __builtin_ctz(bits));
+      a.fg_hi = std::max(a.fg_hi, u + 32 - __builtin_clz(bits));
+    }
+    _mm_storel_epi64(reinterpret_cast<__m128i*>(a.fg + u), _mm_maskz_mov_epi8(fg, ones));
+    n += __builtin_popcount(bits);
+  }
+  alignas(32) float lanes[8];
+  _mm256_store_ps(lanes, far8);
+  for (float f : lanes) *far = std::max(*far, f);
+  return n + SegmentRowScalar(a, u, u1, far);
+}
 #else
 int64_t SegmentRowAvx2(const SegmentRow& a, int u0, int u1, float* far) { return SegmentRowScalar(a, u0, u1, far); }
+int64_t SegmentRowAvx512(const SegmentRow& a, int u0, int u1, float* far) { return SegmentRowScalar(a, u0, u1, far); }
 #endif
 
 #if defined(__x86_64__)

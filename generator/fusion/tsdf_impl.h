@@ -95,7 +95,7 @@ bool HaveAvx512();
 // none), the sums in the order Eigen evaluates the reference's `R * Vec3(x, y, z) + t`
 // (SSE2: rows 0 and 1 as a packet, ((R₀x + R₁y) + R₂z) + t; row 2 by its unrolled
 // reduction, (R₀x + (R₁y + R₂z)) + t; a test pins that). Returns the foreground count;
-// *far = max(*far, the row's largest foreground depth). The AVX2 one gives the same bits.
+// *far = max(*far, the row's largest foreground depth). The AVX2 and AVX-512 ones give the same bits.
 struct SegmentRow {
   const float* depth = nullptr;
   const double* xhat = nullptr;
@@ -108,6 +108,7 @@ struct SegmentRow {
 };
 int64_t SegmentRowScalar(const SegmentRow& row, int u0, int u1, float* far);
 int64_t SegmentRowAvx2(const SegmentRow& row, int u0, int u1, float* far);
+int64_t SegmentRowAvx512(const SegmentRow& row, int u0, int u1, float* far);  // 8 at a time (AVX-512VL/BW)
 
 // The band's samples of one row's foreground pixels (BandBlocks): pixel i (x̂ of its
 // column xhat[i], depth d[i]; both arrays padded to a multiple of 8) has the samples
