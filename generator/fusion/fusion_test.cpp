@@ -705,6 +705,33 @@ TEST(Fusion, CarveRunKernelsMatchTheScalarOne) {
   EXPECT_GT(freed, 500);
 }
 
+// MarkNearForeground's row steps, AVX-512 against scalar: rows of every length up to
+// 200 pixels (partial words), random foreground bytes and codes (no data, NaN, depths).
+TEST(Fusion, NearForegroundRowKernelsMatchTheScalarOnes) {
+  if (!HaveAvx512VlBw()) GTEST_SKIP() << "no AVX-512VL/BW";
+  Rng rng(19);
+  for (int w = 1; w <= 200; ++w) {
+    std::vector<uint8_t> fg(w);
+    for (uint8_t& f : fg) f = rng.Below(3) == 0;
+    std::vector<uint64_t> scalar((w + 63) / 64, 7), fast((w + 63) / 64, 9);
+    PackRowBitsScalar(fg.data(), w, scalar.data());
+    PackRowBitsAvx512(fg.data(), w, fast.data());
+    ASSERT_EQ(scalar, fast) << "w " << w;
+    for (int u = 0; u < w; ++u) ASSERT_EQ((scalar[u / 64] >> (u % 64)) & 1, fg[u]);
+    std::vector<float> code(w + 16, 5.f);
+    for (int u = 0; u < w; ++u) {
+      const uint64_t kind = rng.Below(4);
+      code[u] = kind == 0 ? 0.f : kind == 1 ? std::numeric_limits<float>::quiet_NaN() : float(rng.Uniform(-2, 2));
+    }
+    std::vector<float> expected = code, got = code;
+    NanWhereNoDataScalar(scalar.data(), w, expected.data());
+    NanWhereNoDataAvx512(scalar.data(), w, got.data());
+    ASSERT_EQ(std::memcmp(expected.data(), got.data(), sizeof(float) * code.size()), 0) << "w " << w;
+    for (int u = 0; u < w; ++u)
+      ASSERT_EQ(std::isnan(expected[u]), std::isnan(code[u]) || (fg[u] && code[u] == 0)) << "w " << w << " u " << u;
+  }
+}
+
 // The band's voxel rounding by multiplication equals the division's, also on the
 // values nearest the voxels' boundaries (x = (i - 0.5)·h and its neighbours).
 TEST(Fusion, FloorVoxelEqualsTheDivision) {

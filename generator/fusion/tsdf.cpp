@@ -354,53 +354,85 @@ void Tsdf::Impl::IgnoreDropouts(const FrameView& view, FrameScratch& s) const {
 }
 
 // Pixels without data within hole_radius_px (Chebyshev) of a foreground pixel → NaN:
-// the foreground dilated by a (2r+1)² square, rows (distance to the nearest foreground
-// pixel of the row) then columns (a running count of such rows within r), row-major.
+// the foreground dilated by a (2r+1)² square, on bit masks (64 pixels a word): each
+// row's foreground bits dilated by r along the row (r shifts by one), then the OR of the
+// 2r + 1 rows around each row, then the no-data pixels under it set to NaN.
 void Tsdf::Impl::MarkNearForeground(const FrameView& view, FrameScratch& s) const {
+  static const bool avx512 = HaveAvx512VlBw();
   const int W = view.W, r = opt.hole_radius_px;
   // Only pixels within r of the foreground's bounding rectangle can be near it.
   const int u0 = std::max(view.u0, s.fg_u0 - r), u1 = std::min(view.u1, s.fg_u1 + r);
   const int v0 = std::max(view.v0, s.fg_v0 - r), v1 = std::min(view.v1, s.fg_v1 + r);
   const int w = u1 - u0, hgt = v1 - v0;
-  s.near_row.resize(size_t(w) * hgt);
-  s.dist.resize(w);
-  std::vector<int>& dist = s.dist;
+  if (w <= 0 || hgt <= 0) return;
+  const int words = (w + 63) / 64;
+  const uint64_t last = w % 64 ? (uint64_t(1) << (w % 64)) - 1 : ~uint64_t(0);  // the last word's pixels
+  s.near_bits.resize(size_t(words) * hgt);
+  s.row_bits.resize(words);
   for (int v = 0; v < hgt; ++v) {
-    const uint8_t* fg = &s.fg[size_t(v + v0) * W + u0];
-    uint8_t* near = &s.near_row[size_t(v) * w];
-    int last = -1000000;  // last foreground column
-    for (int u = 0; u < w; ++u) {
-      if (fg[u]) last = u;
-      dist[u] = u - last;
-    }
-    last = 1000000;
-    for (int u = w - 1; u >= 0; --u) {
-      if (fg[u]) last = u;
-      near[u] = std::min(dist[u], last - u) <= r;
+    uint64_t* near = &s.near_bits[size_t(v) * words];
+    (avx512 ? PackRowBitsAvx512 : PackRowBitsScalar)(&s.fg[size_t(v + v0) * W + u0], w, near);
+    for (int step = 0; step < r; ++step) {
+      uint64_t carry = 0;  // bit 63 of the previous word
+      for (int k = 0; k < words; ++k) {
+        const uint64_t b = near[k], next = k + 1 < words ? near[k + 1] : 0;
+        s.row_bits[k] = b | (b << 1) | carry | (b >> 1) | (next << 63);
+        carry = b >> 63;
+      }
+      for (int k = 0; k < words; ++k) near[k] = s.row_bits[k];
+      near[words - 1] &= last;
     }
   }
-  // count[u]: rows within [v - r, v + r] whose near_row is set at u.
-  std::vector<int>& count = s.near_count;
-  count.assign(w, 0);
-  for (int v = 0; v < std::min(r, hgt); ++v) {
-    const uint8_t* near = &s.near_row[size_t(v) * w];
-    for (int u = 0; u < w; ++u) count[u] += near[u];
-  }
-  const float nan = std::numeric_limits<float>::quiet_NaN();
   for (int v = 0; v < hgt; ++v) {
-    if (v + r < hgt) {
-      const uint8_t* add = &s.near_row[size_t(v + r) * w];
-      for (int u = 0; u < w; ++u) count[u] += add[u];
+    for (int k = 0; k < words; ++k) s.row_bits[k] = 0;
+    for (int q = std::max(0, v - r); q <= std::min(hgt - 1, v + r); ++q) {
+      const uint64_t* near = &s.near_bits[size_t(q) * words];
+      for (int k = 0; k < words; ++k) s.row_bits[k] |= near[k];
     }
-    if (v - r - 1 >= 0) {
-      const uint8_t* sub = &s.near_row[size_t(v - r - 1) * w];
-      for (int u = 0; u < w; ++u) count[u] -= sub[u];
-    }
-    float* c = &s.code[size_t(v + v0) * W + u0];
-    for (int u = 0; u < w; ++u)
-      if (count[u] > 0 && c[u] == 0) c[u] = nan;
+    (avx512 ? NanWhereNoDataAvx512 : NanWhereNoDataScalar)(s.row_bits.data(), w, &s.code[size_t(v + v0) * W + u0]);
   }
 }
+
+void PackRowBitsScalar(const uint8_t* fg, int w, uint64_t* bits) {
+  for (int k = 0; k < (w + 63) / 64; ++k) bits[k] = 0;
+  for (int u = 0; u < w; ++u) bits[u >> 6] |= uint64_t(fg[u] != 0) << (u & 63);
+}
+
+void NanWhereNoDataScalar(const uint64_t* bits, int w, float* code) {
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  for (int k = 0; k < (w + 63) / 64; ++k) {
+    for (uint64_t m = bits[k]; m; m &= m - 1) {
+      const int u = 64 * k + __builtin_ctzll(m);
+      if (u < w && code[u] == 0) code[u] = nan;
+    }
+  }
+}
+
+#if defined(__x86_64__)
+__attribute__((target("avx512f,avx512vl,avx512bw"))) void PackRowBitsAvx512(const uint8_t* fg, int w, uint64_t* bits) {
+  for (int k = 0; 64 * k < w; ++k) {
+    const int left = w - 64 * k;
+    const __mmask64 lanes = left >= 64 ? ~__mmask64(0) : (__mmask64(1) << left) - 1;
+    const __m512i bytes = _mm512_maskz_loadu_epi8(lanes, fg + 64 * k);
+    bits[k] = _mm512_test_epi8_mask(bytes, bytes);
+  }
+}
+
+__attribute__((target("avx512f,avx512vl,avx512bw"))) void NanWhereNoDataAvx512(const uint64_t* bits, int w,
+                                                                               float* code) {
+  const __m512 nan = _mm512_set1_ps(std::numeric_limits<float>::quiet_NaN()), zero = _mm512_setzero_ps();
+  for (int u = 0; u < w; u += 16) {
+    __mmask16 near = __mmask16(bits[u >> 6] >> (u & 63));
+    if (!near) continue;
+    if (w - u < 16) near &= __mmask16((1u << (w - u)) - 1);
+    const __m512 c = _mm512_maskz_loadu_ps(near, code + u);
+    _mm512_mask_storeu_ps(code + u, near & _mm512_cmp_ps_mask(c, zero, _CMP_EQ_OQ), nan);
+  }
+}
+#else
+void PackRowBitsAvx512(const uint8_t* fg, int w, uint64_t* bits) { PackRowBitsScalar(fg, w, bits); }
+void NanWhereNoDataAvx512(const uint64_t* bits, int w, float* code) { NanWhereNoDataScalar(bits, w, code); }
+#endif
 
 // 3. The blocks that the band [d - μ, d + μ] of each foreground pixel crosses.
 // Samples every half block along the ray, and every `stride` pixels with stride ≤ a

@@ -48,9 +48,7 @@ struct FrameScratch {
   std::vector<uint8_t> fg;
   std::vector<int> runs, parent;  // non-foreground runs of the dropout labelling
   std::vector<uint8_t> edge, reaches;
-  std::vector<uint8_t> near_row;
-  std::vector<int> near_count;
-  std::vector<int> dist;
+  std::vector<uint64_t> near_bits, row_bits;  // MarkNearForeground's bit masks
   std::vector<uint64_t> seen;  // band blocks already listed this frame: a bit per block-grid cell
   std::vector<double> band_xhat, band_d;  // a row's foreground samples (BandSamples)
   std::vector<int32_t> band_out;
@@ -162,6 +160,14 @@ struct CarveRun {
 // (R₀x + (R₁y + R₂z)), |c|² = (x² + y²) + z²) gives the same counts.
 void CarveRunScalar(const CarveRun& a);
 void CarveRunAvx512(const CarveRun& a);
+
+// MarkNearForeground's steps on a row of w pixels: fg bytes (0 / 1) to bits (pixel u at
+// bit u % 64 of word u / 64, bits past w zero), and code → NaN where the bit is set
+// and the code is 0 (no data). The AVX-512 ones (AVX-512VL/BW) give the same.
+void PackRowBitsScalar(const uint8_t* fg, int w, uint64_t* bits);
+void PackRowBitsAvx512(const uint8_t* fg, int w, uint64_t* bits);
+void NanWhereNoDataScalar(const uint64_t* bits, int w, float* code);
+void NanWhereNoDataAvx512(const uint64_t* bits, int w, float* code);
 
 struct Tsdf::Impl {
   FusionOptions opt;
