@@ -368,6 +368,31 @@ struct TrialRun {
     }
   }
 
+  // Candidate `c`'s database mesh turned by its recognised rotation.
+  TriMesh TurnedSource(const rec::Candidate& c, const rec::Database& db) const {
+    TriMesh src = model.HungMesh(c.entry);
+    const double yaw = 2 * M_PI * c.rotation / db.sectors();
+    const Eigen::Matrix3d R = Eigen::AngleAxisd(yaw, Vec3::UnitY()).toRotationMatrix();
+    for (int j = 0; j < src.NumVertices(); ++j) src.V.row(j) = (R * src.V.row(j).transpose()).transpose();
+    return src;
+  }
+
+  // R + N for the kept candidate only (the others were registered rigidly: the rigid fit
+  // selected it and its own point is used). The same registration as R + N for all
+  // (Register is deterministic), without the other candidates' non-rigid steps.
+  void NonrigidForKept(Step& s, const rec::Database& db, const ExactClosestPoint& onto, CandidateRegistration& reg,
+                       const Eigen::Matrix3d& to_world, const Vec3& origin) const {
+    const auto tc = Clock::now();
+    Step::CandidateTrace& t = s.candidates[s.kept];
+    reg = RegisterCandidate(TurnedSource(t.candidate, db), s.recon, onto, true);
+    t.note = reg.note;
+    t.fit_final = reg.fit_final;
+    const int v = model.AnchorVertex(t.candidate.instance, t.next_anchor);
+    DRAPE_CHECK(v >= 0 && v < reg.final_mesh().NumVertices(), "the kept candidate has no anchor vertex");
+    t.predicted = to_world * onto.Query(reg.final_mesh().V.row(v).transpose()).point + origin;
+    t.seconds += Since(tc);
+  }
+
   // The regrasp point (candidates.h ConsensusCandidate): the consensus of the candidates
   // aiming at the kept target or its twin; the ladder's first rungs from its registration.
   void PointFromConsensus(Step& s, const std::vector<double>& fits, const std::vector<CandidateRegistration>& regs,
@@ -401,6 +426,8 @@ struct TrialRun {
     std::vector<int> vertex(cands.size(), -1);
     std::vector<double> fits(cands.size(), -1);
     std::string first_failure;
+    // The rigid fit selects and the kept candidate's point is used: only it needs R + N.
+    const bool nonrigid_kept_only = o.fit_after_rigid && !(o.consensus_radius > 0) && cands.size() > 1;
     for (size_t i = 0; i < cands.size(); ++i) {
       const auto tc = Clock::now();
       Step::CandidateTrace t;
@@ -417,15 +444,11 @@ struct TrialRun {
         s.candidates.push_back(std::move(t));
         continue;
       }
-      TriMesh src = model.HungMesh(cands[i].entry);
-      const double yaw = 2 * M_PI * cands[i].rotation / db.sectors();
-      const Eigen::Matrix3d R = Eigen::AngleAxisd(yaw, Vec3::UnitY()).toRotationMatrix();
-      for (int j = 0; j < src.NumVertices(); ++j) src.V.row(j) = (R * src.V.row(j).transpose()).transpose();
-      regs[i] = RegisterCandidate(src, s.recon, onto, o.nonrigid);
+      regs[i] = RegisterCandidate(TurnedSource(cands[i], db), s.recon, onto, o.nonrigid && !nonrigid_kept_only);
       t.note = regs[i].note;
       t.icp_rms = regs[i].reg.report.icp.rms_after;
       t.fit_rigid = regs[i].fit_rigid;
-      t.fit_final = regs[i].fit_final;
+      t.fit_final = o.nonrigid && nonrigid_kept_only ? -1 : regs[i].fit_final;
       const int v = model.AnchorVertex(cands[i].instance, t.next_anchor);
       if (v < 0 || v >= regs[i].final_mesh().NumVertices()) {
         t.note = "the database has no vertex for anchor " + t.next_anchor + " of " + cands[i].instance;
@@ -439,8 +462,10 @@ struct TrialRun {
       t.seconds = Since(tc);
       s.candidates.push_back(std::move(t));
     }
-    res.times.registration += Since(t0);
     s.kept = KeepCandidate(fits);
+    if (s.kept >= 0 && o.nonrigid && nonrigid_kept_only)
+      NonrigidForKept(s, db, onto, regs[s.kept], to_world, hp.position);
+    res.times.registration += Since(t0);
     if (s.kept < 0) {
       res.failure = first_failure;
       return false;
