@@ -459,10 +459,7 @@ void Tsdf::Impl::BandBlocks(const FrameView& view, FrameScratch& s, std::vector<
   a.h = h, a.inv_h = 1 / h;
   a.grid_lo = grid_lo, a.grid_dims = grid_dims;
   const size_t max_pixels = size_t(std::max(0, s.fg_u1 - s.fg_u0)) / stride + 9;
-  if (s.band_xhat.size() < max_pixels) {
-    s.band_xhat.resize(max_pixels), s.band_d.resize(max_pixels);
-    s.band_out.resize(max_pixels * a.samples);
-  }
+  if (s.band_xhat.size() < max_pixels) s.band_xhat.resize(max_pixels), s.band_d.resize(max_pixels);
   if (s.band_out.size() < max_pixels * a.samples) s.band_out.resize(max_pixels * a.samples);
   // The sample grid is anchored at pixel (0, 0) whatever the rectangle; only the
   // foreground's bounding rectangle (Segment) holds samples.

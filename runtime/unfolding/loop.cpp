@@ -427,7 +427,7 @@ struct TrialRun {
     std::vector<double> fits(cands.size(), -1);
     std::string first_failure;
     // The rigid fit selects and the kept candidate's point is used: only it needs R + N.
-    const bool nonrigid_kept_only = o.fit_after_rigid && !(o.consensus_radius > 0) && cands.size() > 1;
+    const bool nonrigid_kept_only = o.nonrigid && o.fit_after_rigid && !(o.consensus_radius > 0) && cands.size() > 1;
     for (size_t i = 0; i < cands.size(); ++i) {
       const auto tc = Clock::now();
       Step::CandidateTrace t;
@@ -448,7 +448,7 @@ struct TrialRun {
       t.note = regs[i].note;
       t.icp_rms = regs[i].reg.report.icp.rms_after;
       t.fit_rigid = regs[i].fit_rigid;
-      t.fit_final = o.nonrigid && nonrigid_kept_only ? -1 : regs[i].fit_final;
+      t.fit_final = nonrigid_kept_only ? -1 : regs[i].fit_final;
       const int v = model.AnchorVertex(cands[i].instance, t.next_anchor);
       if (v < 0 || v >= regs[i].final_mesh().NumVertices()) {
         t.note = "the database has no vertex for anchor " + t.next_anchor + " of " + cands[i].instance;
@@ -463,8 +463,7 @@ struct TrialRun {
       s.candidates.push_back(std::move(t));
     }
     s.kept = KeepCandidate(fits);
-    if (s.kept >= 0 && o.nonrigid && nonrigid_kept_only)
-      NonrigidForKept(s, db, onto, regs[s.kept], to_world, hp.position);
+    if (s.kept >= 0 && nonrigid_kept_only) NonrigidForKept(s, db, onto, regs[s.kept], to_world, hp.position);
     res.times.registration += Since(t0);
     if (s.kept < 0) {
       res.failure = first_failure;
