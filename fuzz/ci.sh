@@ -63,8 +63,9 @@ t1=$(date +%s)
 # One line per gtest shard: program, shard index, shard count, filter; the longest
 # shards first, so that the SAN_JOBS workers (xargs) end together. SAN_CPU: CPU-seconds
 # of each program's filtered suite under the sanitizers (2026-12-03, on the loaded
-# machine; others ~10 or less), for that order only. Programs over a minute and a half are cut into SAN_JOBS
-# shards; not the hang test, whose every case first needs the same material fit.
+# machine; others ~10 or less), for that order only. Programs over a minute and a half
+# are cut into SAN_JOBS shards; not the hang test, whose every case first needs the
+# same material fit.
 san_abs=$(cd "$SAN_BUILD_DIR" && pwd)
 declare -A SAN_CPU=(
   [drape_fusion_test]=135 [drape_hang_test]=134 [drape_garments_test]=110 [drape_cloth_collision_test]=100
