@@ -14,6 +14,7 @@
 #include "common/files.h"
 #include "common/parallel.h"
 #include "common/rng.h"
+#include "garments/io.h"
 #include "garments/templates.h"
 #include "runtime/folding/placed.h"
 #include "runtime/recognition/release_source.h"
@@ -63,6 +64,9 @@ const char* kUsage =
     "                    point) or 'consensus' (the kept candidate's plan, the point of the\n"
     "                    candidate aiming at its target or the twin with the most others\n"
     "                    within 3 cm, ties by fit)\n"
+    "  --unobserved-margin M  an anchor registered more than M metres outside the fusion's\n"
+    "                    segmentation region is predicted at its rigid registration, not mapped\n"
+    "                    onto the reconstruction (e.g. 0.02; default -1: always mapped, the paper's rule)\n"
     "  --no-ir           ablation: grasp the registered point without IR refinement\n"
     "  --ir-above-jaws   the IR scan as first built: the jaw centre crosses the prediction and\n"
     "                    the beam (3 cm above the jaws) reads the cloth above it (default: the\n"
@@ -71,6 +75,9 @@ const char* kUsage =
     "  --unweighted      ablation: unweighted recognition (Eq. match)\n"
     "  --ablations       also run the three ablations (4x the trials)\n"
     "  --no-figures      traces only\n"
+    "  --dump-meshes     per step also step_K_recon.ply (the reconstruction), step_K_cloth.ply (truth: the\n"
+    "                    cloth as it hung, same frame), step_K_registered.ply (the kept registration)\n"
+    "                    and the test garment (garment.ply + garment.anchors.json)\n"
     "  --no-place        do not lay the garment flat once f >= xi (no coverage; success is judged\n"
     "                    before placing, so it is the same; the placing is a long cloth simulation)\n";
 
@@ -128,9 +135,15 @@ void CheckCategories(const ReleaseModel& model, const fs::path& dir, bool unweig
   }
 }
 
+// What a trial writes beside its trace.
+struct TrialOutput {
+  bool figures = true;  // pictures (unless --no-figures)
+  bool meshes = false;  // --dump-meshes: each step's reconstruction, true cloth and registration (object frame)
+};
+
 // OUT/<variant>/<category>/trial_<k>/trace.json and, unless --no-figures, its pictures.
 void WriteTrialTrace(const TrialResult& t, const Variant& v, const std::string& c, int k, const ReleaseModel& model,
-                     const LoopOptions& o, bool figures, const fs::path& out) {
+                     const LoopOptions& o, const TrialOutput& what, const fs::path& out) {
   std::string vdir = v.name == "full" ? "" : v.name;
   for (char& ch : vdir)
     if (ch == ' ') ch = '_';
@@ -144,7 +157,17 @@ void WriteTrialTrace(const TrialResult& t, const Variant& v, const std::string& 
     folding::WritePlacedGarment(td, {tg.garment, t.final_mesh.V, tg.material.name, tg.fit.stiffness, tg.fit.friction});
     trace["placed_garment"] = "placed.json";
   }
-  if (figures) trace["figures"] = WriteTrialFigures(t, model.TestInstance(c).garment, o.sensing_height, td);
+  if (what.figures) trace["figures"] = WriteTrialFigures(t, model.TestInstance(c).garment, o.sensing_height, td);
+  if (what.meshes) {
+    ExportGarment(model.TestInstance(c).garment, td / "garment.ply");  // its anchors' vertices index the cloth
+    for (size_t i = 0; i < t.steps.size(); ++i) {
+      const Step& s = t.steps[i];
+      const std::string p = "step_" + std::to_string(i + 1) + "_";
+      if (s.recon.NumFaces() > 0) WriteMesh(s.recon, td / (p + "recon.ply"));
+      if (s.cloth.NumFaces() > 0) WriteMesh(s.cloth, td / (p + "cloth.ply"));
+      if (s.registered.NumFaces() > 0) WriteMesh(s.registered, td / (p + "registered.ply"));
+    }
+  }
   WriteFileAtomic(td / "trace.json", trace.dump(2) + "\n");
 }
 
@@ -153,7 +176,7 @@ void WriteTrialTrace(const TrialResult& t, const Variant& v, const std::string& 
 // With jobs > 1 the trials run side by side (each its own world and seeds: the same
 // results for any job count), and the progress lines interleave.
 TableRow RunTrials(const ReleaseModel& model, const Variant& v, const std::string& c, const LoopOptions& lo, int trials,
-                   uint64_t seed, const std::optional<fs::path>& out, bool figures, int jobs) {
+                   uint64_t seed, const std::optional<fs::path>& out, const TrialOutput& what, int jobs) {
   const bool tty = isatty(fileno(stderr)) && jobs == 1;
   std::vector<TrialResult> results(trials);
   std::mutex say_mu;
@@ -172,7 +195,7 @@ TableRow RunTrials(const ReleaseModel& model, const Variant& v, const std::strin
                   t.regrasps, t.final_f, t.seconds, t.failure.empty() ? "" : ": ", t.failure.c_str());
     say(line);
     if (tty) std::cerr << "\n";
-    if (out) WriteTrialTrace(t, v, c, k, model, o, figures, *out);
+    if (out) WriteTrialTrace(t, v, c, k, model, o, what, *out);
     results[k] = std::move(t);
   });
   return Summarise(c, v.name, results);
@@ -197,9 +220,9 @@ void CandidateOptions(const Args& a, LoopOptions& lo) {
 int RunUnfold(const std::vector<std::string>& argv) {
   Args a(argv,
          {"--no-ir", "--ir-above-jaws", "--rigid", "--unweighted", "--ablations", "--no-figures", "--no-place",
-          "--category-known"},
+          "--dump-meshes", "--category-known"},
          {"--category", "--trials", "--seed", "-o", "--weights", "--frames", "--max-regrasps", "--jobs", "--plan-prior",
-          "--candidates", "--candidate-fit", "--candidate-point"});
+          "--candidates", "--candidate-fit", "--candidate-point", "--unobserved-margin"});
   if (a.help()) {
     std::cout << kUsage;
     return 0;
@@ -225,6 +248,8 @@ int RunUnfold(const std::vector<std::string>& argv) {
   lo.plan_prior_top_k = static_cast<int>(a.GetInt("--plan-prior").value_or(lo.plan_prior_top_k));
   if (lo.plan_prior_top_k < 0 || lo.plan_prior_top_k > 5) throw Error("--plan-prior: must be in 0..5");
   CandidateOptions(a, lo);
+  lo.unobserved_margin = a.GetDouble("--unobserved-margin").value_or(lo.unobserved_margin);
+  if (!(lo.unobserved_margin < 0.5)) throw Error("--unobserved-margin: must be below 0.5 m");
   const int jobs = static_cast<int>(a.GetInt("--jobs").value_or(1));
   if (jobs < 1) throw Error("--jobs: must be >= 1");
   if (jobs > 1) lo.fusion_threads = 1;  // the trials share the cores instead
@@ -240,7 +265,8 @@ int RunUnfold(const std::vector<std::string>& argv) {
   std::vector<TableRow> rows;
   for (const Variant& v : variants)
     for (const std::string& c : categories)
-      rows.push_back(RunTrials(model, v, c, lo, trials, seed, out, !a.Flag("--no-figures"), jobs));
+      rows.push_back(
+          RunTrials(model, v, c, lo, trials, seed, out, {!a.Flag("--no-figures"), a.Flag("--dump-meshes")}, jobs));
   const std::string md = ReportMarkdown(rows);
   std::cout << md;
   if (out) {

@@ -64,6 +64,25 @@ CandidateRegistration RegisterCandidate(const TriMesh& source, const TriMesh& re
   return c;
 }
 
+double OutsideRegion(const Vec3& p, const Eigen::AlignedBox3d& box, double radius) {
+  const double box_out = box.exteriorDistance(p);
+  const double radial = std::hypot(p.x(), p.z());
+  const double radial_out = radius > 0 ? std::max(0.0, radial - radius) : 0.0;
+  return std::max(box_out, radial_out);
+}
+
+AnchorPrediction PredictAnchor(const Vec3& rigid, const Vec3& registered, const ExactClosestPoint& onto_recon,
+                               const Eigen::AlignedBox3d& box, double radius, double margin) {
+  AnchorPrediction out;
+  if (margin >= 0 && OutsideRegion(rigid, box, radius) > margin) {
+    out.point = rigid;
+    out.unobserved = true;
+  } else {
+    out.point = onto_recon.Query(registered).point;
+  }
+  return out;
+}
+
 int KeepCandidate(const std::vector<double>& fits) {
   int best = -1;
   for (int i = 0; i < static_cast<int>(fits.size()); ++i) {

@@ -34,6 +34,30 @@ std::vector<recognition::Candidate> RegistrationCandidates(const recognition::Re
 // distance from each mesh's triangle barycentres to the other surface), metres.
 double SymmetricFit(const TriMesh& registered, const TriMesh& recon, const ExactClosestPoint& onto_recon);
 
+// How far `p` lies outside the segmentation region the reconstruction was fused in (a box
+// and, when radius > 0, a vertical cylinder of that radius about the turning y axis; both
+// in the object frame, generator/fusion/fusion.h FusionOptions): 0 inside, else the
+// distance to the box or the radial excess, whichever is larger. Metres.
+double OutsideRegion(const Vec3& p, const Eigen::AlignedBox3d& box, double radius);
+
+// The regrasp point of a registered anchor (object frame). The paper maps the registered
+// anchor onto the reconstruction (its closest surface point). The reconstruction holds
+// only what lies in the segmentation region, though: a garment hanging lower than its
+// floor (pants held by a leg end: the other leg end 1.50-1.62 m below the gripper, the
+// region ends at 1.45 m) is cut there, and the closest point of the cut surface is
+// its lower edge, 8-15 cm above the anchor (docs/unfolding.md, "Where the last regrasp's
+// error comes from"). The non-rigid step pulls the database mesh onto the same edge.
+// So when the rigidly registered anchor `rigid` lies more than `margin` outside the region
+// the point is `rigid` itself (the reconstruction has no surface there to map onto);
+// otherwise `registered` (after R or R + N) mapped onto the reconstruction. margin < 0:
+// always mapped (the paper's rule).
+struct AnchorPrediction {
+  Vec3 point = Vec3::Zero();
+  bool unobserved = false;  // the anchor lies outside the region: `rigid` used, unmapped
+};
+AnchorPrediction PredictAnchor(const Vec3& rigid, const Vec3& registered, const ExactClosestPoint& onto_recon,
+                               const Eigen::AlignedBox3d& box, double radius, double margin);
+
 // One candidate registered: `Register` (rigid, then non-rigid when `nonrigid`; a
 // non-rigid breakdown falls back to the rigid result with `note` set) and the fit of the
 // rigid and of the final mesh (= rigid when rigid-only).

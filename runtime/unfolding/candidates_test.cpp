@@ -178,3 +178,53 @@ TEST(SymmetricFit, ZeroOnItselfAndTheMeanOfBothDirections) {
 
 }  // namespace
 }  // namespace drape::unfolding
+
+namespace drape::unfolding {
+namespace {
+
+// A horizontal square (side 1 m) at height y, centred on the turning axis.
+TriMesh Square(double y) {
+  TriMesh m;
+  m.V.resize(4, 3);
+  m.V << -0.5, y, -0.5, 0.5, y, -0.5, 0.5, y, 0.5, -0.5, y, 0.5;
+  m.F.resize(2, 3);
+  m.F << 0, 1, 2, 0, 2, 3;
+  return m;
+}
+
+TEST(OutsideRegion, BoxDistanceOrRadialExcessWhicheverIsLarger) {
+  const Eigen::AlignedBox3d box(Vec3(-0.6, -1.45, -0.6), Vec3(0.6, -0.02, 0.6));
+  EXPECT_DOUBLE_EQ(OutsideRegion(Vec3(0.1, -1.0, 0.2), box, 0.55), 0);
+  EXPECT_NEAR(OutsideRegion(Vec3(0.1, -1.55, 0.2), box, 0.55), 0.10, 1e-12);  // below the floor face
+  EXPECT_NEAR(OutsideRegion(Vec3(0.0, -0.01, 0.0), box, 0.55), 0.01, 1e-12);  // above the top face
+  // Radial: 0.58 m from the axis is 3 cm past the cylinder but inside the box.
+  EXPECT_NEAR(OutsideRegion(Vec3(0.58, -1.0, 0.0), box, 0.55), 0.03, 1e-12);
+  EXPECT_DOUBLE_EQ(OutsideRegion(Vec3(0.58, -1.0, 0.0), box, 0), 0);  // no radial limit
+  // Corner below and outside: the box's exterior distance (Euclidean to the corner).
+  EXPECT_NEAR(OutsideRegion(Vec3(0.63, -1.49, 0.0), box, 0), 0.05, 1e-12);
+}
+
+TEST(PredictAnchor, MappedOntoTheReconstructionUnlessOutsideTheRegion) {
+  const Eigen::AlignedBox3d box(Vec3(-0.6, -1.45, -0.6), Vec3(0.6, -0.02, 0.6));
+  // The reconstruction is cut at the region's floor: its lowest surface at y = -1.46.
+  const TriMesh recon = Square(-1.46);
+  const ExactClosestPoint onto(recon);
+  // Inside the region: the registered point (not the rigid one) mapped onto the surface.
+  AnchorPrediction p = PredictAnchor(Vec3(0.1, -1.40, 0.1), Vec3(0.2, -1.30, 0.1), onto, box, 0.55, 0.02);
+  EXPECT_FALSE(p.unobserved);
+  EXPECT_NEAR((p.point - Vec3(0.2, -1.46, 0.1)).norm(), 0, 1e-12);
+  // 1.5 cm below the floor face: within the margin, still mapped.
+  p = PredictAnchor(Vec3(0.1, -1.465, 0.1), Vec3(0.2, -1.30, 0.1), onto, box, 0.55, 0.02);
+  EXPECT_FALSE(p.unobserved);
+  // 12 cm below it: the reconstruction has nothing there; the rigid point as it is.
+  p = PredictAnchor(Vec3(0.1, -1.57, 0.1), Vec3(0.2, -1.46, 0.1), onto, box, 0.55, 0.02);
+  EXPECT_TRUE(p.unobserved);
+  EXPECT_NEAR((p.point - Vec3(0.1, -1.57, 0.1)).norm(), 0, 1e-12);
+  // A negative margin maps every anchor (the paper's rule).
+  p = PredictAnchor(Vec3(0.1, -1.57, 0.1), Vec3(0.2, -1.50, 0.1), onto, box, 0.55, -1);
+  EXPECT_FALSE(p.unobserved);
+  EXPECT_NEAR((p.point - Vec3(0.2, -1.46, 0.1)).norm(), 0, 1e-12);
+}
+
+}  // namespace
+}  // namespace drape::unfolding

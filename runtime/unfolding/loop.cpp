@@ -43,6 +43,7 @@ void LoopOptions::Validate() const {
   if (plan_prior_top_k < 0 || plan_prior_top_k > 5) throw Error("unfold.plan_prior_top_k: must be in 0..5");
   if (candidates < 1 || candidates > 10) throw Error("unfold.candidates: must be in 1..10");
   if (!(consensus_radius >= 0 && consensus_radius < 0.5)) throw Error("unfold.consensus_radius: must be in [0, 0.5) m");
+  if (!(unobserved_margin < 0.5)) throw Error("unfold.unobserved_margin: must be below 0.5 m");
 }
 
 double Coverage(const TriMesh& lying, const Garment& garment, double mpp) {
@@ -289,6 +290,15 @@ struct TrialRun {
         world.camera().CaptureTurning(h, o.capture, DeriveSeed(seed, "sweep/" + std::to_string(iteration)));
     res.times.sensing += Since(t0);
     s.frames = static_cast<int>(sweep.frames.size());
+    {
+      const hw::GripperPose hp = h.pose();
+      const Eigen::Matrix3d to_object = Eigen::AngleAxisd(-hp.wrist, Vec3::UnitY()).toRotationMatrix();
+      s.cloth = world.mesh();
+      for (int i = 0; i < s.cloth.NumVertices(); ++i)
+        s.cloth.V.row(i) = (to_object * (Vec3(s.cloth.V.row(i)) - hp.position)).transpose();
+      s.holder_position = hp.position;
+      s.holder_wrist = hp.wrist;
+    }
     t0 = Clock::now();
     FusionOptions fo = recipe.fusion;
     fo.threads = o.fusion_threads;
@@ -377,6 +387,13 @@ struct TrialRun {
     return src;
   }
 
+  // Candidate registration `reg`'s anchor vertex `v` as the regrasp point (object frame).
+  AnchorPrediction Predict(const CandidateRegistration& reg, int v, const ExactClosestPoint& onto) const {
+    const FusionOptions& f = model.recipe().fusion;
+    return PredictAnchor(reg.reg.rigid.V.row(v).transpose(), reg.final_mesh().V.row(v).transpose(), onto, f.box,
+                         f.radius, o.unobserved_margin);
+  }
+
   // R + N for the kept candidate only (the others were registered rigidly: the rigid fit
   // selected it and its own point is used). The same registration as R + N for all
   // (Register is deterministic), without the other candidates' non-rigid steps.
@@ -389,7 +406,9 @@ struct TrialRun {
     t.fit_final = reg.fit_final;
     const int v = model.AnchorVertex(t.candidate.instance, t.next_anchor);
     DRAPE_CHECK(v >= 0 && v < reg.final_mesh().NumVertices(), "the kept candidate has no anchor vertex");
-    t.predicted = to_world * onto.Query(reg.final_mesh().V.row(v).transpose()).point + origin;
+    const AnchorPrediction p = Predict(reg, v, onto);
+    t.unobserved = p.unobserved;
+    t.predicted = to_world * p.point + origin;
     t.seconds += Since(tc);
   }
 
@@ -457,7 +476,9 @@ struct TrialRun {
         vertex[i] = v;
         t.usable = true;
         fits[i] = o.fit_after_rigid ? t.fit_rigid : t.fit_final;
-        t.predicted = to_world * onto.Query(regs[i].final_mesh().V.row(v).transpose()).point + hp.position;
+        const AnchorPrediction p = Predict(regs[i], v, onto);
+        t.unobserved = p.unobserved;
+        t.predicted = to_world * p.point + hp.position;
       }
       t.seconds = Since(tc);
       s.candidates.push_back(std::move(t));
@@ -721,6 +742,25 @@ TrialResult RunTrial(const ReleaseModel& model, const std::string& category, con
 }
 
 namespace {
+// The regrasp point's error ladder of a step (Step::Ladder), for its trace.
+Json LadderJson(const Step::Ladder& l) {
+  return {{"rigid", J(l.rigid)},
+          {"nonrigid", J(l.nonrigid)},
+          {"closed", J(l.closed)},
+          {"pinch", J(l.pinch)},
+          {"a_rigid_error_m", l.rigid_error},
+          {"b_nonrigid_error_m", l.nonrigid_error},
+          {"c_mapped_error_m", l.mapped_error},
+          {"d_refined_error_m", l.refined_error},
+          {"e_closed_error_m", l.closed_error},
+          {"e_pinch_error_m", l.pinch_error},
+          {"mapped_offset_m", J(l.mapped_offset)},
+          {"refined_offset_m", J(l.refined_offset)},
+          {"no_ir_outcome", l.no_ir_outcome},
+          {"no_ir_pinch_error_m", l.no_ir_pinch_error},
+          {"no_ir_pattern_error_m", l.no_ir_pattern_error}};
+}
+
 // The registration candidates of a step, the one kept and its truth, into its trace `j`.
 void AddCandidates(const Step& s, Json& j) {
   Json cands = Json::array();
@@ -732,6 +772,7 @@ void AddCandidates(const Step& s, Json& j) {
                      {"rotation", c.rotation},
                      {"score", c.score},
                      {"usable", t.usable},
+                     {"unobserved", t.unobserved},
                      {"next_anchor", t.next_anchor},
                      {"f", t.f},
                      {"fit_rigid_m", t.fit_rigid},
@@ -758,6 +799,7 @@ Json TrialResult::ToJson() const {
            {"held_true_anchor", s.held_true_anchor},
            {"frames", s.frames},
            {"recon_vertices", s.recon.NumVertices()},
+           {"holder", {{"position", J(s.holder_position)}, {"wrist", s.holder_wrist}}},
            {"recognition", rec::ToJson(s.recognition)},
            {"recognised_right", s.recognised_right},
            {"aimed_anchor", s.aimed_anchor},
@@ -786,22 +828,7 @@ Json TrialResult::ToJson() const {
              {"predicted_error_m", s.predicted_error},
              {"grasp_error_m", s.grasp_error},
              {"regrasp_pattern_error_m", s.regrasp_pattern_error},
-             {"ladder",
-              {{"rigid", J(s.ladder.rigid)},
-               {"nonrigid", J(s.ladder.nonrigid)},
-               {"closed", J(s.ladder.closed)},
-               {"pinch", J(s.ladder.pinch)},
-               {"a_rigid_error_m", s.ladder.rigid_error},
-               {"b_nonrigid_error_m", s.ladder.nonrigid_error},
-               {"c_mapped_error_m", s.ladder.mapped_error},
-               {"d_refined_error_m", s.ladder.refined_error},
-               {"e_closed_error_m", s.ladder.closed_error},
-               {"e_pinch_error_m", s.ladder.pinch_error},
-               {"mapped_offset_m", J(s.ladder.mapped_offset)},
-               {"refined_offset_m", J(s.ladder.refined_offset)},
-               {"no_ir_outcome", s.ladder.no_ir_outcome},
-               {"no_ir_pinch_error_m", s.ladder.no_ir_pinch_error},
-               {"no_ir_pattern_error_m", s.ladder.no_ir_pattern_error}}}}},
+             {"ladder", LadderJson(s.ladder)}}},
            {"note", s.note}};
     AddCandidates(s, j);
     // No reading (nothing in range) → null.

@@ -67,6 +67,12 @@ struct LoopOptions {
   // docs/unfolding.md). 0: the kept candidate's own point (the fit rule, as first built).
   // Must be in [0, 0.5).
   double consensus_radius = 0;
+  // The regrasp point (candidates.h PredictAnchor): an anchor whose rigid registration lies
+  // more than this (m) outside the fusion's segmentation region is predicted there, not
+  // mapped onto the reconstruction (which is cut at the region's floor). < 0: always
+  // mapped (the paper's rule, the default: on the paper release the rule helped R + N pants
+  // on seed 1 and hurt rigid-only pants on seeds 1 and 2, docs/unfolding.md). Must be < 0.5.
+  double unobserved_margin = -1;
   hardware::CaptureOptions capture;  // frames per turn (paper ~550 both ways)
   int fusion_threads = 0;            // TSDF fusion threads (<= 0: all cores); no effect on results
   double standoff = 0.12;       // m: the IR scan runs this far before the predicted point
@@ -137,6 +143,11 @@ struct Step {
   // Sensing and recognition.
   int frames = 0;
   TriMesh recon;                // object frame of the holder
+  // Truth (evaluation only): the cloth as it hangs while sensed, in the same object frame
+  // (vertices as the test garment's), and the holder's pose then.
+  TriMesh cloth;
+  Vec3 holder_position = Vec3::Zero();
+  double holder_wrist = 0;
   recognition::Recognition recognition;
   bool recognised_right = false;  // category right and anchor = the nearest true anchor
                                   // (of the anchor used, after the plan prior)
@@ -154,6 +165,7 @@ struct Step {
     double seconds = 0;             // registration + fit (timing only)
     Vec3 predicted = Vec3::Zero();  // world: its next anchor mapped onto the reconstruction
     bool usable = false;            // registered and planned (its fit can be kept)
+    bool unobserved = false;        // its next anchor lies outside the segmentation region: rigid, unmapped
     std::string note;               // why it could not be used, or the non-rigid fallback
     // Truth, evaluation only: the candidate's anchor is the held one / a twin of it; the
     // distance of its prediction to its next anchor (or a twin, nearer) as the cloth hangs
