@@ -536,14 +536,23 @@ double SetPlacePaths(ClothWorld& cw, const SimWorld::Impl& w, const PlaceFlatOpt
 }  // namespace
 
 namespace {
+// m: a node this far below the table top hangs off the table.
+constexpr double kOffTable = 0.01;
+
 // Why the garment as it lies may not be reported as placed ("" = it may): the verdict a
-// database hang gets (hang.h MeasurementVerdict: CGAL's exact test, strain bounds).
+// database hang gets (hang.h MeasurementVerdict: CGAL's exact test, strain bounds), and
+// every node on the table (not hanging off it over an edge).
 std::string LyingFailure(const SimWorld::Impl& w, const Points3& x) {
   TriMesh lying;
   lying.V = x;
   lying.F = w.garment.mesh.F;
   const std::string v = MeasurementVerdict(MeasureCloth(lying, w.garment.mesh.V), w.material, w.o.hang, "the garment");
-  return v.empty() ? v : "placed flat: " + v;
+  if (!v.empty()) return "placed flat: " + v;
+  // On the table, not hanging off it (nodes rest thickness/2 above the top).
+  const double below = w.o.table.max().y() - x.col(1).minCoeff();
+  if (below > kOffTable)
+    return "placed flat: the garment hangs off the table (a node " + FormatNumber(below) + " m below its top)";
+  return "";
 }
 
 // One attempt at placing flat at time step dt (see SimWorld::PlaceFlat); the cloth as it
