@@ -69,12 +69,15 @@ struct SimOptions {
 // slightly stretch the garment and place it on a table"), simulated with the cloth core
 // (generator/cloth ClothWorld: Bullet + collision handling, the table as a box collider
 // with the material's friction): the grippers take the cloth nodes between their pads
-// where they pinch it, move apart to `spread` × the pinched points' distance on the
-// pattern above the near edge of the table, lower the garment while carrying it across
-// the table so that it lies down behind them, open, and the cloth settles.
+// where they pinch it, step back from the table and lift until the garment, hanging
+// level from both, would clear its top, move apart to `spread` × the pinched points'
+// distance on the pattern above the near edge of the table, lower the garment while
+// carrying it across the table so that it lies down behind them, open, and the cloth
+// settles. Placed means: no crossing during the motion (the cloth core's verdict), the
+// database hang's verdict on the lying garment, and every node on the table.
 struct PlaceFlatOptions {
   double spread = 0.9;         // of the pinched points' distance on the flat pattern
-  double lift_time = 1.0;      // s to spread and lift
+  double lift_time = 1.0;      // s to lift clear of the table and spread, and again to carry above its near edge
   double lay_time = 2.0;       // s to lower and carry across the table
   double settle_cap = 3.0;     // s of settling at most after opening
   // Pads of the cloth world's grippers, m: at least this, and 1.5 mesh edges so that a
