@@ -157,7 +157,7 @@ void WriteTrialTrace(const TrialResult& t, const Variant& v, const std::string& 
     folding::WritePlacedGarment(td, {tg.garment, t.final_mesh.V, tg.material.name, tg.fit.stiffness, tg.fit.friction});
     trace["placed_garment"] = "placed.json";
   }
-  if (what.figures) trace["figures"] = WriteTrialFigures(t, model.TestInstance(c).garment, o.sensing_height, td);
+  if (what.figures) trace["figures"] = WriteTrialFigures(t, model.TestInstance(c).garment, t.sensing_height, td);
   if (what.meshes) {
     ExportGarment(model.TestInstance(c).garment, td / "garment.ply");  // its anchors' vertices index the cloth
     for (size_t i = 0; i < t.steps.size(); ++i) {

@@ -38,7 +38,8 @@ void LoopOptions::Validate() const {
   if (max_regrasps < 1 || max_regrasps > 100) throw Error("unfold.max_regrasps: must be in 1..100");
   if (!(standoff > 0 && standoff < 0.4)) throw Error("unfold.standoff: must be in (0, 0.4) m");
   if (!(grasp_depth >= 0 && grasp_depth < 0.1)) throw Error("unfold.grasp_depth: must be in [0, 0.1) m");
-  if (!(sensing_height > 0.5 && sensing_height < 3)) throw Error("unfold.sensing_height: must be in (0.5, 3) m");
+  if (!(sensing_height == 0 || (sensing_height > 0.5 && sensing_height < 3)))
+    throw Error("unfold.sensing_height: must be 0 (the release's rig) or in (0.5, 3) m");
   if (!(success_distance > 0)) throw Error("unfold.success_distance: must be > 0 m");
   if (plan_prior_top_k < 0 || plan_prior_top_k > 5) throw Error("unfold.plan_prior_top_k: must be in 0..5");
   if (candidates < 1 || candidates > 10) throw Error("unfold.candidates: must be in 1..10");
@@ -700,12 +701,15 @@ TrialResult RunTrial(const ReleaseModel& model, const std::string& category, con
   hw::SimOptions so;
   so.hang = tg.hang;
   so.camera = TestSensing(model.recipe());
+  LoopOptions o = options;  // the garment turns where the release's sweeps held it
+  if (o.sensing_height == 0) o.sensing_height = so.camera.gripper_height;
   TrialResult res;
   res.category = category;
   res.instance = tg.instance;
   res.seed = seed;
+  res.sensing_height = o.sensing_height;
   hw::SimWorld world(tg.garment, tg.material, tg.fit, so, DeriveSeed(seed, "world"));
-  TrialRun run{model, options, category, seed, world, res, progress, 0, "", ""};
+  TrialRun run{model, o, category, seed, world, res, progress, 0, "", ""};
   try {
     run.Run();
   } catch (const NumericalError& e) {
@@ -841,6 +845,7 @@ Json TrialResult::ToJson() const {
   return {{"category", category},
           {"instance", instance},
           {"seed", seed},
+          {"sensing_height", sensing_height},
           {"first_grasp_uv", J(first_grasp_uv)},
           {"steps", steps_j},
           {"regrasps", regrasps},

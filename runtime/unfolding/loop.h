@@ -81,7 +81,9 @@ struct LoopOptions {
   // height (IrScanPlan::at_jaw_line); false: the jaw centre crosses it and the beam reads
   // the cloth 3 cm above (as first built).
   bool ir_at_jaw_line = true;
-  double sensing_height = 1.5;  // m: the holding gripper's height while the garment turns
+  // m: the holding gripper's height while the garment turns; 0: the release's rig, its
+  // test sensing's camera.gripper_height (generator/sweep/sweep.h; 1.5 m by default).
+  double sensing_height = 0;
   // Evaluation only: unfolded when each gripper pinches within this distance (m, on the
   // flat pattern) of the desired pair's anchors.
   double success_distance = 0.06;
@@ -231,6 +233,7 @@ struct Step {
 struct TrialResult {
   std::string category, instance;
   uint64_t seed = 0;
+  double sensing_height = 0;  // m: where the holding gripper turned the garment
   Vec2 first_grasp_uv = Vec2::Zero();
   std::vector<Step> steps;
   int regrasps = 0;              // regrasp attempts made
