@@ -54,6 +54,8 @@ const char* kUsage =
     "  --category-known  tell recognition the category\n"
     "  --plan-prior K    after a regrasp keep the anchor it aimed at (or its twin) when recognition\n"
     "                    ranks it among its top K (default 3; 0 = recognise afresh, as the paper)\n"
+    "  --trust-aimed     after a regrasp that pinched cloth keep the anchor it aimed at (or its\n"
+    "                    twin) whatever recognition ranks\n"
     "  --candidates K    register recognition's top K database entries (its answer first; after a\n"
     "                    kept plan prior only that anchor's or its twin's) and predict from the\n"
     "                    best fit: symmetric mean surface distance to the reconstruction\n"
@@ -217,10 +219,17 @@ void CandidateOptions(const Args& a, LoopOptions& lo) {
   }
 }
 
+// --plan-prior, --trust-aimed.
+void PlanPriorOptions(const Args& a, LoopOptions& lo) {
+  lo.plan_prior_top_k = static_cast<int>(a.GetInt("--plan-prior").value_or(lo.plan_prior_top_k));
+  if (lo.plan_prior_top_k < 0 || lo.plan_prior_top_k > 5) throw Error("--plan-prior: must be in 0..5");
+  if (a.Flag("--trust-aimed")) lo.trust_aimed = true;
+}
+
 int RunUnfold(const std::vector<std::string>& argv) {
   Args a(argv,
          {"--no-ir", "--ir-above-jaws", "--rigid", "--unweighted", "--ablations", "--no-figures", "--no-place",
-          "--dump-meshes", "--category-known"},
+          "--dump-meshes", "--category-known", "--trust-aimed"},
          {"--category", "--trials", "--seed", "-o", "--weights", "--frames", "--max-regrasps", "--jobs", "--plan-prior",
           "--candidates", "--candidate-fit", "--candidate-point", "--unobserved-margin"});
   if (a.help()) {
@@ -245,8 +254,7 @@ int RunUnfold(const std::vector<std::string>& argv) {
   lo.category_known = a.Flag("--category-known");
   lo.ir_at_jaw_line = !a.Flag("--ir-above-jaws");
   lo.place_flat = !a.Flag("--no-place");
-  lo.plan_prior_top_k = static_cast<int>(a.GetInt("--plan-prior").value_or(lo.plan_prior_top_k));
-  if (lo.plan_prior_top_k < 0 || lo.plan_prior_top_k > 5) throw Error("--plan-prior: must be in 0..5");
+  PlanPriorOptions(a, lo);
   CandidateOptions(a, lo);
   lo.unobserved_margin = a.GetDouble("--unobserved-margin").value_or(lo.unobserved_margin);
   if (!(lo.unobserved_margin < 0.5)) throw Error("--unobserved-margin: must be below 0.5 m");
@@ -285,6 +293,7 @@ int RunUnfold(const std::vector<std::string>& argv) {
                      {"ir_sample_spacing_m", lo.refine.sample_spacing},
                      {"ir_search_half_width_m", lo.refine.search_half_width_samples * lo.refine.sample_spacing},
                      {"plan_prior_top_k", lo.plan_prior_top_k},
+                     {"trust_aimed", lo.trust_aimed},
                      {"candidates", lo.candidates},
                      {"candidate_fit", lo.fit_after_rigid ? "rigid" : "final"},
                      {"candidate_point", lo.consensus_radius > 0 ? "consensus" : "fit"},

@@ -70,6 +70,15 @@ int PlanPriorRank(const rec::Recognition& r, const std::string& aimed, int top_k
   return -1;
 }
 
+int TrustedAimedEntry(const rec::Recognition& r, const std::string& aimed) {
+  if (aimed.empty()) return -1;
+  std::vector<std::string> accept = rec::SymmetryTwins(aimed);
+  accept.push_back(aimed);
+  for (size_t i = 0; i < r.entries.size(); ++i)
+    if (std::find(accept.begin(), accept.end(), r.entries[i].anchor) != accept.end()) return static_cast<int>(i);
+  return -1;
+}
+
 std::string NearestAnchor(const Garment& g, const Vec2& uv) {
   std::string best;
   double d = std::numeric_limits<double>::infinity();
@@ -324,7 +333,8 @@ struct TrialRun {
     ro.weighted = o.weighted;
     ro.query_height = fused.mesh.V.col(1).maxCoeff() - fused.mesh.V.col(1).minCoeff();  // height gates
     ro.top_k = std::max(ro.top_k, o.plan_prior_top_k);
-    if (o.candidates > 1) ro.top_entries = model.database().size();  // RegistrationCandidates filters them
+    // RegistrationCandidates filters them; TrustedAimedEntry looks beyond the top anchors.
+    if (o.candidates > 1 || o.trust_aimed) ro.top_entries = model.database().size();
     s.recognition = model.recognizer(o.weighted).Recognize(code, ro);
     s.recognised_anchor = s.recognition.anchor;
     ApplyPlanPrior(s);
@@ -336,12 +346,20 @@ struct TrialRun {
 
   // One hang tells neighbouring anchors apart poorly (a trouser leg's inner and outer
   // corner hang alike), while the arm knows where it was sent: the aimed anchor, or its
-  // twin, is kept when recognition ranks it among its top k.
+  // twin, is kept when recognition ranks it among its top k; with trust_aimed always.
   void ApplyPlanPrior(Step& s) const {
     s.aimed_anchor = aimed;
     s.prior_rank = PlanPriorRank(s.recognition, aimed, o.plan_prior_top_k);
-    if (s.prior_rank < 0) return;
-    s.recognition.best = s.recognition.top[s.prior_rank];
+    if (s.prior_rank >= 0) {
+      s.recognition.best = s.recognition.top[s.prior_rank];
+    } else if (o.trust_aimed) {
+      const int e = TrustedAimedEntry(s.recognition, aimed);
+      if (e < 0) return;
+      s.prior_trusted = true;
+      s.recognition.best = s.recognition.entries[e];
+    } else {
+      return;
+    }
     s.recognition.anchor = s.recognition.best.anchor;
   }
 
@@ -437,7 +455,7 @@ struct TrialRun {
   bool PlanRegisterAndPredict(Step& s, const rec::Database& db, const std::vector<DesiredPair>& pairs) {
     const auto t0 = Clock::now();
     const std::vector<rec::Candidate> cands =
-        RegistrationCandidates(s.recognition, s.prior_rank >= 0, s.aimed_anchor, o.candidates);
+        RegistrationCandidates(s.recognition, s.prior_rank >= 0 || s.prior_trusted, s.aimed_anchor, o.candidates);
     s.recognition.entries.clear();  // the trace lists the candidates
     const ExactClosestPoint onto(s.recon);
     const hw::GripperPose hp = world.arm(holder).pose();
@@ -809,6 +827,7 @@ Json TrialResult::ToJson() const {
            {"aimed_anchor", s.aimed_anchor},
            {"recognised_anchor", s.recognised_anchor},
            {"prior_rank", s.prior_rank},
+           {"prior_trusted", s.prior_trusted},
            {"icp_rms", s.icp_rms},
            {"current_anchor", s.current_anchor},
            {"next_anchor", s.next_anchor},

@@ -53,6 +53,13 @@ struct LoopOptions {
   // else take recognition's answer. 0 = recognise every hang afresh, as the paper's
   // Algorithm does. Must be in 0..5 (recognition lists 5).
   int plan_prior_top_k = 3;
+  // Trust the arm: after a regrasp that pinched cloth the holder is taken to hold the
+  // anchor it aimed at (or its twin) whatever recognition ranks, the best-scored database
+  // entry of that anchor or its twin standing for recognition's answer (TrustedAimedEntry).
+  // On the paper release 2.3.0 the aimed anchor or its twin was the held one in 18 of the
+  // 22 steps where recognition did not rank it among its top 3, recognition's (and the
+  // candidates') answer in 7 (docs/unfolding.md, "Trusting the arm").
+  bool trust_aimed = false;
   // Registration candidates (candidates.h): register recognition's top `candidates`
   // database entries (its answer first; after a kept plan prior only entries of that
   // anchor or its twin) and predict from the one that fits the reconstruction best
@@ -156,6 +163,7 @@ struct Step {
   std::string aimed_anchor;       // where the last regrasp aimed ("" at the first step)
   std::string recognised_anchor;  // recognition's own answer, before the plan prior
   int prior_rank = -1;            // rank of the aimed anchor (or twin) kept; -1: not kept
+  bool prior_trusted = false;     // kept by LoopOptions::trust_aimed beyond the top k
   // Registration candidates (LoopOptions::candidates), in recognition's order, and the
   // one kept (index; its entry is then recognition.best and its anchor the current one).
   struct CandidateTrace {
@@ -277,5 +285,10 @@ std::string NearestAnchor(const Garment& g, const Vec2& uv);
 // Rank (0-based) of the first of recognition's top `top_k` anchors that is `aimed` or a
 // symmetry twin of it; -1 if none is, or `aimed` is empty (LoopOptions::plan_prior_top_k).
 int PlanPriorRank(const recognition::Recognition& r, const std::string& aimed, int top_k);
+
+// Index in `r.entries` (the category's entries, best first) of the first entry whose
+// anchor is `aimed` or a symmetry twin of it (LoopOptions::trust_aimed); -1 if none is,
+// or `aimed` is empty.
+int TrustedAimedEntry(const recognition::Recognition& r, const std::string& aimed);
 
 }  // namespace drape::unfolding

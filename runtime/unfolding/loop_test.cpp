@@ -38,5 +38,24 @@ TEST(PlanPrior, KeepsTheAimedAnchorOrItsTwinWithinTheTopK) {
   EXPECT_EQ(PlanPriorRank(Ranked({"collar"}), "collar", 3), 0);  // fewer ranked than k
 }
 
+TEST(PlanPrior, TrustedAimedEntryIsTheBestEntryOfTheAimedAnchorOrItsTwin) {
+  // The held leg end's entries ranked behind the crotch and the knees (a hang after a
+  // let-go that the database never shows): trusting the arm takes the best of them.
+  recognition::Recognition r = Ranked({"crotch"});
+  for (const std::string a : {"crotch", "left_knee", "right_leg_outer", "left_leg_outer", "right_leg_outer"}) {
+    recognition::Candidate c;
+    c.entry = static_cast<int>(r.entries.size());
+    c.anchor = a;
+    r.entries.push_back(c);
+  }
+  EXPECT_EQ(PlanPriorRank(r, "left_leg_outer", 5), -1);  // beyond recognition's top anchors
+  EXPECT_EQ(TrustedAimedEntry(r, "left_leg_outer"), 2);  // its twin's entry ranks first
+  EXPECT_EQ(TrustedAimedEntry(r, "right_leg_outer"), 2);
+  EXPECT_EQ(TrustedAimedEntry(r, "left_knee"), 1);
+  EXPECT_EQ(TrustedAimedEntry(r, "waist_center"), -1);             // no entry of it
+  EXPECT_EQ(TrustedAimedEntry(r, ""), -1);                         // first step: nothing aimed
+  EXPECT_EQ(TrustedAimedEntry(Ranked({"crotch"}), "crotch"), -1);  // no entries listed
+}
+
 }  // namespace
 }  // namespace drape::unfolding
