@@ -49,17 +49,47 @@ void Require(bool ok, const std::string& what) {
   if (!ok) throw Error("parameters: " + what);
 }
 
+// The shirt's back neckline between the neck points (left at +x, H high) to the depth bd
+// below them: a parabola that leaves the neck points ~25° below the horizontal, not
+// tangent to the front's half ellipse (which leaves them straight down), so the cloth
+// between the two necklines meshes without slivers.
+void ShirtBackNeck(Builder& b, const Vec2& neck, double bd, double h) {
+  const double nw = 2 * neck.x(), H = neck.y();
+  const int kBack = 2 * std::max(2, static_cast<int>(std::ceil((nw + bd) / (2 * h))));  // even: a centre point
+  std::vector<Vec2> back;
+  for (int k = 1; k < kBack; ++k) {
+    const double x = nw / 2 * (1 - 2.0 * k / kBack);  // from the left neck point (+x) to the right
+    back.push_back(Vec2(x, H - bd * (1 - (2 * x / nw) * (2 * x / nw))));
+  }
+  b.BackEdge("neck", neck, back, MirrorX(neck));
+}
+
+// The shirt's back hem `drop` below the front's (the left hem corner `hem` at +x, y = 0):
+// the vent down from the right hem corner, the back hem across (points about one target
+// edge h apart, an even count: one at the centre), the vent up to the left corner.
+void ShirtBackHem(Builder& b, const Vec2& hem, double drop, double h) {
+  const double hw = 2 * hem.x();
+  const int k_across = 2 * std::max(1, static_cast<int>(std::ceil(hw / (2 * h))));
+  std::vector<Vec2> back;
+  for (int k = 0; k <= k_across; ++k) back.push_back(Vec2(-hw / 2 + hw * k / k_across, -drop));
+  b.BackEdge("hem", MirrorX(hem), back, hem);
+}
+
 // Shirts (long sleeve and T-shirt) share one outline: body, shoulders, a curved
 // neckline, and sleeves pointing down-outwards at sleeve_angle below horizontal. The
 // back neckline is a shallow parabola between the same neck points (its depth
 // neck_depth − back_neck_rise), as shirts are drafted; back_neck_rise = 0 makes the
-// back the front's mirror.
+// back the front's mirror there. back_hem_drop > 0 gives the back a longer hem, as a
+// polo shirt's "tennis tail": straight across, back_hem_drop below the front's, the side
+// seams open below the front's hem corners (vents as long as the drop); 0 (every
+// preset): the back hem is the front's.
 Builder Shirt(const Params& p, double h, bool long_sleeve) {
   const double H = p.at("body_length"), cw = p.at("chest_width"), hw = p.at("hem_width");
   const double sw = p.at("shoulder_width"), nw = p.at("neck_width"), nd = p.at("neck_depth");
   const double sd = p.at("shoulder_drop"), ad = p.at("armhole_depth");
   const double sl = p.at("sleeve_length"), cuff = p.at("sleeve_width"), ang = p.at("sleeve_angle");
-  const double rise = p.at("back_neck_rise");
+  const double rise = p.at("back_neck_rise"), hem_drop = p.at("back_hem_drop");
+  Require(hem_drop < ad, "back_hem_drop must be smaller than armhole_depth");
   Require(nw < sw, "neck_width must be smaller than shoulder_width");
   Require(rise <= nd, "back_neck_rise must not exceed neck_depth (the back neckline above the neck points)");
   Require(nd < ad && sd < ad, "neck_depth and shoulder_drop must be smaller than armhole_depth");
@@ -90,23 +120,12 @@ Builder Shirt(const Params& p, double h, bool long_sleeve) {
   }
   b.Add(MirrorX(neck));
   b.Add(MirrorX(shoulder));
-  if (rise > 0) {
-    const double bd = nd - rise;
-    // A parabola: it leaves the neck points ~25° below the horizontal, not tangent to
-    // the front's half ellipse (which leaves them straight down), so the cloth between
-    // the two necklines meshes without slivers.
-    const int kBack = 2 * std::max(2, static_cast<int>(std::ceil((nw + bd) / (2 * h))));  // even: a centre point
-    std::vector<Vec2> back;
-    for (int k = 1; k < kBack; ++k) {
-      const double x = nw / 2 * (1 - 2.0 * k / kBack);  // from the left neck point (+x) to the right
-      back.push_back(Vec2(x, H - bd * (1 - (2 * x / nw) * (2 * x / nw))));
-    }
-    b.BackEdge("neck", neck, back, MirrorX(neck));
-  }
+  if (rise > 0) ShirtBackNeck(b, neck, nd - rise, h);
   b.Add(MirrorX(cuff_top), cuff_r);
   b.Add(MirrorX(cuff_bottom));
   b.Add(MirrorX(armpit));
   b.Add(MirrorX(hem), "hem");
+  if (hem_drop > 0) ShirtBackHem(b, hem, hem_drop, h);
 
   const double chest_y = H - ad;
   b.Anchor("collar", Vec2(0, H - nd));
@@ -273,6 +292,13 @@ std::vector<TemplateParameter> ShirtParams(bool long_sleeve) {
                "how much higher the back neckline's lowest point is than the front's (the back neck "
                "depth is neck_depth minus this; 0: the back neckline is the front's)",
                0.052, 0.060, 0.068});
+  // Off in every preset: dress shirts hang the same length front and back, sweaters'
+  // ribbed hems are straight round; polo shirts' back is 1" longer (garments/anchors.md).
+  // Appended last, so the seeded perturbation's draws of the others are unchanged (0 stays 0).
+  v.push_back({"back_hem_drop",
+               "how much lower the back hem is than the front's (straight across, the side seams "
+               "open below the front's hem corners; 0: the back hem is the front's)",
+               0, 0, 0});
   return v;
 }
 

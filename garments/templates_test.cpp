@@ -203,12 +203,17 @@ TEST_P(TemplateTest, SeedsAreDeterministicAndDistinct) {
   b.seed = 8;
   const TemplateShape s7 = MakeTemplateShape(name, a), s8 = MakeTemplateShape(name, b),
                       s0 = MakeTemplateShape(name, {});
-  int differ = 0;
+  int differ = 0, zero = 0;
   for (const auto& [k, v] : s0.params) {
+    if (v == 0) {  // a difference off in every preset (back_hem_drop) stays off
+      EXPECT_EQ(s7.params.at(k), 0) << k;
+      ++zero;
+      continue;
+    }
     EXPECT_LE(std::abs(s7.params.at(k) / v - 1), a.perturbation + 1e-12) << k;
     differ += s7.params.at(k) != s8.params.at(k);
   }
-  EXPECT_EQ(differ, static_cast<int>(s0.params.size()));
+  EXPECT_EQ(differ + zero, static_cast<int>(s0.params.size()));
   const MeshReport r7 = InspectMesh(g1.mesh), r8 = InspectMesh(MakeGarment(name, b).mesh);
   EXPECT_NE(r7.bounds_max.x(), r8.bounds_max.x());
 }
@@ -348,6 +353,113 @@ TEST(Templates, ZeroFrontBackDifferenceIsTheSymmetricGarment) {
     EXPECT_EQ(nf % 2, 0);
     EXPECT_LT(back, nv / 2);
     EXPECT_EQ(MeshDigest(g), c.digest);
+  }
+}
+
+// The lowest point where a layer's boundary (z > 0 front, z < 0 back) crosses x = x0.
+double LowestOpeningAt(const Garment& g, double z_sign, double x0) {
+  std::map<std::pair<int, int>, int> faces;
+  for (int f = 0; f < g.mesh.NumFaces(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      const int u = g.mesh.F(f, k), v = g.mesh.F(f, (k + 1) % 3);
+      ++faces[{std::min(u, v), std::max(u, v)}];
+    }
+  double lowest = std::nan("");
+  for (const auto& [e, n] : faces) {
+    if (n != 1) continue;
+    const Vec2 a = g.uv.row(e.first), b = g.uv.row(e.second);
+    if (g.mesh.V(e.first, 2) * z_sign <= 0 && g.mesh.V(e.second, 2) * z_sign <= 0) continue;
+    if (a.x() == b.x() || (a.x() > x0) == (b.x() > x0)) continue;
+    const double y = a.y() + (b.y() - a.y()) * (x0 - a.x()) / (b.x() - a.x());
+    if (!(y >= lowest)) lowest = y;
+  }
+  return lowest;
+}
+
+// back_hem_drop (off in every preset): the shirt's back hem lies lower than the front's by
+// the stated amount, straight across, the extra strip of cloth the back's (the side seams
+// open along it: vents); the seams stay stitched vertex to vertex, the anchors where they
+// were (hem_center on the front's hem, the hem corners stitched), and the mesh as sound as
+// the presets'.
+TEST(Templates, BackHemDropLowersTheBackHemOnly) {
+  struct Case {
+    std::string name, size;
+    double drop;
+    uint64_t seed;
+    double h;
+  };
+  for (const Case& c :
+       {Case{"long_sleeve_shirt", "M", 0.0254, 0, 0.025}, Case{"long_sleeve_shirt", "L", 0.0254, 0, 0.035},
+        Case{"long_sleeve_shirt", "S", 0.05, 5, 0.035}, Case{"long_sleeve_shirt", "M", 0.01, 2, 0.035},
+        Case{"tshirt", "M", 0.0254, 3, 0.025}}) {
+    SCOPED_TRACE(c.name + " " + c.size + " drop " + std::to_string(c.drop) + " h " + std::to_string(c.h));
+    TemplateOptions o;
+    o.size = c.size;
+    o.seed = c.seed;
+    o.edge_length = c.h;
+    const Garment g0 = MakeGarment(c.name, o);
+    o.params["back_hem_drop"] = c.drop;
+    const TemplateShape shape = MakeTemplateShape(c.name, o);
+    MeshStats stats;
+    const Garment g = MakeGarment(c.name, o, &stats);
+    const TemplateInfo* info = FindTemplate(c.name);
+    const MeshReport r = InspectMesh(g.mesh);
+    EXPECT_TRUE(r.Manifold() && r.Oriented() && r.degenerate_faces.empty() && r.components == 1);
+    EXPECT_EQ(r.boundary_loops, static_cast<int>(info->openings.size()));
+    EXPECT_TRUE(CheckGarment(g, c.name).empty());
+    EXPECT_GE(stats.ratio_min, kRatioMin);
+    EXPECT_LE(stats.ratio_max, kRatioMax);
+    EXPECT_GE(stats.min_angle_deg, kMinAngleDeg);
+    EXPECT_EQ(r.bounds_min.y(), -c.drop);
+    EXPECT_EQ(r.bounds_max.y(), InspectMesh(g0.mesh).bounds_max.y());
+    EXPECT_EQ(r.bounds_max.x(), InspectMesh(g0.mesh).bounds_max.x());
+    // Seams: the same on both layers, and the same as without the drop (only the hem changes).
+    const testing::LayerSeams m = testing::MeasureLayers(g), m0 = testing::MeasureLayers(g0);
+    EXPECT_EQ(m.stitched_edges_not_one_per_layer, 0);
+    EXPECT_EQ(m.front_seam_edges, m.back_seam_edges);
+    EXPECT_EQ(m.front_seam_length, m.back_seam_length);
+    EXPECT_NEAR(m.front_seam_length, m0.front_seam_length, 1e-9);
+    // Front hem at y = 0, the back's at −drop, all across.
+    const double hw = shape.params.at("hem_width");
+    for (double x : {0.0, 0.3 * hw, -0.45 * hw}) {
+      EXPECT_NEAR(LowestOpeningAt(g, +1, x), 0, 1e-12) << x;
+      EXPECT_NEAR(LowestOpeningAt(g, -1, x), -c.drop, 1e-12) << x;
+      EXPECT_NEAR(LowestOpeningAt(g0, -1, x), 0, 1e-12) << x;
+    }
+    // The extra cloth is the back's: a strip hem_width × drop; the front is unchanged.
+    EXPECT_NEAR(m.front_area, m0.front_area, 1e-9);
+    EXPECT_NEAR(m.back_area - m0.back_area, hw * c.drop, 1e-9);
+    // Anchors: on the front layer within one edge of where the template put it (the same
+    // uv as without the drop); the hem corners exactly where they were, the hem's centre on
+    // the front's hem (the front hem's vertices may move along it).
+    ASSERT_EQ(g.anchors.size(), g0.anchors.size());
+    for (const Anchor& a : g.anchors) {
+      EXPECT_EQ(g.layer[a.vertex], 0) << a.label;
+      EXPECT_LT((Vec2(g.uv.row(a.vertex)) - a.uv).norm(), c.h) << a.label;
+      EXPECT_EQ(a.uv, g0.FindAnchor(a.label)->uv) << a.label;
+    }
+    for (const char* l : {"left_hem", "right_hem"}) {
+      EXPECT_EQ(g.FindAnchor(l)->position, g0.FindAnchor(l)->position) << l;
+    }
+    EXPECT_EQ(g.FindAnchor("hem_center")->position.y(), 0);
+    EXPECT_GT(g.FindAnchor("hem_center")->position.z(), 0);  // the front's hem, not stitched
+    EXPECT_EQ(g.FindAnchor("left_hem")->position.z(), 0);    // the corners stay stitched
+    // 0 is the garment of before, bit for bit.
+    o.params["back_hem_drop"] = 0;
+    EXPECT_EQ(MeshDigest(MakeGarment(c.name, o)), MeshDigest(g0));
+  }
+}
+
+TEST(Templates, BackHemDropTooLargeIsNamed) {
+  for (const char* name : {"long_sleeve_shirt", "tshirt"}) {
+    TemplateOptions o;
+    o.params["back_hem_drop"] = 0.5;
+    try {
+      MakeGarment(name, o);
+      ADD_FAILURE() << name;
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("back_hem_drop"), std::string::npos) << e.what();
+    }
   }
 }
 
