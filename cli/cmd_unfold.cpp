@@ -54,8 +54,9 @@ const char* kUsage =
     "  --category-known  tell recognition the category\n"
     "  --plan-prior K    after a regrasp keep the anchor it aimed at (or its twin) when recognition\n"
     "                    ranks it among its top K (default 3; 0 = recognise afresh, as the paper)\n"
-    "  --trust-aimed     after a regrasp that pinched cloth keep the anchor it aimed at (or its\n"
-    "                    twin) whatever recognition ranks\n"
+    "  --no-trust-aimed  keep the aimed anchor only within recognition's top K (default: after a\n"
+    "                    regrasp that pinched cloth the anchor it aimed at, or its twin, is kept\n"
+    "                    whatever recognition ranks)\n"
     "  --candidates K    register recognition's top K database entries (its answer first; after a\n"
     "                    kept plan prior only that anchor's or its twin's) and predict from the\n"
     "                    best fit: symmetric mean surface distance to the reconstruction\n"
@@ -219,17 +220,17 @@ void CandidateOptions(const Args& a, LoopOptions& lo) {
   }
 }
 
-// --plan-prior, --trust-aimed.
+// --plan-prior, --no-trust-aimed.
 void PlanPriorOptions(const Args& a, LoopOptions& lo) {
   lo.plan_prior_top_k = static_cast<int>(a.GetInt("--plan-prior").value_or(lo.plan_prior_top_k));
   if (lo.plan_prior_top_k < 0 || lo.plan_prior_top_k > 5) throw Error("--plan-prior: must be in 0..5");
-  if (a.Flag("--trust-aimed")) lo.trust_aimed = true;
+  if (a.Flag("--no-trust-aimed")) lo.trust_aimed = false;
 }
 
 int RunUnfold(const std::vector<std::string>& argv) {
   Args a(argv,
          {"--no-ir", "--ir-above-jaws", "--rigid", "--unweighted", "--ablations", "--no-figures", "--no-place",
-          "--dump-meshes", "--category-known", "--trust-aimed"},
+          "--dump-meshes", "--category-known", "--no-trust-aimed"},
          {"--category", "--trials", "--seed", "-o", "--weights", "--frames", "--max-regrasps", "--jobs", "--plan-prior",
           "--candidates", "--candidate-fit", "--candidate-point", "--unobserved-margin"});
   if (a.help()) {

@@ -57,9 +57,10 @@ struct LoopOptions {
   // anchor it aimed at (or its twin) whatever recognition ranks, the best-scored database
   // entry of that anchor or its twin standing for recognition's answer (TrustedAimedEntry).
   // On the paper release 2.3.0 the aimed anchor or its twin was the held one in 18 of the
-  // 22 steps where recognition did not rank it among its top 3, recognition's (and the
-  // candidates') answer in 7 (docs/unfolding.md, "Trusting the arm").
-  bool trust_aimed = false;
+  // 22 steps where recognition did not rank it among its top 3, the plan's anchor in 7;
+  // pants seed 1 unfolded 5/10 with it against 1/10, shorts 1/10 both (docs/unfolding.md,
+  // "Where the trials are lost, and trusting the arm"). false: within the top k only.
+  bool trust_aimed = true;
   // Registration candidates (candidates.h): register recognition's top `candidates`
   // database entries (its answer first; after a kept plan prior only entries of that
   // anchor or its twin) and predict from the one that fits the reconstruction best
