@@ -57,6 +57,8 @@ const char* kUsage =
     "  --no-trust-aimed  keep the aimed anchor only within recognition's top K (default: after a\n"
     "                    regrasp that pinched cloth the anchor it aimed at, or its twin, is kept\n"
     "                    whatever recognition ranks)\n"
+    "  --verify-first-holder  do not stop on the random first grasp: at f >= xi there the\n"
+    "                    regrasp goes ahead and the first gripper lets go\n"
     "  --candidates K    register recognition's top K database entries (its answer first; after a\n"
     "                    kept plan prior only that anchor's or its twin's) and predict from the\n"
     "                    best fit: symmetric mean surface distance to the reconstruction\n"
@@ -220,17 +222,18 @@ void CandidateOptions(const Args& a, LoopOptions& lo) {
   }
 }
 
-// --plan-prior, --no-trust-aimed.
+// --plan-prior, --no-trust-aimed, --verify-first-holder.
 void PlanPriorOptions(const Args& a, LoopOptions& lo) {
   lo.plan_prior_top_k = static_cast<int>(a.GetInt("--plan-prior").value_or(lo.plan_prior_top_k));
   if (lo.plan_prior_top_k < 0 || lo.plan_prior_top_k > 5) throw Error("--plan-prior: must be in 0..5");
   if (a.Flag("--no-trust-aimed")) lo.trust_aimed = false;
+  if (a.Flag("--verify-first-holder")) lo.verify_first_holder = true;
 }
 
 int RunUnfold(const std::vector<std::string>& argv) {
   Args a(argv,
          {"--no-ir", "--ir-above-jaws", "--rigid", "--unweighted", "--ablations", "--no-figures", "--no-place",
-          "--dump-meshes", "--category-known", "--no-trust-aimed"},
+          "--dump-meshes", "--category-known", "--no-trust-aimed", "--verify-first-holder"},
          {"--category", "--trials", "--seed", "-o", "--weights", "--frames", "--max-regrasps", "--jobs", "--plan-prior",
           "--candidates", "--candidate-fit", "--candidate-point", "--unobserved-margin"});
   if (a.help()) {
@@ -295,6 +298,7 @@ int RunUnfold(const std::vector<std::string>& argv) {
                      {"ir_search_half_width_m", lo.refine.search_half_width_samples * lo.refine.sample_spacing},
                      {"plan_prior_top_k", lo.plan_prior_top_k},
                      {"trust_aimed", lo.trust_aimed},
+                     {"verify_first_holder", lo.verify_first_holder},
                      {"candidates", lo.candidates},
                      {"candidate_fit", lo.fit_after_rigid ? "rigid" : "final"},
                      {"candidate_point", lo.consensus_radius > 0 ? "consensus" : "fit"},

@@ -70,6 +70,10 @@ int PlanPriorRank(const rec::Recognition& r, const std::string& aimed, int top_k
   return -1;
 }
 
+bool MayStop(const LoopOptions& o, double f, bool holder_regrasped) {
+  return f >= o.objective.xi && (holder_regrasped || !o.verify_first_holder);
+}
+
 int TrustedAimedEntry(const rec::Recognition& r, const std::string& aimed) {
   if (aimed.empty()) return -1;
   std::vector<std::string> accept = rec::SymmetryTwins(aimed);
@@ -264,6 +268,7 @@ struct TrialRun {
   int holder = 0;
   std::string trial_category;  // decided by the first recognition (see SenseAndRecognise)
   std::string aimed;           // anchor the holding gripper was sent to ("" before a regrasp)
+  bool holder_regrasped = false;  // the holder took its point by an aimed regrasp (not the first grasp)
 
   void Say(const std::string& s) const {
     if (progress) progress(s);
@@ -682,7 +687,11 @@ struct TrialRun {
       s.regrasp_true_anchor = NearestAnchor(world.garment(), *s.regrasp_uv);
       if (const Anchor* t = world.garment().FindAnchor(s.target_true_anchor))
         s.regrasp_pattern_error = (*s.regrasp_uv - t->uv).norm();
-      if (s.f >= o.objective.xi) {
+      s.holder_regrasped = holder_regrasped;
+      if (s.f >= o.objective.xi && !MayStop(o, s.f, holder_regrasped)) {
+        s.note += (s.note.empty() ? "" : "; ") +
+                  std::string("f >= xi on the first grasp, known from recognition alone: the holder lets go");
+      } else if (MayStop(o, s.f, holder_regrasped)) {
         res.converged = true;
         res.final_f = s.f;
         res.steps.push_back(std::move(s));
@@ -696,6 +705,7 @@ struct TrialRun {
       aimed = s.next_anchor;
       res.steps.push_back(std::move(s));
       holder = free_arm;
+      holder_regrasped = true;
       if (world.state() == hw::ClothState::kLost) {
         res.failure = "the garment was lost";
         return;
@@ -828,6 +838,7 @@ Json TrialResult::ToJson() const {
            {"recognised_anchor", s.recognised_anchor},
            {"prior_rank", s.prior_rank},
            {"prior_trusted", s.prior_trusted},
+           {"holder_regrasped", s.holder_regrasped},
            {"icp_rms", s.icp_rms},
            {"current_anchor", s.current_anchor},
            {"next_anchor", s.next_anchor},

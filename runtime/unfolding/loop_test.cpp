@@ -57,5 +57,16 @@ TEST(PlanPrior, TrustedAimedEntryIsTheBestEntryOfTheAimedAnchorOrItsTwin) {
   EXPECT_EQ(TrustedAimedEntry(Ranked({"crotch"}), "crotch"), -1);  // no entries listed
 }
 
+TEST(Stop, AtXiAndWithVerificationOnlyOnARegraspedHolder) {
+  LoopOptions o;                        // ξ = 0.5
+  EXPECT_TRUE(MayStop(o, 1.0, false));  // the paper's rule: f ≥ ξ, whoever holds
+  EXPECT_TRUE(MayStop(o, 0.5, false));
+  EXPECT_FALSE(MayStop(o, 0.19, true));  // a leg's inner corner and the other leg end
+  o.verify_first_holder = true;
+  EXPECT_FALSE(MayStop(o, 1.0, false));  // the random first grasp, recognised as a leg end
+  EXPECT_TRUE(MayStop(o, 1.0, true));
+  EXPECT_FALSE(MayStop(o, 0.19, true));
+}
+
 }  // namespace
 }  // namespace drape::unfolding
