@@ -60,14 +60,22 @@ double Coverage(const TriMesh& lying, const Garment& garment, double mpp) {
   return area(lying) / a;
 }
 
-int PlanPriorRank(const rec::Recognition& r, const std::string& aimed, int top_k) {
+namespace {
+// Index of the first of the first n candidates whose anchor is `aimed` or a symmetry twin
+// of it; -1 if none is, or `aimed` is empty.
+int FirstAimedOrTwin(const std::vector<rec::Candidate>& list, size_t n, const std::string& aimed) {
   if (aimed.empty()) return -1;
   std::vector<std::string> accept = rec::SymmetryTwins(aimed);
   accept.push_back(aimed);
-  const int k = std::min<int>(top_k, static_cast<int>(r.top.size()));
-  for (int i = 0; i < k; ++i)
-    if (std::find(accept.begin(), accept.end(), r.top[i].anchor) != accept.end()) return i;
+  n = std::min(n, list.size());
+  for (size_t i = 0; i < n; ++i)
+    if (std::find(accept.begin(), accept.end(), list[i].anchor) != accept.end()) return static_cast<int>(i);
   return -1;
+}
+}  // namespace
+
+int PlanPriorRank(const rec::Recognition& r, const std::string& aimed, int top_k) {
+  return FirstAimedOrTwin(r.top, static_cast<size_t>(std::max(top_k, 0)), aimed);
 }
 
 bool MayStop(const LoopOptions& o, double f, bool holder_regrasped) {
@@ -75,12 +83,7 @@ bool MayStop(const LoopOptions& o, double f, bool holder_regrasped) {
 }
 
 int TrustedAimedEntry(const rec::Recognition& r, const std::string& aimed) {
-  if (aimed.empty()) return -1;
-  std::vector<std::string> accept = rec::SymmetryTwins(aimed);
-  accept.push_back(aimed);
-  for (size_t i = 0; i < r.entries.size(); ++i)
-    if (std::find(accept.begin(), accept.end(), r.entries[i].anchor) != accept.end()) return static_cast<int>(i);
-  return -1;
+  return FirstAimedOrTwin(r.entries, r.entries.size(), aimed);
 }
 
 std::string NearestAnchor(const Garment& g, const Vec2& uv) {
@@ -688,15 +691,15 @@ struct TrialRun {
       if (const Anchor* t = world.garment().FindAnchor(s.target_true_anchor))
         s.regrasp_pattern_error = (*s.regrasp_uv - t->uv).norm();
       s.holder_regrasped = holder_regrasped;
-      if (s.f >= o.objective.xi && !MayStop(o, s.f, holder_regrasped)) {
-        s.note += (s.note.empty() ? "" : "; ") +
-                  std::string("f >= xi on the first grasp, known from recognition alone: the holder lets go");
-      } else if (MayStop(o, s.f, holder_regrasped)) {
+      if (MayStop(o, s.f, holder_regrasped)) {
         res.converged = true;
         res.final_f = s.f;
         res.steps.push_back(std::move(s));
         return;
       }
+      if (s.f >= o.objective.xi)  // held back by verify_first_holder
+        s.note += (s.note.empty() ? "" : "; ") +
+                  std::string("f >= xi on the first grasp, known from recognition alone: the holder lets go");
       // Not there yet: the old grasp lets go, the garment hangs from the new one.
       world.arm(holder).Open();
       s.released_other = true;
