@@ -245,22 +245,34 @@ INSTANTIATE_TEST_SUITE_P(All, TemplateTest,
                                            "towel"),
                          [](const auto& info) { return info.param; });
 
-// Where a layer's opening crosses the centre line x = 0 above y_min: y of the mesh
-// boundary edge of that layer (z > 0 front, z < 0 back) there; NaN if there is none.
-double OpeningAtCentre(const Garment& g, double z_sign, double y_min) {
+// Where a layer's boundary (mesh edges of one face; z > 0 front, z < 0 back) crosses the
+// vertical line x = x0, in edge order: y of the crossing and the lower end of its edge.
+struct Crossing {
+  double y, edge_min_y;
+};
+std::vector<Crossing> BoundaryCrossings(const Garment& g, double z_sign, double x0) {
   std::map<std::pair<int, int>, int> faces;
   for (int f = 0; f < g.mesh.NumFaces(); ++f)
     for (int k = 0; k < 3; ++k) {
       const int u = g.mesh.F(f, k), v = g.mesh.F(f, (k + 1) % 3);
       ++faces[{std::min(u, v), std::max(u, v)}];
     }
+  std::vector<Crossing> out;
   for (const auto& [e, n] : faces) {
     if (n != 1) continue;
     const Vec2 a = g.uv.row(e.first), b = g.uv.row(e.second);
     if (g.mesh.V(e.first, 2) * z_sign <= 0 && g.mesh.V(e.second, 2) * z_sign <= 0) continue;
-    if (a.x() == b.x() || (a.x() > 0) == (b.x() > 0) || std::min(a.y(), b.y()) < y_min) continue;
-    return a.y() + (b.y() - a.y()) * (0 - a.x()) / (b.x() - a.x());
+    if (a.x() == b.x() || (a.x() > x0) == (b.x() > x0)) continue;
+    out.push_back({a.y() + (b.y() - a.y()) * (x0 - a.x()) / (b.x() - a.x()), std::min(a.y(), b.y())});
   }
+  return out;
+}
+
+// Where a layer's opening crosses the centre line x = 0 above y_min: y of the mesh
+// boundary edge of that layer (z > 0 front, z < 0 back) there; NaN if there is none.
+double OpeningAtCentre(const Garment& g, double z_sign, double y_min) {
+  for (const Crossing& c : BoundaryCrossings(g, z_sign, 0))
+    if (c.edge_min_y >= y_min) return c.y;
   return std::nan("");
 }
 
@@ -358,21 +370,9 @@ TEST(Templates, ZeroFrontBackDifferenceIsTheSymmetricGarment) {
 
 // The lowest point where a layer's boundary (z > 0 front, z < 0 back) crosses x = x0.
 double LowestOpeningAt(const Garment& g, double z_sign, double x0) {
-  std::map<std::pair<int, int>, int> faces;
-  for (int f = 0; f < g.mesh.NumFaces(); ++f)
-    for (int k = 0; k < 3; ++k) {
-      const int u = g.mesh.F(f, k), v = g.mesh.F(f, (k + 1) % 3);
-      ++faces[{std::min(u, v), std::max(u, v)}];
-    }
   double lowest = std::nan("");
-  for (const auto& [e, n] : faces) {
-    if (n != 1) continue;
-    const Vec2 a = g.uv.row(e.first), b = g.uv.row(e.second);
-    if (g.mesh.V(e.first, 2) * z_sign <= 0 && g.mesh.V(e.second, 2) * z_sign <= 0) continue;
-    if (a.x() == b.x() || (a.x() > x0) == (b.x() > x0)) continue;
-    const double y = a.y() + (b.y() - a.y()) * (x0 - a.x()) / (b.x() - a.x());
-    if (!(y >= lowest)) lowest = y;
-  }
+  for (const Crossing& c : BoundaryCrossings(g, z_sign, x0))
+    if (!(c.y >= lowest)) lowest = c.y;
   return lowest;
 }
 
