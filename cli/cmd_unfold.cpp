@@ -76,6 +76,10 @@ const char* kUsage =
     "  --ir-above-jaws   the IR scan as first built: the jaw centre crosses the prediction and\n"
     "                    the beam (3 cm above the jaws) reads the cloth above it (default: the\n"
     "                    beam crosses the prediction, at the jaws' height)\n"
+    "  --hem-edge        when the registered database hang has the target at the lower edge of\n"
+    "                    its cloth (a hem corner: leg ends), also scan vertically through the\n"
+    "                    refined point and close 1 cm above the lowest reading of its surface\n"
+    "                    (off by default; not with --ir-above-jaws or --no-ir)\n"
     "  --rigid           ablation: rigid-only registration\n"
     "  --unweighted      ablation: unweighted recognition (Eq. match)\n"
     "  --ablations       also run the three ablations (4x the trials)\n"
@@ -233,7 +237,7 @@ void PlanPriorOptions(const Args& a, LoopOptions& lo) {
 int RunUnfold(const std::vector<std::string>& argv) {
   Args a(argv,
          {"--no-ir", "--ir-above-jaws", "--rigid", "--unweighted", "--ablations", "--no-figures", "--no-place",
-          "--dump-meshes", "--category-known", "--no-trust-aimed", "--verify-first-holder"},
+          "--dump-meshes", "--category-known", "--no-trust-aimed", "--verify-first-holder", "--hem-edge"},
          {"--category", "--trials", "--seed", "-o", "--weights", "--frames", "--max-regrasps", "--jobs", "--plan-prior",
           "--candidates", "--candidate-fit", "--candidate-point", "--unobserved-margin"});
   if (a.help()) {
@@ -257,6 +261,7 @@ int RunUnfold(const std::vector<std::string>& argv) {
   lo.max_regrasps = static_cast<int>(a.GetInt("--max-regrasps").value_or(4));
   lo.category_known = a.Flag("--category-known");
   lo.ir_at_jaw_line = !a.Flag("--ir-above-jaws");
+  lo.hem_edge = a.Flag("--hem-edge");
   lo.place_flat = !a.Flag("--no-place");
   PlanPriorOptions(a, lo);
   CandidateOptions(a, lo);
@@ -304,6 +309,7 @@ int RunUnfold(const std::vector<std::string>& argv) {
                      {"candidate_point", lo.consensus_radius > 0 ? "consensus" : "fit"},
                      {"consensus_radius_m", lo.consensus_radius},
                      {"ir_at_jaw_line", lo.ir_at_jaw_line},
+                     {"hem_edge", lo.hem_edge},
                      {"place_flat", lo.place_flat}};
     WriteFileAtomic(*out / "report.json", rj.dump(2) + "\n");
     WriteFileAtomic(*out / "report.md", "# Unfolding\n\n" + md);

@@ -34,6 +34,7 @@ Json J(const Vec2& v) { return Json::array({v.x(), v.y()}); }
 void LoopOptions::Validate() const {
   objective.Validate();
   refine.Validate();
+  edge.Validate();
   capture.Validate();
   if (max_regrasps < 1 || max_regrasps > 100) throw Error("unfold.max_regrasps: must be in 1..100");
   if (!(standoff > 0 && standoff < 0.4)) throw Error("unfold.standoff: must be in (0, 0.4) m");
@@ -455,6 +456,8 @@ struct TrialRun {
     s.predicted = s.candidates[s.point].predicted;
     s.ladder.rigid = to_world * preg.reg.rigid.V.row(v).transpose() + origin;
     s.ladder.nonrigid = to_world * preg.final_mesh().V.row(v).transpose() + origin;
+    // The turn is about the vertical: "below" is the same in the object frame.
+    s.edge_target = AnchorAtLowerEdge(preg.final_mesh(), v, o.edge);
   }
 
   // Registration of each candidate's database mesh (turned by its recognised rotation)
@@ -587,6 +590,8 @@ struct TrialRun {
     auto frame = [&](const Vec3& d) { return Vec3(d.dot(c), d.y(), d.dot(s.approach)); };
     L.mapped_offset = frame(s.predicted - target);
     L.refined_offset = frame(s.grasp - target);
+    L.lateral = s.lateral_grasp;
+    L.lateral_error = (s.lateral_grasp - target).norm();
     // What the jaws would take at the registered point without IR refinement.
     hw::GripperPose at;
     at.approach = s.approach;
@@ -594,10 +599,15 @@ struct TrialRun {
     at.position = s.predicted + s.approach * o.grasp_depth;
     const hw::GraspProbe p = world.ProbeGrasp(at);
     L.no_ir_outcome = hw::GraspOutcomeName(p.report.outcome);
+    const Anchor* ta = g.FindAnchor(s.target_true_anchor);
     if (p.uv) {
       L.no_ir_pinch_error = (p.pinch - target).norm();
-      if (const Anchor* t = g.FindAnchor(s.target_true_anchor)) L.no_ir_pattern_error = (*p.uv - t->uv).norm();
+      if (ta) L.no_ir_pattern_error = (*p.uv - ta->uv).norm();
     }
+    // What the jaws would take after the horizontal scan alone (before the hem-edge step).
+    at.position = s.lateral_grasp;
+    const hw::GraspProbe pl = world.ProbeGrasp(at);
+    if (pl.uv && ta) L.lateral_pattern_error = (*pl.uv - ta->uv).norm();
   }
 
   // Evaluation only: rung (e) of the ladder, where the jaws at `g` close (probed just
@@ -613,6 +623,25 @@ struct TrialRun {
     s.ladder.pinch = p.pinch;
     s.ladder.closed_error = (p.centroid - target).norm();
     s.ladder.pinch_error = (p.pinch - target).norm();
+  }
+
+  // The vertical scan through the refined point (LoopOptions::hem_edge): the jaws go
+  // `inset` above the lowest reading of the surface the refined point lies on.
+  void HemEdge(Step& s, hw::Arm& arm, hw::RangeSensor& ir, const IrScanPlan& plan, hw::GripperPose& g) const {
+    const EdgeOptions& e = o.edge;
+    const double reference = s.refine.valid ? s.refine.range : o.standoff;
+    hw::GripperPose scan = g;
+    for (int i = 0; i <= e.above_samples + e.below_samples; ++i) {
+      scan.position = plan.JawDuringScan(s.refine.offset, (e.above_samples - i) * e.sample_spacing);
+      arm.Move(i == 0 ? hw::StraightPath(arm.pose(), scan) : hw::Path{{0.016, scan}});
+      s.edge_ranges.push_back(ir.Read());
+    }
+    s.edge = FindLowerEdge(s.edge_ranges, reference, e);
+    if (s.edge.found) {
+      g.position = plan.Grasp(s.refine.offset, s.edge.up, s.edge.range);
+    } else {
+      s.note += (s.note.empty() ? "" : "; ") + std::string("hem edge: no lower edge in the vertical scan");
+    }
   }
 
   // IR scan across the predicted point with the free gripper; returns the grasp pose.
@@ -651,7 +680,10 @@ struct TrialRun {
       } else {
         s.note += (s.note.empty() ? "" : "; ") + std::string("no IR reading in the whole scan: registered point used");
       }
+      s.lateral_grasp = g.position;
+      if (o.hem_edge && o.ir_at_jaw_line && s.edge_target) HemEdge(s, arm, ir, plan, g);
     }
+    s.lateral_grasp = o.ir_refinement ? s.lateral_grasp : g.position;
     res.times.refinement += Since(t0);
     s.grasp = g.position;
     return g;
@@ -739,6 +771,7 @@ TrialResult RunTrial(const ReleaseModel& model, const std::string& category, con
   res.instance = tg.instance;
   res.seed = seed;
   res.sensing_height = o.sensing_height;
+  for (const Anchor& a : tg.garment.anchors) res.true_anchors.push_back({a.label, a.uv});
   hw::SimWorld world(tg.garment, tg.material, tg.fit, so, DeriveSeed(seed, "world"));
   TrialRun run{model, o, category, seed, world, res, progress, 0, "", ""};
   try {
@@ -793,7 +826,10 @@ Json LadderJson(const Step::Ladder& l) {
           {"refined_offset_m", J(l.refined_offset)},
           {"no_ir_outcome", l.no_ir_outcome},
           {"no_ir_pinch_error_m", l.no_ir_pinch_error},
-          {"no_ir_pattern_error_m", l.no_ir_pattern_error}};
+          {"no_ir_pattern_error_m", l.no_ir_pattern_error},
+          {"d0_lateral", J(l.lateral)},
+          {"d0_lateral_error_m", l.lateral_error},
+          {"d0_lateral_pattern_error_m", l.lateral_pattern_error}};
 }
 
 // The registration candidates of a step, the one kept and its truth, into its trace `j`.
@@ -853,6 +889,12 @@ Json TrialResult::ToJson() const {
            {"ir_response", s.refine.response},
            {"ir_best_offset", s.refine.offset},
            {"ir_fold_found", s.refine.fold_found},
+           {"edge",
+            {{"target", s.edge_target},
+             {"ranges", s.edge_ranges},
+             {"found", s.edge.found},
+             {"up_m", s.edge.up},
+             {"range_m", s.edge.range}}},
            {"regrasp",
             {{"outcome", hw::GraspOutcomeName(s.regrasp.outcome)},
              {"captured", s.regrasp.captured},
@@ -871,10 +913,14 @@ Json TrialResult::ToJson() const {
     // No reading (nothing in range) → null.
     for (size_t i = 0; i < s.ir_ranges.size(); ++i)
       if (!std::isfinite(s.ir_ranges[i])) j["ir_ranges"][i] = nullptr;
+    for (size_t i = 0; i < s.edge_ranges.size(); ++i)
+      if (!std::isfinite(s.edge_ranges[i])) j["edge"]["ranges"][i] = nullptr;
     steps_j.push_back(std::move(j));
   }
   Json fu = Json::array();
   for (const Vec2& u : final_uv) fu.push_back(J(u));
+  Json anchors = Json::object();
+  for (const AnchorPoint& a : true_anchors) anchors[a.label] = J(a.uv);
   return {{"category", category},
           {"instance", instance},
           {"seed", seed},
@@ -888,6 +934,7 @@ Json TrialResult::ToJson() const {
           {"unfolded", unfolded},
           {"final_f", final_f},
           {"final_uv", fu},
+          {"truth", {{"anchors_uv", anchors}}},
           {"final_state", final_state},
           {"placed", placed},
           {"place_failure", place_failure},

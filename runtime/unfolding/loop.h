@@ -95,6 +95,13 @@ struct LoopOptions {
   // height (IrScanPlan::at_jaw_line); false: the jaw centre crosses it and the beam reads
   // the cloth 3 cm above (as first built).
   bool ir_at_jaw_line = true;
+  // After the horizontal scan, when the registered database mesh has the target at the
+  // lower edge of the cloth around it (a hem's corner: the leg ends of pants and shorts),
+  // scan vertically through the refined point and close `edge.inset` above the lowest
+  // reading of that surface (refine.h FindLowerEdge; `--hem-edge`). Needs the IR scan at
+  // the jaw line.
+  bool hem_edge = false;
+  EdgeOptions edge;
   // m: the holding gripper's height while the garment turns; 0: the release's rig, its
   // test sensing's camera.gripper_height (generator/sweep/sweep.h; 1.5 m by default).
   double sensing_height = 0;
@@ -210,6 +217,13 @@ struct Step {
   std::vector<double> ir_ranges;
   RefineResult refine;
   Vec3 grasp = Vec3::Zero();    // world, where the free gripper closed
+  // Hem edge (LoopOptions::hem_edge): whether the point's registered database mesh has the
+  // target at the lower edge of its cloth (AnchorAtLowerEdge; recorded with the option off
+  // too), the vertical scan's readings (top to bottom) and what FindLowerEdge made of them.
+  bool edge_target = false;
+  std::vector<double> edge_ranges;
+  EdgeResult edge;
+  Vec3 lateral_grasp = Vec3::Zero();  // the jaw centre after the horizontal scan alone
   Vec3 approach = Vec3::Zero();
   // Regrasp.
   hardware::GraspReport regrasp;
@@ -242,6 +256,10 @@ struct Step {
     // pinch to the target (world) and on the pattern.
     std::string no_ir_outcome;
     double no_ir_pinch_error = -1, no_ir_pattern_error = -1;
+    // (d0) the jaw centre after the horizontal scan alone, before the hem-edge step (= d
+    // without it), its distance to the target and, probed, the pinch's on the pattern.
+    Vec3 lateral = Vec3::Zero();
+    double lateral_error = -1, lateral_pattern_error = -1;
   } ladder;
   std::string note;
 };
@@ -268,6 +286,7 @@ struct TrialResult {
   bool placed = false;
   std::string place_failure;
   double coverage = -1;
+  std::vector<AnchorPoint> true_anchors;  // truth: the test garment's anchors on its pattern
   // Cloth simulations run (pick-up hangs and let-go falls), let-go falls that re-hung
   // from the flat garment, and falls that reached the time cap still moving (sim.h).
   int hangs = 0, fallbacks = 0, unsettled = 0;

@@ -105,3 +105,75 @@ Vec3 IrScanPlan::Grasp(const RefineResult& r) const {
 }
 
 }  // namespace drape::unfolding
+
+namespace drape::unfolding {
+
+Vec3 IrScanPlan::JawDuringScan(double offset, double up) const {
+  return JawDuringScan(offset) + approach.cross(closing) * up;
+}
+
+Vec3 IrScanPlan::Grasp(double offset, double up, double range) const {
+  const Vec3& a = approach;
+  const Vec3& c = closing;
+  const Vec3 base = predicted - a * standoff;
+  return base + c * offset + a.cross(c) * up + a * (range + mount.z() + grasp_depth);
+}
+
+void EdgeOptions::Validate() const {
+  if (!(sample_spacing > 0 && sample_spacing < 1)) throw Error("edge.sample_spacing: must be in (0, 1) m");
+  if (above_samples < 0 || above_samples > 100000) throw Error("edge.above_samples: must be in 0..100000");
+  if (below_samples < 1 || below_samples > 100000) throw Error("edge.below_samples: must be in 1..100000");
+  if (!(near > 0)) throw Error("edge.near: must be > 0 m");
+  if (!(jump > 0)) throw Error("edge.jump: must be > 0 m");
+  if (!(inset >= 0)) throw Error("edge.inset: must be >= 0 m");
+  if (!(radius > 0)) throw Error("edge.radius: must be > 0 m");
+  if (!(below_margin >= 0)) throw Error("edge.below_margin: must be >= 0 m");
+  if (!(below_fraction >= 0 && below_fraction <= 1)) throw Error("edge.below_fraction: must be in [0, 1]");
+}
+
+EdgeResult FindLowerEdge(const std::vector<double>& ranges, double reference, const EdgeOptions& options) {
+  options.Validate();
+  const int n = static_cast<int>(ranges.size());
+  if (n != options.above_samples + options.below_samples + 1)
+    throw Error("edge: the vertical scan has " + std::to_string(n) + " readings, expected " +
+                std::to_string(options.above_samples + options.below_samples + 1));
+  auto ok = [&](int i) { return std::isfinite(ranges[i]) && ranges[i] > 0; };
+  auto surface = [&](int i) { return ok(i) && std::abs(ranges[i] - reference) <= options.near; };
+  auto joined = [&](int i, int j) { return ok(i) && ok(j) && std::abs(ranges[i] - ranges[j]) <= options.jump; };
+  EdgeResult r;
+  const int centre = options.above_samples;
+  for (int d = 0; d < n && r.start < 0; ++d) {  // nearest surface sample, the upper one on a tie
+    if (centre - d >= 0 && surface(centre - d))
+      r.start = centre - d;
+    else if (centre + d < n && surface(centre + d))
+      r.start = centre + d;
+  }
+  if (r.start < 0) return r;
+  int bottom = r.start, top = r.start;
+  while (bottom + 1 < n && joined(bottom, bottom + 1)) ++bottom;
+  while (top > 0 && joined(top, top - 1)) --top;
+  if (bottom == n - 1) return r;  // the surface goes on below the scan
+  r.found = true;
+  r.edge = bottom;
+  r.grasp = std::max(top, bottom - static_cast<int>(std::lround(options.inset / options.sample_spacing)));
+  r.up = (centre - r.grasp) * options.sample_spacing;
+  r.range = ranges[r.grasp];
+  return r;
+}
+
+bool AnchorAtLowerEdge(const TriMesh& mesh, int v, const EdgeOptions& options) {
+  options.Validate();
+  DRAPE_CHECK(v >= 0 && v < mesh.NumVertices(), "anchor vertex out of range");
+  const Vec3 p = mesh.V.row(v);
+  int around = 0, below = 0;
+  for (int i = 0; i < mesh.NumVertices(); ++i) {
+    if (i == v) continue;
+    const Vec3 q = mesh.V.row(i);
+    if ((q - p).norm() > options.radius) continue;
+    ++around;
+    if (q.y() < p.y() - options.below_margin) ++below;
+  }
+  return around > 0 && below <= options.below_fraction * around;
+}
+
+}  // namespace drape::unfolding

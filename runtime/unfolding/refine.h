@@ -99,6 +99,56 @@ struct IrScanPlan {
   // grasp_depth along the approach (along the beam's line through the jaw line either way:
   // the grasp does not rise to where the beam ran when at_jaw_line is false).
   Vec3 Grasp(const RefineResult& r) const;
+  // The same with the beam line `up` higher (up = approach × closing, the gripper's y
+  // axis): a vertical scan through the chosen sample (FindLowerEdge), and a grasp at the
+  // surface the beam saw at `range` there.
+  Vec3 JawDuringScan(double offset, double up) const;
+  Vec3 Grasp(double offset, double up, double range) const;
 };
+
+// The cloth's lower edge below a regrasp point (`--hem-edge`, LoopOptions::hem_edge).
+//
+// The desired anchors of pants and shorts are leg ends: corners of a hem, the lowest
+// cloth of a leg hanging free. Registration puts them 5-9 cm off, much of it along the
+// leg (the database hang and the test hang differ in length), and the horizontal LoG
+// scan does not look up or down. When the registered database mesh has its target at the
+// bottom of the cloth around it (`AnchorAtLowerEdge`), the gripper also scans
+// vertically through the refined point, top to bottom, and the jaws close `inset` above
+// the lowest sample of the surface the refined point lies on: the hem, seen by the beam
+// as the last reading before it jumps to farther cloth or to nothing.
+struct EdgeOptions {
+  double sample_spacing = 0.004;  // m between readings of the vertical scan
+  int above_samples = 25;         // scan from 10 cm above the refined point ...
+  int below_samples = 37;         // ... to 14.8 cm below it
+  double near = 0.04;             // m: a reading within this of the reference range is the surface
+  double jump = 0.02;             // m: consecutive readings further apart than this are not one surface
+  double inset = 0.01;            // m: the jaw centre goes this far above the edge (jaws 2 cm tall)
+  // AnchorAtLowerEdge: the anchor is at the lower edge when at most `below_fraction` of the
+  // registered vertices within `radius` of it lie more than `below_margin` under it.
+  double radius = 0.05, below_margin = 0.01, below_fraction = 0.25;
+  void Validate() const;  // throws drape::Error naming the bad field
+};
+
+struct EdgeResult {
+  bool found = false;  // a surface run through the reference that ends inside the scan
+  int start = -1;      // the run's sample nearest the refined point (-1: no surface reading)
+  int edge = -1;       // its lowest sample (found only)
+  int grasp = -1;      // the sample `inset` above the edge (the jaws' height), a surface reading
+  double up = 0;       // m from the refined point to the grasp sample (negative: down)
+  double range = 0;    // m, the reading at the grasp sample
+};
+
+// ranges: readings top to bottom, sample i at height (above_samples − i) · spacing over
+// the refined point; +inf or <= 0 = none. reference: the range the refined point was read
+// at (the surface to follow); a surface sample reads within `near` of it. The run is the
+// contiguous surface samples (consecutive readings within `jump`) through the surface
+// sample nearest the refined point; its lowest sample is the edge unless the run reaches
+// the scan's bottom (the edge is farther down: not found). Throws drape::Error when the
+// scan's length is not above_samples + below_samples + 1.
+EdgeResult FindLowerEdge(const std::vector<double>& ranges, double reference, const EdgeOptions& options);
+
+// Whether vertex `v` of `mesh` (y up) lies at the bottom of the cloth around it (see
+// EdgeOptions): what the registered database hang says of the target before any scan.
+bool AnchorAtLowerEdge(const TriMesh& mesh, int v, const EdgeOptions& options);
 
 }  // namespace drape::unfolding

@@ -129,5 +129,94 @@ TEST(Refine, MissingReadingsAndBadInput) {
   EXPECT_THROW(RefineScan(r, o), Error);
 }
 
+// A vertical scan (top to bottom) of a sheet whose lower edge is `edge` m above the refined
+// point (negative: below), leaning 10 % away from the sensor, 12 cm from it at the refined
+// point's height; below the edge the beam reads `behind` (+inf: nothing). 1 mm noise.
+std::vector<double> HemScan(double edge, double behind, const EdgeOptions& o, uint64_t seed) {
+  Rng rng(seed);
+  std::vector<double> r;
+  for (int i = 0; i <= o.above_samples + o.below_samples; ++i) {
+    const double h = (o.above_samples - i) * o.sample_spacing;
+    r.push_back(h >= edge - 1e-9 ? 0.12 + 0.1 * h + 0.001 * rng.Normal() : behind);
+  }
+  return r;
+}
+
+TEST(Edge, FindsTheHemBelowAndGraspsInsetAboveIt) {
+  EdgeOptions o;
+  const double inf = std::numeric_limits<double>::infinity();
+  for (double behind : {inf, 0.30, 0.0}) {
+    const EdgeResult e = FindLowerEdge(HemScan(-0.062, behind, o, 7), 0.12, o);
+    ASSERT_TRUE(e.found) << behind;
+    EXPECT_EQ(e.start, o.above_samples);
+    // The lowest reading of the sheet is at −6.0 cm (samples every 4 mm); 1 cm above it.
+    EXPECT_NEAR((o.above_samples - e.edge) * o.sample_spacing, -0.060, 1e-9);
+    EXPECT_NEAR(e.up, -0.060 + 0.012, 1e-9);  // inset 1 cm: 2.5 samples, rounded to 3
+    EXPECT_NEAR(e.range, 0.12 + 0.1 * e.up, 0.005);
+  }
+}
+
+TEST(Edge, FindsTheHemAboveWhenThePointIsBelowTheCloth) {
+  EdgeOptions o;
+  // The refined point is 5 cm below the hem, in the air: the nearest surface sample is
+  // the hem itself (reference range 12 cm, read there 12.5 cm), and the grasp goes up.
+  const EdgeResult e = FindLowerEdge(HemScan(0.05, std::numeric_limits<double>::infinity(), o, 3), 0.12, o);
+  ASSERT_TRUE(e.found);
+  EXPECT_EQ(e.start, e.edge);
+  EXPECT_NEAR(e.up, 0.052 + 0.012, 1e-9);
+  // A surface farther than `near` from the reference is another layer: nothing found.
+  EXPECT_FALSE(FindLowerEdge(HemScan(0.05, std::numeric_limits<double>::infinity(), o, 3), 0.06, o).found);
+}
+
+TEST(Edge, NoEdgeWhenTheSheetGoesOnBelowTheScan) {
+  EdgeOptions o;
+  const EdgeResult e = FindLowerEdge(HemScan(-1.0, 0.3, o, 5), 0.12, o);
+  EXPECT_FALSE(e.found);
+  EXPECT_EQ(e.start, o.above_samples);
+  // A step of more than `jump` in the surface ends the run: a fold's lower edge in front of
+  // the cloth behind it is an edge too (the jaws go to the near layer's).
+  std::vector<double> r = HemScan(-1.0, 0.3, o, 5);
+  for (size_t i = o.above_samples + 10; i < r.size(); ++i) r[i] += 0.05;
+  const EdgeResult f = FindLowerEdge(r, 0.12, o);
+  ASSERT_TRUE(f.found);
+  EXPECT_EQ(f.edge, o.above_samples + 9);
+  EXPECT_THROW(FindLowerEdge(std::vector<double>(5, 0.1), 0.12, o), Error);
+  o.near = 0;
+  EXPECT_THROW(FindLowerEdge(HemScan(-1.0, 0.3, EdgeOptions{}, 5), 0.12, o), Error);
+}
+
+TEST(Edge, AnchorAtTheBottomOfAHangingSheet) {
+  // A 20 × 20 cm sheet in the x-y plane, vertices every 1 cm (y up), bottom row at y = 0.
+  TriMesh m;
+  const int n = 21;
+  m.V.resize(n * n, 3);
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) m.V.row(j * n + i) = Eigen::RowVector3d(0.01 * i, 0.01 * j, 0);
+  EdgeOptions o;
+  EXPECT_TRUE(AnchorAtLowerEdge(m, 0 * n + 10, o));    // middle of the bottom edge
+  EXPECT_TRUE(AnchorAtLowerEdge(m, 0 * n + 0, o));     // bottom corner
+  EXPECT_FALSE(AnchorAtLowerEdge(m, 10 * n + 10, o));  // centre
+  EXPECT_FALSE(AnchorAtLowerEdge(m, 10 * n + 0, o));   // middle of a side edge
+  EXPECT_FALSE(AnchorAtLowerEdge(m, 20 * n + 10, o));  // top edge: everything around lies below
+  // Turned upside down the top edge is the lower one.
+  m.V.col(1) = -m.V.col(1);
+  EXPECT_TRUE(AnchorAtLowerEdge(m, 20 * n + 10, o));
+  EXPECT_FALSE(AnchorAtLowerEdge(m, 0 * n + 10, o));
+}
+
+TEST(Edge, ScanPlanMovesTheBeamLineUp) {
+  IrScanPlan p;
+  p.predicted = Vec3(0.1, 1.2, 0.3);
+  p.approach = Vec3(0, 0, -1);
+  p.closing = Vec3::UnitY().cross(p.approach).normalized();
+  p.mount = Vec3(0, 0.03, -0.06);
+  EXPECT_TRUE(p.JawDuringScan(0.02, 0.05).isApprox(p.JawDuringScan(0.02) + Vec3(0, 0.05, 0)));
+  RefineResult r;
+  r.offset = 0.02;
+  r.range = 0.17;
+  EXPECT_TRUE(p.Grasp(0.02, 0.0, 0.17).isApprox(p.Grasp(r)));
+  EXPECT_TRUE(p.Grasp(0.02, -0.04, 0.17).isApprox(p.Grasp(r) - Vec3(0, 0.04, 0)));
+}
+
 }  // namespace
 }  // namespace drape::unfolding
