@@ -80,6 +80,9 @@ const char* kUsage =
     "                    its cloth (a hem corner: leg ends), also scan vertically through the\n"
     "                    refined point and close 1 cm above the lowest reading of its surface\n"
     "                    (off by default; not with --ir-above-jaws or --no-ir)\n"
+    "  --hem-corner      with --hem-edge, once the hem is found: scan along it at the jaws' height\n"
+    "                    and close 2 cm in from its end on the side the registered hang has\n"
+    "                    its cloth away from (off by default)\n"
     "  --rigid           ablation: rigid-only registration\n"
     "  --unweighted      ablation: unweighted recognition (Eq. match)\n"
     "  --ablations       also run the three ablations (4x the trials)\n"
@@ -235,11 +238,12 @@ void PlanPriorOptions(const Args& a, LoopOptions& lo) {
 }
 
 int RunUnfold(const std::vector<std::string>& argv) {
-  Args a(argv,
-         {"--no-ir", "--ir-above-jaws", "--rigid", "--unweighted", "--ablations", "--no-figures", "--no-place",
-          "--dump-meshes", "--category-known", "--no-trust-aimed", "--verify-first-holder", "--hem-edge"},
-         {"--category", "--trials", "--seed", "-o", "--weights", "--frames", "--max-regrasps", "--jobs", "--plan-prior",
-          "--candidates", "--candidate-fit", "--candidate-point", "--unobserved-margin"});
+  Args a(
+      argv,
+      {"--no-ir", "--ir-above-jaws", "--rigid", "--unweighted", "--ablations", "--no-figures", "--no-place",
+       "--dump-meshes", "--category-known", "--no-trust-aimed", "--verify-first-holder", "--hem-edge", "--hem-corner"},
+      {"--category", "--trials", "--seed", "-o", "--weights", "--frames", "--max-regrasps", "--jobs", "--plan-prior",
+       "--candidates", "--candidate-fit", "--candidate-point", "--unobserved-margin"});
   if (a.help()) {
     std::cout << kUsage;
     return 0;
@@ -262,6 +266,8 @@ int RunUnfold(const std::vector<std::string>& argv) {
   lo.category_known = a.Flag("--category-known");
   lo.ir_at_jaw_line = !a.Flag("--ir-above-jaws");
   lo.hem_edge = a.Flag("--hem-edge");
+  lo.hem_corner = a.Flag("--hem-corner");
+  if (lo.hem_corner && !lo.hem_edge) throw Error("--hem-corner: needs --hem-edge");
   lo.place_flat = !a.Flag("--no-place");
   PlanPriorOptions(a, lo);
   CandidateOptions(a, lo);
@@ -310,6 +316,7 @@ int RunUnfold(const std::vector<std::string>& argv) {
                      {"consensus_radius_m", lo.consensus_radius},
                      {"ir_at_jaw_line", lo.ir_at_jaw_line},
                      {"hem_edge", lo.hem_edge},
+                     {"hem_corner", lo.hem_corner},
                      {"place_flat", lo.place_flat}};
     WriteFileAtomic(*out / "report.json", rj.dump(2) + "\n");
     WriteFileAtomic(*out / "report.md", "# Unfolding\n\n" + md);

@@ -458,6 +458,7 @@ struct TrialRun {
     s.ladder.nonrigid = to_world * preg.final_mesh().V.row(v).transpose() + origin;
     // The turn is about the vertical: "below" is the same in the object frame.
     s.edge_target = AnchorAtLowerEdge(preg.final_mesh(), v, o.edge);
+    if (o.hem_corner) s.point_mesh = preg.final_mesh(), s.point_vertex = v, s.point_to_world = to_world;
   }
 
   // Registration of each candidate's database mesh (turned by its recognised rotation)
@@ -637,10 +638,27 @@ struct TrialRun {
       s.edge_ranges.push_back(ir.Read());
     }
     s.edge = FindLowerEdge(s.edge_ranges, reference, e);
-    if (s.edge.found) {
-      g.position = plan.Grasp(s.refine.offset, s.edge.up, s.edge.range);
-    } else {
+    if (!s.edge.found) {
       s.note += (s.note.empty() ? "" : "; ") + std::string("hem edge: no lower edge in the vertical scan");
+      return;
+    }
+    g.position = plan.Grasp(s.refine.offset, s.edge.up, s.edge.range);
+    if (!o.hem_corner || s.point_vertex < 0) return;
+    // The hem's corner: which end of the hem, from the registered mesh, then a scan along it.
+    s.corner_side = CornerSide(s.point_mesh, s.point_vertex, s.point_to_world.transpose() * plan.closing, e);
+    if (s.corner_side == 0) return;
+    const int half = o.refine.half_width_samples;
+    const double dx = o.refine.sample_spacing;
+    for (int i = -half; i <= half; ++i) {
+      scan.position = plan.JawDuringScan(s.refine.offset + i * dx, s.edge.up);
+      arm.Move(i == -half ? hw::StraightPath(arm.pose(), scan) : hw::Path{{0.016, scan}});
+      s.side_ranges.push_back(ir.Read());
+    }
+    s.side = FindSideEdge(s.side_ranges, s.edge.range, s.corner_side, dx, e);
+    if (s.side.found) {
+      g.position = plan.Grasp(s.refine.offset + s.side.offset, s.edge.up, s.side.range);
+    } else {
+      s.note += (s.note.empty() ? "" : "; ") + std::string("hem corner: no end of the hem in the side scan");
     }
   }
 
@@ -894,7 +912,11 @@ Json TrialResult::ToJson() const {
              {"ranges", s.edge_ranges},
              {"found", s.edge.found},
              {"up_m", s.edge.up},
-             {"range_m", s.edge.range}}},
+             {"range_m", s.edge.range},
+             {"corner_side", s.corner_side},
+             {"side_ranges", s.side_ranges},
+             {"side_found", s.side.found},
+             {"side_offset_m", s.side.offset}}},
            {"regrasp",
             {{"outcome", hw::GraspOutcomeName(s.regrasp.outcome)},
              {"captured", s.regrasp.captured},
@@ -915,6 +937,8 @@ Json TrialResult::ToJson() const {
       if (!std::isfinite(s.ir_ranges[i])) j["ir_ranges"][i] = nullptr;
     for (size_t i = 0; i < s.edge_ranges.size(); ++i)
       if (!std::isfinite(s.edge_ranges[i])) j["edge"]["ranges"][i] = nullptr;
+    for (size_t i = 0; i < s.side_ranges.size(); ++i)
+      if (!std::isfinite(s.side_ranges[i])) j["edge"]["side_ranges"][i] = nullptr;
     steps_j.push_back(std::move(j));
   }
   Json fu = Json::array();

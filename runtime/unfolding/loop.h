@@ -101,6 +101,10 @@ struct LoopOptions {
   // reading of that surface (refine.h FindLowerEdge; `--hem-edge`). Needs the IR scan at
   // the jaw line.
   bool hem_edge = false;
+  // With hem_edge, once the lower edge is found: a horizontal scan at the jaws' new height
+  // and the jaw centre `edge.side_inset` in from the hem's end on the side the registered
+  // mesh has its cloth away from (refine.h CornerSide, FindSideEdge; `--hem-corner`).
+  bool hem_corner = false;
   EdgeOptions edge;
   // m: the holding gripper's height while the garment turns; 0: the release's rig, its
   // test sensing's camera.gripper_height (generator/sweep/sweep.h; 1.5 m by default).
@@ -223,6 +227,12 @@ struct Step {
   bool edge_target = false;
   std::vector<double> edge_ranges;
   EdgeResult edge;
+  int corner_side = 0;  // CornerSide of the point's registration along the closing direction
+  std::vector<double> side_ranges;
+  SideResult side;
+  TriMesh point_mesh;  // the point candidate's registered mesh (object frame; not traced)
+  int point_vertex = -1;
+  Eigen::Matrix3d point_to_world = Eigen::Matrix3d::Identity();
   Vec3 lateral_grasp = Vec3::Zero();  // the jaw centre after the horizontal scan alone
   Vec3 approach = Vec3::Zero();
   // Regrasp.

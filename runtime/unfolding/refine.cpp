@@ -129,7 +129,37 @@ void EdgeOptions::Validate() const {
   if (!(radius > 0)) throw Error("edge.radius: must be > 0 m");
   if (!(below_margin >= 0)) throw Error("edge.below_margin: must be >= 0 m");
   if (!(below_fraction >= 0 && below_fraction <= 1)) throw Error("edge.below_fraction: must be in [0, 1]");
+  if (!(side_inset >= 0)) throw Error("edge.side_inset: must be >= 0 m");
+  if (!(side_radius > 0)) throw Error("edge.side_radius: must be > 0 m");
+  if (!(side_margin > 0)) throw Error("edge.side_margin: must be > 0 m");
 }
+
+namespace {
+// The contiguous surface samples of a scan through the sample nearest `centre` that reads
+// within `near` of `reference` (ties: the lower index); consecutive readings within `jump`.
+struct Run {
+  int start = -1, lo = -1, hi = -1;
+};
+Run SurfaceRun(const std::vector<double>& ranges, int centre, double reference, double near, double jump) {
+  const int n = static_cast<int>(ranges.size());
+  auto ok = [&](int i) { return std::isfinite(ranges[i]) && ranges[i] > 0; };
+  auto surface = [&](int i) { return ok(i) && std::abs(ranges[i] - reference) <= near; };
+  auto joined = [&](int i, int j) { return ok(i) && ok(j) && std::abs(ranges[i] - ranges[j]) <= jump; };
+  Run r;
+  for (int d = 0; d < n && r.start < 0; ++d) {
+    if (centre - d >= 0 && surface(centre - d)) {
+      r.start = centre - d;
+    } else if (centre + d < n && surface(centre + d)) {
+      r.start = centre + d;
+    }
+  }
+  if (r.start < 0) return r;
+  r.lo = r.hi = r.start;
+  while (r.hi + 1 < n && joined(r.hi, r.hi + 1)) ++r.hi;
+  while (r.lo > 0 && joined(r.lo, r.lo - 1)) --r.lo;
+  return r;
+}
+}  // namespace
 
 EdgeResult FindLowerEdge(const std::vector<double>& ranges, double reference, const EdgeOptions& options) {
   options.Validate();
@@ -137,28 +167,63 @@ EdgeResult FindLowerEdge(const std::vector<double>& ranges, double reference, co
   if (n != options.above_samples + options.below_samples + 1)
     throw Error("edge: the vertical scan has " + std::to_string(n) + " readings, expected " +
                 std::to_string(options.above_samples + options.below_samples + 1));
-  auto ok = [&](int i) { return std::isfinite(ranges[i]) && ranges[i] > 0; };
-  auto surface = [&](int i) { return ok(i) && std::abs(ranges[i] - reference) <= options.near; };
-  auto joined = [&](int i, int j) { return ok(i) && ok(j) && std::abs(ranges[i] - ranges[j]) <= options.jump; };
-  EdgeResult r;
+  // Top to bottom: the upper sample wins a tie for the nearest surface sample.
   const int centre = options.above_samples;
-  for (int d = 0; d < n && r.start < 0; ++d) {  // nearest surface sample, the upper one on a tie
-    if (centre - d >= 0 && surface(centre - d))
-      r.start = centre - d;
-    else if (centre + d < n && surface(centre + d))
-      r.start = centre + d;
-  }
-  if (r.start < 0) return r;
-  int bottom = r.start, top = r.start;
-  while (bottom + 1 < n && joined(bottom, bottom + 1)) ++bottom;
-  while (top > 0 && joined(top, top - 1)) --top;
-  if (bottom == n - 1) return r;  // the surface goes on below the scan
+  const Run run = SurfaceRun(ranges, centre, reference, options.near, options.jump);
+  EdgeResult r;
+  r.start = run.start;
+  if (run.start < 0 || run.hi == n - 1) return r;  // no surface, or it goes on below the scan
   r.found = true;
-  r.edge = bottom;
-  r.grasp = std::max(top, bottom - static_cast<int>(std::lround(options.inset / options.sample_spacing)));
+  r.edge = run.hi;
+  r.grasp = std::max(run.lo, run.hi - static_cast<int>(std::lround(options.inset / options.sample_spacing)));
   r.up = (centre - r.grasp) * options.sample_spacing;
   r.range = ranges[r.grasp];
   return r;
+}
+
+SideResult FindSideEdge(const std::vector<double>& ranges, double reference, int toward, double spacing,
+                        const EdgeOptions& options) {
+  options.Validate();
+  if (ranges.size() < 3 || ranges.size() % 2 == 0)
+    throw Error("edge: a side scan needs an odd number (>= 3) of readings");
+  if (toward != -1 && toward != 1) throw Error("edge: the side to look for must be -1 or +1");
+  if (!(spacing > 0)) throw Error("edge: the side scan's spacing must be > 0 m");
+  const int n = static_cast<int>(ranges.size()), centre = n / 2;
+  const Run run = SurfaceRun(ranges, centre, reference, options.near, options.jump);
+  SideResult r;
+  r.start = run.start;
+  if (run.start < 0) return r;
+  const int inset = static_cast<int>(std::lround(options.side_inset / spacing));
+  if (toward < 0) {
+    if (run.lo == 0) return r;  // the surface goes on past the scan
+    r.edge = run.lo;
+    r.grasp = std::min(run.hi, run.lo + inset);
+  } else {
+    if (run.hi == n - 1) return r;
+    r.edge = run.hi;
+    r.grasp = std::max(run.lo, run.hi - inset);
+  }
+  r.found = true;
+  r.offset = (r.grasp - centre) * spacing;
+  r.range = ranges[r.grasp];
+  return r;
+}
+
+int CornerSide(const TriMesh& mesh, int v, const Vec3& closing, const EdgeOptions& options) {
+  options.Validate();
+  DRAPE_CHECK(v >= 0 && v < mesh.NumVertices(), "anchor vertex out of range");
+  const Vec3 p = mesh.V.row(v);
+  double sum = 0;
+  int around = 0;
+  for (int i = 0; i < mesh.NumVertices(); ++i) {
+    const Vec3 q = mesh.V.row(i);
+    if (i == v || (q - p).norm() > options.side_radius) continue;
+    sum += (q - p).dot(closing);
+    ++around;
+  }
+  if (around == 0) return 0;
+  const double mean = sum / around;
+  return mean > options.side_margin ? -1 : mean < -options.side_margin ? 1 : 0;
 }
 
 bool AnchorAtLowerEdge(const TriMesh& mesh, int v, const EdgeOptions& options) {

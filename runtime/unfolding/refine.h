@@ -126,6 +126,12 @@ struct EdgeOptions {
   // AnchorAtLowerEdge: the anchor is at the lower edge when at most `below_fraction` of the
   // registered vertices within `radius` of it lie more than `below_margin` under it.
   double radius = 0.05, below_margin = 0.01, below_fraction = 0.25;
+  // The hem's corner (`--hem-corner`): a horizontal scan at the jaws' new height, the jaw
+  // centre `side_inset` in from the end of the surface on the side CornerSide names (jaws
+  // 8 cm wide: 2 cm of air beyond the corner, 6 cm of hem). CornerSide: the cloth within
+  // `side_radius` of the registered anchor lies, on average, more than `side_margin` to
+  // one side along the closing direction.
+  double side_inset = 0.02, side_radius = 0.08, side_margin = 0.015;
   void Validate() const;  // throws drape::Error naming the bad field
 };
 
@@ -146,6 +152,26 @@ struct EdgeResult {
 // the scan's bottom (the edge is farther down: not found). Throws drape::Error when the
 // scan's length is not above_samples + below_samples + 1.
 EdgeResult FindLowerEdge(const std::vector<double>& ranges, double reference, const EdgeOptions& options);
+
+// The hem's end along a horizontal scan at the jaws' height (readings in scan order along
+// the closing direction, sample i at (i − n/2) · spacing; n odd): the surface run through
+// the sample nearest the centre reading within `near` of `reference`, its end on the side
+// `toward` (−1: lower indices, +1: higher) if that end lies inside the scan, and the grasp
+// sample `side_inset` in from it (within the run).
+struct SideResult {
+  bool found = false;
+  int start = -1, edge = -1, grasp = -1;
+  double offset = 0;  // m along the scan from its centre to the grasp sample
+  double range = 0;   // m, the reading there
+};
+SideResult FindSideEdge(const std::vector<double>& ranges, double reference, int toward, double spacing,
+                        const EdgeOptions& options);
+
+// Which way along `closing` (unit, in `mesh`'s frame) the cloth ends at vertex `v`: −1
+// when the cloth within side_radius lies on average more than side_margin towards
+// +closing (the corner is the surface's −closing end), +1 the other way, 0 neither (the
+// cloth around is centred on it, or the hem is seen edge-on).
+int CornerSide(const TriMesh& mesh, int v, const Vec3& closing, const EdgeOptions& options);
 
 // Whether vertex `v` of `mesh` (y up) lies at the bottom of the cloth around it (see
 // EdgeOptions): what the registered database hang says of the target before any scan.

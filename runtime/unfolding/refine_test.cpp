@@ -218,5 +218,50 @@ TEST(Edge, ScanPlanMovesTheBeamLineUp) {
   EXPECT_TRUE(p.Grasp(0.02, -0.04, 0.17).isApprox(p.Grasp(r) - Vec3(0, 0.04, 0)));
 }
 
+// A horizontal scan at the jaws' height across a hem 18 cm wide from −11 to +7 cm, 12 cm
+// away, cloth 30 cm away beyond both ends; readings 4 mm apart, 1 mm noise.
+std::vector<double> SideScan(double from, double to, uint64_t seed) {
+  Rng rng(seed);
+  std::vector<double> r;
+  for (int i = -25; i <= 25; ++i) {
+    const double x = i * 0.004;
+    r.push_back((x >= from - 1e-9 && x <= to + 1e-9 ? 0.12 : 0.30) + 0.001 * rng.Normal());
+  }
+  return r;
+}
+
+TEST(Edge, FindsTheHemsEndOnTheNamedSide) {
+  EdgeOptions o;
+  const std::vector<double> r = SideScan(-0.11, 0.068, 4);
+  // +1: the end at +6.8 cm, 2 cm in from it.
+  const SideResult p = FindSideEdge(r, 0.12, +1, 0.004, o);
+  ASSERT_TRUE(p.found);
+  EXPECT_NEAR(p.offset, 0.068 - 0.02, 1e-9);
+  EXPECT_NEAR(p.range, 0.12, 0.005);
+  // −1: the hem goes on past the scan's start (−10 cm): not found.
+  EXPECT_FALSE(FindSideEdge(r, 0.12, -1, 0.004, o).found);
+  const SideResult m = FindSideEdge(SideScan(-0.052, 0.2, 5), 0.12, -1, 0.004, o);
+  ASSERT_TRUE(m.found);
+  EXPECT_NEAR(m.offset, -0.052 + 0.02, 1e-9);
+  EXPECT_THROW(FindSideEdge(r, 0.12, 0, 0.004, o), Error);
+  EXPECT_THROW(FindSideEdge(std::vector<double>(4, 0.1), 0.12, 1, 0.004, o), Error);
+}
+
+TEST(Edge, CornerSideFromTheClothAround) {
+  // The 20 × 20 cm sheet (x-y plane, y up), seen along −z: closing along x.
+  TriMesh m;
+  const int n = 21;
+  m.V.resize(n * n, 3);
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) m.V.row(j * n + i) = Eigen::RowVector3d(0.01 * i, 0.01 * j, 0);
+  EdgeOptions o;
+  EXPECT_EQ(CornerSide(m, 0, Vec3::UnitX(), o), -1);       // bottom-left corner: cloth at +x
+  EXPECT_EQ(CornerSide(m, n - 1, Vec3::UnitX(), o), 1);    // bottom-right corner
+  EXPECT_EQ(CornerSide(m, n - 1, -Vec3::UnitX(), o), -1);  // the same, closing the other way
+  EXPECT_EQ(CornerSide(m, 10, Vec3::UnitX(), o), 0);       // middle of the hem
+  // Seen edge-on (closing along z): no side.
+  EXPECT_EQ(CornerSide(m, 0, Vec3::UnitZ(), o), 0);
+}
+
 }  // namespace
 }  // namespace drape::unfolding
