@@ -609,6 +609,12 @@ struct TrialRun {
     at.position = s.lateral_grasp;
     const hw::GraspProbe pl = world.ProbeGrasp(at);
     if (pl.uv && ta) L.lateral_pattern_error = (*pl.uv - ta->uv).norm();
+    if (s.edge.found) {  // after the hem-edge step, before the hem-corner step
+      L.edge_error = (s.edge_grasp - target).norm();
+      at.position = s.edge_grasp;
+      const hw::GraspProbe pe = world.ProbeGrasp(at);
+      if (pe.uv && ta) L.edge_pattern_error = (*pe.uv - ta->uv).norm();
+    }
   }
 
   // Evaluation only: rung (e) of the ladder, where the jaws at `g` close (probed just
@@ -643,6 +649,7 @@ struct TrialRun {
       return;
     }
     g.position = plan.Grasp(s.refine.offset, s.edge.up, s.edge.range);
+    s.edge_grasp = g.position;
     if (!o.hem_corner || s.point_vertex < 0) return;
     // The hem's corner: which end of the hem, from the registered mesh, then a scan along it.
     s.corner_side = CornerSide(s.point_mesh, s.point_vertex, s.point_to_world.transpose() * plan.closing, e);
@@ -847,7 +854,9 @@ Json LadderJson(const Step::Ladder& l) {
           {"no_ir_pattern_error_m", l.no_ir_pattern_error},
           {"d0_lateral", J(l.lateral)},
           {"d0_lateral_error_m", l.lateral_error},
-          {"d0_lateral_pattern_error_m", l.lateral_pattern_error}};
+          {"d0_lateral_pattern_error_m", l.lateral_pattern_error},
+          {"d1_edge_error_m", l.edge_error},
+          {"d1_edge_pattern_error_m", l.edge_pattern_error}};
 }
 
 // The registration candidates of a step, the one kept and its truth, into its trace `j`.

@@ -234,6 +234,7 @@ struct Step {
   int point_vertex = -1;
   Eigen::Matrix3d point_to_world = Eigen::Matrix3d::Identity();
   Vec3 lateral_grasp = Vec3::Zero();  // the jaw centre after the horizontal scan alone
+  Vec3 edge_grasp = Vec3::Zero();     // the jaw centre after the hem-edge step (found only)
   Vec3 approach = Vec3::Zero();
   // Regrasp.
   hardware::GraspReport regrasp;
@@ -270,6 +271,9 @@ struct Step {
     // without it), its distance to the target and, probed, the pinch's on the pattern.
     Vec3 lateral = Vec3::Zero();
     double lateral_error = -1, lateral_pattern_error = -1;
+    // (d1) with the hem-edge step, the jaw centre after it and before the hem-corner step
+    // (= d without that), its distance to the target and, probed, on the pattern.
+    double edge_error = -1, edge_pattern_error = -1;
   } ladder;
   std::string note;
 };
