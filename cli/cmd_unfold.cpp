@@ -68,7 +68,9 @@ const char* kUsage =
     "  --candidate-point P  where the regrasp goes: 'fit' (default: the kept candidate's own\n"
     "                    point) or 'consensus' (the kept candidate's plan, the point of the\n"
     "                    candidate aiming at its target or the twin with the most others\n"
-    "                    within 3 cm, ties by fit)\n"
+    "                    within 3 cm, ties by fit) or 'outlier' (the kept candidate's point\n"
+    "                    unless the medoid of at least two others aiming at its target or the\n"
+    "                    twin lies more than 4 cm from it, then the medoid's)\n"
     "  --unobserved-margin M  an anchor registered more than M metres outside the fusion's\n"
     "                    segmentation region is predicted at its rigid registration, not mapped\n"
     "                    onto the reconstruction (e.g. 0.02; default -1: always mapped, the paper's rule)\n"
@@ -223,9 +225,10 @@ void CandidateOptions(const Args& a, LoopOptions& lo) {
     lo.fit_after_rigid = *fit == "rigid";
   }
   if (const auto point = a.Get("--candidate-point")) {
-    if (*point != "consensus" && *point != "fit")
-      throw Error("--candidate-point: must be 'consensus' or 'fit' (got '" + *point + "')");
+    if (*point != "consensus" && *point != "fit" && *point != "outlier")
+      throw Error("--candidate-point: must be 'consensus', 'outlier' or 'fit' (got '" + *point + "')");
     lo.consensus_radius = *point == "consensus" ? kConsensusRadius : 0;
+    lo.outlier_radius = *point == "outlier" ? kOutlierRadius : 0;
   }
 }
 
@@ -312,7 +315,10 @@ int RunUnfold(const std::vector<std::string>& argv) {
                      {"verify_first_holder", lo.verify_first_holder},
                      {"candidates", lo.candidates},
                      {"candidate_fit", lo.fit_after_rigid ? "rigid" : "final"},
-                     {"candidate_point", lo.consensus_radius > 0 ? "consensus" : "fit"},
+                     {"candidate_point", lo.consensus_radius > 0 ? "consensus"
+                                         : lo.outlier_radius > 0 ? "outlier"
+                                                                 : "fit"},
+                     {"outlier_radius_m", lo.outlier_radius},
                      {"consensus_radius_m", lo.consensus_radius},
                      {"ir_at_jaw_line", lo.ir_at_jaw_line},
                      {"hem_edge", lo.hem_edge},

@@ -57,4 +57,4 @@ expect_error "\-\-jobs: must be >= 1" --weights "$w" --category towel --jobs 0
 expect_error "\-\-plan-prior: must be in 0..5" --weights "$w" --category towel --plan-prior 6
 expect_error "\-\-candidates: must be in 1..10" --weights "$w" --category towel --candidates 0
 expect_error "\-\-candidate-fit: must be 'rigid' or 'final'" --weights "$w" --category towel --candidate-fit best
-expect_error "\-\-candidate-point: must be 'consensus' or 'fit'" --weights "$w" --category towel --candidate-point mean
+expect_error "\-\-candidate-point: must be 'consensus', 'outlier' or 'fit'" --weights "$w" --category towel --candidate-point mean

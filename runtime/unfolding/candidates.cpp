@@ -116,4 +116,25 @@ int ConsensusCandidate(const std::vector<CandidatePrediction>& c, int kept, doub
   return best;
 }
 
+int OutlierCandidate(const std::vector<CandidatePrediction>& c, int kept, double radius) {
+  const int n = static_cast<int>(c.size());
+  if (kept < 0 || kept >= n || !c[kept].usable) return -1;
+  if (!(radius > 0)) return kept;
+  std::vector<std::string> targets = rec::SymmetryTwins(c[kept].target);
+  targets.push_back(c[kept].target);
+  std::vector<int> others;
+  for (int i = 0; i < n; ++i)
+    if (i != kept && c[i].usable && std::find(targets.begin(), targets.end(), c[i].target) != targets.end())
+      others.push_back(i);
+  if (others.size() < 2) return kept;
+  int medoid = -1;
+  double best = 0;
+  for (const int i : others) {
+    double sum = 0;
+    for (const int j : others) sum += (c[i].point - c[j].point).norm();
+    if (medoid < 0 || sum < best) medoid = i, best = sum;
+  }
+  return (c[medoid].point - c[kept].point).norm() > radius ? medoid : kept;
+}
+
 }  // namespace drape::unfolding

@@ -97,4 +97,14 @@ struct CandidatePrediction {
 int ConsensusCandidate(const std::vector<CandidatePrediction>& c, int kept, double radius,
                        std::vector<int>* votes = nullptr);
 
+// The candidate whose prediction the regrasp goes to by outlier rejection (`--candidate-point
+// outlier`; docs/unfolding.md, "Where the grasps land"): the kept candidate's own point
+// unless at least two other usable candidates aim at its target or a twin and their
+// medoid (the one with the least summed distance to the others of them; ties: the
+// earlier) lies more than `radius` from it; then that medoid. The kept registration is the
+// best rigid fit by millimetres among hangs that are alike, and when its point is off the
+// others mostly agree elsewhere (on paper 2.3.0 pants: kept 7.6-9.0 cm off, two or three
+// others 1.5-2.9). Returns -1 when `kept` is not a usable candidate; radius <= 0: kept.
+int OutlierCandidate(const std::vector<CandidatePrediction>& c, int kept, double radius);
+
 }  // namespace drape::unfolding

@@ -226,5 +226,26 @@ TEST(PredictAnchor, MappedOntoTheReconstructionUnlessOutsideTheRegion) {
   EXPECT_NEAR((p.point - Vec3(0.2, -1.46, 0.1)).norm(), 0, 1e-12);
 }
 
+// The kept candidate 8 cm from three others that agree within 2 cm (one aims at the twin):
+// their medoid. Near them, or with fewer than two others aiming at its target, the kept one.
+TEST(OutlierCandidate, TheOthersMedoidReplacesAFarKeptPoint) {
+  std::vector<CandidatePrediction> c = {
+      P("left_leg_outer", Vec3(0.08, 0.0, 0.0), 0.015), P("left_leg_outer", Vec3(0.0, 0.02, 0.0), 0.024),
+      P("right_leg_outer", Vec3(0.0, 0.0, 0.0), 0.022), P("left_leg_outer", Vec3(0.0, -0.02, 0.0), 0.026),
+      P("crotch", Vec3(0.08, 0.0, 0.0), 0.020)};
+  EXPECT_EQ(OutlierCandidate(c, 0, 0.04), 2);   // the middle one: least summed distance
+  EXPECT_EQ(OutlierCandidate(c, 0, 0.085), 0);  // within the radius: kept
+  EXPECT_EQ(OutlierCandidate(c, 0, 0.0), 0);    // off
+  c[0].point = Vec3(0.03, 0.0, 0.0);
+  EXPECT_EQ(OutlierCandidate(c, 0, 0.04), 0);
+  // Only one other aims at the target (the crotch's plan does not count, nor an unusable one).
+  c[0].point = Vec3(0.08, 0.0, 0.0);
+  c[1].usable = false;
+  c[3].target = "crotch";
+  EXPECT_EQ(OutlierCandidate(c, 0, 0.04), 0);
+  EXPECT_EQ(OutlierCandidate(c, 1, 0.04), -1);  // the kept one must be usable
+  EXPECT_EQ(OutlierCandidate({}, 0, 0.04), -1);
+}
+
 }  // namespace
 }  // namespace drape::unfolding

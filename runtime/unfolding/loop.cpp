@@ -45,6 +45,9 @@ void LoopOptions::Validate() const {
   if (plan_prior_top_k < 0 || plan_prior_top_k > 5) throw Error("unfold.plan_prior_top_k: must be in 0..5");
   if (candidates < 1 || candidates > 10) throw Error("unfold.candidates: must be in 1..10");
   if (!(consensus_radius >= 0 && consensus_radius < 0.5)) throw Error("unfold.consensus_radius: must be in [0, 0.5) m");
+  if (!(outlier_radius >= 0 && outlier_radius < 0.5)) throw Error("unfold.outlier_radius: must be in [0, 0.5) m");
+  if (outlier_radius > 0 && consensus_radius > 0)
+    throw Error("unfold: the regrasp point is by consensus or by outlier rejection, not both");
   if (!(unobserved_margin < 0.5)) throw Error("unfold.unobserved_margin: must be below 0.5 m");
 }
 
@@ -451,6 +454,7 @@ struct TrialRun {
     s.point = ConsensusCandidate(preds, s.kept, o.consensus_radius, &votes);
     DRAPE_CHECK(s.point >= 0, "the kept candidate is not usable");
     for (size_t i = 0; i < s.candidates.size(); ++i) s.candidates[i].votes = votes[i];
+    if (o.outlier_radius > 0) s.point = OutlierCandidate(preds, s.kept, o.outlier_radius);
     const CandidateRegistration& preg = regs[s.point];
     const int v = vertex[s.point];
     s.predicted = s.candidates[s.point].predicted;

@@ -39,6 +39,8 @@ namespace drape::unfolding {
 
 // The consensus radius of `--candidate-point consensus` (LoopOptions::consensus_radius), m.
 inline constexpr double kConsensusRadius = 0.03;
+// The radius of `--candidate-point outlier` (LoopOptions::outlier_radius), m.
+inline constexpr double kOutlierRadius = 0.04;
 
 struct LoopOptions {
   ObjectiveOptions objective;
@@ -81,6 +83,11 @@ struct LoopOptions {
   // docs/unfolding.md). 0: the kept candidate's own point (the fit rule, as first built).
   // Must be in [0, 0.5).
   double consensus_radius = 0;
+  // The regrasp point by outlier rejection (candidates.h OutlierCandidate): the kept
+  // candidate's point unless the medoid of at least two others aiming at its target (or
+  // the twin) lies more than this (m) from it, then the medoid's (`--candidate-point
+  // outlier`: kOutlierRadius). 0: off (the default). Not with consensus_radius.
+  double outlier_radius = 0;
   // The regrasp point (candidates.h PredictAnchor): an anchor whose rigid registration lies
   // more than this (m) outside the fusion's segmentation region is predicted there, not
   // mapped onto the reconstruction (which is cut at the region's floor). < 0: always
