@@ -140,14 +140,15 @@ namespace {
 struct Run {
   int start = -1, lo = -1, hi = -1;
 };
-Run SurfaceRun(const std::vector<double>& ranges, int centre, double reference, double near, double jump) {
+Run SurfaceRun(const std::vector<double>& ranges, int centre, double reference, double near, double jump,
+               bool before = true) {
   const int n = static_cast<int>(ranges.size());
   auto ok = [&](int i) { return std::isfinite(ranges[i]) && ranges[i] > 0; };
   auto surface = [&](int i) { return ok(i) && std::abs(ranges[i] - reference) <= near; };
   auto joined = [&](int i, int j) { return ok(i) && ok(j) && std::abs(ranges[i] - ranges[j]) <= jump; };
   Run r;
   for (int d = 0; d < n && r.start < 0; ++d) {
-    if (centre - d >= 0 && surface(centre - d)) {
+    if (before && centre - d >= 0 && surface(centre - d)) {
       r.start = centre - d;
     } else if (centre + d < n && surface(centre + d)) {
       r.start = centre + d;
@@ -169,7 +170,7 @@ EdgeResult FindLowerEdge(const std::vector<double>& ranges, double reference, co
                 std::to_string(options.above_samples + options.below_samples + 1));
   // Top to bottom: the upper sample wins a tie for the nearest surface sample.
   const int centre = options.above_samples;
-  const Run run = SurfaceRun(ranges, centre, reference, options.near, options.jump);
+  const Run run = SurfaceRun(ranges, centre, reference, options.near, options.jump, options.look_above);
   EdgeResult r;
   r.start = run.start;
   if (run.start < 0 || run.hi == n - 1) return r;  // no surface, or it goes on below the scan

@@ -158,14 +158,38 @@ TEST(Edge, FindsTheHemBelowAndGraspsInsetAboveIt) {
 
 TEST(Edge, FindsTheHemAboveWhenThePointIsBelowTheCloth) {
   EdgeOptions o;
-  // The refined point is 5 cm below the hem, in the air: the nearest surface sample is
-  // the hem itself (reference range 12 cm, read there 12.5 cm), and the grasp goes up.
+  // The refined point is 5 cm below the hem, in the air: by default nothing is looked for
+  // above it (no change) ...
+  EXPECT_FALSE(FindLowerEdge(HemScan(0.05, std::numeric_limits<double>::infinity(), o, 3), 0.12, o).found);
+  // ... with look_above the nearest surface sample is the hem itself (reference range
+  // 12 cm, read there 12.5 cm), and the grasp goes up.
+  o.look_above = true;
   const EdgeResult e = FindLowerEdge(HemScan(0.05, std::numeric_limits<double>::infinity(), o, 3), 0.12, o);
   ASSERT_TRUE(e.found);
   EXPECT_EQ(e.start, e.edge);
   EXPECT_NEAR(e.up, 0.052 + 0.012, 1e-9);
   // A surface farther than `near` from the reference is another layer: nothing found.
   EXPECT_FALSE(FindLowerEdge(HemScan(0.05, std::numeric_limits<double>::infinity(), o, 3), 0.06, o).found);
+}
+
+// A fold's lower edge just above the refined point, a gap, then the hem 6 cm further
+// down: the hem below by default; the fold's edge above with look_above (as first built).
+TEST(Edge, LooksBelowTheRefinedPointByDefault) {
+  EdgeOptions o;
+  const double inf = std::numeric_limits<double>::infinity();
+  std::vector<double> r(o.above_samples + o.below_samples + 1, inf);
+  for (int i = 0; i < o.above_samples; ++i) r[i] = 0.12;                          // the fold, down to +4 mm
+  for (int i = o.above_samples + 3; i <= o.above_samples + 15; ++i) r[i] = 0.13;  // the leg, -1.2 to -6 cm
+  const EdgeResult down = FindLowerEdge(r, 0.12, o);
+  ASSERT_TRUE(down.found);
+  EXPECT_EQ(down.start, o.above_samples + 3);
+  EXPECT_EQ(down.edge, o.above_samples + 15);
+  EXPECT_NEAR(down.up, -0.060 + 0.012, 1e-9);
+  o.look_above = true;
+  const EdgeResult up = FindLowerEdge(r, 0.12, o);
+  ASSERT_TRUE(up.found);
+  EXPECT_EQ(up.edge, o.above_samples - 1);
+  EXPECT_GT(up.up, 0);
 }
 
 TEST(Edge, NoEdgeWhenTheSheetGoesOnBelowTheScan) {
