@@ -2,11 +2,13 @@
 // Regrasping and Unfolding") on simulated dual-arm hardware, trials and the paper's table.
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
 #include <mutex>
+#include <sstream>
 
 #include "cli/args.h"
 #include "cli/command.h"
@@ -42,6 +44,8 @@ const char* kUsage =
     "Options:\n"
     "  --category C      only this category (default: every test category with a desired pair)\n"
     "  --trials N        trials per category (default 10)\n"
+    "  --only K,K,...    run only these of the N trials (1-based; each with the seed it has in\n"
+    "                    the full run), e.g. to rerun the trials an option changes\n"
     "  --seed S          trial seeds derive from S (default 1)\n"
     "  -o DIR            write DIR/<category>/trial_<k>/{trace.json, *.png}, DIR/report.md/.json;\n"
     "                    a garment placed flat also as placed.json, garment.ply, lying.ply there\n"
@@ -52,6 +56,13 @@ const char* kUsage =
     "  --max-regrasps K  give up after K regrasps (default 4)\n"
     "  --jobs N          trials run side by side on N threads (default 1; same results for any N)\n"
     "  --category-known  tell recognition the category\n"
+    "  --category-once   decide the category at the first step and keep it (default: every step's\n"
+    "                    hang adds evidence for each category, the pose is recognised within the\n"
+    "                    one with the least accumulated distance, and a change re-plans)\n"
+    "  --first-hang-weight W  weight of the random first grasp's hang in that evidence (default 1;\n"
+    "                    a hang after an aimed regrasp weighs 1)\n"
+    "  --gated-out-excess E  the least excess (fraction of the feature's bits) of a category that\n"
+    "                    the height gate leaves out at a hang (default 0.01)\n"
     "  --plan-prior K    after a regrasp keep the anchor it aimed at (or its twin) when recognition\n"
     "                    ranks it among its top K (default 3; 0 = recognise afresh, as the paper)\n"
     "  --no-trust-aimed  keep the aimed anchor only within recognition's top K (default: after a\n"
@@ -185,16 +196,20 @@ void WriteTrialTrace(const TrialResult& t, const Variant& v, const std::string& 
   WriteFileAtomic(td / "trace.json", trace.dump(2) + "\n");
 }
 
-// One variant's trials on one category (seeds derived from the run's seed, the category
-// and the trial), summarised as a table row.
-// With jobs > 1 the trials run side by side (each its own world and seeds: the same
-// results for any job count), and the progress lines interleave.
+// One variant's trials on one category (`only`: these 0-based trials of the `trials`) (seeds derived from the run's
+// seed, the category and the trial), summarised as a table row. With jobs > 1 the trials run side by side (each its own
+// world and seeds: the same results for any job count), and the progress lines interleave.
 TableRow RunTrials(const ReleaseModel& model, const Variant& v, const std::string& c, const LoopOptions& lo, int trials,
-                   uint64_t seed, const std::optional<fs::path>& out, const TrialOutput& what, int jobs) {
+                   const std::vector<int>& only, uint64_t seed, const std::optional<fs::path>& out,
+                   const TrialOutput& what, int jobs) {
   const bool tty = isatty(fileno(stderr)) && jobs == 1;
-  std::vector<TrialResult> results(trials);
+  std::vector<int> ks = only;
+  if (ks.empty())
+    for (int k = 0; k < trials; ++k) ks.push_back(k);
+  std::vector<TrialResult> results(ks.size());
   std::mutex say_mu;
-  ParallelFor(trials, jobs, [&](int k) {
+  ParallelFor(static_cast<int>(ks.size()), jobs, [&](int i) {
+    const int k = ks[i];
     LoopOptions o = lo;
     o.ir_refinement = v.ir, o.nonrigid = v.nonrigid, o.weighted = v.weighted;
     const uint64_t ts = DeriveSeed(seed, c + "/trial/" + std::to_string(k));
@@ -210,7 +225,7 @@ TableRow RunTrials(const ReleaseModel& model, const Variant& v, const std::strin
     say(line);
     if (tty) std::cerr << "\n";
     if (out) WriteTrialTrace(t, v, c, k, model, o, what, *out);
-    results[k] = std::move(t);
+    results[i] = std::move(t);
   });
   return Summarise(c, v.name, results);
 }
@@ -240,13 +255,37 @@ void PlanPriorOptions(const Args& a, LoopOptions& lo) {
   if (a.Flag("--verify-first-holder")) lo.verify_first_holder = true;
 }
 
+// --only K,K,...: 0-based trial indices, each in 1..trials as given; empty: all.
+std::vector<int> OnlyTrials(const Args& a, int trials) {
+  std::vector<int> ks;
+  const auto list = a.Get("--only");
+  if (!list) return ks;
+  std::string item;
+  std::istringstream is(*list);
+  while (std::getline(is, item, ',')) {
+    size_t used = 0;
+    int k = 0;
+    try {
+      k = std::stoi(item, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used == 0 || used != item.size() || k < 1 || k > trials)
+      throw Error("--only: '" + item + "' is not a trial number in 1.." + std::to_string(trials));
+    if (std::find(ks.begin(), ks.end(), k - 1) == ks.end()) ks.push_back(k - 1);
+  }
+  if (ks.empty()) throw Error("--only: no trial given");
+  return ks;
+}
+
 int RunUnfold(const std::vector<std::string>& argv) {
-  Args a(
-      argv,
-      {"--no-ir", "--ir-above-jaws", "--rigid", "--unweighted", "--ablations", "--no-figures", "--no-place",
-       "--dump-meshes", "--category-known", "--no-trust-aimed", "--verify-first-holder", "--hem-edge", "--hem-corner"},
-      {"--category", "--trials", "--seed", "-o", "--weights", "--frames", "--max-regrasps", "--jobs", "--plan-prior",
-       "--candidates", "--candidate-fit", "--candidate-point", "--unobserved-margin"});
+  Args a(argv,
+         {"--no-ir", "--ir-above-jaws", "--rigid", "--unweighted", "--ablations", "--no-figures", "--no-place",
+          "--dump-meshes", "--category-known", "--category-once", "--no-trust-aimed", "--verify-first-holder",
+          "--hem-edge", "--hem-corner"},
+         {"--category", "--trials", "--only", "--seed", "-o", "--weights", "--frames", "--max-regrasps", "--jobs",
+          "--plan-prior", "--candidates", "--candidate-fit", "--candidate-point", "--unobserved-margin",
+          "--first-hang-weight", "--gated-out-excess"});
   if (a.help()) {
     std::cout << kUsage;
     return 0;
@@ -256,6 +295,7 @@ int RunUnfold(const std::vector<std::string>& argv) {
   const int trials = static_cast<int>(a.GetInt("--trials").value_or(10));
   if (trials < 1) throw Error("--trials: must be >= 1");
   const uint64_t seed = static_cast<uint64_t>(a.GetInt("--seed").value_or(1));
+  const std::vector<int> only = OnlyTrials(a, trials);
 
   std::vector<std::string> categories = RequestedCategories(a);
   const bool unweighted_only = a.Flag("--unweighted") && !a.Flag("--ablations");
@@ -267,6 +307,11 @@ int RunUnfold(const std::vector<std::string>& argv) {
   lo.capture.frames = static_cast<int>(a.GetInt("--frames").value_or(550));
   lo.max_regrasps = static_cast<int>(a.GetInt("--max-regrasps").value_or(4));
   lo.category_known = a.Flag("--category-known");
+  lo.category_evidence = !a.Flag("--category-once");
+  lo.first_hang_weight = a.GetDouble("--first-hang-weight").value_or(lo.first_hang_weight);
+  if (!(lo.first_hang_weight >= 0)) throw Error("--first-hang-weight: must be >= 0");
+  lo.gated_out_excess = a.GetDouble("--gated-out-excess").value_or(lo.gated_out_excess);
+  if (!(lo.gated_out_excess >= 0)) throw Error("--gated-out-excess: must be >= 0");
   lo.ir_at_jaw_line = !a.Flag("--ir-above-jaws");
   lo.hem_edge = a.Flag("--hem-edge");
   lo.hem_corner = a.Flag("--hem-corner");
@@ -291,8 +336,8 @@ int RunUnfold(const std::vector<std::string>& argv) {
   std::vector<TableRow> rows;
   for (const Variant& v : variants)
     for (const std::string& c : categories)
-      rows.push_back(
-          RunTrials(model, v, c, lo, trials, seed, out, {!a.Flag("--no-figures"), a.Flag("--dump-meshes")}, jobs));
+      rows.push_back(RunTrials(model, v, c, lo, trials, only, seed, out,
+                               {!a.Flag("--no-figures"), a.Flag("--dump-meshes")}, jobs));
   const std::string md = ReportMarkdown(rows);
   std::cout << md;
   if (out) {
@@ -300,7 +345,10 @@ int RunUnfold(const std::vector<std::string>& argv) {
     rj["release"] = dir.string();
     rj["digest"] = model.release().digest();
     rj["weights"] = wpath.empty() ? Json(nullptr) : Json(wpath.string());
+    Json only_j = Json::array();
+    for (int k : only) only_j.push_back(k + 1);
     rj["options"] = {{"trials", trials},
+                     {"only", only_j},
                      {"seed", seed},
                      {"frames", lo.capture.frames},
                      {"max_regrasps", lo.max_regrasps},
@@ -313,6 +361,9 @@ int RunUnfold(const std::vector<std::string>& argv) {
                      {"plan_prior_top_k", lo.plan_prior_top_k},
                      {"trust_aimed", lo.trust_aimed},
                      {"verify_first_holder", lo.verify_first_holder},
+                     {"category_evidence", lo.category_evidence},
+                     {"first_hang_weight", lo.first_hang_weight},
+                     {"gated_out_excess", lo.gated_out_excess},
                      {"candidates", lo.candidates},
                      {"candidate_fit", lo.fit_after_rigid ? "rigid" : "final"},
                      {"candidate_point", lo.consensus_radius > 0 ? "consensus"

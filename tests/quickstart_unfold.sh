@@ -24,6 +24,8 @@ grep -q '"anchors_uv"' "$t/trace.json" || fail "trace has no test garment anchor
 grep -q '"edge"' "$t/trace.json" || fail "trace has no hem-edge record per step"
 grep -q '"kept_candidate"' "$t/trace.json" || fail "trace has no registration candidates per step"
 grep -q '"point_candidate"' "$t/trace.json" || fail "trace has no regrasp point's candidate per step"
+grep -q '"per_category"' "$t/trace.json" || fail "trace has no per-category evidence per step"
+grep -q '"decided"' "$t/trace.json" || fail "trace has no decided category per step"
 grep -q 'successful unfolding' "$WORK/out/report.md" || fail "report has no table"
 
 # drape fold takes the garment as the trial left it: placed flat, its key points on the
@@ -56,5 +58,8 @@ expect_error "weights" --weights "$WORK/none/weights.json" --category towel
 expect_error "\-\-jobs: must be >= 1" --weights "$w" --category towel --jobs 0
 expect_error "\-\-plan-prior: must be in 0..5" --weights "$w" --category towel --plan-prior 6
 expect_error "\-\-candidates: must be in 1..10" --weights "$w" --category towel --candidates 0
+expect_error "\-\-only: '3' is not a trial number in 1..2" --weights "$w" --category towel --trials 2 --only 1,3
+expect_error "\-\-only: 'x' is not a trial number" --weights "$w" --category towel --only x
+expect_error "\-\-first-hang-weight: must be >= 0" --weights "$w" --category towel --first-hang-weight -1
 expect_error "\-\-candidate-fit: must be 'rigid' or 'final'" --weights "$w" --category towel --candidate-fit best
 expect_error "\-\-candidate-point: must be 'consensus', 'outlier' or 'fit'" --weights "$w" --category towel --candidate-point mean

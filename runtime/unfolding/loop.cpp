@@ -49,6 +49,8 @@ void LoopOptions::Validate() const {
   if (outlier_radius > 0 && consensus_radius > 0)
     throw Error("unfold: the regrasp point is by consensus or by outlier rejection, not both");
   if (!(unobserved_margin < 0.5)) throw Error("unfold.unobserved_margin: must be below 0.5 m");
+  if (!(first_hang_weight >= 0)) throw Error("unfold.first_hang_weight: must be >= 0");
+  if (!(gated_out_excess >= 0)) throw Error("unfold.gated_out_excess: must be >= 0");
 }
 
 double Coverage(const TriMesh& lying, const Garment& garment, double mpp) {
@@ -274,6 +276,7 @@ struct TrialRun {
   const std::function<void(const std::string&)>& progress;
   int holder = 0;
   std::string trial_category;  // decided by the first recognition (see SenseAndRecognise)
+  CategoryDecision decision;   // from every hang (LoopOptions::category_evidence)
   std::string aimed;           // anchor the holding gripper was sent to ("" before a regrasp)
   bool holder_regrasped = false;  // the holder took its point by an aimed regrasp (not the first grasp)
 
@@ -338,16 +341,42 @@ struct TrialRun {
 
     t0 = Clock::now();
     rec::RecognizeOptions ro;
-    // The garment in the gripper does not change between steps: after the first step the
-    // pose is recognised within the category that step decided (re-deciding it from each
-    // new hang only adds chances to be wrong; a wrong category ends the trial anyway).
-    ro.category = o.category_known ? category : trial_category;
     ro.weighted = o.weighted;
     ro.query_height = fused.mesh.V.col(1).maxCoeff() - fused.mesh.V.col(1).minCoeff();  // height gates
     ro.top_k = std::max(ro.top_k, o.plan_prior_top_k);
     // RegistrationCandidates filters them; TrustedAimedEntry looks beyond the top anchors.
     if (o.candidates > 1 || o.trust_aimed) ro.top_entries = model.database().size();
-    s.recognition = model.recognizer(o.weighted).Recognize(code, ro);
+    // Eq. match against every entry once: the category evidence and the recognition
+    // (Recognizer::Recognize is the same Rank of the same matches).
+    const rec::Recognizer& recognizer = model.recognizer(o.weighted);
+    const rec::PreparedQuery q(code);
+    std::vector<rec::Match> matches;
+    model.database().matcher().MatchAll(q, &matches);
+    s.category_evidence = EvidenceOfHang(model.database(), matches, ro.query_height, recognizer.GatesFor(ro).category,
+                                         o.gated_out_excess);
+    s.evidence_weight = holder_regrasped ? 1.0 : o.first_hang_weight;
+    const bool changed = decision.Add(s.category_evidence, s.evidence_weight);
+    s.category_totals = decision.totals();
+    // The garment in the gripper does not change between steps. Once decided (category
+    // off), the pose is recognised within the first step's category; with the evidence,
+    // within the category every hang so far decides (the first step's when none other).
+    if (o.category_known)
+      ro.category = category;
+    else if (o.category_evidence)
+      ro.category = decision.hangs() == 1 ? "" : decision.decided();
+    else
+      ro.category = trial_category;
+    s.recognition = recognizer.Rank(q, matches, ro);
+    s.recognition.match_seconds = Since(t0);
+    s.decided_category = s.recognition.category;
+    s.category_switched = !o.category_known && o.category_evidence && changed;
+    if (s.category_switched) {
+      // The aimed anchor was planned on the other category's model: neither kept nor
+      // registered as a candidate, and the holder was not placed by an aimed regrasp.
+      s.note = "category now " + s.decided_category + " (the evidence of " + std::to_string(decision.hangs()) +
+               " hangs): recognition's anchor, not the one aimed at";
+      holder_regrasped = false;
+    }
     s.recognised_anchor = s.recognition.anchor;
     ApplyPlanPrior(s);
     res.times.recognition += Since(t0);
@@ -361,6 +390,7 @@ struct TrialRun {
   // twin, is kept when recognition ranks it among its top k; with trust_aimed always.
   void ApplyPlanPrior(Step& s) const {
     s.aimed_anchor = aimed;
+    if (s.category_switched) return;
     s.prior_rank = PlanPriorRank(s.recognition, aimed, o.plan_prior_top_k);
     if (s.prior_rank >= 0) {
       s.recognition.best = s.recognition.top[s.prior_rank];
@@ -470,8 +500,8 @@ struct TrialRun {
   // the best fit is kept (candidates.h) and the regrasp point predicted in the world frame.
   bool PlanRegisterAndPredict(Step& s, const rec::Database& db, const std::vector<DesiredPair>& pairs) {
     const auto t0 = Clock::now();
-    const std::vector<rec::Candidate> cands =
-        RegistrationCandidates(s.recognition, s.prior_rank >= 0 || s.prior_trusted, s.aimed_anchor, o.candidates);
+    const std::vector<rec::Candidate> cands = RegistrationCandidates(
+        s.recognition, s.prior_rank >= 0 || s.prior_trusted, s.category_switched ? "" : s.aimed_anchor, o.candidates);
     s.recognition.entries.clear();  // the trace lists the candidates
     const ExactClosestPoint onto(s.recon);
     const hw::GripperPose hp = world.arm(holder).pose();
@@ -802,7 +832,7 @@ TrialResult RunTrial(const ReleaseModel& model, const std::string& category, con
   res.sensing_height = o.sensing_height;
   for (const Anchor& a : tg.garment.anchors) res.true_anchors.push_back({a.label, a.uv});
   hw::SimWorld world(tg.garment, tg.material, tg.fit, so, DeriveSeed(seed, "world"));
-  TrialRun run{model, o, category, seed, world, res, progress, 0, "", ""};
+  TrialRun run{model, o, category, seed, world, res, progress, 0, "", {}, ""};
   try {
     run.Run();
   } catch (const NumericalError& e) {
@@ -904,6 +934,12 @@ Json TrialResult::ToJson() const {
            {"holder", {{"position", J(s.holder_position)}, {"wrist", s.holder_wrist}}},
            {"recognition", rec::ToJson(s.recognition)},
            {"recognised_right", s.recognised_right},
+           {"category",
+            {{"evidence", s.category_evidence.ToJson()},
+             {"weight", s.evidence_weight},
+             {"totals", s.category_totals},
+             {"decided", s.decided_category},
+             {"switched", s.category_switched}}},
            {"aimed_anchor", s.aimed_anchor},
            {"recognised_anchor", s.recognised_anchor},
            {"prior_rank", s.prior_rank},

@@ -24,14 +24,15 @@
 #include <vector>
 
 #include "common/json.h"
-#include "generator/fusion/fusion.h"
 #include "generator/feature/feature.h"
+#include "generator/fusion/fusion.h"
 #include "generator/recipe/recipe.h"
 #include "generator/release/release.h"
 #include "runtime/hardware/hardware.h"
 #include "runtime/hardware/sim.h"
 #include "runtime/recognition/recognizer.h"
 #include "runtime/registration/registration.h"
+#include "runtime/unfolding/category.h"
 #include "runtime/unfolding/objective.h"
 #include "runtime/unfolding/refine.h"
 
@@ -50,6 +51,20 @@ struct LoopOptions {
   bool nonrigid = true;         // ablation: false = rigid-only registration (R)
   bool weighted = true;         // ablation: false = unweighted recognition (Eq. match)
   bool category_known = false;  // true: recognition is told the category
+  // The category from every hang (category.h): each step's Eq. match against the whole
+  // database adds per-category evidence, and the pose is recognised within the category
+  // with the least accumulated evidence against it. When that decision changes, the step
+  // plans with the new category's desired pairs from recognition's own anchor: the aimed
+  // anchor was planned on the other category's model, so neither the plan prior nor
+  // trust_aimed keeps it, and the holder counts as not placed by an aimed regrasp
+  // (verify_first_holder). false: the category of the first step is kept for the trial.
+  bool category_evidence = true;
+  // Weight of a hang from the random first grasp in that evidence (a hang after an aimed
+  // regrasp weighs 1); must be >= 0.
+  double first_hang_weight = 1;
+  // The least excess a category gated out at a hang by its height gets (category.h
+  // kGatedOutExcess; a fraction of the code's bits); must be >= 0.
+  double gated_out_excess = kGatedOutExcess;
   // After a regrasp the held point is where the plan aimed: keep that anchor (or its
   // symmetry twin) when recognition of the new hang ranks it among its top k anchors,
   // else take recognition's answer. 0 = recognise every hang afresh, as the paper's
@@ -185,6 +200,14 @@ struct Step {
   recognition::Recognition recognition;
   bool recognised_right = false;  // category right and anchor = the nearest true anchor
                                   // (of the anchor used, after the plan prior)
+  // The category (LoopOptions::category_evidence): this hang's evidence, the accumulated
+  // evidence E_c after it, the category the pose was recognised within and planned on,
+  // and whether that changed at this step.
+  HangEvidence category_evidence;
+  std::map<std::string, double> category_totals;
+  double evidence_weight = 0;
+  std::string decided_category;
+  bool category_switched = false;
   std::string aimed_anchor;       // where the last regrasp aimed ("" at the first step)
   std::string recognised_anchor;  // recognition's own answer, before the plan prior
   int prior_rank = -1;            // rank of the aimed anchor (or twin) kept; -1: not kept
