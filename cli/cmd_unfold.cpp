@@ -63,6 +63,10 @@ const char* kUsage =
     "                    a hang after an aimed regrasp weighs 1)\n"
     "  --gated-out-excess E  the least excess (fraction of the feature's bits) of a category that\n"
     "                    the height gate leaves out at a hang (default 0.01)\n"
+    "  --category-gate T the height gate of that evidence, |ln(h / h_entry)| <= T (default -1:\n"
+    "                    the weights' category gate, recognition's; 0 = none)\n"
+    "  --category-ungated W  that evidence adds W x each category's excess without the gate\n"
+    "                    (default 1; 0 = within the gate only)\n"
     "  --plan-prior K    after a regrasp keep the anchor it aimed at (or its twin) when recognition\n"
     "                    ranks it among its top K (default 3; 0 = recognise afresh, as the paper)\n"
     "  --no-trust-aimed  keep the aimed anchor only within recognition's top K (default: after a\n"
@@ -285,7 +289,7 @@ int RunUnfold(const std::vector<std::string>& argv) {
           "--hem-edge", "--hem-corner"},
          {"--category", "--trials", "--only", "--seed", "-o", "--weights", "--frames", "--max-regrasps", "--jobs",
           "--plan-prior", "--candidates", "--candidate-fit", "--candidate-point", "--unobserved-margin",
-          "--first-hang-weight", "--gated-out-excess"});
+          "--first-hang-weight", "--gated-out-excess", "--category-gate", "--category-ungated"});
   if (a.help()) {
     std::cout << kUsage;
     return 0;
@@ -312,6 +316,10 @@ int RunUnfold(const std::vector<std::string>& argv) {
   if (!(lo.first_hang_weight >= 0)) throw Error("--first-hang-weight: must be >= 0");
   lo.gated_out_excess = a.GetDouble("--gated-out-excess").value_or(lo.gated_out_excess);
   if (!(lo.gated_out_excess >= 0)) throw Error("--gated-out-excess: must be >= 0");
+  lo.category_gate = a.GetDouble("--category-gate").value_or(lo.category_gate);
+  if (!(lo.category_gate < 3)) throw Error("--category-gate: must be below 3");
+  lo.category_ungated_weight = a.GetDouble("--category-ungated").value_or(lo.category_ungated_weight);
+  if (!(lo.category_ungated_weight >= 0)) throw Error("--category-ungated: must be >= 0");
   lo.ir_at_jaw_line = !a.Flag("--ir-above-jaws");
   lo.hem_edge = a.Flag("--hem-edge");
   lo.hem_corner = a.Flag("--hem-corner");
@@ -364,6 +372,8 @@ int RunUnfold(const std::vector<std::string>& argv) {
                      {"category_evidence", lo.category_evidence},
                      {"first_hang_weight", lo.first_hang_weight},
                      {"gated_out_excess", lo.gated_out_excess},
+                     {"category_gate", lo.category_gate},
+                     {"category_ungated_weight", lo.category_ungated_weight},
                      {"candidates", lo.candidates},
                      {"candidate_fit", lo.fit_after_rigid ? "rigid" : "final"},
                      {"candidate_point", lo.consensus_radius > 0 ? "consensus"

@@ -13,13 +13,17 @@ namespace rec = drape::recognition;
 Json HangEvidence::ToJson() const {
   Json per = Json::object();
   for (const PerCategory& c : categories)
-    per[c.category] = {
-        {"distance", c.distance < 0 ? Json(nullptr) : Json(c.distance)}, {"ungated", c.ungated}, {"excess", c.excess}};
+    per[c.category] = {{"distance", c.distance < 0 ? Json(nullptr) : Json(c.distance)},
+                       {"ungated", c.ungated},
+                       {"gated_excess", c.gated_excess},
+                       {"ungated_excess", c.ungated_excess},
+                       {"excess", c.excess}};
   return {{"nearest", nearest}, {"bits", bits}, {"per_category", std::move(per)}};
 }
 
 HangEvidence EvidenceOfHang(const rec::Database& db, const std::vector<rec::Match>& matches, double query_height,
-                            double tau, double gated_out_excess) {
+                            double tau, double gated_out_excess, double ungated_weight) {
+  DRAPE_CHECK(ungated_weight >= 0, "the ungated excess's weight must be >= 0");
   DRAPE_CHECK(!db.empty() && static_cast<int>(matches.size()) == db.size(), "one match per database entry");
   HangEvidence e;
   e.bits = db.layers() * db.rings() * db.sectors();
@@ -30,7 +34,7 @@ HangEvidence EvidenceOfHang(const rec::Database& db, const std::vector<rec::Matc
   e.nearest = db.label(rec::NearestUnweighted(pool, matches)).category;
   std::vector<char> in_pool(db.size(), 0);
   for (int i : pool) in_pool[i] = 1;
-  int best = std::numeric_limits<int>::max();
+  int best = std::numeric_limits<int>::max(), best_ungated = std::numeric_limits<int>::max();
   for (const std::string& c : db.categories()) {
     HangEvidence::PerCategory pc;
     pc.category = c;
@@ -40,16 +44,21 @@ HangEvidence EvidenceOfHang(const rec::Database& db, const std::vector<rec::Matc
       if (in_pool[i] && (pc.distance < 0 || d < pc.distance)) pc.distance = d;
     }
     if (pc.distance >= 0) best = std::min(best, pc.distance);
+    best_ungated = std::min(best_ungated, pc.ungated);
     e.categories.push_back(pc);
   }
   double worst_in_pool = 0;
   for (HangEvidence::PerCategory& pc : e.categories) {
     if (pc.distance < 0) continue;
-    pc.excess = double(pc.distance - best) / e.bits;
-    worst_in_pool = std::max(worst_in_pool, pc.excess);
+    pc.gated_excess = double(pc.distance - best) / e.bits;
+    worst_in_pool = std::max(worst_in_pool, pc.gated_excess);
   }
-  for (HangEvidence::PerCategory& pc : e.categories)
-    if (pc.distance < 0) pc.excess = std::max({double(pc.ungated - best) / e.bits, worst_in_pool, gated_out_excess});
+  for (HangEvidence::PerCategory& pc : e.categories) {
+    if (pc.distance < 0)
+      pc.gated_excess = std::max({double(pc.ungated - best) / e.bits, worst_in_pool, gated_out_excess});
+    pc.ungated_excess = double(pc.ungated - best_ungated) / e.bits;
+    pc.excess = pc.gated_excess + ungated_weight * pc.ungated_excess;
+  }
   return e;
 }
 

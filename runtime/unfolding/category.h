@@ -9,17 +9,23 @@
 // accumulated evidence against it:
 //
 //   per hang t and category c: d_c = the best Eq. match distance among c's entries in the
-//   category's height-gated pool (the pool recognition decides the category from);
-//   excess e_c = (d_c − min_c' d_c') / bits ≥ 0 (0 for the hang's nearest category);
-//   a category with no entry in the gated pool (its hangs are all of another height) gets
-//   the largest of its ungated excess, the largest excess of a category in the pool and
+//   height-gated pool (recognition's category gate τ by default); gated excess
+//   g_c = (d_c − min_c' d_c') / bits ≥ 0 (0 for the hang's nearest category); a category
+//   with no entry in the gated pool (its hangs are all of another height) gets the
+//   largest of its ungated excess, the largest excess of a category in the pool and
 //   kGatedOutExcess: never nearer than the farthest one that passed the gate, and the
 //   height counts against it even when one category alone passed;
+//   ungated excess u_c = (the best distance among all c's entries − the least of those)
+//   / bits: the shape alone (Algorithm 1 scales the height away), as the paper decides;
+//   e_c = g_c + λ u_c (λ = `ungated_weight`: the loop's hangs, from a random grasp or
+//   fallen from two grippers, hang at heights the database never shows, so the gate
+//   alone leaves the garment's own entries out too often);
 //   E_c = Σ_t w_t e_c,t, and the decision is argmin_c E_c (ties keep the decision
-//   standing; at the first hang the hang's nearest category, recognition's own answer).
+//   standing; at the first hang, from the hang's gated nearest category).
 //
-// With one hang the decision is recognition's category, so a trial whose decision never
-// changes is step for step the trial that decides the category once.
+// With λ = 0, one hang and recognition's category gate the decision is recognition's
+// category, so a trial whose decision never changes is step for step the trial that
+// decides the category once.
 #pragma once
 
 #include <map>
@@ -41,7 +47,8 @@ struct HangEvidence {
     std::string category;
     int distance = -1;  // bits: best Eq. match distance in the gated pool; -1: none there (gated out)
     int ungated = -1;   // bits: best over all the category's entries
-    double excess = 0;  // e_c (see above), a fraction of the code's bits
+    double gated_excess = 0, ungated_excess = 0;  // g_c, u_c (see above), fractions of the code's bits
+    double excess = 0;                            // e_c = g_c + λ u_c
   };
   std::vector<PerCategory> categories;  // the database's, sorted by name
   std::string nearest;                  // the gated nearest neighbour's category (recognition's answer)
@@ -51,9 +58,11 @@ struct HangEvidence {
 
 // The evidence of one hang from its Eq. match against every database entry (`matches`,
 // indexed by entry) under the category height gate `tau` for a query `query_height` m
-// tall (0: unknown, no gate), as Recognizer::Rank decides the category.
+// tall (0: unknown, no gate), as Recognizer::Rank decides the category, and λ =
+// `ungated_weight` >= 0.
 HangEvidence EvidenceOfHang(const recognition::Database& db, const std::vector<recognition::Match>& matches,
-                            double query_height, double tau, double gated_out_excess = kGatedOutExcess);
+                            double query_height, double tau, double gated_out_excess = kGatedOutExcess,
+                            double ungated_weight = 1.0);
 
 // The accumulated decision over a trial's hangs.
 class CategoryDecision {

@@ -119,7 +119,11 @@ TEST(HangEvidence, ExcessOverTheNearestCategoryInBitsOfTheCode) {
   EXPECT_LE(e.categories[1].distance, 6);
   EXPECT_EQ(e.categories[1].excess, 0);
   EXPECT_EQ(e.categories[0].distance, m[0].distance);
-  EXPECT_DOUBLE_EQ(e.categories[0].excess, double(m[0].distance - e.categories[1].distance) / 128);
+  const double x = double(m[0].distance - e.categories[1].distance) / 128;
+  EXPECT_DOUBLE_EQ(e.categories[0].gated_excess, x);
+  EXPECT_DOUBLE_EQ(e.categories[0].ungated_excess, x);  // no gate: the same pool
+  EXPECT_DOUBLE_EQ(e.categories[0].excess, 2 * x);      // g + 1 × u
+  EXPECT_DOUBLE_EQ(EvidenceOfHang(t.db, m, 0, 0, kGatedOutExcess, 0.5).categories[0].excess, 1.5 * x);
   // Recognition's category decision from the same matches names the same category.
   const rec::Recognizer r(t.db, nullptr);
   rec::RecognizeOptions o;
@@ -137,16 +141,27 @@ TEST(HangEvidence, ACategoryGatedOutIsNeverNearerThanTheFarthestInThePool) {
   EXPECT_EQ(e.nearest, "pants");
   EXPECT_EQ(e.categories[0].distance, -1);  // gated out
   EXPECT_EQ(e.categories[0].ungated, m[0].distance);
-  EXPECT_EQ(e.categories[1].excess, 0);
-  EXPECT_LT(e.categories[0].ungated, e.categories[1].distance);  // the shape alone says shirt
-  EXPECT_DOUBLE_EQ(e.categories[0].excess, kGatedOutExcess);     // the height says otherwise
-  EXPECT_DOUBLE_EQ(EvidenceOfHang(t.db, m, 1.45, 0.3, 0.2).categories[0].excess, 0.2);
+  EXPECT_EQ(e.categories[1].gated_excess, 0);
+  EXPECT_LT(e.categories[0].ungated, e.categories[1].distance);     // the shape alone says shirt
+  EXPECT_DOUBLE_EQ(e.categories[0].gated_excess, kGatedOutExcess);  // the height says otherwise
+  EXPECT_DOUBLE_EQ(EvidenceOfHang(t.db, m, 1.45, 0.3, 0.2).categories[0].gated_excess, 0.2);
+  EXPECT_EQ(e.categories[0].ungated_excess, 0);
+  EXPECT_DOUBLE_EQ(e.categories[1].ungated_excess, double(e.categories[1].ungated - e.categories[0].ungated) / 128);
+  // Within the gate alone (λ = 0) the decision is pants, recognition's; the shape, 2 bits
+  // from the shirt and tens from the pants, outweighs the height (a loop's hang at a
+  // height no database hang of its garment has).
+  CategoryDecision gated_only, both;
+  gated_only.Add(EvidenceOfHang(t.db, m, 1.45, 0.3, kGatedOutExcess, 0));
+  EXPECT_EQ(gated_only.decided(), "pants");
+  both.Add(e);
+  EXPECT_EQ(both.decided(), "long_sleeve_shirt");
   // Held 0.9 m tall, the shirt passes and is nearest.
   const HangEvidence f = EvidenceOfHang(t.db, m, 0.9, 0.3);
   EXPECT_EQ(f.nearest, "long_sleeve_shirt");
   EXPECT_EQ(f.categories[0].excess, 0);
   EXPECT_EQ(f.categories[1].distance, -1);  // neither pants hang is within e^0.3 of 0.9 m
-  EXPECT_GT(f.categories[1].excess, 0);
+  EXPECT_GT(f.categories[1].gated_excess, 0);
+  EXPECT_GT(f.categories[1].excess, f.categories[1].gated_excess);
   EXPECT_EQ(f.ToJson()["per_category"]["pants"]["distance"], nullptr);
 }
 

@@ -51,6 +51,8 @@ void LoopOptions::Validate() const {
   if (!(unobserved_margin < 0.5)) throw Error("unfold.unobserved_margin: must be below 0.5 m");
   if (!(first_hang_weight >= 0)) throw Error("unfold.first_hang_weight: must be >= 0");
   if (!(gated_out_excess >= 0)) throw Error("unfold.gated_out_excess: must be >= 0");
+  if (!(category_gate < 3)) throw Error("unfold.category_gate: must be below 3 (< 0: the weights' gate)");
+  if (!(category_ungated_weight >= 0)) throw Error("unfold.category_ungated_weight: must be >= 0");
 }
 
 double Coverage(const TriMesh& lying, const Garment& garment, double mpp) {
@@ -352,8 +354,9 @@ struct TrialRun {
     const rec::PreparedQuery q(code);
     std::vector<rec::Match> matches;
     model.database().matcher().MatchAll(q, &matches);
-    s.category_evidence = EvidenceOfHang(model.database(), matches, ro.query_height, recognizer.GatesFor(ro).category,
-                                         o.gated_out_excess);
+    const double gate = o.category_gate < 0 ? recognizer.GatesFor(ro).category : o.category_gate;
+    s.category_evidence =
+        EvidenceOfHang(model.database(), matches, ro.query_height, gate, o.gated_out_excess, o.category_ungated_weight);
     s.evidence_weight = holder_regrasped ? 1.0 : o.first_hang_weight;
     const bool changed = decision.Add(s.category_evidence, s.evidence_weight);
     s.category_totals = decision.totals();
@@ -363,10 +366,11 @@ struct TrialRun {
     if (o.category_known)
       ro.category = category;
     else if (o.category_evidence)
-      ro.category = decision.hangs() == 1 ? "" : decision.decided();
+      ro.category = decision.decided();
     else
       ro.category = trial_category;
     s.recognition = recognizer.Rank(q, matches, ro);
+    if (!o.category_known && o.category_evidence) s.recognition.category_source = "evidence";
     s.recognition.match_seconds = Since(t0);
     s.decided_category = s.recognition.category;
     s.category_switched = !o.category_known && o.category_evidence && changed;

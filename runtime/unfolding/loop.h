@@ -65,6 +65,17 @@ struct LoopOptions {
   // The least excess a category gated out at a hang by its height gets (category.h
   // kGatedOutExcess; a fraction of the code's bits); must be >= 0.
   double gated_out_excess = kGatedOutExcess;
+  // That evidence per hang (category.h): the excess within the height gate τ (< 0: the
+  // weights' category gate, the one recognition decides with; 0: none) plus
+  // `category_ungated_weight` × the excess without it. The loop's hangs (a random grasp,
+  // a fall from two grippers) hang at heights the database (hung from anchors) never
+  // shows, and the weights' gate (chosen on database-like hangs) leaves the garment's own
+  // entries out: on paper 2.3.0 the gated nearest category was right at 5 of 10 first
+  // pants hangs and 6 of 10 second, the ungated at 9 and 10; on long-sleeve shirts the
+  // gated 7 of 7 and 3 of 6, the ungated 5 of 7 and 4 of 6; counting both took the fewest
+  // wrong (docs/unfolding.md, "The category from every hang"). Weight must be >= 0.
+  double category_gate = -1;
+  double category_ungated_weight = 1;
   // After a regrasp the held point is where the plan aimed: keep that anchor (or its
   // symmetry twin) when recognition of the new hang ranks it among its top k anchors,
   // else take recognition's answer. 0 = recognise every hang afresh, as the paper's
