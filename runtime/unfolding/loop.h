@@ -72,8 +72,9 @@ struct LoopOptions {
   // shows, and the weights' gate (chosen on database-like hangs) leaves the garment's own
   // entries out: on paper 2.3.0 the gated nearest category was right at 5 of 10 first
   // pants hangs and 6 of 10 second, the ungated at 9 and 10; on long-sleeve shirts the
-  // gated 7 of 7 and 3 of 6, the ungated 5 of 7 and 4 of 6; counting both took the fewest
-  // wrong (docs/unfolding.md, "The category from every hang"). Weight must be >= 0.
+  // gated 10 of 10 and 6 of 9, the ungated 6 of 10 and 7 of 9; summed over both hangs,
+  // both excesses were right on 10 of 10 pants and 9 of 10 shirts (docs/unfolding.md,
+  // "The category from every hang"). Weight must be >= 0.
   double category_gate = -1;
   double category_ungated_weight = 1;
   // After a regrasp the held point is where the plan aimed: keep that anchor (or its
