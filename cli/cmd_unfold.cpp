@@ -57,10 +57,12 @@ const char* kUsage =
     "  --jobs N          trials run side by side on N threads (default 1; same results for any N)\n"
     "  --category-known  tell recognition the category\n"
     "  --category-once   decide the category by recognition at the first step and keep it\n"
-    "                    (default: every hang adds each category's Eq. match distance over the\n"
-    "                    nearest's, within the height gate and without it; the pose is\n"
-    "                    recognised within the category with the least sum, and a change\n"
-    "                    re-plans with its desired pairs)\n"
+    "                    (the default)\n"
+    "  --category-evidence  decide it from every hang: each adds each category's Eq. match\n"
+    "                    distance over the nearest's, within the height gate and without it;\n"
+    "                    the pose is recognised within the category with the least sum, and\n"
+    "                    a change re-plans with its desired pairs (off: it takes shorts for\n"
+    "                    pants, docs/unfolding.md)\n"
     "  --first-hang-weight W  weight of the random first grasp's hang in that evidence (default 1;\n"
     "                    a hang after an aimed regrasp weighs 1)\n"
     "  --gated-out-excess E  the least excess (fraction of the feature's bits) of a category that\n"
@@ -287,8 +289,8 @@ std::vector<int> OnlyTrials(const Args& a, int trials) {
 int RunUnfold(const std::vector<std::string>& argv) {
   Args a(argv,
          {"--no-ir", "--ir-above-jaws", "--rigid", "--unweighted", "--ablations", "--no-figures", "--no-place",
-          "--dump-meshes", "--category-known", "--category-once", "--no-trust-aimed", "--verify-first-holder",
-          "--hem-edge", "--hem-corner"},
+          "--dump-meshes", "--category-known", "--category-once", "--category-evidence", "--no-trust-aimed",
+          "--verify-first-holder", "--hem-edge", "--hem-corner"},
          {"--category", "--trials", "--only", "--seed", "-o", "--weights", "--frames", "--max-regrasps", "--jobs",
           "--plan-prior", "--candidates", "--candidate-fit", "--candidate-point", "--unobserved-margin",
           "--first-hang-weight", "--gated-out-excess", "--category-gate", "--category-ungated"});
@@ -313,7 +315,9 @@ int RunUnfold(const std::vector<std::string>& argv) {
   lo.capture.frames = static_cast<int>(a.GetInt("--frames").value_or(550));
   lo.max_regrasps = static_cast<int>(a.GetInt("--max-regrasps").value_or(4));
   lo.category_known = a.Flag("--category-known");
-  lo.category_evidence = !a.Flag("--category-once");
+  if (a.Flag("--category-once") && a.Flag("--category-evidence"))
+    throw Error("--category-once and --category-evidence: give one");
+  lo.category_evidence = a.Flag("--category-evidence");
   lo.first_hang_weight = a.GetDouble("--first-hang-weight").value_or(lo.first_hang_weight);
   if (!(lo.first_hang_weight >= 0)) throw Error("--first-hang-weight: must be >= 0");
   lo.gated_out_excess = a.GetDouble("--gated-out-excess").value_or(lo.gated_out_excess);

@@ -57,8 +57,14 @@ struct LoopOptions {
   // plans with the new category's desired pairs from recognition's own anchor: the aimed
   // anchor was planned on the other category's model, so neither the plan prior nor
   // trust_aimed keeps it, and the holder counts as not placed by an aimed regrasp
-  // (verify_first_holder). false: the category of the first step is kept for the trial.
-  bool category_evidence = true;
+  // (verify_first_holder). false (default): the category of the first step is kept for
+  // the trial. Off by default: on paper 2.3.0 it repaired the category of pants (5 of 10
+  // right at the stop -> 10 of 10 on seed 2, 6 -> 8 of 9 on seed 3; unfolded 3 and 2 of 10
+  // both ways) but took 1 of 10 shirts for pants, and along the shorts' trajectories of
+  // seed 1 it would take 8 of 10 for pants or shirts (their hangs pass the height gate
+  // of shorts entries only, and without the gate pants and shirts are nearer);
+  // docs/unfolding.md, "The category from every hang".
+  bool category_evidence = false;
   // Weight of a hang from the random first grasp in that evidence (a hang after an aimed
   // regrasp weighs 1); must be >= 0.
   double first_hang_weight = 1;
