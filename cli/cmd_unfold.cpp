@@ -286,6 +286,57 @@ std::vector<int> OnlyTrials(const Args& a, int trials) {
   return ks;
 }
 
+// The category from every hang (--category-evidence and its parameters).
+void CategoryOptions(const Args& a, LoopOptions& lo) {
+  if (a.Flag("--category-once") && a.Flag("--category-evidence"))
+    throw Error("--category-once and --category-evidence: give one");
+  lo.category_evidence = a.Flag("--category-evidence");
+  lo.first_hang_weight = a.GetDouble("--first-hang-weight").value_or(lo.first_hang_weight);
+  if (!(lo.first_hang_weight >= 0)) throw Error("--first-hang-weight: must be >= 0");
+  lo.gated_out_excess = a.GetDouble("--gated-out-excess").value_or(lo.gated_out_excess);
+  if (!(lo.gated_out_excess >= 0)) throw Error("--gated-out-excess: must be >= 0");
+  lo.category_gate = a.GetDouble("--category-gate").value_or(lo.category_gate);
+  if (!(lo.category_gate < 3)) throw Error("--category-gate: must be below 3");
+  lo.category_ungated_weight = a.GetDouble("--category-ungated").value_or(lo.category_ungated_weight);
+  if (!(lo.category_ungated_weight >= 0)) throw Error("--category-ungated: must be >= 0");
+}
+
+// The loop's options as report.json records them.
+Json OptionsJson(const LoopOptions& lo, int trials, const std::vector<int>& only, uint64_t seed) {
+  Json only_j = Json::array();
+  for (int k : only) only_j.push_back(k + 1);
+  return {{"trials", trials},
+          {"only", only_j},
+          {"seed", seed},
+          {"frames", lo.capture.frames},
+          {"max_regrasps", lo.max_regrasps},
+          {"sigma_length_m", lo.objective.sigma_length},
+          {"xi", lo.objective.xi},
+          {"success_distance_m", lo.success_distance},
+          {"log_sigma_samples", lo.refine.sigma_samples},
+          {"ir_sample_spacing_m", lo.refine.sample_spacing},
+          {"ir_search_half_width_m", lo.refine.search_half_width_samples * lo.refine.sample_spacing},
+          {"plan_prior_top_k", lo.plan_prior_top_k},
+          {"trust_aimed", lo.trust_aimed},
+          {"verify_first_holder", lo.verify_first_holder},
+          {"category_evidence", lo.category_evidence},
+          {"first_hang_weight", lo.first_hang_weight},
+          {"gated_out_excess", lo.gated_out_excess},
+          {"category_gate", lo.category_gate},
+          {"category_ungated_weight", lo.category_ungated_weight},
+          {"candidates", lo.candidates},
+          {"candidate_fit", lo.fit_after_rigid ? "rigid" : "final"},
+          {"candidate_point", lo.consensus_radius > 0 ? "consensus"
+                              : lo.outlier_radius > 0 ? "outlier"
+                                                      : "fit"},
+          {"outlier_radius_m", lo.outlier_radius},
+          {"consensus_radius_m", lo.consensus_radius},
+          {"ir_at_jaw_line", lo.ir_at_jaw_line},
+          {"hem_edge", lo.hem_edge},
+          {"hem_corner", lo.hem_corner},
+          {"place_flat", lo.place_flat}};
+}
+
 int RunUnfold(const std::vector<std::string>& argv) {
   Args a(argv,
          {"--no-ir", "--ir-above-jaws", "--rigid", "--unweighted", "--ablations", "--no-figures", "--no-place",
@@ -315,17 +366,7 @@ int RunUnfold(const std::vector<std::string>& argv) {
   lo.capture.frames = static_cast<int>(a.GetInt("--frames").value_or(550));
   lo.max_regrasps = static_cast<int>(a.GetInt("--max-regrasps").value_or(4));
   lo.category_known = a.Flag("--category-known");
-  if (a.Flag("--category-once") && a.Flag("--category-evidence"))
-    throw Error("--category-once and --category-evidence: give one");
-  lo.category_evidence = a.Flag("--category-evidence");
-  lo.first_hang_weight = a.GetDouble("--first-hang-weight").value_or(lo.first_hang_weight);
-  if (!(lo.first_hang_weight >= 0)) throw Error("--first-hang-weight: must be >= 0");
-  lo.gated_out_excess = a.GetDouble("--gated-out-excess").value_or(lo.gated_out_excess);
-  if (!(lo.gated_out_excess >= 0)) throw Error("--gated-out-excess: must be >= 0");
-  lo.category_gate = a.GetDouble("--category-gate").value_or(lo.category_gate);
-  if (!(lo.category_gate < 3)) throw Error("--category-gate: must be below 3");
-  lo.category_ungated_weight = a.GetDouble("--category-ungated").value_or(lo.category_ungated_weight);
-  if (!(lo.category_ungated_weight >= 0)) throw Error("--category-ungated: must be >= 0");
+  CategoryOptions(a, lo);
   lo.ir_at_jaw_line = !a.Flag("--ir-above-jaws");
   lo.hem_edge = a.Flag("--hem-edge");
   lo.hem_corner = a.Flag("--hem-corner");
@@ -359,38 +400,7 @@ int RunUnfold(const std::vector<std::string>& argv) {
     rj["release"] = dir.string();
     rj["digest"] = model.release().digest();
     rj["weights"] = wpath.empty() ? Json(nullptr) : Json(wpath.string());
-    Json only_j = Json::array();
-    for (int k : only) only_j.push_back(k + 1);
-    rj["options"] = {{"trials", trials},
-                     {"only", only_j},
-                     {"seed", seed},
-                     {"frames", lo.capture.frames},
-                     {"max_regrasps", lo.max_regrasps},
-                     {"sigma_length_m", lo.objective.sigma_length},
-                     {"xi", lo.objective.xi},
-                     {"success_distance_m", lo.success_distance},
-                     {"log_sigma_samples", lo.refine.sigma_samples},
-                     {"ir_sample_spacing_m", lo.refine.sample_spacing},
-                     {"ir_search_half_width_m", lo.refine.search_half_width_samples * lo.refine.sample_spacing},
-                     {"plan_prior_top_k", lo.plan_prior_top_k},
-                     {"trust_aimed", lo.trust_aimed},
-                     {"verify_first_holder", lo.verify_first_holder},
-                     {"category_evidence", lo.category_evidence},
-                     {"first_hang_weight", lo.first_hang_weight},
-                     {"gated_out_excess", lo.gated_out_excess},
-                     {"category_gate", lo.category_gate},
-                     {"category_ungated_weight", lo.category_ungated_weight},
-                     {"candidates", lo.candidates},
-                     {"candidate_fit", lo.fit_after_rigid ? "rigid" : "final"},
-                     {"candidate_point", lo.consensus_radius > 0 ? "consensus"
-                                         : lo.outlier_radius > 0 ? "outlier"
-                                                                 : "fit"},
-                     {"outlier_radius_m", lo.outlier_radius},
-                     {"consensus_radius_m", lo.consensus_radius},
-                     {"ir_at_jaw_line", lo.ir_at_jaw_line},
-                     {"hem_edge", lo.hem_edge},
-                     {"hem_corner", lo.hem_corner},
-                     {"place_flat", lo.place_flat}};
+    rj["options"] = OptionsJson(lo, trials, only, seed);
     WriteFileAtomic(*out / "report.json", rj.dump(2) + "\n");
     WriteFileAtomic(*out / "report.md", "# Unfolding\n\n" + md);
     std::cout << "report: " << (*out / "report.md").string() << "\n";

@@ -926,74 +926,76 @@ void AddCandidates(const Step& s, Json& j) {
   j["truth"]["kept_right"] = s.kept_right;
   j["truth"]["true_rank"] = s.true_rank;
 }
+
+// IR readings; no reading (nothing in range) → null.
+Json RangesJson(const std::vector<double>& ranges) {
+  Json r = Json::array();
+  for (double x : ranges) r.push_back(std::isfinite(x) ? Json(x) : Json(nullptr));
+  return r;
+}
+
+Json StepJson(const Step& s) {
+  Json j{{"held_uv", J(s.held_uv)},
+         {"held_true_anchor", s.held_true_anchor},
+         {"frames", s.frames},
+         {"recon_vertices", s.recon.NumVertices()},
+         {"holder", {{"position", J(s.holder_position)}, {"wrist", s.holder_wrist}}},
+         {"recognition", rec::ToJson(s.recognition)},
+         {"recognised_right", s.recognised_right},
+         {"category",
+          {{"evidence", s.category_evidence.ToJson()},
+           {"weight", s.evidence_weight},
+           {"totals", s.category_totals},
+           {"decided", s.decided_category},
+           {"switched", s.category_switched}}},
+         {"aimed_anchor", s.aimed_anchor},
+         {"recognised_anchor", s.recognised_anchor},
+         {"prior_rank", s.prior_rank},
+         {"prior_trusted", s.prior_trusted},
+         {"holder_regrasped", s.holder_regrasped},
+         {"icp_rms", s.icp_rms},
+         {"current_anchor", s.current_anchor},
+         {"next_anchor", s.next_anchor},
+         {"f", s.f},
+         {"predicted", J(s.predicted)},
+         {"grasp", J(s.grasp)},
+         {"approach", J(s.approach)},
+         {"ir_ranges", RangesJson(s.ir_ranges)},
+         {"ir_response", s.refine.response},
+         {"ir_best_offset", s.refine.offset},
+         {"ir_fold_found", s.refine.fold_found},
+         {"edge",
+          {{"target", s.edge_target},
+           {"ranges", RangesJson(s.edge_ranges)},
+           {"found", s.edge.found},
+           {"up_m", s.edge.up},
+           {"range_m", s.edge.range},
+           {"corner_side", s.corner_side},
+           {"side_ranges", RangesJson(s.side_ranges)},
+           {"side_found", s.side.found},
+           {"side_offset_m", s.side.offset}}},
+         {"regrasp",
+          {{"outcome", hw::GraspOutcomeName(s.regrasp.outcome)},
+           {"captured", s.regrasp.captured},
+           {"note", s.regrasp.note}}},
+         {"regrasp_uv", s.regrasp_uv ? J(*s.regrasp_uv) : Json(nullptr)},
+         {"regrasp_true_anchor", s.regrasp_true_anchor},
+         {"released_other", s.released_other},
+         {"truth",
+          {{"target_anchor", s.target_true_anchor},
+           {"predicted_error_m", s.predicted_error},
+           {"grasp_error_m", s.grasp_error},
+           {"regrasp_pattern_error_m", s.regrasp_pattern_error},
+           {"ladder", LadderJson(s.ladder)}}},
+         {"note", s.note}};
+  AddCandidates(s, j);
+  return j;
+}
 }  // namespace
 
 Json TrialResult::ToJson() const {
   Json steps_j = Json::array();
-  for (const Step& s : steps) {
-    Json j{{"held_uv", J(s.held_uv)},
-           {"held_true_anchor", s.held_true_anchor},
-           {"frames", s.frames},
-           {"recon_vertices", s.recon.NumVertices()},
-           {"holder", {{"position", J(s.holder_position)}, {"wrist", s.holder_wrist}}},
-           {"recognition", rec::ToJson(s.recognition)},
-           {"recognised_right", s.recognised_right},
-           {"category",
-            {{"evidence", s.category_evidence.ToJson()},
-             {"weight", s.evidence_weight},
-             {"totals", s.category_totals},
-             {"decided", s.decided_category},
-             {"switched", s.category_switched}}},
-           {"aimed_anchor", s.aimed_anchor},
-           {"recognised_anchor", s.recognised_anchor},
-           {"prior_rank", s.prior_rank},
-           {"prior_trusted", s.prior_trusted},
-           {"holder_regrasped", s.holder_regrasped},
-           {"icp_rms", s.icp_rms},
-           {"current_anchor", s.current_anchor},
-           {"next_anchor", s.next_anchor},
-           {"f", s.f},
-           {"predicted", J(s.predicted)},
-           {"grasp", J(s.grasp)},
-           {"approach", J(s.approach)},
-           {"ir_ranges", s.ir_ranges},
-           {"ir_response", s.refine.response},
-           {"ir_best_offset", s.refine.offset},
-           {"ir_fold_found", s.refine.fold_found},
-           {"edge",
-            {{"target", s.edge_target},
-             {"ranges", s.edge_ranges},
-             {"found", s.edge.found},
-             {"up_m", s.edge.up},
-             {"range_m", s.edge.range},
-             {"corner_side", s.corner_side},
-             {"side_ranges", s.side_ranges},
-             {"side_found", s.side.found},
-             {"side_offset_m", s.side.offset}}},
-           {"regrasp",
-            {{"outcome", hw::GraspOutcomeName(s.regrasp.outcome)},
-             {"captured", s.regrasp.captured},
-             {"note", s.regrasp.note}}},
-           {"regrasp_uv", s.regrasp_uv ? J(*s.regrasp_uv) : Json(nullptr)},
-           {"regrasp_true_anchor", s.regrasp_true_anchor},
-           {"released_other", s.released_other},
-           {"truth",
-            {{"target_anchor", s.target_true_anchor},
-             {"predicted_error_m", s.predicted_error},
-             {"grasp_error_m", s.grasp_error},
-             {"regrasp_pattern_error_m", s.regrasp_pattern_error},
-             {"ladder", LadderJson(s.ladder)}}},
-           {"note", s.note}};
-    AddCandidates(s, j);
-    // No reading (nothing in range) → null.
-    for (size_t i = 0; i < s.ir_ranges.size(); ++i)
-      if (!std::isfinite(s.ir_ranges[i])) j["ir_ranges"][i] = nullptr;
-    for (size_t i = 0; i < s.edge_ranges.size(); ++i)
-      if (!std::isfinite(s.edge_ranges[i])) j["edge"]["ranges"][i] = nullptr;
-    for (size_t i = 0; i < s.side_ranges.size(); ++i)
-      if (!std::isfinite(s.side_ranges[i])) j["edge"]["side_ranges"][i] = nullptr;
-    steps_j.push_back(std::move(j));
-  }
+  for (const Step& s : steps) steps_j.push_back(StepJson(s));
   Json fu = Json::array();
   for (const Vec2& u : final_uv) fu.push_back(J(u));
   Json anchors = Json::object();
