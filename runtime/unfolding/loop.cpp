@@ -268,6 +268,22 @@ bool IsDesiredPair(const Garment& g, const std::vector<DesiredPair>& pairs, cons
   return false;
 }
 
+// Appends to a step's note ("; " between notes).
+void AddNote(Step& s, const std::string& text) { s.note += (s.note.empty() ? "" : "; ") + text; }
+
+// One IR scan by the free gripper: the jaws (in the grasp pose `pose`) go to jaw(0) along
+// a straight path, then to jaw(1), ..., jaw(n - 1) in short moves, one reading at each.
+std::vector<double> ScanIr(hw::Arm& arm, hw::RangeSensor& ir, hw::GripperPose pose, int n,
+                           const std::function<Vec3(int)>& jaw) {
+  std::vector<double> ranges;
+  for (int i = 0; i < n; ++i) {
+    pose.position = jaw(i);
+    arm.Move(i == 0 ? hw::StraightPath(arm.pose(), pose) : hw::Path{{0.016, pose}});
+    ranges.push_back(ir.Read());
+  }
+  return ranges;
+}
+
 struct TrialRun {
   const ReleaseModel& model;
   const LoopOptions& o;
@@ -675,15 +691,12 @@ struct TrialRun {
   void HemEdge(Step& s, hw::Arm& arm, hw::RangeSensor& ir, const IrScanPlan& plan, hw::GripperPose& g) const {
     const EdgeOptions& e = o.edge;
     const double reference = s.refine.valid ? s.refine.range : o.standoff;
-    hw::GripperPose scan = g;
-    for (int i = 0; i <= e.above_samples + e.below_samples; ++i) {
-      scan.position = plan.JawDuringScan(s.refine.offset, (e.above_samples - i) * e.sample_spacing);
-      arm.Move(i == 0 ? hw::StraightPath(arm.pose(), scan) : hw::Path{{0.016, scan}});
-      s.edge_ranges.push_back(ir.Read());
-    }
+    s.edge_ranges = ScanIr(arm, ir, g, e.above_samples + e.below_samples + 1, [&](int i) {
+      return plan.JawDuringScan(s.refine.offset, (e.above_samples - i) * e.sample_spacing);
+    });
     s.edge = FindLowerEdge(s.edge_ranges, reference, e);
     if (!s.edge.found) {
-      s.note += (s.note.empty() ? "" : "; ") + std::string("hem edge: no lower edge in the vertical scan");
+      AddNote(s, "hem edge: no lower edge in the vertical scan");
       return;
     }
     g.position = plan.Grasp(s.refine.offset, s.edge.up, s.edge.range);
@@ -694,16 +707,13 @@ struct TrialRun {
     if (s.corner_side == 0) return;
     const int half = o.refine.half_width_samples;
     const double dx = o.refine.sample_spacing;
-    for (int i = -half; i <= half; ++i) {
-      scan.position = plan.JawDuringScan(s.refine.offset + i * dx, s.edge.up);
-      arm.Move(i == -half ? hw::StraightPath(arm.pose(), scan) : hw::Path{{0.016, scan}});
-      s.side_ranges.push_back(ir.Read());
-    }
+    s.side_ranges = ScanIr(arm, ir, g, 2 * half + 1,
+                           [&](int i) { return plan.JawDuringScan(s.refine.offset + (i - half) * dx, s.edge.up); });
     s.side = FindSideEdge(s.side_ranges, s.edge.range, s.corner_side, dx, e);
     if (s.side.found) {
       g.position = plan.Grasp(s.refine.offset + s.side.offset, s.edge.up, s.side.range);
     } else {
-      s.note += (s.note.empty() ? "" : "; ") + std::string("hem corner: no end of the hem in the side scan");
+      AddNote(s, "hem corner: no end of the hem in the side scan");
     }
   }
 
@@ -720,6 +730,7 @@ struct TrialRun {
     g.approach = a;
     g.closing = c;
     g.position = s.predicted + a * o.grasp_depth;
+    s.lateral_grasp = g.position;
     if (o.ir_refinement) {
       hw::Arm& arm = world.arm(free_arm);
       hw::RangeSensor& ir = world.ir(free_arm);
@@ -731,22 +742,18 @@ struct TrialRun {
       plan.standoff = o.standoff;
       plan.grasp_depth = o.grasp_depth;
       plan.at_jaw_line = o.ir_at_jaw_line;
-      hw::GripperPose scan = g;
-      for (int i = -o.refine.half_width_samples; i <= o.refine.half_width_samples; ++i) {
-        scan.position = plan.JawDuringScan(i * o.refine.sample_spacing);
-        arm.Move(i == -o.refine.half_width_samples ? hw::StraightPath(arm.pose(), scan) : hw::Path{{0.016, scan}});
-        s.ir_ranges.push_back(ir.Read());
-      }
+      const int half = o.refine.half_width_samples;
+      s.ir_ranges = ScanIr(arm, ir, g, 2 * half + 1,
+                           [&](int i) { return plan.JawDuringScan((i - half) * o.refine.sample_spacing); });
       s.refine = RefineScan(s.ir_ranges, o.refine);
       if (s.refine.valid) {
         g.position = plan.Grasp(s.refine);
       } else {
-        s.note += (s.note.empty() ? "" : "; ") + std::string("no IR reading in the whole scan: registered point used");
+        AddNote(s, "no IR reading in the whole scan: registered point used");
       }
       s.lateral_grasp = g.position;
       if (o.hem_edge && o.ir_at_jaw_line && s.edge_target) HemEdge(s, arm, ir, plan, g);
     }
-    s.lateral_grasp = o.ir_refinement ? s.lateral_grasp : g.position;
     res.times.refinement += Since(t0);
     s.grasp = g.position;
     return g;
@@ -793,8 +800,7 @@ struct TrialRun {
         return;
       }
       if (s.f >= o.objective.xi)  // held back by verify_first_holder
-        s.note += (s.note.empty() ? "" : "; ") +
-                  std::string("f >= xi on the first grasp, known from recognition alone: the holder lets go");
+        AddNote(s, "f >= xi on the first grasp, known from recognition alone: the holder lets go");
       // Not there yet: the old grasp lets go, the garment hangs from the new one.
       world.arm(holder).Open();
       s.released_other = true;

@@ -209,13 +209,20 @@ TEST(Edge, NoEdgeWhenTheSheetGoesOnBelowTheScan) {
   EXPECT_THROW(FindLowerEdge(HemScan(-1.0, 0.3, EdgeOptions{}, 5), 0.12, o), Error);
 }
 
-TEST(Edge, AnchorAtTheBottomOfAHangingSheet) {
-  // A 20 × 20 cm sheet in the x-y plane, vertices every 1 cm (y up), bottom row at y = 0.
+// A 20 × 20 cm sheet in the x-y plane, vertices every 1 cm (y up; vertex j * kSheetSide + i
+// at x = i cm, y = j cm), bottom row at y = 0. Vertices only: the edge tests read no faces.
+constexpr int kSheetSide = 21;
+TriMesh Sheet() {
   TriMesh m;
-  const int n = 21;
-  m.V.resize(n * n, 3);
-  for (int j = 0; j < n; ++j)
-    for (int i = 0; i < n; ++i) m.V.row(j * n + i) = Eigen::RowVector3d(0.01 * i, 0.01 * j, 0);
+  m.V.resize(kSheetSide * kSheetSide, 3);
+  for (int j = 0; j < kSheetSide; ++j)
+    for (int i = 0; i < kSheetSide; ++i) m.V.row(j * kSheetSide + i) = Eigen::RowVector3d(0.01 * i, 0.01 * j, 0);
+  return m;
+}
+
+TEST(Edge, AnchorAtTheBottomOfAHangingSheet) {
+  TriMesh m = Sheet();
+  const int n = kSheetSide;
   EdgeOptions o;
   EXPECT_TRUE(AnchorAtLowerEdge(m, 0 * n + 10, o));    // middle of the bottom edge
   EXPECT_TRUE(AnchorAtLowerEdge(m, 0 * n + 0, o));     // bottom corner
@@ -272,12 +279,9 @@ TEST(Edge, FindsTheHemsEndOnTheNamedSide) {
 }
 
 TEST(Edge, CornerSideFromTheClothAround) {
-  // The 20 × 20 cm sheet (x-y plane, y up), seen along −z: closing along x.
-  TriMesh m;
-  const int n = 21;
-  m.V.resize(n * n, 3);
-  for (int j = 0; j < n; ++j)
-    for (int i = 0; i < n; ++i) m.V.row(j * n + i) = Eigen::RowVector3d(0.01 * i, 0.01 * j, 0);
+  // The sheet seen along −z: closing along x.
+  TriMesh m = Sheet();
+  const int n = kSheetSide;
   EdgeOptions o;
   EXPECT_EQ(CornerSide(m, 0, Vec3::UnitX(), o), -1);       // bottom-left corner: cloth at +x
   EXPECT_EQ(CornerSide(m, n - 1, Vec3::UnitX(), o), 1);    // bottom-right corner
