@@ -227,9 +227,11 @@ TableRow RunTrials(const ReleaseModel& model, const Variant& v, const std::strin
                 << (tty ? "" : "\n") << std::flush;
     };
     TrialResult t = RunTrial(model, c, o, ts, say);
-    char line[256];
-    std::snprintf(line, sizeof line, "%s, %d regrasps, f %.2f, %.0f s%s%s", t.unfolded ? "unfolded" : "not unfolded",
-                  t.regrasps, t.final_f, t.seconds, t.failure.empty() ? "" : ": ", t.failure.c_str());
+    char line[320], pair[48] = "";
+    if (t.final_pair_distance >= 0)
+      std::snprintf(pair, sizeof pair, ", grippers %.1f cm from a desired pair", 100 * t.final_pair_distance);
+    std::snprintf(line, sizeof line, "%s, %d regrasps, f %.2f%s, %.0f s%s%s", t.unfolded ? "unfolded" : "not unfolded",
+                  t.regrasps, t.final_f, pair, t.seconds, t.failure.empty() ? "" : ": ", t.failure.c_str());
     say(line);
     if (tty) std::cerr << "\n";
     if (out) WriteTrialTrace(t, v, c, k, model, o, what, *out);

@@ -94,6 +94,20 @@ int TrustedAimedEntry(const rec::Recognition& r, const std::string& aimed) {
   return FirstAimedOrTwin(r.entries, r.entries.size(), aimed);
 }
 
+double DesiredPairDistance(const Garment& g, const std::vector<DesiredPair>& pairs, const Vec2& a, const Vec2& b) {
+  double best = -1;
+  for (const DesiredPair& d : pairs) {
+    const Anchor* l = g.FindAnchor(d.first);
+    const Anchor* r = g.FindAnchor(d.second);
+    if (!l || !r) continue;
+    const double straight = std::max((a - l->uv).norm(), (b - r->uv).norm());
+    const double crossed = std::max((a - r->uv).norm(), (b - l->uv).norm());
+    const double dist = std::min(straight, crossed);
+    if (best < 0 || dist < best) best = dist;
+  }
+  return best;
+}
+
 std::string NearestAnchor(const Garment& g, const Vec2& uv) {
   std::string best;
   double d = std::numeric_limits<double>::infinity();
@@ -253,19 +267,6 @@ hw::GripperPose Home(int arm) {
   hw::GripperPose p;
   p.position = Vec3(arm == 0 ? 0.45 : -0.45, 1.3, 0.35);
   return p;
-}
-
-// Whether the two pinched points are a desired pair of the garment (truth).
-bool IsDesiredPair(const Garment& g, const std::vector<DesiredPair>& pairs, const Vec2& a, const Vec2& b, double tol) {
-  for (const DesiredPair& d : pairs) {
-    const Anchor* l = g.FindAnchor(d.first);
-    const Anchor* r = g.FindAnchor(d.second);
-    if (!l || !r) continue;
-    if (((a - l->uv).norm() <= tol && (b - r->uv).norm() <= tol) ||
-        ((a - r->uv).norm() <= tol && (b - l->uv).norm() <= tol))
-      return true;
-  }
-  return false;
 }
 
 // Appends to a step's note ("; " between notes).
@@ -855,9 +856,10 @@ TrialResult RunTrial(const ReleaseModel& model, const std::string& category, con
   res.recognition_success = !res.steps.empty() && res.steps.front().recognised_right;
   for (int k = 0; k < 2; ++k)
     if (auto uv = world.HeldUv(k)) res.final_uv.push_back(*uv);
-  res.unfolded = res.converged && res.final_uv.size() == 2 &&
-                 IsDesiredPair(world.garment(), DesiredPairsFor(category), res.final_uv[0], res.final_uv[1],
-                               options.success_distance);
+  if (res.final_uv.size() == 2)
+    res.final_pair_distance =
+        DesiredPairDistance(world.garment(), DesiredPairsFor(category), res.final_uv[0], res.final_uv[1]);
+  res.unfolded = res.converged && res.final_pair_distance >= 0 && res.final_pair_distance <= options.success_distance;
   if (res.converged && options.place_flat && world.state() == hw::ClothState::kHeldByTwo) {
     if (progress) progress("placing flat");
     try {
@@ -1019,6 +1021,7 @@ Json TrialResult::ToJson() const {
           {"unfolded", unfolded},
           {"final_f", final_f},
           {"final_uv", fu},
+          {"final_pair_distance", final_pair_distance >= 0 ? Json(final_pair_distance) : Json(nullptr)},
           {"truth", {{"anchors_uv", anchors}}},
           {"final_state", final_state},
           {"placed", placed},

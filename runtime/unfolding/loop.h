@@ -339,6 +339,9 @@ struct TrialResult {
   bool unfolded = false;         // truth: both grippers within success_distance of a desired pair
   double final_f = 0;
   std::vector<Vec2> final_uv;    // truth: pinched points at the end
+  // Truth: how far the two pinched points are from a desired pair (DesiredPairDistance,
+  // m on the pattern); -1 unless both grippers hold. Unfolded = converged and ≤ success_distance.
+  double final_pair_distance = -1;
   std::string failure;           // why the trial ended early ("" if it ran to the end)
   std::string final_state;
   TriMesh final_mesh;            // world frame (laid on the table when placed)
@@ -367,6 +370,11 @@ TrialResult RunTrial(const ReleaseModel& model, const std::string& category, con
 // Top-down silhouette area of `lying` (world mesh on a table) over that of `garment`
 // laid out flat, both rasterised at `metres_per_pixel`.
 double Coverage(const TriMesh& lying, const Garment& garment, double metres_per_pixel = 0.003);
+
+// How far two pinched pattern points are from being a desired pair (truth, m): over the
+// pairs and both assignments, the least of the larger of the two distances to the
+// pair's anchors; -1 when the garment has none of the pairs' anchors.
+double DesiredPairDistance(const Garment& g, const std::vector<DesiredPair>& pairs, const Vec2& a, const Vec2& b);
 
 // The test garment's labelled anchor nearest a pattern point.
 std::string NearestAnchor(const Garment& g, const Vec2& uv);

@@ -5,6 +5,8 @@
 #include <string>
 #include <vector>
 
+#include "runtime/unfolding/report.h"
+
 namespace drape::unfolding {
 namespace {
 
@@ -66,6 +68,40 @@ TEST(Stop, AtXiAndWithVerificationOnlyOnARegraspedHolder) {
   EXPECT_FALSE(MayStop(o, 1.0, false));  // the random first grasp, recognised as a leg end
   EXPECT_TRUE(MayStop(o, 1.0, true));
   EXPECT_FALSE(MayStop(o, 0.19, true));
+}
+
+// Trouser leg ends 40 cm apart on the pattern, and a knee.
+Garment LegEnds() {
+  Garment g;
+  g.category = "pants";
+  g.anchors = {{"left_leg_outer", Vec2(-0.2, 0)}, {"right_leg_outer", Vec2(0.2, 0)}, {"left_knee", Vec2(-0.2, 0.4)}};
+  return g;
+}
+
+TEST(Success, PairDistanceIsTheFartherGripOfTheBetterAssignment) {
+  const Garment g = LegEnds();
+  const auto pairs = DesiredPairsFor("pants");
+  // 3 cm and 5 cm from the leg ends: the farther one counts, whichever gripper holds which.
+  EXPECT_NEAR(DesiredPairDistance(g, pairs, Vec2(-0.2, 0.03), Vec2(0.25, 0)), 0.05, 1e-12);
+  EXPECT_NEAR(DesiredPairDistance(g, pairs, Vec2(0.25, 0), Vec2(-0.2, 0.03)), 0.05, 1e-12);
+  // Both on the left leg end: the right one is 40 cm away.
+  EXPECT_NEAR(DesiredPairDistance(g, pairs, Vec2(-0.2, 0), Vec2(-0.2, 0)), 0.4, 1e-12);
+  EXPECT_EQ(DesiredPairDistance(g, DesiredPairsFor("long_sleeve_shirt"), Vec2(0, 0), Vec2(0, 0)), -1);  // no elbows
+}
+
+TEST(Report, CountsTheConvergedTrialsWithinEachDistance) {
+  std::vector<TrialResult> trials(5);
+  const double d[] = {0.03, 0.059, 0.07, 0.2, 0.01};
+  for (int i = 0; i < 5; ++i) {
+    trials[i].converged = i != 4;  // the last stopped short of f ≥ ξ: never counted
+    trials[i].final_pair_distance = d[i];
+    trials[i].unfolded = trials[i].converged && d[i] <= 0.06;
+  }
+  const TableRow r = Summarise("pants", "default", trials);
+  EXPECT_EQ(r.unfolded, 2);
+  EXPECT_EQ(r.unfolded_within, (std::array<int, 4>{1, 2, 3, 3}));
+  EXPECT_NE(ReportMarkdown({r}).find("| 1 / 2 / 3 / 3 |"), std::string::npos);
+  EXPECT_EQ(ReportJson({r})["rows"][0]["unfolded_within_m"]["0.08"], 3);
 }
 
 }  // namespace

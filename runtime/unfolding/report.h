@@ -3,6 +3,7 @@
 // number of regrasps on success, next to the paper's; plus the variants (ablations).
 #pragma once
 
+#include <array>
 #include <map>
 #include <string>
 #include <vector>
@@ -12,11 +13,17 @@
 
 namespace drape::unfolding {
 
+// Distances (m, on the flat pattern) at which the report also counts the unfolded trials.
+inline constexpr std::array<double, 4> kUnfoldedWithin = {0.04, 0.06, 0.08, 0.10};
+
 // One row: counts over trials of one category under one variant.
 struct TableRow {
   std::string category, variant;
   int trials = 0, recognised = 0, regrasped = 0, unfolded = 0;
   double regrasps_on_success = 0;  // mean over unfolded trials (0 if none)
+  // Trials that reached f ≥ ξ with both grippers within kUnfoldedWithin[i] of a desired
+  // pair: the success criterion's sensitivity to its distance (the paper's was judged by eye).
+  std::array<int, 4> unfolded_within{};
   int placed = 0;                  // trials laid on the table
   double coverage = 0;             // mean coverage over placed trials (0 if none)
   double seconds = 0;              // mean wall seconds per trial
