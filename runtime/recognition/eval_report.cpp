@@ -36,6 +36,50 @@ std::string Num(const Json& v, const char* fmt = "%.3f") {
 
 std::string Pair(const Json& obj) { return Percent(obj["unweighted"]) + " / " + Percent(obj["learned"]); }
 
+// The paper's pose table: one column per database instance, the paper's two, all.
+std::string PoseTableMarkdown(const Json& r, const std::vector<Json>& rows) {
+  std::ostringstream md;
+  // Instance columns: as many as the category with the most instances has (at least 2, as
+  // the paper); with more than 2 also the paper's database (instances 1–2), and the
+  // all-instances column (JSON key "both") is headed "all".
+  const Json& overall = r["overall"]["pose_accuracy"];
+  int columns = 0;
+  while (overall.contains("instance" + std::to_string(columns + 1))) ++columns;
+  const bool more = overall.contains("instances1_2");
+  const std::string all_name = more ? "all" : "both";
+  md << "## Pose accuracy, category known (unweighted Eq. match / learned Eq. bestmatch)\n\n";
+  if (more) {
+    md << "Correct anchor / all queries, using only database instance 1, only instance 2, … (instances sorted by "
+          "name), the first two together (the paper's database: two models per garment type) or all of the "
+          "category's instances. Paper (real Kinect data, learned distance) in the last column.\n\n";
+  } else {
+    md << "Correct anchor / all queries, using only database instance 1, only instance 2, or both "
+          "(instances sorted by name). Paper (real Kinect data, learned distance) in the last column.\n\n";
+  }
+  md << "The learned columns cover the categories that have weights (" << (more ? "the \"all\" row" : "\"all\"")
+     << " too); n/a = no such database instance or no weights.\n\n| category | queries";
+  for (int i = 1; i <= columns; ++i) md << " | instance " << i;
+  md << (more ? " | instances 1–2" : "") << " | " << all_name << " | paper: 1 / 2 / both |\n|---|---";
+  for (int i = 0; i < columns + (more ? 3 : 2); ++i) md << "|---";
+  md << "|\n";
+  for (const Json& c : rows) {
+    const Json& p = c["pose_accuracy"];
+    std::string paper = "—";
+    if (!c["paper"].is_null()) {
+      paper = Percent(c["paper"]["instance1"]) + " / " + Percent(c["paper"]["instance2"]) + " / " +
+              Percent(c["paper"]["both"]);
+    }
+    std::string names;
+    for (const auto& n : c["database_instances"]) names += (names.empty() ? "" : ", ") + n.get<std::string>();
+    md << "| " << c["category"].get<std::string>() << (names.empty() ? "" : " (" + names + ")") << " | "
+       << c["queries"].get<int>();
+    for (int i = 1; i <= columns; ++i) md << " | " << Pair(p["instance" + std::to_string(i)]);
+    if (more) md << " | " << Pair(p["instances1_2"]);
+    md << " | " << Pair(p["both"]) << " | " << paper << " |\n";
+  }
+  return md.str();
+}
+
 }  // namespace
 
 std::string RegistrationMarkdown(const Json& t) {
@@ -112,26 +156,7 @@ std::string ReportMarkdown(const Json& r) {
   std::vector<Json> rows(r["categories"].begin(), r["categories"].end());
   rows.push_back(r["overall"]);
 
-  md << "## Pose accuracy, category known (unweighted Eq. match / learned Eq. bestmatch)\n\n"
-     << "Correct anchor / all queries, using only database instance 1, only instance 2, or both "
-        "(instances sorted by name). Paper (real Kinect data, learned distance) in the last column.\n\n"
-     << "The learned columns cover the categories that have weights (\"all\" too); n/a = no such "
-        "database instance or no weights.\n\n"
-     << "| category | queries | instance 1 | instance 2 | both | paper: 1 / 2 / both |\n"
-     << "|---|---|---|---|---|---|\n";
-  for (const Json& c : rows) {
-    const Json& p = c["pose_accuracy"];
-    std::string paper = "—";
-    if (!c["paper"].is_null()) {
-      paper = Percent(c["paper"]["instance1"]) + " / " + Percent(c["paper"]["instance2"]) + " / " +
-              Percent(c["paper"]["both"]);
-    }
-    std::string names;
-    for (const auto& n : c["database_instances"]) names += (names.empty() ? "" : ", ") + n.get<std::string>();
-    md << "| " << c["category"].get<std::string>() << (names.empty() ? "" : " (" + names + ")") << " | "
-       << c["queries"].get<int>() << " | " << Pair(p["instance1"]) << " | " << Pair(p["instance2"]) << " | "
-       << Pair(p["both"]) << " | " << paper << " |\n";
-  }
+  md << PoseTableMarkdown(r, rows);
   md << "\n## Category, end to end, top-" << r["top_k"].get<int>() << ", grasp-point error\n\n"
      << "Category by the unweighted nearest neighbour over the whole database; end to end = right "
         "category and right anchor (learned: the runtime's distance, learned w where the category has one). "

@@ -42,7 +42,35 @@ void EvalOptions::Validate() const {
 
 namespace {
 
-const char* kSubsets[] = {"instance1", "instance2", "both"};
+// The database subsets of the pose table: each instance alone ("instance1" … "instanceN",
+// N the most instances a category has, at least 2 as the paper's table), the first two
+// together ("instances1_2", the paper's database of two models per type; only when some
+// category has more than 2) and all of the category's instances ("both": the paper's name
+// and the key readers know; the markdown calls it "all" when it is more than two).
+std::vector<std::string> Subsets(const Database& db) {
+  size_t most = 2;
+  for (const std::string& c : db.categories()) most = std::max(most, db.instances(c).size());
+  std::vector<std::string> out;
+  for (size_t i = 1; i <= most; ++i) out.push_back("instance" + std::to_string(i));
+  if (most > 2) out.push_back("instances1_2");
+  out.push_back("both");
+  return out;
+}
+
+// Restricts `o` to `subset` of the category's sorted instances; false when the category
+// has no such instance (n/a, as the paper's shorts' instance 2).
+bool RestrictToSubset(const std::string& subset, const std::vector<std::string>& insts, RecognizeOptions& o) {
+  if (subset == "both") return true;
+  if (subset == "instances1_2") {
+    o.instances.assign(insts.begin(), insts.begin() + std::min<size_t>(2, insts.size()));
+    return true;
+  }
+  const size_t k = std::stoul(subset.substr(std::string("instance").size()));
+  if (k < 1 || k > insts.size()) return false;
+  o.instance = insts[k - 1];
+  return true;
+}
+
 const char* kMetrics[] = {"unweighted", "learned"};
 
 // The paper's Table (real Kinect data), by our category names.
@@ -150,10 +178,10 @@ void ScoreTiming(const EvalQuery& eq, double match_seconds, CategoryAcc& ca, Cat
 
 // A query whose category the database lacks: wrong everywhere (unweighted columns only:
 // the learned columns cover categories that have weights).
-void ScoreAbsentCategory(CategoryAcc& ca, CategoryAcc& all, Json& rec_json) {
+void ScoreAbsentCategory(const std::vector<std::string>& subsets, CategoryAcc& ca, CategoryAcc& all, Json& rec_json) {
   ++ca.absent;
-  for (const char* s : kSubsets) {
-    ca.pose[std::string(s) + "/unweighted"].Add(false), all.pose[std::string(s) + "/unweighted"].Add(false);
+  for (const std::string& s : subsets) {
+    ca.pose[s + "/unweighted"].Add(false), all.pose[s + "/unweighted"].Add(false);
   }
   ca.top_u.Add(false), all.top_u.Add(false);
   rec_json["error"] = "category absent from the database";
@@ -161,41 +189,36 @@ void ScoreAbsentCategory(CategoryAcc& ca, CategoryAcc& all, Json& rec_json) {
 
 // Category known: the paper's table, per database subset and metric.
 Json ScoreKnownCategory(const Recognizer& rec, const Database& db, const AnchorUvMap& uvs, const EntryLabel& ql,
-                        const PreparedQuery& pq, const std::vector<Match>& matches, int top_k, CategoryAcc& ca,
-                        CategoryAcc& all, EvalResult& out) {
+                        const PreparedQuery& pq, const std::vector<Match>& matches,
+                        const std::vector<std::string>& subsets, int top_k, CategoryAcc& ca, CategoryAcc& all,
+                        EvalResult& out) {
   const std::vector<std::string> insts = db.instances(ql.category);
   ca.instances = insts;
   ca.learned = rec.HasWeights(ql.category);
   Json results = Json::object();
-  for (const char* s : kSubsets) {
-    std::string inst;
-    if (std::string(s) == "instance1") inst = insts[0];
-    if (std::string(s) == "instance2") {
-      if (insts.size() < 2) continue;  // N/A, as the paper's shorts
-      inst = insts[1];
-    }
+  for (const std::string& s : subsets) {
     for (const char* m : kMetrics) {
       const bool learned = std::string(m) == "learned";
       if (learned && !ca.learned) continue;  // N/A: no weights for this category
       RecognizeOptions o;
+      if (!RestrictToSubset(s, insts, o)) break;  // N/A: the category has no such instance
       o.top_k = top_k;
       o.category = ql.category;
-      o.instance = inst;
       o.weighted = learned;
       o.query_height = ql.height;
       const Recognition r = rec.Rank(pq, matches, o);
       const bool ok = r.anchor == ql.anchor;
-      if (std::string(s) == "both") {
+      if (s == "both") {
         o.height_gates = false;
         const bool paper_ok = rec.Rank(pq, matches, o).anchor == ql.anchor;
         (learned ? ca.paper_l : ca.paper_u).Add(paper_ok);
         (learned ? all.paper_l : all.paper_u).Add(paper_ok);
       }
-      const std::string key = std::string(s) + "/" + m;
+      const std::string key = s + "/" + m;
       ca.pose[key].Add(ok), all.pose[key].Add(ok);
       Json rj{{"anchor", r.anchor}, {"entry", r.best.id}, {"distance", r.best.distance},
               {"rotation", r.best.rotation}, {"score", r.best.score}, {"correct", ok}};
-      if (std::string(s) == "both") {
+      if (s == "both") {
         const std::vector<std::string> twins = SymmetryTwins(ql.anchor);
         const bool twin_ok = ok || std::find(twins.begin(), twins.end(), r.anchor) != twins.end();
         (learned ? ca.twin_l : ca.twin_u).Add(twin_ok);
@@ -244,12 +267,12 @@ void FillConfusion(const Database& db, const std::vector<EvalQuery>& queries, co
 }
 
 // One row of report.json "categories" (or "overall").
-Json CategoryRow(const std::string& name, const CategoryAcc& a, int top_k) {
+Json CategoryRow(const std::string& name, const CategoryAcc& a, const std::vector<std::string>& subsets, int top_k) {
   Json pose = Json::object();
-  for (const char* s : kSubsets) {
+  for (const std::string& s : subsets) {
     Json pm = Json::object();
     for (const char* m : kMetrics) {
-      auto it = a.pose.find(std::string(s) + "/" + m);
+      auto it = a.pose.find(s + "/" + m);
       pm[m] = it == a.pose.end() ? Json(nullptr) : it->second.Rate();
     }
     pose[s] = pm;
@@ -297,6 +320,7 @@ EvalResult Evaluate(const Database& db, const Weights* weights, const std::vecto
   std::vector<std::string> warnings;
   std::set<std::string> warned_absent;
   std::vector<Match> matches;
+  const std::vector<std::string> subsets = Subsets(db);
 
   for (const EvalQuery& eq : queries) {
     const EntryLabel& ql = eq.query.label;
@@ -310,16 +334,17 @@ EvalResult Evaluate(const Database& db, const Weights* weights, const std::vecto
     if (!db.HasCategory(ql.category)) {
       if (warned_absent.insert(ql.category).second)
         warnings.push_back("category '" + ql.category + "' has test queries but no database entries");
-      ScoreAbsentCategory(ca, all, rec_json);
+      ScoreAbsentCategory(subsets, ca, all, rec_json);
     } else {
-      rec_json["category_known"] = ScoreKnownCategory(rec, db, uvs, ql, pq, matches, options.top_k, ca, all, out);
+      rec_json["category_known"] =
+          ScoreKnownCategory(rec, db, uvs, ql, pq, matches, subsets, options.top_k, ca, all, out);
     }
     per_query.push_back(rec_json);
   }
   FillConfusion(db, queries, per_query, out);
 
   Json cats = Json::array();
-  for (const auto& [name, a] : acc) cats.push_back(CategoryRow(name, a, options.top_k));
+  for (const auto& [name, a] : acc) cats.push_back(CategoryRow(name, a, subsets, options.top_k));
   Json conf_json = Json::object();
   for (const auto& [cat, c] : out.confusion) {
     conf_json[cat] = {{"metric", c.metric}, {"labels", c.labels}, {"counts", c.counts}};
@@ -335,7 +360,7 @@ EvalResult Evaluate(const Database& db, const Weights* weights, const std::vecto
                      weights ? Json{{"category", weights->height_gates.category}, {"pose", weights->height_gates.pose}}
                              : Json{{"category", 0}, {"pose", 0}}},
                     {"categories", cats},
-                    {"overall", CategoryRow("all", all, options.top_k)},
+                    {"overall", CategoryRow("all", all, subsets, options.top_k)},
                     {"confusion", conf_json},
                     {"warnings", warnings},
                     {"per_query", per_query}};

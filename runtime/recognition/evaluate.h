@@ -1,5 +1,7 @@
 // Evaluation of pose recognition on a split (paper Table "accuracy"): per category,
-// pose accuracy with database instance 1 only, instance 2 only and both, unweighted
+// pose accuracy with database instance 1 only, instance 2 only and both (with more than
+// two instances: each instance alone, the first two — the paper's database — and all;
+// report.json keys instance1 … instanceN, instances1_2, and "both" for all), unweighted
 // (Eq. match) vs learned (Eq. bestmatch) distance; category accuracy; top-3 accuracy;
 // grasp-point error; running time per query; and the report folder.
 #pragma once

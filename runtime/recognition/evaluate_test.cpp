@@ -86,10 +86,68 @@ TEST(RecognitionEvaluate, CountsTheTableAndWritesTheReport) {
   const Json back = Json::parse(ReadFile(dir / "report.json"));
   EXPECT_EQ(back["release"], "synthetic");
   EXPECT_NE(ReadFile(dir / "report.md").find("| pants (pants-1, pants-2) | 3 |"), std::string::npos);
+  // At most two instances per category: the paper's columns, the last still "both".
+  EXPECT_NE(ReadFile(dir / "report.md").find("| category | queries | instance 1 | instance 2 | both | paper: "),
+            std::string::npos);
+  EXPECT_FALSE(r["overall"]["pose_accuracy"].contains("instance3"));
+  EXPECT_FALSE(r["overall"]["pose_accuracy"].contains("instances1_2"));
   if (!std::getenv("DRAPE_KEEP_TEST_OUTPUT")) fs::remove_all(dir);
 
   EXPECT_THROW(Evaluate(Database(), nullptr, qs, uvs, {}), Error);
   EXPECT_THROW(Evaluate(db, nullptr, {}, uvs, {}), Error);
+}
+
+// Three shirt instances, each holding all six query codes with `flips[k][j]` bits inverted
+// (nested: fewer flips = nearer) under label a (right) or b (wrong). Alone: instance 1 is
+// right for q0–q2 (3/6), instance 2 for q3–q4 (2/6), instance 3 for q5 (1/6). Instances
+// 1–2: the nearer of the two decides, right for q0–q3 (4/6); all three: also q5 (5/6).
+// The one-instance shorts get n/a for instances 2 and 3.
+TEST(RecognitionEvaluate, EveryInstanceGetsAColumnAndThePaperPairIsReported) {
+  Rng rng(21);
+  const int flips[3][6] = {{1, 1, 1, 2, 1, 2}, {2, 2, 2, 1, 2, 3}, {3, 3, 3, 3, 3, 1}};
+  const char* right[3] = {"aaabbb", "bbbaab", "bbbbba"};
+  auto flipped = [](Code c, int n) {
+    for (int i = 0; i < n; ++i) c.Set(37 * i, !c.Get(37 * i));
+    return c;
+  };
+  std::vector<Code> codes;
+  std::vector<LabelledCode> train;
+  std::vector<EvalQuery> qs(6);
+  for (int j = 0; j < 6; ++j) {
+    codes.push_back(RandomCode(rng, 4, 4, 8));
+    qs[j].query = Labelled("q" + std::to_string(j), "shirt", "shirt-q", "a", codes[j]);
+    for (int k = 0; k < 3; ++k) {
+      const std::string inst = "shirt-" + std::to_string(k + 1);
+      train.push_back(Labelled(inst + "/" + std::to_string(j), "shirt", inst, right[k][j] == 'a' ? "a" : "b",
+                               flipped(codes[j], flips[k][j])));
+    }
+  }
+  const Code shorts_code = RandomCode(rng, 4, 4, 8);
+  train.push_back(Labelled("s", "shorts", "shorts-1", "c", shorts_code));
+  qs.emplace_back().query = Labelled("qs", "shorts", "shorts-q", "c", shorts_code);
+  const EvalResult res = Evaluate(Database(train), nullptr, qs, {}, {});
+  const Json& shirt = res.report["categories"][0]["pose_accuracy"];
+  EXPECT_DOUBLE_EQ(shirt["instance1"]["unweighted"].get<double>(), 3.0 / 6);
+  EXPECT_DOUBLE_EQ(shirt["instance2"]["unweighted"].get<double>(), 2.0 / 6);
+  EXPECT_DOUBLE_EQ(shirt["instance3"]["unweighted"].get<double>(), 1.0 / 6);
+  EXPECT_DOUBLE_EQ(shirt["instances1_2"]["unweighted"].get<double>(), 4.0 / 6);
+  EXPECT_DOUBLE_EQ(shirt["both"]["unweighted"].get<double>(), 5.0 / 6);  // all instances
+  const Json& shorts = res.report["categories"][1]["pose_accuracy"];
+  EXPECT_TRUE(shorts["instance2"]["unweighted"].is_null());
+  EXPECT_TRUE(shorts["instance3"]["unweighted"].is_null());
+  EXPECT_DOUBLE_EQ(shorts["instances1_2"]["unweighted"].get<double>(), 1.0);
+  EXPECT_DOUBLE_EQ(res.report["overall"]["pose_accuracy"]["instance3"]["unweighted"].get<double>(), 1.0 / 6);
+  const std::string md = ReportMarkdown(res.report);
+  EXPECT_NE(md.find("| category | queries | instance 1 | instance 2 | instance 3 | instances 1–2 | all | paper: "),
+            std::string::npos)
+      << md;
+  EXPECT_NE(md.find("| shirt (shirt-1, shirt-2, shirt-3) | 6 | 50.0 % / n/a | 33.3 % / n/a | 16.7 % / n/a | "
+                    "66.7 % / n/a | 83.3 % / n/a |"),
+            std::string::npos)
+      << md;
+  EXPECT_NE(md.find("| shorts (shorts-1) | 1 | 100.0 % / n/a | n/a / n/a | n/a / n/a | 100.0 % / n/a |"),
+            std::string::npos)
+      << md;
 }
 
 TEST(RecognitionEvaluate, SymmetryTwinsSwapWholeSideTokens) {

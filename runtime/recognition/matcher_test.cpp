@@ -184,6 +184,12 @@ TEST(RecognitionRecognizer, FindsAnchorCategoryAndRotation) {
   // Restricting to one instance keeps the answer inside it.
   o.instance = "pants-2";
   EXPECT_EQ(rec.Recognize(protos[1], o).best.instance, "pants-2");
+  // Or to a set of instances; one the category lacks leaves no pool.
+  o.instance = "";
+  o.instances = {"pants-2"};
+  EXPECT_EQ(rec.Recognize(protos[1], o).best.instance, "pants-2");
+  o.instances = {"pants-9"};
+  EXPECT_THROW(rec.Recognize(protos[1], o), Error);
 }
 
 TEST(RecognitionRecognizer, EmptyDatabaseAndAbsentCategoryAreClearErrors) {

@@ -190,11 +190,18 @@ Recognition Recognizer::Rank(const PreparedQuery& q, const std::vector<Match>& m
   // 2. Pose inside the category (height-gated), under its learned w if there is one.
   std::vector<int> pool;
   for (int i : db_.EntriesOf(r.category)) {
-    if (options.instance.empty() || db_.label(i).instance == options.instance) pool.push_back(i);
+    const std::string& inst = db_.label(i).instance;
+    if (!options.instance.empty() && inst != options.instance) continue;
+    if (!options.instances.empty() &&
+        std::find(options.instances.begin(), options.instances.end(), inst) == options.instances.end()) {
+      continue;
+    }
+    pool.push_back(i);
   }
   if (pool.empty()) {
-    throw Error("recognize: database instance '" + options.instance + "' has no entries of category '" +
-                r.category + "' (instances: " + JoinNames(db_.instances(r.category)) + ")");
+    const std::string asked = options.instance.empty() ? JoinNames(options.instances) : options.instance;
+    throw Error("recognize: database instance '" + asked + "' has no entries of category '" + r.category +
+                "' (instances: " + JoinNames(db_.instances(r.category)) + ")");
   }
   const std::vector<int> ungated = pool;
   pool = HeightGated(db_, pool, options.query_height, r.gates.pose);
