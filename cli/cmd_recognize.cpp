@@ -228,7 +228,7 @@ int RunRecognize(const std::vector<std::string>& argv) {
   RecognizeOptions o;
   o.top_k = static_cast<int>(a.GetInt("--top-k").value_or(5));
   o.category = a.Get("--category", "");
-  o.instance = a.Get("--instance", "");
+  if (const std::string inst = a.Get("--instance", ""); !inst.empty()) o.instances = {inst};
   o.query_height = query.value("height", 0.0);
   const Recognition r = rec.Recognize(q, o);
   timing["matching_seconds"] = r.match_seconds;

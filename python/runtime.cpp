@@ -72,7 +72,7 @@ class Runtime {
     RecognizeOptions o;
     o.top_k = top_k;
     o.category = category;
-    o.instance = instance;
+    if (!instance.empty()) o.instances = {instance};
     o.weighted = weighted;
     o.query_height = query.value("height", 0.0);  // a bare feature has none: no height gates
     o.Validate();

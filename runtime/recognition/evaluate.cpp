@@ -67,7 +67,7 @@ bool RestrictToSubset(const std::string& subset, const std::vector<std::string>&
   }
   const size_t k = std::stoul(subset.substr(std::string("instance").size()));
   if (k < 1 || k > insts.size()) return false;
-  o.instance = insts[k - 1];
+  o.instances = {insts[k - 1]};
   return true;
 }
 

@@ -182,12 +182,15 @@ TEST(RecognitionRecognizer, FindsAnchorCategoryAndRotation) {
   EXPECT_THROW(rec.Recognize(protos[1], o), Error);
   o.top_entries = 0;
   // Restricting to one instance keeps the answer inside it.
-  o.instance = "pants-2";
-  EXPECT_EQ(rec.Recognize(protos[1], o).best.instance, "pants-2");
-  // Or to a set of instances; one the category lacks leaves no pool.
-  o.instance = "";
   o.instances = {"pants-2"};
   EXPECT_EQ(rec.Recognize(protos[1], o).best.instance, "pants-2");
+  // Or to a set of instances (the pose pool: that instance's 3 entries, both instances' 6);
+  // one the category lacks leaves no pool.
+  o.top_entries = 100;
+  EXPECT_EQ(rec.Recognize(protos[1], o).entries.size(), 3u);
+  o.instances = {"pants-2", "pants-1"};
+  EXPECT_EQ(rec.Recognize(protos[1], o).entries.size(), 6u);
+  o.top_entries = 0;
   o.instances = {"pants-9"};
   EXPECT_THROW(rec.Recognize(protos[1], o), Error);
 }
@@ -216,7 +219,7 @@ TEST(RecognitionRecognizer, EmptyDatabaseAndAbsentCategoryAreClearErrors) {
     EXPECT_NE(std::string(e.what()).find("pants, shorts"), std::string::npos) << e.what();
   }
   o.category = "pants";
-  o.instance = "pants-9";
+  o.instances = {"pants-9"};
   EXPECT_THROW(rec.Recognize(protos[0], o), Error);
 }
 

@@ -191,17 +191,14 @@ Recognition Recognizer::Rank(const PreparedQuery& q, const std::vector<Match>& m
   std::vector<int> pool;
   for (int i : db_.EntriesOf(r.category)) {
     const std::string& inst = db_.label(i).instance;
-    if (!options.instance.empty() && inst != options.instance) continue;
-    if (!options.instances.empty() &&
-        std::find(options.instances.begin(), options.instances.end(), inst) == options.instances.end()) {
-      continue;
+    if (options.instances.empty() ||
+        std::find(options.instances.begin(), options.instances.end(), inst) != options.instances.end()) {
+      pool.push_back(i);
     }
-    pool.push_back(i);
   }
   if (pool.empty()) {
-    const std::string asked = options.instance.empty() ? JoinNames(options.instances) : options.instance;
-    throw Error("recognize: database instance '" + asked + "' has no entries of category '" + r.category +
-                "' (instances: " + JoinNames(db_.instances(r.category)) + ")");
+    throw Error("recognize: database instance '" + JoinNames(options.instances) + "' has no entries of category '" +
+                r.category + "' (instances: " + JoinNames(db_.instances(r.category)) + ")");
   }
   const std::vector<int> ungated = pool;
   pool = HeightGated(db_, pool, options.query_height, r.gates.pose);

@@ -115,9 +115,8 @@ struct RecognizeOptions {
   int top_k = 5;             // distinct (category, anchor) labels listed
   int top_entries = 0;       // database entries listed in Recognition::entries (0 = none)
   std::string category;      // known category ("" = predict by unweighted NN)
-  std::string instance;      // restrict the pose search to one database garment instance ("" = all)
-  std::vector<std::string> instances;  // or to these instances (empty = no restriction; with
-                                       // `instance` set too, an entry must be in both)
+  std::vector<std::string> instances;  // restrict the pose search to these database garment
+                                       // instances (empty = all)
   bool weighted = true;      // use the category's learned w when there is one
   double query_height = 0;   // hung height of the query (m); 0 = unknown: no height gates
   bool height_gates = true;  // apply the weights' height gates (false: Algorithm 1 alone, as the paper)
