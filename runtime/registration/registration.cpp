@@ -132,6 +132,11 @@ std::vector<AnchorTransfer> TransferAnchors(const RegistrationResult& result, co
   return out;
 }
 
+double SymmetricFit(const TriMesh& registered, const TriMesh& target, const ExactClosestPoint& onto_target) {
+  const ExactClosestPoint onto_registered(registered);
+  return 0.5 * (MeasureDirected(registered, onto_target).mean + MeasureDirected(target, onto_registered).mean);
+}
+
 RegistrationEvaluation RegisterAndEvaluate(const TriMesh& source, const TriMesh& target,
                                            const std::vector<AnchorPair>& anchors,
                                            const RegistrationOptions& options, RegistrationResult* result) {

@@ -72,6 +72,12 @@ struct DirectedDistance {
 };
 DirectedDistance MeasureDirected(const TriMesh& from, const ExactClosestPoint& to);
 
+// How well a registered mesh fits a target: the symmetric mean of the paper's two
+// directed errors (MeasureDirected both ways), metres. `onto_target` is over `target`.
+// Used to choose among registered candidates (runtime/unfolding/candidates.h) and to
+// decide the category by registration (runtime/recognition/category_fit.h).
+double SymmetricFit(const TriMesh& registered, const TriMesh& target, const ExactClosestPoint& onto_target);
+
 // A source anchor vertex and, if known, the true position of that anchor on the target.
 struct AnchorPair {
   std::string label;

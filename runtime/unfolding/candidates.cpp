@@ -41,12 +41,6 @@ std::vector<rec::Candidate> RegistrationCandidates(const rec::Recognition& r, bo
   return out;
 }
 
-double SymmetricFit(const TriMesh& registered, const TriMesh& recon, const ExactClosestPoint& onto_recon) {
-  const ExactClosestPoint onto_registered(registered);
-  return 0.5 * (registration::MeasureDirected(registered, onto_recon).mean +
-                registration::MeasureDirected(recon, onto_registered).mean);
-}
-
 CandidateRegistration RegisterCandidate(const TriMesh& source, const TriMesh& recon,
                                         const ExactClosestPoint& onto_recon, bool nonrigid) {
   CandidateRegistration c;

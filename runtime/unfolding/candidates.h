@@ -29,10 +29,9 @@ namespace drape::unfolding {
 std::vector<recognition::Candidate> RegistrationCandidates(const recognition::Recognition& r, bool prior_kept,
                                                            const std::string& aimed, int k);
 
-// How well a registered database mesh fits the reconstruction: the symmetric mean of the
-// paper's two directed errors (registration.h MeasureDirected: area-weighted mean
-// distance from each mesh's triangle barycentres to the other surface), metres.
-double SymmetricFit(const TriMesh& registered, const TriMesh& recon, const ExactClosestPoint& onto_recon);
+// How well a registered database mesh fits the reconstruction: registration.h
+// SymmetricFit (the symmetric mean of the paper's two directed errors), metres.
+using registration::SymmetricFit;
 
 // How far `p` lies outside the segmentation region the reconstruction was fused in (a box
 // and, when radius > 0, a vertical cylinder of that radius about the turning y axis; both

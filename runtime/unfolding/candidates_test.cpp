@@ -166,16 +166,6 @@ TEST(KeepCandidate, TheRightShapeRankedSecondFitsBest) {
   }
 }
 
-TEST(SymmetricFit, ZeroOnItselfAndTheMeanOfBothDirections) {
-  const TriMesh sheet = rt::WavySheet(12, 10, 0.5, 0.4, 0.0);  // flat, z = 0
-  const ExactClosestPoint onto(sheet);
-  EXPECT_NEAR(SymmetricFit(sheet, sheet, onto), 0.0, 1e-12);
-  // The same sheet 2 cm off: 2 cm both ways.
-  TriMesh off = sheet;
-  off.V.col(2).array() += 0.02;
-  EXPECT_NEAR(SymmetricFit(off, sheet, onto), 0.02, 1e-9);
-}
-
 }  // namespace
 }  // namespace drape::unfolding
 
