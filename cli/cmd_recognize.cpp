@@ -11,8 +11,10 @@
 #include "cli/command.h"
 #include "common/error.h"
 #include "common/format.h"
+#include "garments/io.h"
 #include "generator/release/release.h"
 #include "runtime/recognition/calibrate.h"
+#include "runtime/recognition/category_fit.h"
 #include "runtime/recognition/evaluate.h"
 #include "runtime/recognition/ladder.h"
 #include "runtime/recognition/query_pipeline.h"
@@ -97,7 +99,13 @@ const char* kRecognizeUsage =
     "  --refuse          with --entry: re-fuse the entry's kept sweep and time it\n"
     "  --seed N          seed for a mesh query's synthetic sweep (default 0)\n"
     "  --kernel K        auto | generic | popcnt | avx512 (default auto)\n"
-    "  --json            machine-readable output\n";
+    "  --json            machine-readable output\n"
+    "  --category-fit / --no-category-fit\n"
+    "                    the category by registration (docs/recognition.md, \"The category by\n"
+    "                    registration\"): on by default for --entry (its recon.ply; ~4 CPU-s), not\n"
+    "                    available for --sweep / --mesh (no reconstruction kept: the unweighted nearest\n"
+    "                    neighbour decides); settings --category-fit-k K, --category-fit-top N,\n"
+    "                    --category-fit-lambda L as drape eval\n";
 
 // A release entry as the query: its stored feature (with --refuse also re-fused from its
 // kept sweep and compared), described in `query`, fusion/feature times from the build.
@@ -145,6 +153,25 @@ Code FileQuery(const Args& a, const Release& rel, uint64_t seed, Json& query, Js
   return pr.code;
 }
 
+CategoryFitOptions CategoryFitFromArgs(const Args& a);
+
+// `drape recognize --category-fit`: the category decided by registering each category's
+// best entries onto the entry query's recon.ply, set into `o` (when any registered).
+Json RecognizeCategoryByFit(const Args& a, const Release& rel, const Database& db, const Recognizer& rec, const Code& q,
+                            RecognizeOptions& o) {
+  const auto id = a.Get("--entry");
+  if (!id) throw Error("--category-fit needs the query's reconstruction: only with --entry");
+  if (!o.category.empty()) throw Error("--category-fit and --category contradict each other");
+  std::vector<Match> matches;
+  db.matcher().MatchAll(PreparedQuery(q), &matches);
+  const std::vector<int> pool = CategoryPool(db, o.query_height, rec.GatesFor(o).category);
+  const TriMesh recon = ReadMesh(rel.EntryPath(*id, "recon.ply"));
+  const CategoryFit fit =
+      DecideCategoryByFit(db, pool, matches, recon, ReleaseHungMeshes(rel, db), CategoryFitFromArgs(a));
+  o.category = fit.category;
+  return ToJson(fit);
+}
+
 // The human-readable answer: query, truth, category, anchor and where it is, top k, times.
 void PrintRecognition(const Json& query, const Json& timing, const Recognition& r, const Database& db,
                       const std::optional<Vec3>& hung, bool have_w) {
@@ -156,7 +183,10 @@ void PrintRecognition(const Json& query, const Json& timing, const Recognition& 
               << query["true_anchor"].get<std::string>() << " (" << query["split"].get<std::string>() << ")\n";
   }
   std::cout << "category  " << r.category << " ("
-            << (r.category_source == "given" ? "given" : "unweighted nearest neighbour") << ")\n"
+            << (r.category_source == "given"          ? "given"
+                : r.category_source == "registration" ? "by registration"
+                                                      : "unweighted nearest neighbour")
+            << ")\n"
             << "anchor    " << r.anchor << "  — entry " << r.best.id << " (" << r.best.instance << "), distance "
             << r.best.distance << " bits, rotation " << r.best.rotation << " ("
             << Fmt("%.1f", 360.0 * r.best.rotation / db.sectors()) << "°)"
@@ -199,8 +229,9 @@ void PrintRecognition(const Json& query, const Json& timing, const Recognition& 
 }
 
 int RunRecognize(const std::vector<std::string>& argv) {
-  Args a(argv, {"--json", "--unweighted", "--refuse"},
-         {"--entry", "--sweep", "--mesh", "--weights", "--category", "--instance", "--top-k", "--kernel", "--seed"});
+  Args a(argv, {"--json", "--unweighted", "--refuse", "--category-fit", "--no-category-fit"},
+         {"--entry", "--sweep", "--mesh", "--weights", "--category", "--instance", "--top-k", "--kernel", "--seed",
+          "--category-fit-k", "--category-fit-top", "--category-fit-lambda"});
   if (a.help()) {
     std::cout << kRecognizeUsage;
     return 0;
@@ -208,6 +239,8 @@ int RunRecognize(const std::vector<std::string>& argv) {
   a.RequirePositional(1, 1, "RELEASE");
   const int nq = a.Get("--entry").has_value() + a.Get("--sweep").has_value() + a.Get("--mesh").has_value();
   if (nq != 1) throw Error("give exactly one query: --entry ID, --sweep DIR or --mesh FILE");
+  if (a.Flag("--category-fit") && !a.Get("--entry"))
+    throw Error("--category-fit needs the query's reconstruction: only with --entry");
 
   auto t0 = std::chrono::steady_clock::now();
   const Release rel = Release::Open(a.positional()[0]);
@@ -230,7 +263,16 @@ int RunRecognize(const std::vector<std::string>& argv) {
   o.category = a.Get("--category", "");
   if (const std::string inst = a.Get("--instance", ""); !inst.empty()) o.instances = {inst};
   o.query_height = query.value("height", 0.0);
-  const Recognition r = rec.Recognize(q, o);
+  Json fit = nullptr;
+  CategoryFitFromArgs(a);  // contradictions and bad settings fail whatever the query
+  // On by default where the query has a reconstruction (--entry) and the category is not given.
+  if (a.Flag("--category-fit") || (!a.Flag("--no-category-fit") && id && o.category.empty())) {
+    const auto tf = std::chrono::steady_clock::now();
+    fit = RecognizeCategoryByFit(a, rel, db, rec, q, o);
+    timing["category_fit_seconds"] = Since(tf);
+  }
+  Recognition r = rec.Recognize(q, o);
+  if (!fit.is_null() && !o.category.empty()) r.category_source = "registration";
   timing["matching_seconds"] = r.match_seconds;
 
   const EntryLabel& bl = db.label(r.best.entry);
@@ -247,6 +289,7 @@ int RunRecognize(const std::vector<std::string>& argv) {
              {"flat_uv", bl.anchor_uv ? Json::array({(*bl.anchor_uv)[0], (*bl.anchor_uv)[1]}) : Json(nullptr)}}},
            {"timing", timing},
            {"database", {{"entries", db.size()}, {"kernel", KernelName(db.matcher().kernel())}}}};
+  if (!fit.is_null()) out["category_fit"] = fit;
   if (a.Flag("--json")) {
     std::cout << out.dump(2) << "\n";
     return 0;
@@ -435,7 +478,20 @@ const char* kEvalUsage =
     "                    category and anchor) to its recon.ply: S->T, T->S for R and R+N, anchor\n"
     "                    transfer error (cm), time; figures registration_<category>.png\n"
     "  --registration-pairs N   at most N pairs per category (default 0 = all)\n"
-    "  --threads N       pairs registered in parallel (default: all cores; same numbers for any N)\n";
+    "  --threads N       pairs registered in parallel (default: all cores; same numbers for any N)\n"
+    "\n"
+    "Category by registration (docs/recognition.md, \"The category by registration\"; on by default):\n"
+    "  --category-fit / --no-category-fit\n"
+    "                    also decide each query's category by registering the best database entries of\n"
+    "                    the nearest categories (hang.ply, scale + ICP) onto its recon.ply and taking the\n"
+    "                    best fit; reported beside the unweighted nearest neighbour, with the end-to-end\n"
+    "                    pose (~4 CPU-s per query)\n"
+    "  --category-fit-k K        entries registered per category (default 2)\n"
+    "  --category-fit-top N      only the N nearest categories by Hamming (default 2; 0 = all in the gate)\n"
+    "  --category-fit-lambda L   weight of the Hamming distance in the score (default 0 = the fit alone)\n"
+    "  --category-fit-selection  choose those settings on train + calibration: the calibration split and\n"
+    "                    every train entry against the other instances, a grid of settings counted\n"
+    "                    (report.json \"category_fit_selection\"); never reads the test split\n";
 
 // The ablation ladder: every rung's split evaluated like `split` (whose result is
 // reused), the table into res.report["ladder"], figures into the report folder.
@@ -461,9 +517,46 @@ void RunLadder(const Release& rel, const Database& db, const Weights* w, const E
   }
 }
 
+// --category-fit-k/-top/-lambda and --threads; throws drape::Error for bad values and
+// contradicting flags.
+CategoryFitOptions CategoryFitFromArgs(const Args& a) {
+  if (a.Flag("--category-fit") && a.Flag("--no-category-fit"))
+    throw Error("--category-fit and --no-category-fit contradict each other");
+  if (a.Flag("--no-category-fit") &&
+      (a.Get("--category-fit-k") || a.Get("--category-fit-top") || a.Get("--category-fit-lambda")))
+    throw Error("--category-fit-k/-top/-lambda contradict --no-category-fit");
+  CategoryFitOptions o;
+  o.per_category = static_cast<int>(a.GetInt("--category-fit-k").value_or(o.per_category));
+  o.top_categories = static_cast<int>(a.GetInt("--category-fit-top").value_or(o.top_categories));
+  o.bits_weight = a.GetDouble("--category-fit-lambda").value_or(o.bits_weight);
+  o.threads = static_cast<int>(a.GetInt("--threads").value_or(0));
+  o.Validate();
+  return o;
+}
+
+// `drape eval --category-fit` / `--category-fit-selection` into res.report.
+void RunCategoryFit(const Args& a, const Release& rel, const Database& db, const Weights* w,
+                    const std::vector<EvalQuery>& queries, EvalResult& res) {
+  const CategoryFitOptions o = CategoryFitFromArgs(a);
+  if (!a.Flag("--no-category-fit")) {
+    if (!a.Flag("--json")) std::cout << "category by registration...\n" << std::flush;
+    res.report["category_fit"] = EvaluateCategoryFit(rel, db, w, queries, o);
+  }
+  if (a.Flag("--category-fit-selection")) {
+    if (!a.Flag("--json")) std::cout << "category by registration: selection on train + calibration...\n" << std::flush;
+    LoadReport cr;
+    const std::vector<LabelledCode> calibration = LoadSplit(rel, "calibration", &cr);
+    res.report["category_fit_selection"] =
+        SelectCategoryFit(rel, db, w ? w->height_gates.category : 0, calibration, o.threads);
+  }
+}
+
 int RunEval(const std::vector<std::string>& argv) {
-  Args a(argv, {"--json", "--unweighted", "--registration", "--no-registration", "--ladder"},
-         {"--split", "--report", "--weights", "--top-k", "--kernel", "--registration-pairs", "--threads"});
+  Args a(argv,
+         {"--json", "--unweighted", "--registration", "--no-registration", "--ladder", "--category-fit",
+          "--no-category-fit", "--category-fit-selection"},
+         {"--split", "--report", "--weights", "--top-k", "--kernel", "--registration-pairs", "--threads",
+          "--category-fit-k", "--category-fit-top", "--category-fit-lambda"});
   if (a.Flag("--registration") && a.Flag("--no-registration")) {
     throw Error("eval: --registration and --no-registration contradict each other");
   }
@@ -511,6 +604,7 @@ int RunEval(const std::vector<std::string>& argv) {
     res.report["registration"] = rr.table;
   }
   if (a.Flag("--ladder")) RunLadder(rel, db, have_w ? &w : nullptr, eo, split, res, a.Get("--report"));
+  RunCategoryFit(a, rel, db, have_w ? &w : nullptr, queries, res);
   if (auto dir = a.Get("--report")) {
     WriteReport(res, header, *dir);
   }

@@ -327,22 +327,6 @@ void CalibrateCategory(const Database& db, const std::string& cat, const std::ve
   out.categories.push_back(st);
 }
 
-// The one-standard-error rule over counts of right answers (see BestGate below): the
-// first candidate (in the caller's order, simplest first) within one SE of the best.
-int OneStandardError(const std::vector<int>& right, const std::vector<bool>& eligible, int n) {
-  int best = -1;
-  for (size_t k = 0; k < right.size(); ++k) {
-    if (eligible[k]) best = std::max(best, right[k]);
-  }
-  if (best < 0 || n <= 0) return -1;
-  const double p = double(best) / n;
-  const double slack = std::sqrt(p * (1 - p) / n) * n;
-  for (size_t k = 0; k < right.size(); ++k) {
-    if (eligible[k] && right[k] >= best - slack) return static_cast<int>(k);
-  }
-  return -1;
-}
-
 // Right category and right anchor of one selection query for every candidate gate.
 void ScoreGates(const Database& db, const Code& code, const EntryLabel& ql, const std::vector<double>& taus,
                 std::vector<Match>& matches, GateSelection& g) {
@@ -379,6 +363,20 @@ double BestGate(const std::vector<double>& taus, const std::vector<int>& right, 
 }
 
 }  // namespace
+
+int OneStandardError(const std::vector<int>& right, const std::vector<bool>& eligible, int n) {
+  int best = -1;
+  for (size_t k = 0; k < right.size(); ++k) {
+    if (eligible[k]) best = std::max(best, right[k]);
+  }
+  if (best < 0 || n <= 0) return -1;
+  const double p = double(best) / n;
+  const double slack = std::sqrt(p * (1 - p) / n) * n;
+  for (size_t k = 0; k < right.size(); ++k) {
+    if (eligible[k] && right[k] >= best - slack) return static_cast<int>(k);
+  }
+  return -1;
+}
 
 GateSelection SelectHeightGates(const Database& db, const std::vector<LabelledCode>& queries,
                                 const CalibrateOptions& options) {

@@ -151,6 +151,76 @@ std::string RegistrationMarkdown(const Json& t) {
   return md.str();
 }
 
+namespace {
+
+// report.json "category_fit" row of `category`, or null.
+Json FitRow(const Json& r, const std::string& category) {
+  if (!r.contains("category_fit")) return nullptr;
+  for (const Json& c : r["category_fit"]["categories"]) {
+    if (c["category"] == category) return c;
+  }
+  return nullptr;
+}
+
+// `drape eval --category-fit` (category_fit.h): its table, and the selection's when run.
+std::string CategoryFitMarkdown(const Json& r) {
+  std::ostringstream md;
+  if (r.contains("category_fit")) {
+    const Json& f = r["category_fit"];
+    const Json& o = f["options"];
+    md << "\n## Category by registration (`--category-fit`)\n\n"
+       << "Per query the " << o["per_category"].get<int>() << " best entr"
+       << (o["per_category"].get<int>() == 1 ? "y" : "ies") << " (Hamming) of "
+       << (o["top_categories"].get<int>() > 0
+               ? "each of the " + std::to_string(o["top_categories"].get<int>()) + " nearest categories"
+               : std::string("each category"))
+       << " through the category gate τ = " << Num(f["category_gate"], "%.2f")
+       << ": hang.ply turned by the matched rotation, registered (scale + ICP) onto recon.ply; the category of "
+          "the least symmetric mean surface distance (score = fit / least fit + λ · bits / least bits, λ = "
+       << Num(o["bits_weight"], "%.2f") << "). End to end: right category and anchor (u / l).\n\n"
+       << "| category | queries | category, unweighted NN / registration | end to end, NN (u / l) | end to end, "
+          "registration (u / l) | s per query |\n|---|---|---|---|---|---|\n";
+    for (const Json& c : f["categories"]) {
+      md << "| " << c["category"].get<std::string>() << " | " << c["queries"].get<int>() << " | "
+         << Percent(c["category_accuracy"]["unweighted_nn"]) << " / " << Percent(c["category_accuracy"]["registration"])
+         << " | " << Pair(c["end_to_end_pose_accuracy"]["unweighted_nn"]) << " | "
+         << Pair(c["end_to_end_pose_accuracy"]["registration"]) << " | " << Num(c["seconds_per_query"], "%.2f")
+         << " |\n";
+    }
+    md << "\nSeconds per query: reading the reconstruction, registering and measuring, one thread each ("
+       << f["threads"].get<int>() << " queries in parallel).\n";
+  }
+  if (r.contains("category_fit_selection")) {
+    const Json& s = r["category_fit_selection"];
+    md << "\n## Category by registration: selection on train + calibration (`--category-fit-selection`)\n\n"
+       << s["queries"].get<int>() << " queries (calibration split, and train entries against the other "
+       << "instances; " << s["left_out"].get<int>() << " train entries left out: no other instance of their "
+       << "category). Unweighted nearest neighbour: " << s["nearest_neighbour"]["right"].get<int>() << " right.\n\n"
+       << "| per category | categories | λ | right |\n|---|---|---|---|\n";
+    for (const Json& g : s["grid"]) {
+      const Json& o = g["options"];
+      md << "| " << o["per_category"].get<int>() << " | "
+         << (o["top_categories"].get<int>() > 0 ? std::to_string(o["top_categories"].get<int>()) : std::string("all"))
+         << " | " << Num(o["bits_weight"], "%.2f") << " | " << g["right"].get<int>() << " |\n";
+    }
+    if (!s["chosen"].is_null()) {
+      md << "\nOne-standard-error rule: per category " << s["chosen"]["per_category"].get<int>() << ", λ "
+         << Num(s["chosen"]["bits_weight"], "%.2f") << " (" << s["chosen_right"].get<int>() << " right).\n";
+    }
+  }
+  return md.str();
+}
+
+// The category accuracy cell: with `--category-fit` also the registration's.
+std::string CategoryCell(const Json& r, const Json& row) {
+  const Json fit = FitRow(r, row["category"].get<std::string>());
+  std::string cell = Percent(row["category_accuracy"]);
+  if (!fit.is_null()) cell += " / " + Percent(fit["category_accuracy"]["registration"]);
+  return cell;
+}
+
+}  // namespace
+
 std::string ReportMarkdown(const Json& r) {
   std::ostringstream md;
   std::vector<Json> rows(r["categories"].begin(), r["categories"].end());
@@ -158,7 +228,8 @@ std::string ReportMarkdown(const Json& r) {
 
   md << PoseTableMarkdown(r, rows);
   md << "\n## Category, end to end, top-" << r["top_k"].get<int>() << ", grasp-point error\n\n"
-     << "Category by the unweighted nearest neighbour over the whole database; end to end = right "
+     << "Category by the unweighted nearest neighbour over the whole database (and, beside it, by "
+        "registration when `--category-fit` ran: section below); end to end = right "
         "category and right anchor (learned: the runtime's distance, learned w where the category has one). "
         "Grasp-point error: distance on the flat pattern of the query's "
         "garment between the predicted and the true anchor, cm (0 when right), both instances.\n\n"
@@ -168,15 +239,17 @@ std::string ReportMarkdown(const Json& r) {
         "as each other turned about the gripper and no rotation-invariant feature can tell them apart; "
         "shirts (lower front neckline) and trousers (higher back waist) differ front to back, as real "
         "garments do.\n\n"
-     << "| category | category accuracy | end-to-end pose (u / l) | top-" << r["top_k"].get<int>()
+     << "| category | category accuracy" << (r.contains("category_fit") ? " (unweighted NN / registration)" : "")
+     << " | end-to-end pose (u / l) | top-" << r["top_k"].get<int>()
      << " (u / l) | grasp error cm (u / l) | pose, twin credited (u / l) |\n|---|---|---|---|---|---|\n";
   for (const Json& c : rows) {
-    md << "| " << c["category"].get<std::string>() << " | " << Percent(c["category_accuracy"]) << " | "
+    md << "| " << c["category"].get<std::string>() << " | " << CategoryCell(r, c) << " | "
        << Pair(c["end_to_end_pose_accuracy"]) << " | " << Pair(c["top_k_accuracy"]) << " | "
        << Num(c["grasp_error_cm"]["unweighted_mean"], "%.1f") << " / "
        << Num(c["grasp_error_cm"]["learned_mean"], "%.1f") << " | "
        << Pair(c.value("pose_accuracy_twin_credited", Json{{"unweighted", nullptr}, {"learned", nullptr}})) << " |\n";
   }
+  md << CategoryFitMarkdown(r);
   if (r.contains("height_gates")) {
     const Json& g = r["height_gates"];
     md << "\n## Height gates (an addition to the paper's Algorithm 1)\n\n"

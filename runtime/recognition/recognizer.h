@@ -134,7 +134,8 @@ struct Candidate {
 
 struct Recognition {
   std::string category;             // predicted (or given) category
-  std::string category_source;      // "given" | "unweighted_nn"
+  std::string
+      category_source;  // "given" | "unweighted_nn" | "registration" (drape recognize --category-fit, category_fit.h)
   std::string anchor;               // predicted anchor label
   Candidate best;                   // the matched database entry
   std::vector<Candidate> top;       // best entry of each of the top_k distinct anchors, best first
