@@ -63,6 +63,8 @@ const char* kUsage =
     "                    the pose is recognised within the category with the least sum, and\n"
     "                    a change re-plans with its desired pairs (off: it takes shorts for\n"
     "                    pants, docs/unfolding.md)\n"
+    "  --category-fit    decide the first step's category by registration (docs/recognition.md,\n"
+    "                    \"The category by registration\"; off: not measured in unfolding trials)\n"
     "  --first-hang-weight W  weight of the random first grasp's hang in that evidence (default 1;\n"
     "                    a hang after an aimed regrasp weighs 1)\n"
     "  --gated-out-excess E  the least excess (fraction of the feature's bits) of a category that\n"
@@ -293,6 +295,7 @@ void CategoryOptions(const Args& a, LoopOptions& lo) {
   if (a.Flag("--category-once") && a.Flag("--category-evidence"))
     throw Error("--category-once and --category-evidence: give one");
   lo.category_evidence = a.Flag("--category-evidence");
+  lo.category_fit = a.Flag("--category-fit");
   lo.first_hang_weight = a.GetDouble("--first-hang-weight").value_or(lo.first_hang_weight);
   if (!(lo.first_hang_weight >= 0)) throw Error("--first-hang-weight: must be >= 0");
   lo.gated_out_excess = a.GetDouble("--gated-out-excess").value_or(lo.gated_out_excess);
@@ -322,6 +325,7 @@ Json OptionsJson(const LoopOptions& lo, int trials, const std::vector<int>& only
           {"trust_aimed", lo.trust_aimed},
           {"verify_first_holder", lo.verify_first_holder},
           {"category_evidence", lo.category_evidence},
+          {"category_fit", lo.category_fit},
           {"first_hang_weight", lo.first_hang_weight},
           {"gated_out_excess", lo.gated_out_excess},
           {"category_gate", lo.category_gate},
@@ -342,8 +346,8 @@ Json OptionsJson(const LoopOptions& lo, int trials, const std::vector<int>& only
 int RunUnfold(const std::vector<std::string>& argv) {
   Args a(argv,
          {"--no-ir", "--ir-above-jaws", "--rigid", "--unweighted", "--ablations", "--no-figures", "--no-place",
-          "--dump-meshes", "--category-known", "--category-once", "--category-evidence", "--no-trust-aimed",
-          "--verify-first-holder", "--hem-edge", "--hem-corner"},
+          "--dump-meshes", "--category-known", "--category-once", "--category-evidence", "--category-fit",
+          "--no-trust-aimed", "--verify-first-holder", "--hem-edge", "--hem-corner"},
          {"--category", "--trials", "--only", "--seed", "-o", "--weights", "--frames", "--max-regrasps", "--jobs",
           "--plan-prior", "--candidates", "--candidate-fit", "--candidate-point", "--unobserved-margin",
           "--first-hang-weight", "--gated-out-excess", "--category-gate", "--category-ungated"});

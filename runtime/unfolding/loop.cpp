@@ -14,6 +14,7 @@
 #include "generator/recipe/jobs.h"
 #include "runtime/folding/table.h"
 #include "runtime/recognition/calibrate.h"
+#include "runtime/recognition/category_fit.h"
 #include "runtime/recognition/evaluate.h"
 #include "runtime/recognition/release_source.h"
 #include "runtime/unfolding/candidates.h"
@@ -53,6 +54,8 @@ void LoopOptions::Validate() const {
   if (!(gated_out_excess >= 0)) throw Error("unfold.gated_out_excess: must be >= 0");
   if (!(category_gate < 3)) throw Error("unfold.category_gate: must be below 3 (< 0: the weights' gate)");
   if (!(category_ungated_weight >= 0)) throw Error("unfold.category_ungated_weight: must be >= 0");
+  if (category_fit && (category_known || category_evidence))
+    throw Error("unfold.category_fit: decides the first step's category; not with category_known or category_evidence");
 }
 
 double Coverage(const TriMesh& lying, const Garment& garment, double mpp) {
@@ -380,6 +383,7 @@ struct TrialRun {
     // The garment in the gripper does not change between steps. Once decided (category
     // off), the pose is recognised within the first step's category; with the evidence,
     // within the category every hang so far decides (the first step's when none other).
+    if (o.category_fit && trial_category.empty()) trial_category = CategoryByFit(s, matches, recognizer, ro);
     if (o.category_known)
       ro.category = category;
     else if (o.category_evidence)
@@ -388,6 +392,7 @@ struct TrialRun {
       ro.category = trial_category;
     s.recognition = recognizer.Rank(q, matches, ro);
     if (!o.category_known && o.category_evidence) s.recognition.category_source = "evidence";
+    if (!s.category_fit.is_null() && !ro.category.empty()) s.recognition.category_source = "registration";
     s.recognition.match_seconds = Since(t0);
     s.decided_category = s.recognition.category;
     s.category_switched = !o.category_known && o.category_evidence && changed;
@@ -460,13 +465,21 @@ struct TrialRun {
     }
   }
 
+  // LoopOptions::category_fit: the first hang's category by registration ("" when no
+  // entry could be registered: recognition's nearest neighbour then decides).
+  std::string CategoryByFit(Step& s, const std::vector<rec::Match>& matches, const rec::Recognizer& recognizer,
+                            const rec::RecognizeOptions& ro) const {
+    const rec::Database& db = model.database();
+    const std::vector<int> pool = rec::CategoryPool(db, ro.query_height, recognizer.GatesFor(ro).category);
+    const rec::CategoryFit fit = rec::DecideCategoryByFit(
+        db, pool, matches, s.recon, [this](int e) { return model.HungMesh(e); }, rec::CategoryFitOptions{});
+    s.category_fit = rec::ToJson(fit);
+    return fit.category;
+  }
+
   // Candidate `c`'s database mesh turned by its recognised rotation.
   TriMesh TurnedSource(const rec::Candidate& c, const rec::Database& db) const {
-    TriMesh src = model.HungMesh(c.entry);
-    const double yaw = 2 * M_PI * c.rotation / db.sectors();
-    const Eigen::Matrix3d R = Eigen::AngleAxisd(yaw, Vec3::UnitY()).toRotationMatrix();
-    for (int j = 0; j < src.NumVertices(); ++j) src.V.row(j) = (R * src.V.row(j).transpose()).transpose();
-    return src;
+    return rec::TurnedToQuery(model.HungMesh(c.entry), c.rotation, db.sectors());
   }
 
   // Candidate registration `reg`'s anchor vertex `v` as the regrasp point (object frame).
@@ -955,7 +968,8 @@ Json StepJson(const Step& s) {
            {"weight", s.evidence_weight},
            {"totals", s.category_totals},
            {"decided", s.decided_category},
-           {"switched", s.category_switched}}},
+           {"switched", s.category_switched},
+           {"registration", s.category_fit}}},
          {"aimed_anchor", s.aimed_anchor},
          {"recognised_anchor", s.recognised_anchor},
          {"prior_rank", s.prior_rank},

@@ -65,6 +65,13 @@ struct LoopOptions {
   // of shorts entries only, and without the gate pants and shirts are nearer);
   // docs/unfolding.md, "The category from every hang".
   bool category_evidence = false;
+  // The first step's category by registration (recognition/category_fit.h, its default
+  // settings): each of the nearest categories' best entries registered onto the first
+  // hang's reconstruction, the best fit decides, and the trial keeps it as with the
+  // category decided once. Off by default: chosen on database-like hangs (paper 2.3.0
+  // recognition: docs/recognition.md, "The category by registration"), not measured on the
+  // loop's first hangs from a random grasp. Not with category_known or category_evidence.
+  bool category_fit = false;
   // Weight of a hang from the random first grasp in that evidence (a hang after an aimed
   // regrasp weighs 1); must be >= 0.
   double first_hang_weight = 1;
@@ -226,6 +233,7 @@ struct Step {
   double evidence_weight = 0;
   std::string decided_category;
   bool category_switched = false;
+  Json category_fit;  // LoopOptions::category_fit: the first step's decision (category_fit.h ToJson); null otherwise
   std::string aimed_anchor;       // where the last regrasp aimed ("" at the first step)
   std::string recognised_anchor;  // recognition's own answer, before the plan prior
   int prior_rank = -1;            // rank of the aimed anchor (or twin) kept; -1: not kept

@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "common/error.h"
 #include "runtime/unfolding/report.h"
 
 namespace drape::unfolding {
@@ -22,6 +23,19 @@ recognition::Recognition Ranked(const std::vector<std::string>& anchors) {
   r.anchor = anchors.front();
   r.best = r.top.front();
   return r;
+}
+
+TEST(LoopOptions, CategoryByRegistrationDecidesAloneOrNotAtAll) {
+  LoopOptions o;
+  o.category_fit = true;
+  EXPECT_NO_THROW(o.Validate());
+  o.category_evidence = true;
+  EXPECT_THROW(o.Validate(), Error);
+  o.category_evidence = false;
+  o.category_known = true;
+  EXPECT_THROW(o.Validate(), Error);
+  o.category_fit = false;
+  EXPECT_NO_THROW(o.Validate());
 }
 
 TEST(PlanPrior, KeepsTheAimedAnchorOrItsTwinWithinTheTopK) {
