@@ -102,7 +102,7 @@ const char* kRecognizeUsage =
     "  --json            machine-readable output\n"
     "  --category-fit / --no-category-fit\n"
     "                    the category by registration (docs/recognition.md, \"The category by\n"
-    "                    registration\"): on by default for --entry (its recon.ply; ~4 CPU-s), not\n"
+    "                    registration\"): on by default for --entry with a recon.ply (~4 CPU-s), not\n"
     "                    available for --sweep / --mesh (no reconstruction kept: the unweighted nearest\n"
     "                    neighbour decides); settings --category-fit-k K, --category-fit-top N,\n"
     "                    --category-fit-lambda L as drape eval\n";
@@ -265,8 +265,11 @@ int RunRecognize(const std::vector<std::string>& argv) {
   o.query_height = query.value("height", 0.0);
   Json fit = nullptr;
   CategoryFitFromArgs(a);  // contradictions and bad settings fail whatever the query
-  // On by default where the query has a reconstruction (--entry) and the category is not given.
-  if (a.Flag("--category-fit") || (!a.Flag("--no-category-fit") && id && o.category.empty())) {
+  // On by default where the query has a reconstruction (--entry with its recon.ply) and the
+  // category is not given.
+  const bool by_default =
+      !a.Flag("--no-category-fit") && id && o.category.empty() && fs::exists(rel.EntryPath(*id, "recon.ply"));
+  if (a.Flag("--category-fit") || by_default) {
     const auto tf = std::chrono::steady_clock::now();
     fit = RecognizeCategoryByFit(a, rel, db, rec, q, o);
     timing["category_fit_seconds"] = Since(tf);

@@ -168,7 +168,7 @@ std::string CategoryFitMarkdown(const Json& r) {
   if (r.contains("category_fit")) {
     const Json& f = r["category_fit"];
     const Json& o = f["options"];
-    md << "\n## Category by registration (`--category-fit`)\n\n"
+    md << "\n## Category by registration (on by default; `--no-category-fit` skips it)\n\n"
        << "Per query the " << o["per_category"].get<int>() << " best entr"
        << (o["per_category"].get<int>() == 1 ? "y" : "ies") << " (Hamming) of "
        << (o["top_categories"].get<int>() > 0
