@@ -86,6 +86,8 @@ const char* kUsage =
     "                    (default 5; 1 = recognition's answer alone)\n"
     "  --candidate-fit F the fit after the 'rigid' registration or after the 'final' one used\n"
     "                    (R + N unless --rigid; default rigid)\n"
+    "  --candidate-fit-radius R  the fit over the cloth within R metres of each candidate's\n"
+    "                    registered target anchor only (default 0: the whole garment)\n"
     "  --candidate-point P  where the regrasp goes: 'fit' (default: the kept candidate's own\n"
     "                    point) or 'consensus' (the kept candidate's plan, the point of the\n"
     "                    candidate aiming at its target or the twin with the most others\n"
@@ -95,6 +97,9 @@ const char* kUsage =
     "  --unobserved-margin M  an anchor registered more than M metres outside the fusion's\n"
     "                    segmentation region is predicted at its rigid registration, not mapped\n"
     "                    onto the reconstruction (e.g. 0.02; default -1: always mapped, the paper's rule)\n"
+    "  --lowest-point    when the database hang has the target as its lowest point, regrasp at\n"
+    "                    the reconstruction's lowest point (2 cm above it) instead of the\n"
+    "                    registered anchor (default: the registered anchor, the paper's rule)\n"
     "  --no-ir           ablation: grasp the registered point without IR refinement\n"
     "  --ir-above-jaws   the IR scan as first built: the jaw centre crosses the prediction and\n"
     "                    the beam (3 cm above the jaws) reads the cloth above it (default: the\n"
@@ -251,6 +256,10 @@ void CandidateOptions(const Args& a, LoopOptions& lo) {
       throw Error("--candidate-fit: must be 'rigid' or 'final' (got '" + *fit + "')");
     lo.fit_after_rigid = *fit == "rigid";
   }
+  if (const auto r = a.GetDouble("--candidate-fit-radius")) {
+    if (!(*r >= 0 && *r <= 1)) throw Error("--candidate-fit-radius: must be in [0, 1] m");
+    lo.fit_radius = *r;
+  }
   if (const auto point = a.Get("--candidate-point")) {
     if (*point != "consensus" && *point != "fit" && *point != "outlier")
       throw Error("--candidate-point: must be 'consensus', 'outlier' or 'fit' (got '" + *point + "')");
@@ -340,6 +349,8 @@ Json OptionsJson(const LoopOptions& lo, int trials, const std::vector<int>& only
           {"ir_at_jaw_line", lo.ir_at_jaw_line},
           {"hem_edge", lo.hem_edge},
           {"hem_corner", lo.hem_corner},
+          {"candidate_fit_radius_m", lo.fit_radius},
+          {"lowest_point", lo.lowest_point},
           {"place_flat", lo.place_flat}};
 }
 
@@ -347,10 +358,10 @@ int RunUnfold(const std::vector<std::string>& argv) {
   Args a(argv,
          {"--no-ir", "--ir-above-jaws", "--rigid", "--unweighted", "--ablations", "--no-figures", "--no-place",
           "--dump-meshes", "--category-known", "--category-once", "--category-evidence", "--category-fit",
-          "--no-trust-aimed", "--verify-first-holder", "--hem-edge", "--hem-corner"},
+          "--no-trust-aimed", "--verify-first-holder", "--hem-edge", "--hem-corner", "--lowest-point"},
          {"--category", "--trials", "--only", "--seed", "-o", "--weights", "--frames", "--max-regrasps", "--jobs",
-          "--plan-prior", "--candidates", "--candidate-fit", "--candidate-point", "--unobserved-margin",
-          "--first-hang-weight", "--gated-out-excess", "--category-gate", "--category-ungated"});
+          "--plan-prior", "--candidates", "--candidate-fit", "--candidate-fit-radius", "--candidate-point",
+          "--unobserved-margin", "--first-hang-weight", "--gated-out-excess", "--category-gate", "--category-ungated"});
   if (a.help()) {
     std::cout << kUsage;
     return 0;
@@ -375,6 +386,7 @@ int RunUnfold(const std::vector<std::string>& argv) {
   CategoryOptions(a, lo);
   lo.ir_at_jaw_line = !a.Flag("--ir-above-jaws");
   lo.hem_edge = a.Flag("--hem-edge");
+  lo.lowest_point = a.Flag("--lowest-point");
   lo.hem_corner = a.Flag("--hem-corner");
   if (lo.hem_corner && !lo.hem_edge) throw Error("--hem-corner: needs --hem-edge");
   lo.place_flat = !a.Flag("--no-place");

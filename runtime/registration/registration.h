@@ -71,6 +71,10 @@ struct DirectedDistance {
   int samples = 0;
 };
 DirectedDistance MeasureDirected(const TriMesh& from, const ExactClosestPoint& to);
+// The same over the patches of `from` whose barycentre lies within `radius` of `centre`
+// (the fit around one region); samples = 0 and mean = 0 when none does.
+DirectedDistance MeasureDirectedNear(const TriMesh& from, const ExactClosestPoint& to, const Vec3& centre,
+                                     double radius);
 
 // How well a registered mesh fits a target: the symmetric mean of the paper's two
 // directed errors (MeasureDirected both ways), metres. `onto_target` is over `target`.

@@ -53,5 +53,27 @@ TEST(SymmetricFit, ZeroOnItselfAndTheMeanOfBothDirections) {
   EXPECT_NEAR(SymmetricFit(off, sheet, onto), 0.02, 1e-9);
 }
 
+TEST(MeasureDirectedNear, ThePatchesWithinTheBallAndTheirAreaWeightedMean) {
+  // A flat sheet (z = 0) onto itself lifted by 1 cm on the left half and 2 cm on the right.
+  const TriMesh from = testing::WavySheet(11, 9, 1.0, 0.8, 0.0);
+  TriMesh to = from;
+  for (int v = 0; v < to.NumVertices(); ++v) to.V(v, 2) = to.V(v, 0) > 0.5 ? 0.02 : 0.01;
+  const ExactClosestPoint onto(to);
+  // Within 15 cm of the left edge's middle: every patch is 1 cm under the left half.
+  const DirectedDistance left = MeasureDirectedNear(from, onto, Vec3(0.0, 0.4, 0.0), 0.15);
+  EXPECT_GT(left.samples, 0);
+  EXPECT_LT(left.samples, from.NumFaces() / 10);
+  EXPECT_NEAR(left.mean, 0.01, 1e-12);
+  EXPECT_NEAR(left.max, 0.01, 1e-12);
+  // A ball holding every patch gives the whole mesh's figures.
+  const DirectedDistance all = MeasureDirected(from, onto);
+  const DirectedDistance ball = MeasureDirectedNear(from, onto, Vec3(0.5, 0.4, 0.0), 10.0);
+  EXPECT_EQ(ball.samples, all.samples);
+  EXPECT_NEAR(ball.mean, all.mean, 1e-12);
+  // None within: no samples, and a negative radius is an error.
+  EXPECT_EQ(MeasureDirectedNear(from, onto, Vec3(9, 9, 9), 0.1).samples, 0);
+  EXPECT_THROW(MeasureDirectedNear(from, onto, Vec3::Zero(), -1.0), Error);
+}
+
 }  // namespace
 }  // namespace drape::registration

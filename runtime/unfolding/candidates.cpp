@@ -41,6 +41,15 @@ std::vector<rec::Candidate> RegistrationCandidates(const rec::Recognition& r, bo
   return out;
 }
 
+double LocalFit(const TriMesh& registered, const TriMesh& recon, const ExactClosestPoint& onto_recon,
+                const Vec3& centre, double radius) {
+  const registration::DirectedDistance s = registration::MeasureDirectedNear(registered, onto_recon, centre, radius);
+  if (s.samples == 0) return -1;
+  const ExactClosestPoint onto_registered(registered);
+  const registration::DirectedDistance t = registration::MeasureDirectedNear(recon, onto_registered, centre, radius);
+  return t.samples == 0 ? s.mean : 0.5 * (s.mean + t.mean);
+}
+
 CandidateRegistration RegisterCandidate(const TriMesh& source, const TriMesh& recon,
                                         const ExactClosestPoint& onto_recon, bool nonrigid) {
   CandidateRegistration c;
@@ -75,6 +84,27 @@ AnchorPrediction PredictAnchor(const Vec3& rigid, const Vec3& registered, const 
     out.point = onto_recon.Query(registered).point;
   }
   return out;
+}
+
+void LowestPointOptions::Validate() const {
+  if (!(tolerance >= 0 && tolerance < 0.5)) throw Error("lowest_point.tolerance: must be in [0, 0.5) m");
+  if (!(floor_margin >= 0 && floor_margin < 0.5)) throw Error("lowest_point.floor_margin: must be in [0, 0.5) m");
+  if (!(lift >= 0 && lift < 0.2)) throw Error("lowest_point.lift: must be in [0, 0.2) m");
+}
+
+bool AnchorIsLowest(const TriMesh& hang, int v, double tolerance) {
+  if (v < 0 || v >= hang.NumVertices()) throw Error("lowest point: vertex " + std::to_string(v) + " outside the mesh");
+  return hang.V(v, 1) - hang.V.col(1).minCoeff() <= tolerance;
+}
+
+std::optional<Vec3> LowestPoint(const TriMesh& recon, double floor_y, const LowestPointOptions& o) {
+  if (recon.NumVertices() == 0) return std::nullopt;
+  Eigen::Index i = 0;
+  recon.V.col(1).minCoeff(&i);
+  Vec3 p = recon.V.row(i).transpose();
+  if (p.y() - floor_y < o.floor_margin) return std::nullopt;
+  p.y() += o.lift;
+  return p;
 }
 
 int KeepCandidate(const std::vector<double>& fits) {

@@ -6,6 +6,7 @@
 // wrong entry registered onto the reconstruction carries its anchor elsewhere.
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -33,6 +34,16 @@ std::vector<recognition::Candidate> RegistrationCandidates(const recognition::Re
 // SymmetricFit (the symmetric mean of the paper's two directed errors), metres.
 using registration::SymmetricFit;
 
+// The fit around the point a candidate predicts (`--candidate-fit-radius`): SymmetricFit
+// over the patches of either mesh whose barycentre lies within `radius` of `centre` (the
+// registered target anchor). The whole-garment fit is dominated by the cloth near the
+// gripper, where every candidate fits; its differences are millimetres while the
+// candidates' predictions differ by centimetres. When the reconstruction has no patch
+// there (the target lies outside the segmentation region) the registered side alone.
+// Metres; -1 when the registered mesh has no patch there either.
+double LocalFit(const TriMesh& registered, const TriMesh& recon, const ExactClosestPoint& onto_recon,
+                const Vec3& centre, double radius);
+
 // How far `p` lies outside the segmentation region the reconstruction was fused in (a box
 // and, when radius > 0, a vertical cylinder of that radius about the turning y axis; both
 // in the object frame, generator/fusion/fusion.h FusionOptions): 0 inside, else the
@@ -56,6 +67,30 @@ struct AnchorPrediction {
 };
 AnchorPrediction PredictAnchor(const Vec3& rigid, const Vec3& registered, const ExactClosestPoint& onto_recon,
                                const Eigen::AlignedBox3d& box, double radius, double margin);
+
+// The lowest point (`--lowest-point`; Osawa et al. and Cusumano-Towner et al., whom the
+// paper cites, regrasp a hanging garment at its lowest point). A garment hangs with one
+// place lowest, and where the database hang has the target there (a trouser leg's end
+// below a held leg end or knee), the reconstruction's lowest point is observed directly,
+// while the registered anchor carries the difference between the database's hang and
+// this one (3-9 cm median on the paper release, docs/unfolding.md).
+struct LowestPointOptions {
+  double tolerance = 0.03;     // m: the anchor is the hang's lowest when at most this above its lowest vertex
+  double floor_margin = 0.02;  // m: a lowest point this near the region's floor is the cut, not the garment's
+  double lift = 0.02;          // m: the point goes this far above the lowest (the jaws are 2 cm tall)
+  // The IR scan then gives the depth along the approach only, the grasp stays at the scan's
+  // centre: the point was observed, and the LoG search for a fold moved it 3-5 cm sideways,
+  // off the corner, in 4 of 9 pants steps (docs/unfolding.md). false: the LoG search as for
+  // a registered point.
+  bool centre_only = true;
+  void Validate() const;  // throws drape::Error naming the bad field
+};
+// Whether vertex `v` of `hang` (y up) lies within `tolerance` of its lowest vertex's height.
+bool AnchorIsLowest(const TriMesh& hang, int v, double tolerance);
+// The lowest vertex of the reconstruction (y up), `lift` above it; none when the
+// reconstruction is empty or its lowest vertex lies within `floor_margin` of `floor_y`
+// (the segmentation region's floor, where the fusion cut the garment).
+std::optional<Vec3> LowestPoint(const TriMesh& recon, double floor_y, const LowestPointOptions& o);
 
 // One candidate registered: `Register` (rigid, then non-rigid when `nonrigid`; a
 // non-rigid breakdown falls back to the rigid result with `note` set) and the fit of the

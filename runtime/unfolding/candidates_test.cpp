@@ -166,6 +166,72 @@ TEST(KeepCandidate, TheRightShapeRankedSecondFitsBest) {
   }
 }
 
+TEST(LocalFit, MeasuresOnlyTheClothAroundTheCentre) {
+  const TriMesh recon = rt::WavySheet(12, 10, 0.5, 0.4, 0.0);  // flat, z = 0, x in [0, 0.5]
+  const ExactClosestPoint onto(recon);
+  // A registration that fits the left of the sheet exactly and lies 3 cm off on the right.
+  TriMesh reg = recon;
+  for (int v = 0; v < reg.NumVertices(); ++v)
+    if (reg.V(v, 0) > 0.3) reg.V(v, 2) += 0.03;
+  // Around the right edge both meshes' patches are the parallel parts: 3 cm both ways.
+  EXPECT_NEAR(LocalFit(reg, recon, onto, Vec3(0.5, 0.2, 0.03), 0.1), 0.03, 1e-9);
+  // Around the left edge the meshes coincide.
+  EXPECT_NEAR(LocalFit(reg, recon, onto, Vec3(0.0, 0.2, 0.0), 0.1), 0.0, 1e-12);
+  // The whole garment's fit lies between: what a local difference looks like to it.
+  const double whole = SymmetricFit(reg, recon, onto);
+  EXPECT_GT(whole, 0.005);
+  EXPECT_LT(whole, 0.025);
+}
+
+TEST(LocalFit, RegisteredSideAloneWhereTheReconstructionHasNoCloth) {
+  const TriMesh recon = rt::WavySheet(12, 10, 0.5, 0.4, 0.0);
+  const ExactClosestPoint onto(recon);
+  TriMesh reg = recon;
+  reg.V.col(0).array() += 1.0;  // x in [1, 1.5]: nowhere near the reconstruction
+  // No reconstructed patch within 10 cm of the centre: the registered patches' distance
+  // to the reconstruction (x >= 0.9 m away) alone.
+  const double f = LocalFit(reg, recon, onto, Vec3(1.5, 0.2, 0.0), 0.1);
+  EXPECT_GT(f, 0.9);
+  EXPECT_LT(f, 1.0);
+  // Neither mesh has a patch there.
+  EXPECT_EQ(LocalFit(reg, recon, onto, Vec3(5, 5, 5), 0.1), -1.0);
+}
+
+TEST(LowestPoint, TheHangsLowestVertexAndTheReconstructionsLiftedAboveIt) {
+  // A sheet hanging in the x-y plane (y up), tilted so that its corner (0.5, 0) is lowest.
+  TriMesh hang = rt::WavySheet(11, 9, 0.5, 0.4, 0.0);
+  for (int v = 0; v < hang.NumVertices(); ++v) hang.V(v, 1) -= 0.2 * hang.V(v, 0);  // right side lower
+  const int corner = 10;                                                            // i = 10, j = 0: (0.5, -0.1)
+  const int left = 0;                                                               // (0, 0)
+  EXPECT_TRUE(AnchorIsLowest(hang, corner, 0.0));
+  EXPECT_FALSE(AnchorIsLowest(hang, left, 0.05));  // 10 cm above the lowest
+  EXPECT_TRUE(AnchorIsLowest(hang, left, 0.1 + 1e-9));
+  EXPECT_THROW(AnchorIsLowest(hang, -1, 0.03), Error);
+  EXPECT_THROW(AnchorIsLowest(hang, hang.NumVertices(), 0.03), Error);
+
+  LowestPointOptions o;  // 2 cm lift, 2 cm floor margin
+  const auto p = LowestPoint(hang, -1.0, o);
+  ASSERT_TRUE(p.has_value());
+  EXPECT_NEAR((*p - Vec3(0.5, -0.1 + 0.02, 0.0)).norm(), 0.0, 1e-12);
+  // A lowest point at the region's floor is where the fusion cut the garment: none.
+  EXPECT_FALSE(LowestPoint(hang, -0.11, o).has_value());
+  EXPECT_TRUE(LowestPoint(hang, -0.13, o).has_value());
+  EXPECT_FALSE(LowestPoint(TriMesh{}, -1.0, o).has_value());
+}
+
+TEST(LowestPoint, OptionsAreChecked) {
+  LowestPointOptions o;
+  EXPECT_NO_THROW(o.Validate());
+  o.lift = -0.01;
+  EXPECT_THROW(o.Validate(), Error);
+  o = {};
+  o.tolerance = std::nan("");
+  EXPECT_THROW(o.Validate(), Error);
+  o = {};
+  o.floor_margin = 0.6;
+  EXPECT_THROW(o.Validate(), Error);
+}
+
 }  // namespace
 }  // namespace drape::unfolding
 

@@ -45,6 +45,8 @@ void LoopOptions::Validate() const {
   if (!(success_distance > 0)) throw Error("unfold.success_distance: must be > 0 m");
   if (plan_prior_top_k < 0 || plan_prior_top_k > 5) throw Error("unfold.plan_prior_top_k: must be in 0..5");
   if (candidates < 1 || candidates > 10) throw Error("unfold.candidates: must be in 1..10");
+  if (!(fit_radius >= 0 && fit_radius <= 1)) throw Error("unfold.fit_radius: must be in [0, 1] m");
+  lowest.Validate();
   if (!(consensus_radius >= 0 && consensus_radius < 0.5)) throw Error("unfold.consensus_radius: must be in [0, 0.5) m");
   if (!(outlier_radius >= 0 && outlier_radius < 0.5)) throw Error("unfold.outlier_radius: must be in [0, 0.5) m");
   if (outlier_radius > 0 && consensus_radius > 0)
@@ -526,6 +528,15 @@ struct TrialRun {
     s.ladder.nonrigid = to_world * preg.final_mesh().V.row(v).transpose() + origin;
     // The turn is about the vertical: "below" is the same in the object frame.
     s.edge_target = AnchorAtLowerEdge(preg.final_mesh(), v, o.edge);
+    s.lowest_target = AnchorIsLowest(preg.reg.rigid, v, o.lowest.tolerance);
+    if (o.lowest_point && s.lowest_target) {
+      if (const auto p = LowestPoint(s.recon, model.recipe().fusion.box.min().y(), o.lowest)) {
+        s.predicted = to_world * *p + origin;
+        s.lowest_taken = true;
+      } else {
+        AddNote(s, "lowest point: the reconstruction's lowest point is the region's floor; registered point used");
+      }
+    }
     if (o.hem_corner) s.point_mesh = preg.final_mesh(), s.point_vertex = v, s.point_to_world = to_world;
   }
 
@@ -575,6 +586,11 @@ struct TrialRun {
         vertex[i] = v;
         t.usable = true;
         fits[i] = o.fit_after_rigid ? t.fit_rigid : t.fit_final;
+        if (o.fit_radius > 0) {
+          const TriMesh& m = o.fit_after_rigid ? regs[i].reg.rigid : regs[i].final_mesh();
+          t.fit_local = LocalFit(m, s.recon, onto, m.V.row(v).transpose(), o.fit_radius);
+          fits[i] = t.fit_local;
+        }
         const AnchorPrediction p = Predict(regs[i], v, onto);
         t.unobserved = p.unobserved;
         t.predicted = to_world * p.point + hp.position;
@@ -759,7 +775,9 @@ struct TrialRun {
       const int half = o.refine.half_width_samples;
       s.ir_ranges = ScanIr(arm, ir, g, 2 * half + 1,
                            [&](int i) { return plan.JawDuringScan((i - half) * o.refine.sample_spacing); });
-      s.refine = RefineScan(s.ir_ranges, o.refine);
+      RefineOptions ro = o.refine;
+      if (s.lowest_taken && o.lowest.centre_only) ro.search_half_width_samples = 0;  // depth only
+      s.refine = RefineScan(s.ir_ranges, ro);
       if (s.refine.valid) {
         g.position = plan.Grasp(s.refine);
       } else {
@@ -934,6 +952,7 @@ void AddCandidates(const Step& s, Json& j) {
                      {"f", t.f},
                      {"fit_rigid_m", t.fit_rigid},
                      {"fit_final_m", t.fit_final},
+                     {"fit_local_m", t.fit_local},
                      {"icp_rms", t.icp_rms},
                      {"predicted", J(t.predicted)},
                      {"note", t.note},
@@ -986,6 +1005,7 @@ Json StepJson(const Step& s) {
          {"ir_response", s.refine.response},
          {"ir_best_offset", s.refine.offset},
          {"ir_fold_found", s.refine.fold_found},
+         {"lowest_point", {{"target", s.lowest_target}, {"taken", s.lowest_taken}}},
          {"edge",
           {{"target", s.edge_target},
            {"ranges", RangesJson(s.edge_ranges)},

@@ -32,6 +32,7 @@
 #include "runtime/hardware/sim.h"
 #include "runtime/recognition/recognizer.h"
 #include "runtime/registration/registration.h"
+#include "runtime/unfolding/candidates.h"
 #include "runtime/unfolding/category.h"
 #include "runtime/unfolding/objective.h"
 #include "runtime/unfolding/refine.h"
@@ -117,6 +118,10 @@ struct LoopOptions {
   // Defaults measured on the paper release (docs/unfolding.md): 5, the rigid fit.
   int candidates = 5;
   bool fit_after_rigid = true;
+  // > 0: the fit that selects is LocalFit within this radius (m) of each candidate's
+  // registered target anchor instead of the whole garment's (candidates.h). 0: the whole
+  // garment (the default). Must be in [0, 1].
+  double fit_radius = 0;
   // The regrasp point (candidates.h ConsensusCandidate): the kept candidate's plan, the
   // point of the candidate aiming at its target (or the twin) with the most others within
   // this radius (m; kConsensusRadius, chosen on seed-1 traces of the paper release,
@@ -134,6 +139,12 @@ struct LoopOptions {
   // mapped (the paper's rule, the default: on the paper release the rule helped R + N pants
   // on seed 1 and hurt rigid-only pants on seeds 1 and 2, docs/unfolding.md). Must be < 0.5.
   double unobserved_margin = -1;
+  // The regrasp point (candidates.h LowestPoint): when the point's database hang has the
+  // target as its lowest point (AnchorIsLowest, rigid registration), the reconstruction's
+  // lowest point instead of the registered anchor; the IR refinement follows as usual.
+  // false: the registered anchor (the paper's rule, the default).
+  bool lowest_point = false;
+  LowestPointOptions lowest;
   hardware::CaptureOptions capture;  // frames per turn (paper ~550 both ways)
   int fusion_threads = 0;            // TSDF fusion threads (<= 0: all cores); no effect on results
   double standoff = 0.12;       // m: the IR scan runs this far before the predicted point
@@ -246,6 +257,7 @@ struct Step {
     std::string next_anchor;  // the plan from this candidate's anchor
     double f = 0;
     double fit_rigid = -1, fit_final = -1;  // SymmetricFit (m) after R and after the registration used
+    double fit_local = -1;                  // LocalFit (m) of the mesh that selects; -1 when fit_radius is 0
     double icp_rms = 0;
     double seconds = 0;             // registration + fit (timing only)
     Vec3 predicted = Vec3::Zero();  // world: its next anchor mapped onto the reconstruction
@@ -281,6 +293,10 @@ struct Step {
   // target at the lower edge of its cloth (AnchorAtLowerEdge; recorded with the option off
   // too), the vertical scan's readings (top to bottom) and what FindLowerEdge made of them.
   bool edge_target = false;
+  // LoopOptions::lowest_point: whether the point's database hang has the target lowest
+  // (recorded with the option off too), and whether the reconstruction's lowest point was
+  // taken for it.
+  bool lowest_target = false, lowest_taken = false;
   std::vector<double> edge_ranges;
   EdgeResult edge;
   int corner_side = 0;  // CornerSide of the point's registration along the closing direction
