@@ -63,8 +63,9 @@ const char* kUsage =
     "                    the pose is recognised within the category with the least sum, and\n"
     "                    a change re-plans with its desired pairs (off: it takes shorts for\n"
     "                    pants, docs/unfolding.md)\n"
-    "  --category-fit    decide the first step's category by registration (docs/recognition.md,\n"
-    "                    \"The category by registration\"; off: not measured in unfolding trials)\n"
+    "  --no-category-fit the first step's category by recognition's nearest neighbour (default:\n"
+    "                    by registration, docs/recognition.md \"The category by registration\";\n"
+    "                    off with --category-known or --category-evidence)\n"
     "  --first-hang-weight W  weight of the random first grasp's hang in that evidence (default 1;\n"
     "                    a hang after an aimed regrasp weighs 1)\n"
     "  --gated-out-excess E  the least excess (fraction of the feature's bits) of a category that\n"
@@ -78,8 +79,9 @@ const char* kUsage =
     "  --no-trust-aimed  keep the aimed anchor only within recognition's top K (default: after a\n"
     "                    regrasp that pinched cloth the anchor it aimed at, or its twin, is kept\n"
     "                    whatever recognition ranks)\n"
-    "  --verify-first-holder  do not stop on the random first grasp: at f >= xi there the\n"
-    "                    regrasp goes ahead and the first gripper lets go\n"
+    "  --first-holder-stops  the paper's rule: stop at f >= xi on any holder (default: not on\n"
+    "                    the random first grasp; at f >= xi there the regrasp goes ahead and\n"
+    "                    the first gripper lets go)\n"
     "  --candidates K    register recognition's top K database entries (its answer first; after a\n"
     "                    kept plan prior only that anchor's or its twin's) and predict from the\n"
     "                    best fit: symmetric mean surface distance to the reconstruction\n"
@@ -97,9 +99,9 @@ const char* kUsage =
     "  --unobserved-margin M  an anchor registered more than M metres outside the fusion's\n"
     "                    segmentation region is predicted at its rigid registration, not mapped\n"
     "                    onto the reconstruction (e.g. 0.02; default -1: always mapped, the paper's rule)\n"
-    "  --lowest-point    when the database hang has the target as its lowest point, regrasp at\n"
-    "                    the reconstruction's lowest point (2 cm above it) instead of the\n"
-    "                    registered anchor (default: the registered anchor, the paper's rule)\n"
+    "  --no-lowest-point regrasp at the registered anchor always, as the paper (default: when\n"
+    "                    the database hang has the target as its lowest point, at the\n"
+    "                    reconstruction's lowest point, 2 cm above it)\n"
     "  --no-ir           ablation: grasp the registered point without IR refinement\n"
     "  --ir-above-jaws   the IR scan as first built: the jaw centre crosses the prediction and\n"
     "                    the beam (3 cm above the jaws) reads the cloth above it (default: the\n"
@@ -268,12 +270,12 @@ void CandidateOptions(const Args& a, LoopOptions& lo) {
   }
 }
 
-// --plan-prior, --no-trust-aimed, --verify-first-holder.
+// --plan-prior, --no-trust-aimed, --first-holder-stops.
 void PlanPriorOptions(const Args& a, LoopOptions& lo) {
   lo.plan_prior_top_k = static_cast<int>(a.GetInt("--plan-prior").value_or(lo.plan_prior_top_k));
   if (lo.plan_prior_top_k < 0 || lo.plan_prior_top_k > 5) throw Error("--plan-prior: must be in 0..5");
   if (a.Flag("--no-trust-aimed")) lo.trust_aimed = false;
-  if (a.Flag("--verify-first-holder")) lo.verify_first_holder = true;
+  lo.verify_first_holder = !a.Flag("--first-holder-stops");
 }
 
 // --only K,K,...: 0-based trial indices, each in 1..trials as given; empty: all.
@@ -304,7 +306,7 @@ void CategoryOptions(const Args& a, LoopOptions& lo) {
   if (a.Flag("--category-once") && a.Flag("--category-evidence"))
     throw Error("--category-once and --category-evidence: give one");
   lo.category_evidence = a.Flag("--category-evidence");
-  lo.category_fit = a.Flag("--category-fit");
+  lo.category_fit = !a.Flag("--no-category-fit") && !lo.category_evidence && !a.Flag("--category-known");
   lo.first_hang_weight = a.GetDouble("--first-hang-weight").value_or(lo.first_hang_weight);
   if (!(lo.first_hang_weight >= 0)) throw Error("--first-hang-weight: must be >= 0");
   lo.gated_out_excess = a.GetDouble("--gated-out-excess").value_or(lo.gated_out_excess);
@@ -357,8 +359,8 @@ Json OptionsJson(const LoopOptions& lo, int trials, const std::vector<int>& only
 int RunUnfold(const std::vector<std::string>& argv) {
   Args a(argv,
          {"--no-ir", "--ir-above-jaws", "--rigid", "--unweighted", "--ablations", "--no-figures", "--no-place",
-          "--dump-meshes", "--category-known", "--category-once", "--category-evidence", "--category-fit",
-          "--no-trust-aimed", "--verify-first-holder", "--hem-edge", "--hem-corner", "--lowest-point"},
+          "--dump-meshes", "--category-known", "--category-once", "--category-evidence", "--no-category-fit",
+          "--no-trust-aimed", "--first-holder-stops", "--hem-edge", "--hem-corner", "--no-lowest-point"},
          {"--category", "--trials", "--only", "--seed", "-o", "--weights", "--frames", "--max-regrasps", "--jobs",
           "--plan-prior", "--candidates", "--candidate-fit", "--candidate-fit-radius", "--candidate-point",
           "--unobserved-margin", "--first-hang-weight", "--gated-out-excess", "--category-gate", "--category-ungated"});
@@ -386,7 +388,7 @@ int RunUnfold(const std::vector<std::string>& argv) {
   CategoryOptions(a, lo);
   lo.ir_at_jaw_line = !a.Flag("--ir-above-jaws");
   lo.hem_edge = a.Flag("--hem-edge");
-  lo.lowest_point = a.Flag("--lowest-point");
+  lo.lowest_point = !a.Flag("--no-lowest-point");
   lo.hem_corner = a.Flag("--hem-corner");
   if (lo.hem_corner && !lo.hem_edge) throw Error("--hem-corner: needs --hem-edge");
   lo.place_flat = !a.Flag("--no-place");

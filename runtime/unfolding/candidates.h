@@ -79,9 +79,9 @@ struct LowestPointOptions {
   double floor_margin = 0.02;  // m: a lowest point this near the region's floor is the cut, not the garment's
   double lift = 0.02;          // m: the point goes this far above the lowest (the jaws are 2 cm tall)
   // The IR scan then gives the depth along the approach only, the grasp stays at the scan's
-  // centre: the point was observed, and the LoG search for a fold moved it 3-5 cm sideways,
-  // off the corner, in 4 of 9 pants steps (docs/unfolding.md). false: the LoG search as for
-  // a registered point.
+  // centre: the point was observed, and the LoG search for a fold moved it 2.4-4.0 cm
+  // sideways in 7 of 17 pants steps, off the corner (docs/unfolding.md, "The lowest
+  // point"). false: the LoG search as for a registered point.
   bool centre_only = true;
   void Validate() const;  // throws drape::Error naming the bad field
 };

@@ -509,6 +509,19 @@ struct TrialRun {
     t.seconds += Since(tc);
   }
 
+  // Whether the candidate's target anchor (vertex `v` of its registered hang `hang`) or a
+  // symmetry twin of it is the hang's lowest point: a twin's registration maps onto the
+  // garment's other side, and the plan accepts either (from a crotch or a waist both leg
+  // ends hang about as low, and either may be the lowest).
+  bool TargetIsLowest(const TriMesh& hang, int v, const Step::CandidateTrace& c) const {
+    if (AnchorIsLowest(hang, v, o.lowest.tolerance)) return true;
+    for (const std::string& twin : rec::SymmetryTwins(c.next_anchor)) {
+      const int w = model.AnchorVertex(c.candidate.instance, twin);
+      if (w >= 0 && w < hang.NumVertices() && AnchorIsLowest(hang, w, o.lowest.tolerance)) return true;
+    }
+    return false;
+  }
+
   // The regrasp point (candidates.h ConsensusCandidate): the consensus of the candidates
   // aiming at the kept target or its twin; the ladder's first rungs from its registration.
   void PointFromConsensus(Step& s, const std::vector<double>& fits, const std::vector<CandidateRegistration>& regs,
@@ -528,7 +541,7 @@ struct TrialRun {
     s.ladder.nonrigid = to_world * preg.final_mesh().V.row(v).transpose() + origin;
     // The turn is about the vertical: "below" is the same in the object frame.
     s.edge_target = AnchorAtLowerEdge(preg.final_mesh(), v, o.edge);
-    s.lowest_target = AnchorIsLowest(preg.reg.rigid, v, o.lowest.tolerance);
+    s.lowest_target = TargetIsLowest(preg.reg.rigid, v, s.candidates[s.point]);
     if (o.lowest_point && s.lowest_target) {
       if (const auto p = LowestPoint(s.recon, model.recipe().fusion.box.min().y(), o.lowest)) {
         s.predicted = to_world * *p + origin;

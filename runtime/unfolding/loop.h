@@ -69,10 +69,13 @@ struct LoopOptions {
   // The first step's category by registration (recognition/category_fit.h, its default
   // settings): each of the nearest categories' best entries registered onto the first
   // hang's reconstruction, the best fit decides, and the trial keeps it as with the
-  // category decided once. Off by default: chosen on database-like hangs (paper 2.3.0
-  // recognition: docs/recognition.md, "The category by registration"), not measured on the
-  // loop's first hangs from a random grasp. Not with category_known or category_evidence.
-  bool category_fit = false;
+  // category decided once. Chosen on database-like hangs (paper 2.3.0 recognition:
+  // docs/recognition.md, "The category by registration"); in the loop (with the lowest
+  // point) it repaired the 5 first steps of 20 pants trials that took pants for a
+  // long-sleeve shirt, took 2 others for one and 1 of 10 shirts for pants (unfolded 37 -> 39
+  // of 60; docs/unfolding.md, "The lowest point"). Not with category_known or
+  // category_evidence (Validate); false: recognition's nearest neighbour.
+  bool category_fit = true;
   // Weight of a hang from the random first grasp in that evidence (a hang after an aimed
   // regrasp weighs 1); must be >= 0.
   double first_hang_weight = 1;
@@ -109,7 +112,10 @@ struct LoopOptions {
   // alone), the regrasp goes ahead but the first gripper lets go, and the next step plans
   // from the aimed anchor. On paper 2.3.0 such first-grasp holders were within 6 cm of
   // their leg end or elbow in 2 of 7 stops, regrasped ones in 22 of 43 (docs/unfolding.md).
-  bool verify_first_holder = false;
+  // On by default since the lowest point places regrasped holders within 6 cm of their leg
+  // end in 75 of 77 regrasps: shorts 18 -> 22 of 30 unfolded, pants 14 of 20 both ways
+  // (docs/unfolding.md, "The lowest point"). false: the paper's rule, f ≥ ξ on any holder.
+  bool verify_first_holder = true;
   // Registration candidates (candidates.h): register recognition's top `candidates`
   // database entries (its answer first; after a kept plan prior only entries of that
   // anchor or its twin) and predict from the one that fits the reconstruction best
@@ -141,9 +147,12 @@ struct LoopOptions {
   double unobserved_margin = -1;
   // The regrasp point (candidates.h LowestPoint): when the point's database hang has the
   // target as its lowest point (AnchorIsLowest, rigid registration), the reconstruction's
-  // lowest point instead of the registered anchor; the IR refinement follows as usual.
-  // false: the registered anchor (the paper's rule, the default).
-  bool lowest_point = false;
+  // lowest point instead of the registered anchor, the IR scan giving the depth only
+  // (LowestPointOptions::centre_only). On paper 2.3.0 pants unfolded 8 -> 14 of 20, shorts
+  // 4 -> 18 of 30, the long-sleeve shirt unchanged (its elbows are never lowest; the same
+  // trial seeds, docs/unfolding.md, "The lowest point"). false: the registered anchor (the
+  // paper's rule).
+  bool lowest_point = true;
   LowestPointOptions lowest;
   hardware::CaptureOptions capture;  // frames per turn (paper ~550 both ways)
   int fusion_threads = 0;            // TSDF fusion threads (<= 0: all cores); no effect on results

@@ -74,7 +74,8 @@ TEST(PlanPrior, TrustedAimedEntryIsTheBestEntryOfTheAimedAnchorOrItsTwin) {
 }
 
 TEST(Stop, AtXiAndWithVerificationOnlyOnARegraspedHolder) {
-  LoopOptions o;                        // ξ = 0.5
+  LoopOptions o;  // ξ = 0.5
+  o.verify_first_holder = false;
   EXPECT_TRUE(MayStop(o, 1.0, false));  // the paper's rule: f ≥ ξ, whoever holds
   EXPECT_TRUE(MayStop(o, 0.5, false));
   EXPECT_FALSE(MayStop(o, 0.19, true));  // a leg's inner corner and the other leg end
