@@ -162,12 +162,7 @@ Json RecognizeCategoryByFit(const Args& a, const Release& rel, const Database& d
   const auto id = a.Get("--entry");
   if (!id) throw Error("--category-fit needs the query's reconstruction: only with --entry");
   if (!o.category.empty()) throw Error("--category-fit and --category contradict each other");
-  std::vector<Match> matches;
-  db.matcher().MatchAll(PreparedQuery(q), &matches);
-  const std::vector<int> pool = CategoryPool(db, o.query_height, rec.GatesFor(o).category);
-  const TriMesh recon = ReadMesh(rel.EntryPath(*id, "recon.ply"));
-  const CategoryFit fit =
-      DecideCategoryByFit(db, pool, matches, recon, ReleaseHungMeshes(rel, db), CategoryFitFromArgs(a));
+  const CategoryFit fit = EntryCategoryByFit(rel, db, rec, q, o, *id, CategoryFitFromArgs(a));
   o.category = fit.category;
   return ToJson(fit);
 }

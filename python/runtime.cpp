@@ -16,6 +16,7 @@
 #include "generator/release/release.h"
 #include "python/convert.h"
 #include "runtime/recognition/calibrate.h"
+#include "runtime/recognition/category_fit.h"
 #include "runtime/recognition/query_pipeline.h"
 #include "runtime/recognition/recognizer.h"
 #include "runtime/recognition/release_source.h"
@@ -47,9 +48,11 @@ class Runtime {
 
   // kind: "entry" (value = id), "sweep" (folder), "mesh" (file), "feature" (uses `code`).
   // Returns JSON text: {"query", "result" (recognizer ToJson), "anchor_position", "weights"}.
+  // category_fit: an entry query with a recon.ply and no category given takes its
+  // category by registration, as `drape recognize --entry` does by default.
   std::string Recognize(const std::string& kind, const std::string& value, const std::optional<BoolArray>& feature,
                         const std::string& category, const std::string& instance, int top_k, bool weighted,
-                        uint64_t seed) const {
+                        uint64_t seed, bool category_fit) const {
     Code q;
     Json query{{"kind", kind}};
     if (kind == "entry") {
@@ -77,7 +80,14 @@ class Runtime {
     o.query_height = query.value("height", 0.0);  // a bare feature has none: no height gates
     o.Validate();
     const Recognizer rec(db_, weights_ ? &*weights_ : nullptr);
-    const Recognition r = rec.Recognize(q, o);
+    Json fit = nullptr;
+    if (category_fit && kind == "entry" && o.category.empty() && fs::exists(rel_.EntryPath(value, "recon.ply"))) {
+      const CategoryFit f = EntryCategoryByFit(rel_, db_, rec, q, o, value, CategoryFitOptions{});
+      o.category = f.category;
+      fit = ToJson(f);
+    }
+    Recognition r = rec.Recognize(q, o);
+    if (!fit.is_null() && !o.category.empty()) r.category_source = "registration";
     const EntryLabel& bl = db_.label(r.best.entry);
     const auto hung = HungVertex(rel_, bl.id, bl.anchor_vertex);
     Json out{{"query", query},
@@ -89,6 +99,7 @@ class Runtime {
                {"vertex", bl.anchor_vertex},
                {"hung_object_frame", hung ? Json::array({(*hung)[0], (*hung)[1], (*hung)[2]}) : Json(nullptr)},
                {"flat_uv", bl.anchor_uv ? Json::array({(*bl.anchor_uv)[0], (*bl.anchor_uv)[1]}) : Json(nullptr)}}}};
+    if (!fit.is_null()) out["category_fit"] = fit;
     return out.dump();
   }
 
@@ -151,8 +162,8 @@ py::dict Register(const DoubleArray& sv, const IndexArray& sf, const DoubleArray
 void BindRuntime(py::module_& m) {
   py::class_<Runtime>(m, "Runtime")
       .def(py::init<const fs::path&, const std::string&>(), py::arg("release"), py::arg("weights") = "")
-      .def("recognize", &Runtime::Recognize, py::arg("kind"), py::arg("value"), py::arg("feature"),
-           py::arg("category"), py::arg("instance"), py::arg("top_k"), py::arg("weighted"), py::arg("seed"))
+      .def("recognize", &Runtime::Recognize, py::arg("kind"), py::arg("value"), py::arg("feature"), py::arg("category"),
+           py::arg("instance"), py::arg("top_k"), py::arg("weighted"), py::arg("seed"), py::arg("category_fit"))
       .def("pipeline_feature", &Runtime::PipelineFeature, py::arg("kind"), py::arg("path"), py::arg("seed"))
       .def_property_readonly("database_size", &Runtime::database_size)
       .def_property_readonly("weighted", &Runtime::weighted);

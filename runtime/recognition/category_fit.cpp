@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <filesystem>
 #include <mutex>
 #include <numbers>
 #include <set>
@@ -193,6 +194,18 @@ std::function<TriMesh(int)> ReleaseHungMeshes(const Release& release, const Data
     std::lock_guard<std::mutex> lock(cache->mu);
     return cache->meshes.emplace(entry, std::move(m)).first->second;
   };
+}
+
+CategoryFit EntryCategoryByFit(const Release& release, const Database& db, const Recognizer& rec, const Code& q,
+                               const RecognizeOptions& o, const std::string& entry, const CategoryFitOptions& options) {
+  if (!o.category.empty()) throw Error("category by registration: the category is given ('" + o.category + "')");
+  const std::filesystem::path recon_path = release.EntryPath(entry, "recon.ply");
+  if (!std::filesystem::exists(recon_path))
+    throw Error("category by registration: entry " + entry + " has no reconstruction (" + recon_path.string() + ")");
+  std::vector<Match> matches;
+  db.matcher().MatchAll(PreparedQuery(q), &matches);
+  const std::vector<int> pool = CategoryPool(db, o.query_height, rec.GatesFor(o).category);
+  return DecideCategoryByFit(db, pool, matches, ReadMesh(recon_path), ReleaseHungMeshes(release, db), options);
 }
 
 namespace {

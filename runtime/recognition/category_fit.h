@@ -100,6 +100,13 @@ Json ToJson(const CategoryFit& fit);
 // call from several threads.
 std::function<TriMesh(int)> ReleaseHungMeshes(const Release& release, const Database& db);
 
+// The category of release entry `entry`'s query `q` by registration onto its recon.ply
+// (`drape recognize --entry` and the Python binding, by default): the pool is
+// recognition's category gate for `o` (its query height, its gates). Throws drape::Error
+// when `o` already names a category or the entry has no recon.ply.
+CategoryFit EntryCategoryByFit(const Release& release, const Database& db, const Recognizer& rec, const Code& q,
+                               const RecognizeOptions& o, const std::string& entry, const CategoryFitOptions& options);
+
 // `drape eval --category-fit`: for every query of `queries` (a split of `release`), the
 // category by registration beside the unweighted nearest neighbour, with the same
 // category gate (the weights', none without weights), and the end-to-end pose (right
