@@ -68,10 +68,11 @@ struct AnchorPrediction {
 AnchorPrediction PredictAnchor(const Vec3& rigid, const Vec3& registered, const ExactClosestPoint& onto_recon,
                                const Eigen::AlignedBox3d& box, double radius, double margin);
 
-// The lowest point (`--lowest-point`; Osawa et al. and Cusumano-Towner et al., whom the
-// paper cites, regrasp a hanging garment at its lowest point). A garment hangs with one
-// place lowest, and where the database hang has the target there (a trouser leg's end
-// below a held leg end or knee), the reconstruction's lowest point is observed directly,
+// The lowest point (LoopOptions::lowest_point, on by default; Osawa et al. and
+// Cusumano-Towner et al., whom the paper cites, regrasp a hanging garment at its lowest
+// point). A garment hangs with one place lowest, and where the database hang has the
+// target there (a trouser leg's end below a held leg end or knee), the
+// reconstruction's lowest point is observed directly,
 // while the registered anchor carries the difference between the database's hang and
 // this one (3-9 cm median on the paper release, docs/unfolding.md).
 struct LowestPointOptions {
