@@ -196,6 +196,13 @@ std::function<TriMesh(int)> ReleaseHungMeshes(const Release& release, const Data
   };
 }
 
+CategoryFit RecognitionCategoryByFit(const Database& db, const Recognizer& rec, const RecognizeOptions& o,
+                                     const std::vector<Match>& matches, const TriMesh& recon,
+                                     const std::function<TriMesh(int)>& hung_mesh, const CategoryFitOptions& options) {
+  const std::vector<int> pool = CategoryPool(db, o.query_height, rec.GatesFor(o).category);
+  return DecideCategoryByFit(db, pool, matches, recon, hung_mesh, options);
+}
+
 CategoryFit EntryCategoryByFit(const Release& release, const Database& db, const Recognizer& rec, const Code& q,
                                const RecognizeOptions& o, const std::string& entry, const CategoryFitOptions& options) {
   if (!o.category.empty()) throw Error("category by registration: the category is given ('" + o.category + "')");
@@ -204,8 +211,7 @@ CategoryFit EntryCategoryByFit(const Release& release, const Database& db, const
     throw Error("category by registration: entry " + entry + " has no reconstruction (" + recon_path.string() + ")");
   std::vector<Match> matches;
   db.matcher().MatchAll(PreparedQuery(q), &matches);
-  const std::vector<int> pool = CategoryPool(db, o.query_height, rec.GatesFor(o).category);
-  return DecideCategoryByFit(db, pool, matches, ReadMesh(recon_path), ReleaseHungMeshes(release, db), options);
+  return RecognitionCategoryByFit(db, rec, o, matches, ReadMesh(recon_path), ReleaseHungMeshes(release, db), options);
 }
 
 namespace {

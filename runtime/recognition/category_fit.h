@@ -100,10 +100,16 @@ Json ToJson(const CategoryFit& fit);
 // call from several threads.
 std::function<TriMesh(int)> ReleaseHungMeshes(const Release& release, const Database& db);
 
+// The decision for a query that `rec` ranks with options `o` (`matches`: its Eq. match
+// against every entry): the pool is recognition's category gate for `o` (its query
+// height, its gates). The unfolding loop's first step and EntryCategoryByFit.
+CategoryFit RecognitionCategoryByFit(const Database& db, const Recognizer& rec, const RecognizeOptions& o,
+                                     const std::vector<Match>& matches, const TriMesh& recon,
+                                     const std::function<TriMesh(int)>& hung_mesh, const CategoryFitOptions& options);
+
 // The category of release entry `entry`'s query `q` by registration onto its recon.ply
-// (`drape recognize --entry` and the Python binding, by default): the pool is
-// recognition's category gate for `o` (its query height, its gates). Throws drape::Error
-// when `o` already names a category or the entry has no recon.ply.
+// (`drape recognize --entry` and the Python binding, by default; RecognitionCategoryByFit).
+// Throws drape::Error when `o` already names a category or the entry has no recon.ply.
 CategoryFit EntryCategoryByFit(const Release& release, const Database& db, const Recognizer& rec, const Code& q,
                                const RecognizeOptions& o, const std::string& entry, const CategoryFitOptions& options);
 

@@ -471,10 +471,9 @@ struct TrialRun {
   // entry could be registered: recognition's nearest neighbour then decides).
   std::string CategoryByFit(Step& s, const std::vector<rec::Match>& matches, const rec::Recognizer& recognizer,
                             const rec::RecognizeOptions& ro) const {
-    const rec::Database& db = model.database();
-    const std::vector<int> pool = rec::CategoryPool(db, ro.query_height, recognizer.GatesFor(ro).category);
-    const rec::CategoryFit fit = rec::DecideCategoryByFit(
-        db, pool, matches, s.recon, [this](int e) { return model.HungMesh(e); }, rec::CategoryFitOptions{});
+    const rec::CategoryFit fit = rec::RecognitionCategoryByFit(
+        model.database(), recognizer, ro, matches, s.recon, [this](int e) { return model.HungMesh(e); },
+        rec::CategoryFitOptions{});
     s.category_fit = rec::ToJson(fit);
     return fit.category;
   }
