@@ -20,6 +20,7 @@
 #include "runtime/recognition/query_pipeline.h"
 #include "runtime/recognition/registration_eval.h"
 #include "runtime/recognition/release_source.h"
+#include "runtime/recognition/twin_fit.h"
 
 namespace drape::cli {
 namespace {
@@ -105,7 +106,12 @@ const char* kRecognizeUsage =
     "                    registration\"): on by default for --entry with a recon.ply (~4 CPU-s), not\n"
     "                    available for --sweep / --mesh (no reconstruction kept: the unweighted nearest\n"
     "                    neighbour decides); settings --category-fit-k K, --category-fit-top N,\n"
-    "                    --category-fit-lambda L as drape eval\n";
+    "                    --category-fit-lambda L as drape eval\n"
+    "  --twin-fit        tell the matched anchor from its left/right twin by registering both hung\n"
+    "                    meshes onto the entry's recon.ply and comparing them only near the\n"
+    "                    front/back cue (neckline, waist; docs/recognition.md); only with --entry;\n"
+    "                    settings --twin-fit-radius R, --twin-fit-direction D, --twin-fit-instances N,\n"
+    "                    --twin-fit-margin M as drape eval\n";
 
 // A release entry as the query: its stored feature (with --refuse also re-fused from its
 // kept sweep and compared), described in `query`, fusion/feature times from the build.
@@ -154,6 +160,7 @@ Code FileQuery(const Args& a, const Release& rel, uint64_t seed, Json& query, Js
 }
 
 CategoryFitOptions CategoryFitFromArgs(const Args& a);
+std::optional<TwinFitOptions> TwinFitFromArgs(const Args& a);
 
 // `drape recognize --category-fit`: the category decided by registering each category's
 // best entries onto the entry query's recon.ply, set into `o` (when any registered).
@@ -165,6 +172,33 @@ Json RecognizeCategoryByFit(const Args& a, const Release& rel, const Database& d
   const CategoryFit fit = EntryCategoryByFit(rel, db, rec, q, o, *id, CategoryFitFromArgs(a));
   o.category = fit.category;
   return ToJson(fit);
+}
+
+// `drape recognize --twin-fit`: the matched anchor against its twin near the cue, onto
+// entry `id`'s recon.ply; `r` takes the twin when it fits better. Null without --twin-fit.
+Json RecognizeTwinByFit(const Release& rel, const Database& db, const Code& q, const RecognizeOptions& o,
+                        const std::optional<std::string>& id, const std::optional<TwinFitOptions>& options,
+                        Recognition& r, Json& timing) {
+  if (!options) return nullptr;
+  const auto t0 = std::chrono::steady_clock::now();
+  Json j = ToJson(EntryTwinByFit(rel, db, q, o, id.value(), *options, r));
+  j["options"] = ToJson(*options);
+  timing["twin_fit_seconds"] = Since(t0);
+  return j;
+}
+
+void PrintTwinFit(const Json& t) {
+  std::cout << "twin fit  ";
+  if (t["twin_anchor"].is_null()) {
+    std::cout << "no twin of " << t["matched_anchor"].get<std::string>() << " in the database\n";
+    return;
+  }
+  std::cout << t["matched_anchor"].get<std::string>() << " against " << t["twin_anchor"].get<std::string>();
+  if (!t["matched_residual"].is_null())
+    std::cout << ": cue residual " << Fmt("%.4f", t["matched_residual"].get<double>()) << " / "
+              << Fmt("%.4f", t["twin_residual"].get<double>()) << " m";
+  std::cout << (t["switched"].get<bool>() ? ", the twin taken" : ", kept") << " ("
+            << Fmt("%.1f", t["seconds"].get<double>()) << " s)\n";
 }
 
 // The human-readable answer: query, truth, category, anchor and where it is, top k, times.
@@ -224,9 +258,10 @@ void PrintRecognition(const Json& query, const Json& timing, const Recognition& 
 }
 
 int RunRecognize(const std::vector<std::string>& argv) {
-  Args a(argv, {"--json", "--unweighted", "--refuse", "--category-fit", "--no-category-fit"},
+  Args a(argv, {"--json", "--unweighted", "--refuse", "--category-fit", "--no-category-fit", "--twin-fit"},
          {"--entry", "--sweep", "--mesh", "--weights", "--category", "--instance", "--top-k", "--kernel", "--seed",
-          "--category-fit-k", "--category-fit-top", "--category-fit-lambda"});
+          "--category-fit-k", "--category-fit-top", "--category-fit-lambda", "--twin-fit-radius",
+          "--twin-fit-direction", "--twin-fit-instances", "--twin-fit-margin"});
   if (a.help()) {
     std::cout << kRecognizeUsage;
     return 0;
@@ -236,6 +271,8 @@ int RunRecognize(const std::vector<std::string>& argv) {
   if (nq != 1) throw Error("give exactly one query: --entry ID, --sweep DIR or --mesh FILE");
   if (a.Flag("--category-fit") && !a.Get("--entry"))
     throw Error("--category-fit needs the query's reconstruction: only with --entry");
+  const std::optional<TwinFitOptions> twin_options = TwinFitFromArgs(a);
+  if (twin_options && !a.Get("--entry")) throw Error("--twin-fit needs the query's reconstruction: only with --entry");
 
   auto t0 = std::chrono::steady_clock::now();
   const Release rel = Release::Open(a.positional()[0]);
@@ -272,6 +309,7 @@ int RunRecognize(const std::vector<std::string>& argv) {
   Recognition r = rec.Recognize(q, o);
   if (!fit.is_null() && !o.category.empty()) r.category_source = "registration";
   timing["matching_seconds"] = r.match_seconds;
+  const Json twin = RecognizeTwinByFit(rel, db, q, o, id, twin_options, r, timing);
 
   const EntryLabel& bl = db.label(r.best.entry);
   const auto hung = HungVertex(rel, bl.id, bl.anchor_vertex);
@@ -288,11 +326,13 @@ int RunRecognize(const std::vector<std::string>& argv) {
            {"timing", timing},
            {"database", {{"entries", db.size()}, {"kernel", KernelName(db.matcher().kernel())}}}};
   if (!fit.is_null()) out["category_fit"] = fit;
+  if (!twin.is_null()) out["twin_fit"] = twin;
   if (a.Flag("--json")) {
     std::cout << out.dump(2) << "\n";
     return 0;
   }
   PrintRecognition(query, timing, r, db, hung, have_w);
+  if (!twin.is_null()) PrintTwinFit(twin);
   return 0;
 }
 
@@ -489,7 +529,25 @@ const char* kEvalUsage =
     "  --category-fit-lambda L   weight of the Hamming distance in the score (default 0 = the fit alone)\n"
     "  --category-fit-selection  choose those settings on train + calibration: the calibration split and\n"
     "                    every train entry against the other instances, a grid of settings counted\n"
-    "                    (report.json \"category_fit_selection\"); never reads the test split\n";
+    "                    (report.json \"category_fit_selection\"); never reads the test split\n"
+    "\n"
+    "Twins by the cue's fit (docs/recognition.md, \"Twins told apart by the cue's fit\"; off by default):\n"
+    "  --twin-fit        after the pose match (category known, every instance), register the matched\n"
+    "                    entry and its left/right twin of the same instance onto the query's recon.ply\n"
+    "                    and take the one that fits better near the front/back cue (the neckline's\n"
+    "                    anchors for shirts, the waist's for trousers); strict pose before / after\n"
+    "                    (report.json \"twin_fit\"; ~2 CPU-s per query with a twin)\n"
+    "  --twin-fit-radius R       the cue region: within R m of the cue anchors (default 0.16)\n"
+    "  --twin-fit-direction D    db (mesh near the cue to recon) | recon (recon near the cue to the\n"
+    "                    mesh) | both (their mean) | db_signed | recon_signed (default) | signed: the\n"
+    "                    same signed along recon's outward normal | whole (the whole shapes)\n"
+    "  --twin-fit-instances N    1: the matched entry's instance (default); 0: every instance, summed\n"
+    "  --twin-fit-margin M       take the twin only when its residual is below (1 - M) times the\n"
+    "                    matched one's (signed: by M times the matched unsigned residual; default\n"
+    "                    0.05); defaults: the most right on train + calibration of paper 2.3.0\n"
+    "  --twin-fit-selection      choose those settings on train + calibration (as\n"
+    "                    --category-fit-selection; report.json \"twin_fit_selection\"); never reads\n"
+    "                    the test split\n";
 
 // The ablation ladder: every rung's split evaluated like `split` (whose result is
 // reused), the table into res.report["ladder"], figures into the report folder.
@@ -532,6 +590,41 @@ CategoryFitOptions CategoryFitFromArgs(const Args& a) {
   return o;
 }
 
+// --twin-fit and its settings; nullopt without --twin-fit (settings alone are an error).
+// Throws drape::Error for bad values.
+std::optional<TwinFitOptions> TwinFitFromArgs(const Args& a) {
+  const bool settings = a.Get("--twin-fit-radius") || a.Get("--twin-fit-direction") || a.Get("--twin-fit-instances") ||
+                        a.Get("--twin-fit-margin");
+  if (!a.Flag("--twin-fit")) {
+    if (settings) throw Error("--twin-fit-radius/-direction/-instances/-margin need --twin-fit");
+    return std::nullopt;
+  }
+  TwinFitOptions o;
+  o.radius = a.GetDouble("--twin-fit-radius").value_or(o.radius);
+  if (const auto d = a.Get("--twin-fit-direction")) o.direction = ParseTwinDirection(*d);
+  o.instances = static_cast<int>(a.GetInt("--twin-fit-instances").value_or(o.instances));
+  o.margin = a.GetDouble("--twin-fit-margin").value_or(o.margin);
+  o.threads = static_cast<int>(a.GetInt("--threads").value_or(0));
+  o.Validate();
+  return o;
+}
+
+// `drape eval --twin-fit` / `--twin-fit-selection` into res.report.
+void RunTwinFit(const Args& a, const Release& rel, const Database& db, const Weights* w,
+                const std::vector<EvalQuery>& queries, EvalResult& res) {
+  if (const std::optional<TwinFitOptions> o = TwinFitFromArgs(a)) {
+    if (!a.Flag("--json")) std::cout << "twins by the cue's fit...\n" << std::flush;
+    res.report["twin_fit"] = EvaluateTwinFit(rel, db, w, queries, *o);
+  }
+  if (a.Flag("--twin-fit-selection")) {
+    if (!a.Flag("--json")) std::cout << "twins by the cue's fit: selection on train + calibration...\n" << std::flush;
+    LoadReport cr;
+    const std::vector<LabelledCode> calibration = LoadSplit(rel, "calibration", &cr);
+    res.report["twin_fit_selection"] =
+        SelectTwinFit(rel, db, w, calibration, static_cast<int>(a.GetInt("--threads").value_or(0)));
+  }
+}
+
 // `drape eval --category-fit` / `--category-fit-selection` into res.report.
 void RunCategoryFit(const Args& a, const Release& rel, const Database& db, const Weights* w,
                     const std::vector<EvalQuery>& queries, EvalResult& res) {
@@ -552,9 +645,10 @@ void RunCategoryFit(const Args& a, const Release& rel, const Database& db, const
 int RunEval(const std::vector<std::string>& argv) {
   Args a(argv,
          {"--json", "--unweighted", "--registration", "--no-registration", "--ladder", "--category-fit",
-          "--no-category-fit", "--category-fit-selection"},
+          "--no-category-fit", "--category-fit-selection", "--twin-fit", "--twin-fit-selection"},
          {"--split", "--report", "--weights", "--top-k", "--kernel", "--registration-pairs", "--threads",
-          "--category-fit-k", "--category-fit-top", "--category-fit-lambda"});
+          "--category-fit-k", "--category-fit-top", "--category-fit-lambda", "--twin-fit-radius",
+          "--twin-fit-direction", "--twin-fit-instances", "--twin-fit-margin"});
   if (a.Flag("--registration") && a.Flag("--no-registration")) {
     throw Error("eval: --registration and --no-registration contradict each other");
   }
@@ -563,6 +657,7 @@ int RunEval(const std::vector<std::string>& argv) {
     return 0;
   }
   a.RequirePositional(1, 1, "RELEASE");
+  TwinFitFromArgs(a);  // bad settings fail before any work
   const Release rel = Release::Open(a.positional()[0]);
   const std::string split = a.Get("--split", "test");
   auto t0 = std::chrono::steady_clock::now();
@@ -603,6 +698,7 @@ int RunEval(const std::vector<std::string>& argv) {
   }
   if (a.Flag("--ladder")) RunLadder(rel, db, have_w ? &w : nullptr, eo, split, res, a.Get("--report"));
   RunCategoryFit(a, rel, db, have_w ? &w : nullptr, queries, res);
+  RunTwinFit(a, rel, db, have_w ? &w : nullptr, queries, res);
   if (auto dir = a.Get("--report")) {
     WriteReport(res, header, *dir);
   }

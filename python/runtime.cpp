@@ -20,6 +20,7 @@
 #include "runtime/recognition/query_pipeline.h"
 #include "runtime/recognition/recognizer.h"
 #include "runtime/recognition/release_source.h"
+#include "runtime/recognition/twin_fit.h"
 #include "runtime/registration/registration.h"
 
 namespace drape::python {
@@ -49,10 +50,11 @@ class Runtime {
   // kind: "entry" (value = id), "sweep" (folder), "mesh" (file), "feature" (uses `code`).
   // Returns JSON text: {"query", "result" (recognizer ToJson), "anchor_position", "weights"}.
   // category_fit: an entry query with a recon.ply and no category given takes its
-  // category by registration, as `drape recognize --entry` does by default.
+  // category by registration, as `drape recognize --entry` does by default. twin_fit: an
+  // entry query's anchor against its twin by the cue's fit (`drape recognize --twin-fit`).
   std::string Recognize(const std::string& kind, const std::string& value, const std::optional<BoolArray>& feature,
                         const std::string& category, const std::string& instance, int top_k, bool weighted,
-                        uint64_t seed, bool category_fit) const {
+                        uint64_t seed, bool category_fit, bool twin_fit) const {
     Code q;
     Json query{{"kind", kind}};
     if (kind == "entry") {
@@ -88,6 +90,11 @@ class Runtime {
     }
     Recognition r = rec.Recognize(q, o);
     if (!fit.is_null() && !o.category.empty()) r.category_source = "registration";
+    Json twin = nullptr;
+    if (twin_fit) {
+      if (kind != "entry") throw Error("recognize: twin_fit needs the query's reconstruction: only with entry=");
+      twin = ToJson(EntryTwinByFit(rel_, db_, q, o, value, TwinFitOptions{}, r));
+    }
     const EntryLabel& bl = db_.label(r.best.entry);
     const auto hung = HungVertex(rel_, bl.id, bl.anchor_vertex);
     Json out{{"query", query},
@@ -100,6 +107,7 @@ class Runtime {
                {"hung_object_frame", hung ? Json::array({(*hung)[0], (*hung)[1], (*hung)[2]}) : Json(nullptr)},
                {"flat_uv", bl.anchor_uv ? Json::array({(*bl.anchor_uv)[0], (*bl.anchor_uv)[1]}) : Json(nullptr)}}}};
     if (!fit.is_null()) out["category_fit"] = fit;
+    if (!twin.is_null()) out["twin_fit"] = twin;
     return out.dump();
   }
 
@@ -163,7 +171,8 @@ void BindRuntime(py::module_& m) {
   py::class_<Runtime>(m, "Runtime")
       .def(py::init<const fs::path&, const std::string&>(), py::arg("release"), py::arg("weights") = "")
       .def("recognize", &Runtime::Recognize, py::arg("kind"), py::arg("value"), py::arg("feature"), py::arg("category"),
-           py::arg("instance"), py::arg("top_k"), py::arg("weighted"), py::arg("seed"), py::arg("category_fit"))
+           py::arg("instance"), py::arg("top_k"), py::arg("weighted"), py::arg("seed"), py::arg("category_fit"),
+           py::arg("twin_fit"))
       .def("pipeline_feature", &Runtime::PipelineFeature, py::arg("kind"), py::arg("path"), py::arg("seed"))
       .def_property_readonly("database_size", &Runtime::database_size)
       .def_property_readonly("weighted", &Runtime::weighted);

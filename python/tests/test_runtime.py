@@ -24,6 +24,18 @@ def test_recognize_entry_equals_cli(release, release_dir):
         assert r.category == "towel" and r.query["true_anchor"] == e.anchor
 
 
+def test_recognize_twin_fit_equals_cli(release, release_dir):
+    e = release.entries(split="test")[0]
+    r = release.recognize(entry=e.id, twin_fit=True)
+    cli = json.loads(run_drape("recognize", release_dir, "--entry", e.id, "--twin-fit", "--json"))
+    assert without_timing(r.result) == without_timing(cli["result"])
+    # The towel has twins but no front/back cue: the match stands, with the reason.
+    assert not cli["twin_fit"]["switched"] and cli["twin_fit"]["note"]
+    assert r.anchor == release.recognize(entry=e.id).anchor
+    with pytest.raises(drape.DrapeError, match="only with entry="):
+        release.recognize(sweep=e.path("sweep"), twin_fit=True)
+
+
 def test_recognize_sweep_equals_cli(release, release_dir):
     e = release.entries(split="test")[0]
     r = release.recognize(sweep=e.path("sweep"), top_k=3)

@@ -1,5 +1,6 @@
 #include "runtime/registration/registration.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <string>
@@ -94,17 +95,20 @@ RegistrationResult Register(const TriMesh& source, const TriMesh& target, const 
 
 namespace {
 // Area-weighted distances to `to` of the patches of `from`, or of those whose barycentre
-// lies within `radius` of `centre` when radius >= 0; their area in `total` (over every
-// patch: the reduction MeasureDirected always had).
-DirectedDistance MeasurePatches(const TriMesh& from, const ExactClosestPoint& to, const Vec3& centre, double radius,
-                                double& total) {
+// lies within `radius` of one of `centres` when radius >= 0; their area in `total` (over
+// every patch: the reduction MeasureDirected always had).
+DirectedDistance MeasurePatches(const TriMesh& from, const ExactClosestPoint& to, const std::vector<Vec3>& centres,
+                                double radius, double& total) {
   const Eigen::VectorXd a = FaceAreas(from);
   const Points3 g = FaceCentroids(from);
   DirectedDistance d;
   double s = 0, ss = 0, near = 0;
+  const double r2 = radius * radius;
   for (int f = 0; f < from.NumFaces(); ++f) {
     const Vec3 c = g.row(f);
-    if (radius >= 0 && (c - centre).norm() > radius) continue;
+    if (radius >= 0 &&
+        std::none_of(centres.begin(), centres.end(), [&](const Vec3& x) { return (c - x).squaredNorm() <= r2; }))
+      continue;
     const double dist = to.Query(c).distance;
     s += a[f] * dist;
     ss += a[f] * dist * dist;
@@ -123,16 +127,21 @@ DirectedDistance MeasurePatches(const TriMesh& from, const ExactClosestPoint& to
 
 DirectedDistance MeasureDirected(const TriMesh& from, const ExactClosestPoint& to) {
   double total = 0;
-  const DirectedDistance d = MeasurePatches(from, to, Vec3::Zero(), -1, total);
+  const DirectedDistance d = MeasurePatches(from, to, {}, -1, total);
   if (!(total > 0)) throw Error("registration metric: mesh has no area");
   return d;
 }
 
 DirectedDistance MeasureDirectedNear(const TriMesh& from, const ExactClosestPoint& to, const Vec3& centre,
                                      double radius) {
+  return MeasureDirectedNear(from, to, std::vector<Vec3>{centre}, radius);
+}
+
+DirectedDistance MeasureDirectedNear(const TriMesh& from, const ExactClosestPoint& to, const std::vector<Vec3>& centres,
+                                     double radius) {
   if (!(radius >= 0)) throw Error("registration metric: radius must be >= 0");
   double total = 0;
-  return MeasurePatches(from, to, centre, radius, total);
+  return MeasurePatches(from, to, centres, radius, total);
 }
 
 std::vector<AnchorTransfer> TransferAnchors(const RegistrationResult& result, const std::vector<AnchorPair>& anchors) {
