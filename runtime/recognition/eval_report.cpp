@@ -251,7 +251,10 @@ std::string TwinFitMarkdown(const Json& r) {
       const Json& c = s["chosen"];
       md << "\nMost right: instances " << c["instances"].get<std::string>() << ", direction "
          << c["direction"].get<std::string>() << ", radius " << Num(c["radius"], "%.2f") << " m, margin "
-         << Num(c["margin"], "%.2f") << ": " << s["chosen_right"].get<int>() << " right.\n";
+         << Num(c["margin"], "%.2f") << ": " << s["chosen_right"].get<int>()
+         << " right; a nested leave-one-out of this choice (each query answered by the setting chosen on the "
+            "others): "
+         << s["nested_leave_one_out"]["right"].get<int>() << " right.\n";
     }
   }
   return md.str();

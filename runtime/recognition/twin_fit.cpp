@@ -550,6 +550,67 @@ std::vector<std::pair<TwinFitOptions, size_t>> SelectionGrid() {
   return grid;
 }
 
+// ok[i][g]: query i strictly right with grid setting g (the bits' answer where no pair
+// was compared).
+std::vector<std::vector<char>> GridAnswers(std::vector<TwinQuery>& qs,
+                                           const std::vector<std::pair<TwinFitOptions, size_t>>& grid) {
+  std::vector<std::vector<char>> ok(qs.size(), std::vector<char>(grid.size(), 0));
+  for (size_t i = 0; i < qs.size(); ++i) {
+    TwinQuery& q = qs[i];
+    const std::string& truth = q.query->label.anchor;
+    for (size_t g = 0; g < grid.size(); ++g) {
+      if (q.fit.sides.empty() || !q.failure.empty()) {
+        ok[i][g] = q.bits_anchor == truth;
+        continue;
+      }
+      DecideTwin(q.fit, grid[g].first, grid[g].second);
+      ok[i][g] = q.fit.anchor == truth;
+    }
+  }
+  return ok;
+}
+
+}  // namespace
+
+int NestedLeaveOneOut(const std::vector<std::vector<char>>& ok) {
+  if (ok.empty()) return 0;
+  std::vector<int> total(ok[0].size(), 0);
+  for (const auto& row : ok)
+    for (size_t g = 0; g < row.size(); ++g) total[g] += row[g];
+  int right = 0;
+  for (const auto& row : ok) {
+    size_t best = 0;
+    for (size_t g = 1; g < row.size(); ++g) {
+      if (total[g] - row[g] > total[best] - row[best]) best = g;
+    }
+    right += row[best];
+  }
+  return right;
+}
+
+namespace {
+
+// The selection's queries: `calibration` against every instance, each of `train` (the
+// database's entries) against the other instances of its category; `left_out` counts
+// those whose category has no other instance (they cannot be right).
+std::vector<TwinQuery> SelectionQueries(const Database& db, const std::vector<LabelledCode>& calibration,
+                                        const std::vector<LabelledCode>& train, int& left_out) {
+  std::vector<TwinQuery> qs;
+  for (const LabelledCode& c : calibration) qs.push_back({&c});
+  for (const LabelledCode& c : train) {
+    std::vector<std::string> others;
+    for (const std::string& i : db.instances(c.label.category)) {
+      if (i != c.label.instance) others.push_back(i);
+    }
+    if (others.empty()) {
+      ++left_out;
+      continue;
+    }
+    qs.push_back({&c, others});
+  }
+  return qs;
+}
+
 }  // namespace
 
 Json SelectTwinFit(const Release& release, const Database& db, const Weights* weights,
@@ -558,20 +619,8 @@ Json SelectTwinFit(const Release& release, const Database& db, const Weights* we
   const Recognizer rec(db, weights);
   std::vector<LabelledCode> train(db.size());
   for (int i = 0; i < db.size(); ++i) train[i] = {db.label(i), db.code(i)};
-  std::vector<TwinQuery> qs;
-  for (const LabelledCode& c : calibration) qs.push_back({&c});
   int left_out = 0;
-  for (const LabelledCode& c : train) {
-    std::vector<std::string> others;
-    for (const std::string& i : db.instances(c.label.category)) {
-      if (i != c.label.instance) others.push_back(i);
-    }
-    if (others.empty()) {
-      ++left_out;  // no other instance of its category: cannot be right
-      continue;
-    }
-    qs.push_back({&c, others});
-  }
+  std::vector<TwinQuery> qs = SelectionQueries(db, calibration, train, left_out);
   TwinFitOptions largest;
   largest.instances = 0;
   largest.radius = kSelectionRadii[0];
@@ -579,37 +628,36 @@ Json SelectTwinFit(const Release& release, const Database& db, const Weights* we
   ParallelFor(static_cast<int>(qs.size()), threads,
               [&](int i) { RunTwinQuery(release, db, rec, hung, largest, kSelectionRadii, qs[i]); });
   const auto grid = SelectionGrid();
+  const std::vector<std::vector<char>> ok = GridAnswers(qs, grid);
   std::vector<int> right(grid.size(), 0);
   std::vector<std::map<std::string, int>> by_cat(grid.size());
   int bits_right = 0, compared = 0;
   double seconds = 0;
   std::map<std::string, int> bits_by_cat, n_by_cat;
+  for (size_t i = 0; i < qs.size(); ++i) {
+    const std::string& cat = qs[i].query->label.category;
+    ++n_by_cat[cat];
+    bits_right += qs[i].bits_anchor == qs[i].query->label.anchor;
+    bits_by_cat[cat] += qs[i].bits_anchor == qs[i].query->label.anchor;
+    compared += !qs[i].fit.sides.empty();
+    seconds += qs[i].seconds;
+    for (size_t g = 0; g < grid.size(); ++g) right[g] += ok[i][g], by_cat[g][cat] += ok[i][g];
+  }
+  const int n = static_cast<int>(qs.size());
+  const int chosen = static_cast<int>(std::max_element(right.begin(), right.end()) - right.begin());
   Json per_query = Json::array();
   for (TwinQuery& q : qs) {
-    const std::string& truth = q.query->label.anchor;
-    const std::string& cat = q.query->label.category;
-    ++n_by_cat[cat];
-    bits_right += q.bits_anchor == truth, bits_by_cat[cat] += q.bits_anchor == truth;
-    compared += !q.fit.sides.empty();
-    seconds += q.seconds;
-    for (size_t g = 0; g < grid.size(); ++g) {
-      if (q.fit.sides.empty() || !q.failure.empty()) {
-        right[g] += q.bits_anchor == truth, by_cat[g][cat] += q.bits_anchor == truth;
-        continue;
-      }
-      DecideTwin(q.fit, grid[g].first, grid[g].second);
-      right[g] += q.fit.anchor == truth, by_cat[g][cat] += q.fit.anchor == truth;
+    Json j{{"id", q.query->label.id},
+           {"category", q.query->label.category},
+           {"anchor", q.query->label.anchor},
+           {"bits", q.bits_anchor}};
+    if (!q.fit.sides.empty()) {
+      DecideTwin(q.fit, grid[chosen].first, grid[chosen].second);  // the chosen setting's answer
+      j["twin_fit"] = ToJson(q.fit);
     }
-    Json j{{"id", q.query->label.id}, {"category", cat}, {"anchor", truth}, {"bits", q.bits_anchor}};
-    if (!q.fit.sides.empty()) j["twin_fit"] = ToJson(q.fit);
     if (!q.instances.empty()) j["instances"] = q.instances;
     if (!q.failure.empty()) j["failure"] = q.failure;
     per_query.push_back(std::move(j));
-  }
-  const int n = static_cast<int>(qs.size());
-  int chosen = -1;
-  for (size_t g = 0; g < grid.size(); ++g) {
-    if (chosen < 0 || right[g] > right[chosen]) chosen = static_cast<int>(g);
   }
   Json rows = Json::array();
   for (size_t g = 0; g < grid.size(); ++g)
@@ -621,10 +669,15 @@ Json SelectTwinFit(const Release& release, const Database& db, const Weights* we
               {"compared", compared},
               {"bits", {{"right", bits_right}, {"right_by_category", bits_by_cat}}},
               {"standard_error", std::sqrt(p * (1 - p) / std::max(n, 1)) * n},
-              {"chosen", chosen >= 0 ? ToJson(grid[chosen].first) : Json(nullptr)},
-              {"chosen_right", chosen >= 0 ? Json(right[chosen]) : Json(nullptr)},
-              {"chosen_right_by_category", chosen >= 0 ? Json(by_cat[chosen]) : Json(nullptr)},
+              {"chosen", ToJson(grid[chosen].first)},
+              {"chosen_right", right[chosen]},
+              {"chosen_right_by_category", by_cat[chosen]},
               {"rule", "the setting with the most right strict answers (ties: the first, simplest first)"},
+              {"nested_leave_one_out",
+               {{"right", NestedLeaveOneOut(ok)},
+                {"what",
+                 "each query answered by the setting the rule chooses on the other queries: what the "
+                 "selection itself is worth, beside the bits' count"}}},
               {"grid", rows},
               {"per_query", per_query},
               {"seconds_per_query", n ? seconds / n : 0.0},

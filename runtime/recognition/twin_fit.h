@@ -50,7 +50,7 @@ TwinDirection ParseTwinDirection(const std::string& name);
 
 // The defaults are the setting with the most right answers on train + calibration queries
 // of paper 2.3.0 (`drape eval --twin-fit-selection`: 44 of 77 against the bits' 36), a
-// maximum over 450 settings that a nested leave-one-out does not confirm (36 of 77: the
+// maximum over 392 settings that a nested leave-one-out does not confirm (36 of 77: the
 // bits' count); docs/recognition.md, "Twins told apart by the cue's fit". Off by default.
 struct TwinFitOptions {
   double radius = 0.16;  // R (m): the cue region around each cue anchor
@@ -145,10 +145,16 @@ TwinFit EntryTwinByFit(const Release& release, const Database& db, const Code& q
 Json EvaluateTwinFit(const Release& release, const Database& db, const Weights* weights,
                      const std::vector<EvalQuery>& queries, const TwinFitOptions& options);
 
+// What a selection by the most right answers is worth: `ok[i][g]` says whether query i
+// is right with setting g; each query is answered by the setting with the most right
+// answers on the other queries (ties: the first) and the right ones are counted.
+int NestedLeaveOneOut(const std::vector<std::vector<char>>& ok);
+
 // `drape eval --twin-fit-selection`: the settings chosen on train + calibration only —
 // the calibration split against the whole database and every train entry against the
 // other instances (categories with one instance left out); a grid of radius × direction
-// × instances × margin counted by strict pose accuracy, beside the bits alone.
+// × instances × margin counted by strict pose accuracy, beside the bits alone and the
+// nested leave-one-out of the choice (NestedLeaveOneOut).
 Json SelectTwinFit(const Release& release, const Database& db, const Weights* weights,
                    const std::vector<LabelledCode>& calibration, int threads);
 
