@@ -353,30 +353,11 @@ void ScoreGates(const Database& db, const Code& code, const EntryLabel& ql, cons
 // queries the right-answer counts of neighbouring gates differ by noise, and a weaker
 // gate discards less of the feature's information. SE = sqrt(p(1 − p)/n) of the best rate p.
 double BestGate(const std::vector<double>& taus, const std::vector<int>& right, int queries) {
-  const int best = *std::max_element(right.begin(), right.end());
-  const double p = double(best) / queries;
-  const double slack = std::sqrt(p * (1 - p) / queries) * queries;
-  for (size_t k = 0; k < taus.size(); ++k) {
-    if (right[k] >= best - slack) return taus[k];
-  }
-  return taus.front();
+  const int k = OneStandardError(right, std::vector<bool>(right.size(), true), queries);
+  return k >= 0 ? taus[k] : taus.front();
 }
 
 }  // namespace
-
-int OneStandardError(const std::vector<int>& right, const std::vector<bool>& eligible, int n) {
-  int best = -1;
-  for (size_t k = 0; k < right.size(); ++k) {
-    if (eligible[k]) best = std::max(best, right[k]);
-  }
-  if (best < 0 || n <= 0) return -1;
-  const double p = double(best) / n;
-  const double slack = std::sqrt(p * (1 - p) / n) * n;
-  for (size_t k = 0; k < right.size(); ++k) {
-    if (eligible[k] && right[k] >= best - slack) return static_cast<int>(k);
-  }
-  return -1;
-}
 
 GateSelection SelectHeightGates(const Database& db, const std::vector<LabelledCode>& queries,
                                 const CalibrateOptions& options) {

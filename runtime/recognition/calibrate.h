@@ -10,6 +10,7 @@
 
 #include "common/json.h"
 #include "runtime/recognition/recognizer.h"
+#include "runtime/recognition/selection.h"
 
 namespace drape::recognition {
 
@@ -84,11 +85,7 @@ struct CalibrationResult {
   std::vector<std::string> warnings;
 };
 
-// The one-standard-error rule over counts of right answers of `n` selection queries (model
-// selection, Breiman et al. 1984; Hastie et al., ESL §7.10): the first eligible candidate
-// (in the caller's order, simplest first) whose count is within one standard error
-// sqrt(p(1 − p)/n)·n of the best count (rate p). -1 when none is eligible or n <= 0.
-int OneStandardError(const std::vector<int>& right, const std::vector<bool>& eligible, int n);
+// OneStandardError (the rule choosing the gates and weights): selection.h.
 
 // The height-gate search on its own. Selection queries: `queries`, and with
 // options.gate_train_queries every database entry; each is ranked against the database

@@ -15,6 +15,7 @@
 #include "garments/io.h"
 #include "runtime/recognition/calibrate.h"
 #include "runtime/recognition/release_source.h"
+#include "runtime/recognition/selection.h"
 #include "runtime/registration/registration.h"
 
 namespace drape::recognition {
@@ -350,6 +351,33 @@ std::vector<CategoryFitOptions> SelectionGrid() {
   return grid;
 }
 
+// One counted selection query's answers: right with grid setting g (the nearest
+// neighbour's category where registration decided none).
+std::vector<char> GridAnswers(const FitQuery& q, const std::vector<CategoryFitOptions>& grid) {
+  std::vector<char> ok(grid.size(), 0);
+  for (size_t g = 0; g < grid.size(); ++g) {
+    const std::string c = DecideByFit(q.fit.candidates, grid[g]);
+    ok[g] = (c.empty() ? q.nearest : c) == q.query->label.category;
+  }
+  return ok;
+}
+
+// The nested leave-one-out of the selection rule over `ok` (selection.h), and how often
+// each grid setting was the one chosen on the other queries.
+Json NestedJson(const std::vector<std::vector<char>>& ok, const SelectionRule& rule, size_t settings) {
+  std::vector<int> chosen;
+  const int right = NestedLeaveOneOut(ok, rule, &chosen);
+  std::vector<int> times(settings, 0);
+  for (int k : chosen) {
+    if (k >= 0) ++times[k];
+  }
+  return Json{{"right", right},
+              {"times_chosen", times},
+              {"what",
+               "each query answered by the setting the rule chooses on the other queries: what the selection "
+               "itself is worth, beside the nearest neighbour's count"}};
+}
+
 }  // namespace
 
 Json SelectCategoryFit(const Release& release, const Database& db, double category_gate,
@@ -377,17 +405,15 @@ Json SelectCategoryFit(const Release& release, const Database& db, double catego
   std::vector<std::map<std::string, int>> by_cat(grid.size());
   int nn_right = 0, n = 0;
   std::map<std::string, int> nn_by_cat, n_by_cat;
+  std::vector<std::vector<char>> ok;  // ok[i][g]: counted query i right with grid setting g
   Json per_query = Json::array();
   for (const FitQuery& q : qs) {
     const std::string& truth = q.query->label.category;
     if (!q.failure.empty() && q.nearest.empty()) continue;
     ++n, ++n_by_cat[truth];
     nn_right += q.nearest == truth, nn_by_cat[truth] += q.nearest == truth;
-    for (size_t g = 0; g < grid.size(); ++g) {
-      const std::string c = DecideByFit(q.fit.candidates, grid[g]);
-      const bool ok = (c.empty() ? q.nearest : c) == truth;
-      right[g] += ok, by_cat[g][truth] += ok;
-    }
+    ok.push_back(GridAnswers(q, grid));
+    for (size_t g = 0; g < grid.size(); ++g) right[g] += ok.back()[g], by_cat[g][truth] += ok.back()[g];
     Json j{
         {"id", q.query->label.id}, {"category", truth}, {"unweighted_nn", q.nearest}, {"registration", ToJson(q.fit)}};
     if (!q.exclude_instance.empty()) j["against_other_instances_than"] = q.exclude_instance;
@@ -396,7 +422,10 @@ Json SelectCategoryFit(const Release& release, const Database& db, double catego
   Json rows = Json::array();
   for (size_t g = 0; g < grid.size(); ++g)
     rows.push_back({{"options", OptionsToJson(grid[g])}, {"right", right[g]}, {"right_by_category", by_cat[g]}});
-  const int chosen = OneStandardError(right, std::vector<bool>(grid.size(), true), n);
+  const SelectionRule rule = [&](const std::vector<int>& r, int queries) {
+    return OneStandardError(r, std::vector<bool>(r.size(), true), queries);
+  };
+  const int chosen = rule(right, n);
   return Json{{"queries", n},
               {"chosen", chosen >= 0 ? OptionsToJson(grid[chosen]) : Json(nullptr)},
               {"chosen_right", chosen >= 0 ? Json(right[chosen]) : Json(nullptr)},
@@ -407,6 +436,7 @@ Json SelectCategoryFit(const Release& release, const Database& db, double catego
               {"left_out", left_out},
               {"category_gate", category_gate},
               {"nearest_neighbour", {{"right", nn_right}, {"right_by_category", nn_by_cat}}},
+              {"nested_leave_one_out", NestedJson(ok, rule, grid.size())},
               {"grid", rows},
               {"per_query", per_query},
               {"wall_seconds", Since(t0)},

@@ -128,8 +128,10 @@ Json EvaluateCategoryFit(const Release& release, const Database& db, const Weigh
 // entries whose category has no other instance are left out: they cannot be right). Each
 // query's candidates are registered once for the largest setting; every setting of the
 // grid (per_category 1–3, top_categories all / 2, λ in {0, 0.25, 0.5, 1, 2}) and the
-// unweighted nearest neighbour are then counted. Returns {"grid": [...], "queries",
-// "nearest_neighbour", "per_query", "seconds"}.
+// unweighted nearest neighbour are then counted; the one-standard-error rule chooses, and
+// a nested leave-one-out of that choice (selection.h: each query answered by the setting
+// the rule chooses on the others) says what the choice is worth. Returns {"grid": [...],
+// "queries", "chosen", "nearest_neighbour", "nested_leave_one_out", "per_query", ...}.
 Json SelectCategoryFit(const Release& release, const Database& db, double category_gate,
                        const std::vector<LabelledCode>& calibration, int threads);
 

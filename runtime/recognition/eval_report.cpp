@@ -207,6 +207,10 @@ std::string CategoryFitMarkdown(const Json& r) {
       md << "\nOne-standard-error rule: per category " << s["chosen"]["per_category"].get<int>() << ", λ "
          << Num(s["chosen"]["bits_weight"], "%.2f") << " (" << s["chosen_right"].get<int>() << " right).\n";
     }
+    if (s.contains("nested_leave_one_out")) {
+      md << "\nNested leave-one-out of this choice (each query answered by the setting the rule chooses on "
+         << "the other queries): " << s["nested_leave_one_out"]["right"].get<int>() << " right.\n";
+    }
   }
   return md.str();
 }

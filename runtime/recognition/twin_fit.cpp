@@ -15,6 +15,7 @@
 #include "garments/io.h"
 #include "runtime/recognition/calibrate.h"
 #include "runtime/recognition/category_fit.h"
+#include "runtime/recognition/selection.h"
 #include "runtime/registration/registration.h"
 
 namespace drape::recognition {
@@ -570,26 +571,6 @@ std::vector<std::vector<char>> GridAnswers(std::vector<TwinQuery>& qs,
   return ok;
 }
 
-}  // namespace
-
-int NestedLeaveOneOut(const std::vector<std::vector<char>>& ok) {
-  if (ok.empty()) return 0;
-  std::vector<int> total(ok[0].size(), 0);
-  for (const auto& row : ok)
-    for (size_t g = 0; g < row.size(); ++g) total[g] += row[g];
-  int right = 0;
-  for (const auto& row : ok) {
-    size_t best = 0;
-    for (size_t g = 1; g < row.size(); ++g) {
-      if (total[g] - row[g] > total[best] - row[best]) best = g;
-    }
-    right += row[best];
-  }
-  return right;
-}
-
-namespace {
-
 // The selection's queries: `calibration` against every instance, each of `train` (the
 // database's entries) against the other instances of its category; `left_out` counts
 // those whose category has no other instance (they cannot be right).
@@ -644,7 +625,7 @@ Json SelectTwinFit(const Release& release, const Database& db, const Weights* we
     for (size_t g = 0; g < grid.size(); ++g) right[g] += ok[i][g], by_cat[g][cat] += ok[i][g];
   }
   const int n = static_cast<int>(qs.size());
-  const int chosen = static_cast<int>(std::max_element(right.begin(), right.end()) - right.begin());
+  const int chosen = MostRight(right);
   Json per_query = Json::array();
   for (TwinQuery& q : qs) {
     Json j{{"id", q.query->label.id},
@@ -674,7 +655,7 @@ Json SelectTwinFit(const Release& release, const Database& db, const Weights* we
               {"chosen_right_by_category", by_cat[chosen]},
               {"rule", "the setting with the most right strict answers (ties: the first, simplest first)"},
               {"nested_leave_one_out",
-               {{"right", NestedLeaveOneOut(ok)},
+               {{"right", NestedLeaveOneOut(ok, [](const std::vector<int>& r, int) { return MostRight(r); })},
                 {"what",
                  "each query answered by the setting the rule chooses on the other queries: what the "
                  "selection itself is worth, beside the bits' count"}}},

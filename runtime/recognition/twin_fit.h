@@ -145,16 +145,11 @@ TwinFit EntryTwinByFit(const Release& release, const Database& db, const Code& q
 Json EvaluateTwinFit(const Release& release, const Database& db, const Weights* weights,
                      const std::vector<EvalQuery>& queries, const TwinFitOptions& options);
 
-// What a selection by the most right answers is worth: `ok[i][g]` says whether query i
-// is right with setting g; each query is answered by the setting with the most right
-// answers on the other queries (ties: the first) and the right ones are counted.
-int NestedLeaveOneOut(const std::vector<std::vector<char>>& ok);
-
 // `drape eval --twin-fit-selection`: the settings chosen on train + calibration only —
 // the calibration split against the whole database and every train entry against the
 // other instances (categories with one instance left out); a grid of radius × direction
 // × instances × margin counted by strict pose accuracy, beside the bits alone and the
-// nested leave-one-out of the choice (NestedLeaveOneOut).
+// nested leave-one-out of the choice (selection.h).
 Json SelectTwinFit(const Release& release, const Database& db, const Weights* weights,
                    const std::vector<LabelledCode>& calibration, int threads);
 

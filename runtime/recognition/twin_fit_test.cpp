@@ -183,17 +183,6 @@ TEST(TwinFit, MeasureCueIsLocal) {
   EXPECT_EQ(none.db_samples, 0);
 }
 
-TEST(TwinFit, NestedLeaveOneOutCountsWhatTheSelectionIsWorth) {
-  // Setting 0 right on queries 0 and 1, setting 1 on query 2: leaving out query 0 or 1
-  // ties the settings 1 to 1 and the first (0) is taken, leaving out 2 takes 0 as well:
-  // 2 right, as setting 0 itself.
-  EXPECT_EQ(NestedLeaveOneOut({{1, 0}, {1, 0}, {0, 1}}), 2);
-  // Each setting right on one query only (luck): leaving a query out makes another
-  // setting the best, wrong there: 0 right, against 1 of 3 for any setting in-sample.
-  EXPECT_EQ(NestedLeaveOneOut({{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}), 0);
-  EXPECT_EQ(NestedLeaveOneOut({}), 0);
-}
-
 TEST(TwinFit, BadOptionsAreClearErrors) {
   auto message = [](const TwinFitOptions& o) {
     try {
