@@ -31,7 +31,8 @@
 namespace drape::recognition {
 
 // The defaults were chosen on train + calibration queries of paper 2.3.0 (`drape eval
-// --category-fit-selection`: 76 of 77 right against the nearest neighbour's 70; docs).
+// --category-fit-selection`: 76 of 77 right against the nearest neighbour's 70, and 76 by
+// the nested leave-one-out of the choice; docs).
 struct CategoryFitOptions {
   int per_category = 2;    // entries registered per category: its nearest by Eq. match in the pool
   int top_categories = 2;  // only the N categories of the smallest best distance (0 = every one in the pool)
