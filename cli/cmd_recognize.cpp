@@ -11,6 +11,7 @@
 #include "cli/command.h"
 #include "common/error.h"
 #include "common/format.h"
+#include "common/timing.h"
 #include "garments/io.h"
 #include "generator/release/release.h"
 #include "runtime/recognition/calibrate.h"
@@ -40,10 +41,6 @@ std::vector<std::string> SplitList(const std::string& list) {
 
 namespace fs = std::filesystem;
 using namespace drape::recognition;
-
-double Since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
 
 Kernel ParseKernel(const std::string& s) {
   if (s == "auto") return Kernel::kAuto;

@@ -1,19 +1,16 @@
 #include "runtime/folding/fold.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <limits>
 
 #include "common/error.h"
 #include "common/format.h"
+#include "common/timing.h"
 #include "runtime/folding/dissimilarity.h"
 
 namespace drape::folding {
 namespace {
-
-using Clock = std::chrono::steady_clock;
-double Since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 // Gripper frame → world at rest: closing axis (gripper x) vertical, so the jaw closes
 // across every layer lying on the table; fingers along world z, pads across world x.

@@ -2,7 +2,6 @@
 // the table (see sim.h).
 #include "runtime/hardware/sim.h"
 
-#include <chrono>
 #include <cmath>
 #include <limits>
 #include <queue>
@@ -10,15 +9,13 @@
 #include "common/error.h"
 #include "common/format.h"
 #include "common/rng.h"
+#include "common/timing.h"
 #include "generator/cloth/measure.h"
 #include "generator/cloth/world.h"
 
 namespace drape::hardware {
 
 namespace {
-
-using Clock = std::chrono::steady_clock;
-double Since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 Eigen::Matrix3d Yaw(double a) { return Eigen::AngleAxisd(a, Vec3::UnitY()).toRotationMatrix(); }
 

@@ -2,16 +2,14 @@
 
 #include <Eigen/SparseCholesky>
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 
 #include "common/error.h"
+#include "common/timing.h"
 
 namespace drape::optim {
 
 namespace {
-using Clock = std::chrono::steady_clock;
-double Since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 // Schubert's sparse Broyden update: row i gets (y_i − B_i h) s_iᵀ / s_iᵀs_i with s_i
 // the step restricted to row i's pattern.

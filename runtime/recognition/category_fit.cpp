@@ -12,6 +12,7 @@
 #include "common/closest_point.h"
 #include "common/error.h"
 #include "common/parallel.h"
+#include "common/timing.h"
 #include "garments/io.h"
 #include "runtime/recognition/calibrate.h"
 #include "runtime/recognition/release_source.h"
@@ -19,12 +20,6 @@
 #include "runtime/registration/registration.h"
 
 namespace drape::recognition {
-
-namespace {
-double Since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-}  // namespace
 
 void CategoryFitOptions::Validate() const {
   if (per_category < 1)

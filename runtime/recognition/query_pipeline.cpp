@@ -1,9 +1,8 @@
 #include "runtime/recognition/query_pipeline.h"
 
-#include <chrono>
-
 #include "common/error.h"
 #include "common/rng.h"
+#include "common/timing.h"
 #include "garments/io.h"
 #include "generator/feature/feature.h"
 #include "generator/fusion/fusion.h"
@@ -15,9 +14,6 @@ namespace drape::recognition {
 namespace fs = std::filesystem;
 
 namespace {
-
-using Clock = std::chrono::steady_clock;
-double Since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 // The options the release was built with: its recipe, stored verbatim in dataset.json.
 struct BuildOptions {

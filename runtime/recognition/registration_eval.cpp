@@ -14,6 +14,7 @@
 #include "common/error.h"
 #include "common/files.h"
 #include "common/parallel.h"
+#include "common/timing.h"
 #include "garments/io.h"
 #include "garments/render.h"
 #include "runtime/recognition/release_source.h"
@@ -62,10 +63,6 @@ struct PairOutcome {
   std::optional<RegistrationFigure> figure;
   double read_seconds = 0;
 };
-
-double Since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
 
 // The database entry recognition matched for query `id` if its anchor was right.
 std::map<std::string, std::string> RecognisedEntries(const Json& per_query) {

@@ -12,6 +12,7 @@
 #include "common/closest_point.h"
 #include "common/error.h"
 #include "common/parallel.h"
+#include "common/timing.h"
 #include "garments/io.h"
 #include "runtime/recognition/calibrate.h"
 #include "runtime/recognition/category_fit.h"
@@ -21,9 +22,6 @@
 namespace drape::recognition {
 
 namespace {
-double Since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
 
 std::vector<std::string> Tokens(const std::string& label) {
   std::vector<std::string> t(1);

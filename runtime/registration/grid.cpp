@@ -10,14 +10,9 @@
 #include "common/error.h"
 #include "common/format.h"
 #include "common/parallel.h"
+#include "common/timing.h"
 
 namespace drape::registration {
-
-namespace {
-double Seconds(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-}  // namespace
 
 void GridOptions::Validate() const {
   if (cells < 2 || cells > 4096) throw Error("GridOptions.cells must be in [2, 4096], got " + std::to_string(cells));
@@ -95,7 +90,7 @@ void ClosestPointGrid::FillBand(const GridOptions& options) {
         if (nodes_[Index(i, j, k)].d <= band) ++band_count[k];
   });
   for (int64_t c : band_count) stats_.band_nodes += c;
-  stats_.band_seconds = Seconds(t0);
+  stats_.band_seconds = Since(t0);
 }
 
 // Fast sweeping: Gauss–Seidel over the 8 diagonal orderings until a pass changes nothing.
@@ -108,7 +103,7 @@ void ClosestPointGrid::Sweep(const GridOptions& options) {
     stats_.sweep_updates += updates;
     if (updates == 0) break;
   }
-  stats_.sweep_seconds = Seconds(t0);
+  stats_.sweep_seconds = Since(t0);
 }
 
 // Each node tries the closest triangles of its upwind neighbours (exact distance to that

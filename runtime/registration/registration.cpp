@@ -1,17 +1,15 @@
 #include "runtime/registration/registration.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <string>
 
 #include "common/error.h"
+#include "common/timing.h"
 
 namespace drape::registration {
 
 namespace {
-using Clock = std::chrono::steady_clock;
-double Since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 class EnergyProblem : public optim::LeastSquaresProblem {
  public:

@@ -3,7 +3,6 @@
 // final error; (2) closest-point grid queries vs exact queries (Embree BVH, brute
 // force); (3) the non-rigid step with the secant LM vs plain LM.
 // A main that prints a table (run it on a quiet machine; times are wall-clock).
-#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -12,6 +11,7 @@
 #include <string>
 
 #include "common/rng.h"
+#include "common/timing.h"
 #include "runtime/registration/registration.h"
 #include "runtime/registration/test_meshes.h"
 
@@ -20,8 +20,6 @@ using namespace drape::registration;
 namespace fs = std::filesystem;
 
 namespace {
-using Clock = std::chrono::steady_clock;
-double Since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 struct Pair {
   std::string name;

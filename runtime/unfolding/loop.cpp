@@ -2,7 +2,6 @@
 #include "runtime/unfolding/loop.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <limits>
 #include <mutex>
@@ -10,6 +9,7 @@
 #include "common/closest_point.h"
 #include "common/error.h"
 #include "common/rng.h"
+#include "common/timing.h"
 #include "garments/io.h"
 #include "generator/recipe/jobs.h"
 #include "runtime/folding/table.h"
@@ -26,8 +26,6 @@ namespace rec = drape::recognition;
 namespace hw = drape::hardware;
 
 namespace {
-using Clock = std::chrono::steady_clock;
-double Since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 Json J(const Vec3& v) { return Json::array({v.x(), v.y(), v.z()}); }
 Json J(const Vec2& v) { return Json::array({v.x(), v.y()}); }
 }  // namespace
