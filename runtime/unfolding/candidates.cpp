@@ -107,6 +107,30 @@ std::optional<Vec3> LowestPoint(const TriMesh& recon, double floor_y, const Lowe
   return p;
 }
 
+void HangingEndOptions::Validate() const {
+  if (!(radius > 0 && radius < 0.5)) throw Error("hanging_end.radius: must be in (0, 0.5) m");
+  if (!(floor_margin >= 0 && floor_margin < 0.5)) throw Error("hanging_end.floor_margin: must be in [0, 0.5) m");
+  if (!(min_drop >= 0 && min_drop <= 1)) throw Error("hanging_end.min_drop: must be in [0, 1]");
+  if (!(depth_window >= 0 && depth_window <= 0.1)) throw Error("hanging_end.depth_window: must be in [0, 0.1] m");
+}
+
+std::string HangingEnd(const std::string& anchor) {
+  if (anchor == "left_elbow") return "left_cuff";
+  if (anchor == "right_elbow") return "right_cuff";
+  return "";
+}
+
+std::optional<Vec3> LowestNear(const TriMesh& recon, const Vec3& around, double floor_y, const HangingEndOptions& o) {
+  std::optional<Vec3> best;
+  for (Eigen::Index i = 0; i < recon.V.rows(); ++i) {
+    const Vec3 p = recon.V.row(i).transpose();
+    if (std::hypot(p.x() - around.x(), p.z() - around.z()) > o.radius) continue;
+    if (!best || p.y() < best->y()) best = p;
+  }
+  if (best && best->y() - floor_y < o.floor_margin) return std::nullopt;
+  return best;
+}
+
 int KeepCandidate(const std::vector<double>& fits) {
   int best = -1;
   for (int i = 0; i < static_cast<int>(fits.size()); ++i) {

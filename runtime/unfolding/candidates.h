@@ -93,6 +93,37 @@ bool AnchorIsLowest(const TriMesh& hang, int v, double tolerance);
 // (the segmentation region's floor, where the fusion cut the garment).
 std::optional<Vec3> LowestPoint(const TriMesh& recon, double floor_y, const LowestPointOptions& o);
 
+// The hanging end (LoopOptions::hanging_end, on by default). A long-sleeve shirt's elbow is
+// never a hang's lowest point, but the forearm below it hangs straight down to the cuff
+// whenever the sleeve is free: on the true cloth of paper 2.3.0 (18 shirt regrasps) the
+// elbow lay 0.24-0.27 m straight above its cuff in every one, while the registered elbow
+// carried 3-35 cm of the database-versus-trial hang difference (docs/unfolding.md, "The
+// hanging end"). The cuff is observed as the reconstruction's lowest point near where the
+// registration puts it, and the elbow is placed the pattern's elbow-to-cuff distance above.
+struct HangingEndOptions {
+  double radius = 0.10;        // m: horizontal search radius around the registered end
+  double floor_margin = 0.02;  // m: as LowestPointOptions::floor_margin
+  // The database hang must have the end at least this fraction of the pattern distance
+  // below the anchor (its forearm hangs down too); otherwise the rule does not apply.
+  double min_drop = 0.5;
+  // As LowestPointOptions::centre_only: the IR scan gives the depth only. The LoG search
+  // moved observed elbows off the sleeve (mapped 3.3 cm median from the elbow, refined
+  // worse in 11 of 18 steps on paper 2.3.0, docs/unfolding.md, "The hanging end").
+  bool centre_only = true;
+  // The depth from the nearest IR reading within this distance (m) across the scan of its
+  // centre (RefineOptions::depth_half_width_samples): the point lies on a sleeve's side,
+  // and a centre beam that passed the sleeve read the body behind it 16-18 cm deeper in 3
+  // of 16 steps on paper 2.3.0 (docs/unfolding.md, "The hanging end"). 0: the centre's own.
+  double depth_window = 0.02;
+  void Validate() const;  // throws drape::Error naming the bad field
+};
+// The free end that hangs straight below `anchor` ("left_elbow" -> "left_cuff"), or "" when
+// the anchor has none.
+std::string HangingEnd(const std::string& anchor);
+// The lowest vertex of the reconstruction (y up) within `radius` horizontally of `around`;
+// none when no vertex lies there or the lowest lies within `floor_margin` of `floor_y`.
+std::optional<Vec3> LowestNear(const TriMesh& recon, const Vec3& around, double floor_y, const HangingEndOptions& o);
+
 // One candidate registered: `Register` (rigid, then non-rigid when `nonrigid`; a
 // non-rigid breakdown falls back to the rigid result with `note` set) and the fit of the
 // rigid and of the final mesh (= rigid when rigid-only).

@@ -232,6 +232,51 @@ TEST(LowestPoint, OptionsAreChecked) {
   EXPECT_THROW(o.Validate(), Error);
 }
 
+TEST(HangingEnd, AnElbowsEndIsItsCuff) {
+  EXPECT_EQ(HangingEnd("left_elbow"), "left_cuff");
+  EXPECT_EQ(HangingEnd("right_elbow"), "right_cuff");
+  EXPECT_EQ(HangingEnd("left_leg_outer"), "");  // a leg end is the lowest point itself
+  EXPECT_EQ(HangingEnd(""), "");
+}
+
+TEST(HangingEnd, TheLowestVertexNearTheRegisteredEndNotTheWholeGarmentsLowest) {
+  // Two hanging strips in the x-y plane (y up): a sleeve at x = 0 whose end is at y = -0.6,
+  // and a body at x = 0.3 hanging lower, to y = -0.9.
+  TriMesh recon;
+  recon.V.resize(4, 3);
+  recon.V << 0.0, -0.3, 0.0,  //
+      0.0, -0.6, 0.01,        // the sleeve's end
+      0.3, -0.5, 0.0,         //
+      0.3, -0.9, 0.0;         // the body's hem: the garment's lowest point
+  HangingEndOptions o;        // 10 cm radius
+  // The registration puts the end 6 cm beside the sleeve and 5 cm too low: the sleeve's end.
+  const auto p = LowestNear(recon, Vec3(0.06, -0.65, 0.0), -2.0, o);
+  ASSERT_TRUE(p.has_value());
+  EXPECT_NEAR((*p - Vec3(0.0, -0.6, 0.01)).norm(), 0.0, 1e-12);
+  // A radius that reaches the body takes its hem.
+  o.radius = 0.3;
+  EXPECT_NEAR((*LowestNear(recon, Vec3(0.06, -0.65, 0.0), -2.0, o) - Vec3(0.3, -0.9, 0.0)).norm(), 0.0, 1e-12);
+  o = {};
+  // Nothing within the radius, or the end at the region's floor (the fusion's cut): none.
+  EXPECT_FALSE(LowestNear(recon, Vec3(0.5, -0.6, 0.5), -2.0, o).has_value());
+  EXPECT_FALSE(LowestNear(recon, Vec3(0.0, -0.6, 0.0), -0.61, o).has_value());
+  EXPECT_TRUE(LowestNear(recon, Vec3(0.0, -0.6, 0.0), -0.63, o).has_value());
+  EXPECT_FALSE(LowestNear(TriMesh{}, Vec3::Zero(), -2.0, o).has_value());
+}
+
+TEST(HangingEnd, OptionsAreChecked) {
+  HangingEndOptions o;
+  EXPECT_NO_THROW(o.Validate());
+  o.radius = 0;
+  EXPECT_THROW(o.Validate(), Error);
+  o = {};
+  o.floor_margin = std::nan("");
+  EXPECT_THROW(o.Validate(), Error);
+  o = {};
+  o.min_drop = 1.5;
+  EXPECT_THROW(o.Validate(), Error);
+}
+
 }  // namespace
 }  // namespace drape::unfolding
 

@@ -13,6 +13,8 @@ void RefineOptions::Validate() const {
   if (half_width_samples < 1 || half_width_samples > 100000) throw Error("refine.half_width_samples: must be in 1..100000");
   if (search_half_width_samples < 0 || search_half_width_samples > half_width_samples)
     throw Error("refine.search_half_width_samples: must be in 0..half_width_samples");
+  if (depth_half_width_samples < 0 || depth_half_width_samples > half_width_samples)
+    throw Error("refine.depth_half_width_samples: must be in 0..half_width_samples");
 }
 
 std::vector<double> LaplacianOfGaussian(double sigma) {
@@ -85,6 +87,9 @@ RefineResult RefineScan(const std::vector<double>& ranges, const RefineOptions& 
   r.offset = (r.best - centre) * options.sample_spacing;
   r.range = -r.height[r.best];
   r.measured = ok(r.best);
+  for (int i = std::max(0, r.best - options.depth_half_width_samples);
+       i <= std::min(n - 1, r.best + options.depth_half_width_samples); ++i)
+    if (ok(i) && (!r.measured || ranges[i] < r.range)) r.range = ranges[i], r.measured = true;
   return r;
 }
 

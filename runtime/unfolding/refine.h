@@ -38,6 +38,11 @@ struct RefineOptions {
   // The grasp moves at most this many samples from the scan's centre (10: ±4 cm, half the
   // gripper's 8 cm opening); must be in 0..half_width_samples.
   int search_half_width_samples = 10;
+  // The grasp depth from the nearest reading within this many samples of the chosen one
+  // (0: its own reading). The jaws span ±4 cm across the scan and close on the nearest
+  // cloth between them: a beam that passes a sleeve's edge and reads the body 16 cm behind
+  // must not send them there (LoopOptions::hanging_end). Must be in 0..half_width_samples.
+  int depth_half_width_samples = 0;
   void Validate() const;         // throws drape::Error naming the bad field
 };
 
@@ -60,7 +65,8 @@ struct RefineResult {
                                  // window, else the centre sample
   bool fold_found = false;       // best is such a local minimum (false: prediction kept)
   double offset = 0;             // m along the scan from its centre to the best sample
-  double range = 0;              // m, the (filled) reading at the best sample
+  double range = 0;              // m, the (filled) reading at the best sample, or the nearest
+                                 // within depth_half_width_samples of it
   bool measured = false;         // the best sample has a reading of its own (not filled)
 };
 

@@ -129,6 +129,26 @@ TEST(Refine, MissingReadingsAndBadInput) {
   EXPECT_THROW(RefineScan(r, o), Error);
 }
 
+TEST(Refine, DepthFromTheNearestReadingTheJawsSpan) {
+  // A sleeve 18 cm away whose edge lies 1 sample left of the centre; beyond it the beam
+  // reads the body behind, 36 cm away. Centre only (no search).
+  RefineOptions o;
+  o.search_half_width_samples = 0;
+  std::vector<double> r(2 * o.half_width_samples + 1, 0.36);
+  for (int i = 0; i < o.half_width_samples; ++i) r[i] = 0.18 + 0.001 * i;  // up to 0.204 at the edge
+  const RefineResult own = RefineScan(r, o);
+  EXPECT_EQ(own.best, o.half_width_samples);
+  EXPECT_DOUBLE_EQ(own.range, 0.36);  // the body behind the sleeve
+  o.depth_half_width_samples = 5;     // ±2 cm
+  const RefineResult near = RefineScan(r, o);
+  EXPECT_EQ(near.best, o.half_width_samples);  // the grasp stays at the centre across the scan
+  EXPECT_DOUBLE_EQ(near.offset, 0.0);
+  EXPECT_NEAR(near.range, 0.18 + 0.001 * (o.half_width_samples - 5), 1e-12);  // the sleeve
+  EXPECT_TRUE(near.measured);
+  o.depth_half_width_samples = o.half_width_samples + 1;
+  EXPECT_THROW(RefineScan(r, o), Error);
+}
+
 // A vertical scan (top to bottom) of a sheet whose lower edge is `edge` m above the refined
 // point (negative: below), leaning 10 % away from the sensor, 12 cm from it at the refined
 // point's height; below the edge the beam reads `behind` (+inf: nothing). 1 mm noise.
