@@ -56,14 +56,15 @@ const char* kUsage =
     "  --max-regrasps K  give up after K regrasps (default 4)\n"
     "  --jobs N          trials run side by side on N threads (default 1; same results for any N)\n"
     "  --category-known  tell recognition the category\n"
-    "  --category-once   decide the category by recognition at the first step and keep it\n"
-    "                    (the default)\n"
+    "  --category-once   decide the category at the first step and keep it for the trial\n"
+    "                    (default: by registration at every hang, the fits summed over the hangs\n"
+    "                    deciding, docs/unfolding.md \"The category at every hang\")\n"
     "  --category-evidence  decide it from every hang: each adds each category's Eq. match\n"
     "                    distance over the nearest's, within the height gate and without it;\n"
     "                    the pose is recognised within the category with the least sum, and\n"
     "                    a change re-plans with its desired pairs (off: it takes shorts for\n"
     "                    pants, docs/unfolding.md)\n"
-    "  --no-category-fit the first step's category by recognition's nearest neighbour (default:\n"
+    "  --no-category-fit the category by recognition's nearest neighbour (default:\n"
     "                    by registration, docs/recognition.md \"The category by registration\";\n"
     "                    off with --category-known or --category-evidence)\n"
     "  --first-hang-weight W  weight of the random first grasp's hang in that evidence (default 1;\n"
@@ -102,6 +103,9 @@ const char* kUsage =
     "  --no-lowest-point regrasp at the registered anchor always, as the paper (default: when\n"
     "                    the database hang has the target as its lowest point, at the\n"
     "                    reconstruction's lowest point, 2 cm above it)\n"
+    "  --no-hanging-end  regrasp an elbow at its registered point, as the paper (default: at the\n"
+    "                    reconstruction's lowest point near the registered cuff, raised by the\n"
+    "                    pattern's elbow-to-cuff distance, when the database hang has the cuff below)\n"
     "  --no-ir           ablation: grasp the registered point without IR refinement\n"
     "  --ir-above-jaws   the IR scan as first built: the jaw centre crosses the prediction and\n"
     "                    the beam (3 cm above the jaws) reads the cloth above it (default: the\n"
@@ -307,6 +311,7 @@ void CategoryOptions(const Args& a, LoopOptions& lo) {
     throw Error("--category-once and --category-evidence: give one");
   lo.category_evidence = a.Flag("--category-evidence");
   lo.category_fit = !a.Flag("--no-category-fit") && !lo.category_evidence && !a.Flag("--category-known");
+  lo.category_refit = lo.category_fit && !a.Flag("--category-once");
   lo.first_hang_weight = a.GetDouble("--first-hang-weight").value_or(lo.first_hang_weight);
   if (!(lo.first_hang_weight >= 0)) throw Error("--first-hang-weight: must be >= 0");
   lo.gated_out_excess = a.GetDouble("--gated-out-excess").value_or(lo.gated_out_excess);
@@ -337,6 +342,7 @@ Json OptionsJson(const LoopOptions& lo, int trials, const std::vector<int>& only
           {"verify_first_holder", lo.verify_first_holder},
           {"category_evidence", lo.category_evidence},
           {"category_fit", lo.category_fit},
+          {"category_refit", lo.category_refit},
           {"first_hang_weight", lo.first_hang_weight},
           {"gated_out_excess", lo.gated_out_excess},
           {"category_gate", lo.category_gate},
@@ -353,6 +359,7 @@ Json OptionsJson(const LoopOptions& lo, int trials, const std::vector<int>& only
           {"hem_corner", lo.hem_corner},
           {"candidate_fit_radius_m", lo.fit_radius},
           {"lowest_point", lo.lowest_point},
+          {"hanging_end", lo.hanging_end},
           {"place_flat", lo.place_flat}};
 }
 
@@ -360,7 +367,8 @@ int RunUnfold(const std::vector<std::string>& argv) {
   Args a(argv,
          {"--no-ir", "--ir-above-jaws", "--rigid", "--unweighted", "--ablations", "--no-figures", "--no-place",
           "--dump-meshes", "--category-known", "--category-once", "--category-evidence", "--no-category-fit",
-          "--no-trust-aimed", "--first-holder-stops", "--hem-edge", "--hem-corner", "--no-lowest-point"},
+          "--no-trust-aimed", "--first-holder-stops", "--hem-edge", "--hem-corner", "--no-lowest-point",
+          "--no-hanging-end"},
          {"--category", "--trials", "--only", "--seed", "-o", "--weights", "--frames", "--max-regrasps", "--jobs",
           "--plan-prior", "--candidates", "--candidate-fit", "--candidate-fit-radius", "--candidate-point",
           "--unobserved-margin", "--first-hang-weight", "--gated-out-excess", "--category-gate", "--category-ungated"});
@@ -389,6 +397,7 @@ int RunUnfold(const std::vector<std::string>& argv) {
   lo.ir_at_jaw_line = !a.Flag("--ir-above-jaws");
   lo.hem_edge = a.Flag("--hem-edge");
   lo.lowest_point = !a.Flag("--no-lowest-point");
+  lo.hanging_end = !a.Flag("--no-hanging-end");
   lo.hem_corner = a.Flag("--hem-corner");
   if (lo.hem_corner && !lo.hem_edge) throw Error("--hem-corner: needs --hem-edge");
   lo.place_flat = !a.Flag("--no-place");

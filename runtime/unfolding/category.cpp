@@ -74,4 +74,23 @@ bool CategoryDecision::Add(const HangEvidence& e, double weight) {
   return !before.empty() && decided_ != before;
 }
 
+std::string SummedFitCategory(const std::vector<std::map<std::string, double>>& hangs, const std::string& standing) {
+  std::map<std::string, double> total;
+  for (const auto& h : hangs)
+    for (const auto& [c, score] : h) total[c] = 0;
+  for (const auto& h : hangs) {
+    if (h.empty()) continue;
+    double worst = 0;
+    for (const auto& [c, score] : h) worst = std::max(worst, score);
+    for (auto& [c, sum] : total) {
+      const auto it = h.find(c);
+      sum += it == h.end() ? worst : it->second;
+    }
+  }
+  std::string best;
+  for (const auto& [c, sum] : total)
+    if (best.empty() || sum < total[best] || (sum == total[best] && c == standing)) best = c;
+  return best;
+}
+
 }  // namespace drape::unfolding

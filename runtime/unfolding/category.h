@@ -80,4 +80,12 @@ class CategoryDecision {
   int hangs_ = 0;
 };
 
+// The category from the category-by-registration scores of a trial's hangs
+// (LoopOptions::category_refit; recognition/category_fit.h: per hang, score_c of the
+// nearest categories that took part, a category's best fit over the hang's best, so 1 for
+// the hang's best and every hang weighs alike). A category that took no part at a
+// hang counts that hang's largest score (never better than one that was registered). The
+// least sum decides; ties keep `standing`. "" when no hang has a score.
+std::string SummedFitCategory(const std::vector<std::map<std::string, double>>& hangs, const std::string& standing);
+
 }  // namespace drape::unfolding

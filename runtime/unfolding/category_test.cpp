@@ -165,5 +165,25 @@ TEST(HangEvidence, ACategoryGatedOutIsNeverNearerThanTheFarthestInThePool) {
   EXPECT_EQ(f.ToJson()["per_category"]["pants"]["distance"], nullptr);
 }
 
+TEST(SummedFitCategory, TheLeastSumOverHangsAndAnAbsentCategoryCountsTheHangsWorst) {
+  using Scores = std::map<std::string, double>;
+  EXPECT_EQ(SummedFitCategory({}, "pants"), "");
+  // One hang: its best fit.
+  EXPECT_EQ(SummedFitCategory({Scores{{"pants", 0.017}, {"shirt", 0.022}}}, ""), "pants");
+  // A second hang that tells the shirt clearly outweighs the first's small margin.
+  const std::vector<Scores> two = {{{"pants", 0.017}, {"shirt", 0.022}}, {{"pants", 0.030}, {"shirt", 0.012}}};
+  EXPECT_EQ(SummedFitCategory(two, "pants"), "shirt");  // 0.047 against 0.034
+  // Shorts took part at the second hang only, pants at the first only: each counts the
+  // other hang's worst. Shorts 0.022 + 0.005 = 0.027, pants 0.017 + 0.012 = 0.029, shirt 0.034.
+  const std::vector<Scores> three = {{{"pants", 0.017}, {"shirt", 0.022}}, {{"shorts", 0.005}, {"shirt", 0.012}}};
+  EXPECT_EQ(SummedFitCategory(three, "shirt"), "shorts");
+  const std::vector<Scores> three_b = {{{"pants", 0.017}, {"shirt", 0.022}}, {{"shorts", 0.010}, {"shirt", 0.012}}};
+  EXPECT_EQ(SummedFitCategory(three_b, "shirt"), "pants");  // 0.029 against shorts 0.032
+  // Ties keep the standing category.
+  const std::vector<Scores> tie = {{{"pants", 0.02}, {"shirt", 0.02}}};
+  EXPECT_EQ(SummedFitCategory(tie, "shirt"), "shirt");
+  EXPECT_EQ(SummedFitCategory(tie, "pants"), "pants");
+}
+
 }  // namespace
 }  // namespace drape::unfolding

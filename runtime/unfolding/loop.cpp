@@ -45,6 +45,7 @@ void LoopOptions::Validate() const {
   if (candidates < 1 || candidates > 10) throw Error("unfold.candidates: must be in 1..10");
   if (!(fit_radius >= 0 && fit_radius <= 1)) throw Error("unfold.fit_radius: must be in [0, 1] m");
   lowest.Validate();
+  hanging.Validate();
   if (!(consensus_radius >= 0 && consensus_radius < 0.5)) throw Error("unfold.consensus_radius: must be in [0, 0.5) m");
   if (!(outlier_radius >= 0 && outlier_radius < 0.5)) throw Error("unfold.outlier_radius: must be in [0, 0.5) m");
   if (outlier_radius > 0 && consensus_radius > 0)
@@ -301,6 +302,8 @@ struct TrialRun {
   CategoryDecision decision;   // from every hang (LoopOptions::category_evidence)
   std::string aimed;           // anchor the holding gripper was sent to ("" before a regrasp)
   bool holder_regrasped = false;  // the holder took its point by an aimed regrasp (not the first grasp)
+  // LoopOptions::category_refit: each hang's category-by-registration scores, in order.
+  std::vector<std::map<std::string, double>> fit_scores;
 
   void Say(const std::string& s) const {
     if (progress) progress(s);
@@ -328,6 +331,17 @@ struct TrialRun {
     holder = 0;
   }
 
+  // The cloth as it hangs now in the holder's object frame, and the holder's pose (the
+  // trace's truth, --dump-meshes).
+  void RecordCloth(Step& s, const hw::GripperPose& hp) const {
+    const Eigen::Matrix3d to_object = Eigen::AngleAxisd(-hp.wrist, Vec3::UnitY()).toRotationMatrix();
+    s.cloth = world.mesh();
+    for (int i = 0; i < s.cloth.NumVertices(); ++i)
+      s.cloth.V.row(i) = (to_object * (Vec3(s.cloth.V.row(i)) - hp.position)).transpose();
+    s.holder_position = hp.position;
+    s.holder_wrist = hp.wrist;
+  }
+
   // Sweep → fusion → feature → recognition; fills s.frames, s.recon, s.recognition.
   bool SenseAndRecognise(Step& s, int iteration) {
     const Recipe& recipe = model.recipe();
@@ -337,15 +351,7 @@ struct TrialRun {
         world.camera().CaptureTurning(h, o.capture, DeriveSeed(seed, "sweep/" + std::to_string(iteration)));
     res.times.sensing += Since(t0);
     s.frames = static_cast<int>(sweep.frames.size());
-    {
-      const hw::GripperPose hp = h.pose();
-      const Eigen::Matrix3d to_object = Eigen::AngleAxisd(-hp.wrist, Vec3::UnitY()).toRotationMatrix();
-      s.cloth = world.mesh();
-      for (int i = 0; i < s.cloth.NumVertices(); ++i)
-        s.cloth.V.row(i) = (to_object * (Vec3(s.cloth.V.row(i)) - hp.position)).transpose();
-      s.holder_position = hp.position;
-      s.holder_wrist = hp.wrist;
-    }
+    RecordCloth(s, h.pose());
     t0 = Clock::now();
     FusionOptions fo = recipe.fusion;
     fo.threads = o.fusion_threads;
@@ -383,7 +389,7 @@ struct TrialRun {
     // The garment in the gripper does not change between steps. Once decided (category
     // off), the pose is recognised within the first step's category; with the evidence,
     // within the category every hang so far decides (the first step's when none other).
-    if (o.category_fit && trial_category.empty()) trial_category = CategoryByFit(s, matches, recognizer, ro);
+    const bool refit_changed = UpdateCategoryByFit(s, matches, recognizer, ro);
     if (o.category_known)
       ro.category = category;
     else if (o.category_evidence)
@@ -395,11 +401,12 @@ struct TrialRun {
     if (!s.category_fit.is_null() && !ro.category.empty()) s.recognition.category_source = "registration";
     s.recognition.match_seconds = Since(t0);
     s.decided_category = s.recognition.category;
-    s.category_switched = !o.category_known && o.category_evidence && changed;
+    s.category_switched = !o.category_known && ((o.category_evidence && changed) || refit_changed);
     if (s.category_switched) {
       // The aimed anchor was planned on the other category's model: neither kept nor
       // registered as a candidate, and the holder was not placed by an aimed regrasp.
-      s.note = "category now " + s.decided_category + " (the evidence of " + std::to_string(decision.hangs()) +
+      s.note = "category now " + s.decided_category + " (" + (refit_changed ? "the fits" : "the evidence") + " of " +
+               std::to_string(refit_changed ? fit_scores.size() : decision.hangs()) +
                " hangs): recognition's anchor, not the one aimed at";
       holder_regrasped = false;
     }
@@ -465,15 +472,33 @@ struct TrialRun {
     }
   }
 
-  // LoopOptions::category_fit: the first hang's category by registration ("" when no
-  // entry could be registered: recognition's nearest neighbour then decides).
+  // LoopOptions::category_fit: the hang's category by registration ("" when no entry
+  // could be registered: recognition's nearest neighbour then decides). Its scores are
+  // kept for LoopOptions::category_refit.
   std::string CategoryByFit(Step& s, const std::vector<rec::Match>& matches, const rec::Recognizer& recognizer,
-                            const rec::RecognizeOptions& ro) const {
+                            const rec::RecognizeOptions& ro) {
     const rec::CategoryFit fit = rec::RecognitionCategoryByFit(
         model.database(), recognizer, ro, matches, s.recon, [this](int e) { return model.HungMesh(e); },
         rec::CategoryFitOptions{});
     s.category_fit = rec::ToJson(fit);
+    if (!fit.scores.empty()) fit_scores.push_back(fit.scores);
     return fit.category;
+  }
+
+  // LoopOptions::category_fit: the trial's category by registration at its first hang,
+  // and with category_refit at every hang, the least score summed over the hangs so far
+  // deciding (SummedFitCategory; ties keep it). Returns whether a refit changed it.
+  bool UpdateCategoryByFit(Step& s, const std::vector<rec::Match>& matches, const rec::Recognizer& recognizer,
+                           const rec::RecognizeOptions& ro) {
+    if (!o.category_fit || !(trial_category.empty() || o.category_refit)) return false;
+    const std::string fitted = CategoryByFit(s, matches, recognizer, ro);
+    const std::string before = trial_category;
+    if (before.empty()) {
+      trial_category = fitted;
+      return false;
+    }
+    if (const std::string c = SummedFitCategory(fit_scores, before); !c.empty()) trial_category = c;
+    return trial_category != before;
   }
 
   // Candidate `c`'s database mesh turned by its recognised rotation.
@@ -519,6 +544,40 @@ struct TrialRun {
     return false;
   }
 
+  // The regrasp point from the free end hanging below the target (candidates.h HangingEnd):
+  // the reconstruction's lowest point near the registered end, raised by the distance of
+  // target and end on the candidate instance's pattern. Only where the database hang (rigid
+  // registration) has the end below the target, as a free end hangs.
+  void PointFromHangingEnd(Step& s, const CandidateRegistration& reg, const Step::CandidateTrace& c,
+                           const Eigen::Matrix3d& to_world, const Vec3& origin) const {
+    const std::string end = HangingEnd(c.next_anchor);
+    if (end.empty()) return;
+    const int v = model.AnchorVertex(c.candidate.instance, c.next_anchor);
+    const int e = model.AnchorVertex(c.candidate.instance, end);
+    const TriMesh& rigid = reg.reg.rigid;
+    if (v < 0 || e < 0 || v >= rigid.NumVertices() || e >= rigid.NumVertices()) return;
+    std::optional<Vec2> uv_anchor, uv_end;
+    for (const AnchorPoint& a : model.InstanceAnchors(c.candidate.instance)) {
+      if (a.label == c.next_anchor) uv_anchor = a.uv;
+      if (a.label == end) uv_end = a.uv;
+    }
+    if (!uv_anchor || !uv_end) return;
+    const double length = (*uv_anchor - *uv_end).norm();
+    if (rigid.V(v, 1) - rigid.V(e, 1) < o.hanging.min_drop * length) return;  // the end is not below
+    s.hanging_end = end;
+    s.hanging_length = length;
+    if (!o.hanging_end) return;
+    const Vec3 around = reg.final_mesh().V.row(e).transpose();
+    const auto low = LowestNear(s.recon, around, model.recipe().fusion.box.min().y(), o.hanging);
+    if (!low) {
+      AddNote(s, "hanging end: no reconstruction above the region's floor near the registered " + end +
+                     "; registered point used");
+      return;
+    }
+    s.predicted = to_world * (*low + Vec3(0, length, 0)) + origin;
+    s.hanging_taken = true;
+  }
+
   // The regrasp point (candidates.h ConsensusCandidate): the consensus of the candidates
   // aiming at the kept target or its twin; the ladder's first rungs from its registration.
   void PointFromConsensus(Step& s, const std::vector<double>& fits, const std::vector<CandidateRegistration>& regs,
@@ -547,6 +606,7 @@ struct TrialRun {
         AddNote(s, "lowest point: the reconstruction's lowest point is the region's floor; registered point used");
       }
     }
+    if (!s.lowest_taken) PointFromHangingEnd(s, preg, s.candidates[s.point], to_world, origin);
     if (o.hem_corner) s.point_mesh = preg.final_mesh(), s.point_vertex = v, s.point_to_world = to_world;
   }
 
@@ -787,6 +847,11 @@ struct TrialRun {
                            [&](int i) { return plan.JawDuringScan((i - half) * o.refine.sample_spacing); });
       RefineOptions ro = o.refine;
       if (s.lowest_taken && o.lowest.centre_only) ro.search_half_width_samples = 0;  // depth only
+      if (s.hanging_taken && o.hanging.centre_only) ro.search_half_width_samples = 0;
+      if (s.hanging_taken) {
+        ro.depth_half_width_samples =
+            std::min(ro.half_width_samples, static_cast<int>(std::lround(o.hanging.depth_window / ro.sample_spacing)));
+      }
       s.refine = RefineScan(s.ir_ranges, ro);
       if (s.refine.valid) {
         g.position = plan.Grasp(s.refine);
@@ -1016,6 +1081,7 @@ Json StepJson(const Step& s) {
          {"ir_best_offset", s.refine.offset},
          {"ir_fold_found", s.refine.fold_found},
          {"lowest_point", {{"target", s.lowest_target}, {"taken", s.lowest_taken}}},
+         {"hanging_end", {{"end", s.hanging_end}, {"taken", s.hanging_taken}, {"length_m", s.hanging_length}}},
          {"edge",
           {{"target", s.edge_target},
            {"ranges", RangesJson(s.edge_ranges)},

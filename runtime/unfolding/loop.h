@@ -76,6 +76,14 @@ struct LoopOptions {
   // of 60; docs/unfolding.md, "The lowest point"). Not with category_known or
   // category_evidence (Validate); false: recognition's nearest neighbour.
   bool category_fit = true;
+  // With category_fit: the category by registration again at every hang, the trial's
+  // category the one of the least score summed over the hangs (category.h
+  // SummedFitCategory); when it changes, the step plans from recognition's anchor in the
+  // new category, as with category_evidence. On paper 2.3.0 it gave the shirts the first
+  // hang had taken for pants back at the second (shirt 21 -> 27 of 30, pants 13 -> 13 of
+  // 20, shorts 8 -> 7 of 10; docs/unfolding.md, "The category at every hang").
+  // false: the first step's, kept for the trial. No effect without category_fit.
+  bool category_refit = true;
   // Weight of a hang from the random first grasp in that evidence (a hang after an aimed
   // regrasp weighs 1); must be >= 0.
   double first_hang_weight = 1;
@@ -154,6 +162,13 @@ struct LoopOptions {
   // paper's rule).
   bool lowest_point = true;
   LowestPointOptions lowest;
+  // The regrasp point (candidates.h HangingEnd): when the target hangs straight above a
+  // free end (an elbow above its cuff) and the point's database hang has that end below it,
+  // the reconstruction's lowest point near the registered end, raised by the pattern's
+  // anchor-to-end distance, instead of the registered anchor (docs/unfolding.md, "The
+  // hanging end"). false: the registered anchor (the paper's rule).
+  bool hanging_end = true;
+  HangingEndOptions hanging;
   hardware::CaptureOptions capture;  // frames per turn (paper ~550 both ways)
   int fusion_threads = 0;            // TSDF fusion threads (<= 0: all cores); no effect on results
   double standoff = 0.12;       // m: the IR scan runs this far before the predicted point
@@ -306,6 +321,11 @@ struct Step {
   // (recorded with the option off too), and whether the reconstruction's lowest point was
   // taken for it.
   bool lowest_target = false, lowest_taken = false;
+  // LoopOptions::hanging_end: the end below the target ("" when it has none or the database
+  // hang does not have it below), whether the point was taken from it, and the distance used.
+  std::string hanging_end;
+  bool hanging_taken = false;
+  double hanging_length = 0;
   std::vector<double> edge_ranges;
   EdgeResult edge;
   int corner_side = 0;  // CornerSide of the point's registration along the closing direction
