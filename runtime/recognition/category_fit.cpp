@@ -2,7 +2,6 @@
 #include "runtime/recognition/category_fit.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <mutex>
@@ -135,7 +134,7 @@ void RegisterFitCandidates(std::vector<FitCandidate>& candidates, const TriMesh&
   const ExactClosestPoint onto_recon(recon);
   ParallelFor(static_cast<int>(candidates.size()), options.threads, [&](int i) {
     FitCandidate& c = candidates[i];
-    const auto t0 = std::chrono::steady_clock::now();
+    const auto t0 = Clock::now();
     try {
       const TriMesh source = TurnedToQuery(hung_mesh(c.entry), c.rotation, sectors);
       const registration::RegistrationResult r = registration::Register(source, recon, ro);
@@ -152,7 +151,7 @@ void RegisterFitCandidates(std::vector<FitCandidate>& candidates, const TriMesh&
 CategoryFit DecideCategoryByFit(const Database& db, const std::vector<int>& pool, const std::vector<Match>& matches,
                                 const TriMesh& recon, const std::function<TriMesh(int)>& hung_mesh,
                                 const CategoryFitOptions& options) {
-  const auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = Clock::now();
   CategoryFit out;
   out.candidates = ChooseFitCandidates(db, pool, matches, options);
   RegisterFitCandidates(out.candidates, recon, db.sectors(), hung_mesh, options);
@@ -234,7 +233,7 @@ void RunFitQuery(const Release& release, const Database& db, double tau, const s
   }
   q.nearest = db.label(NearestUnweighted(pool, q.matches)).category;
   try {
-    const auto t0 = std::chrono::steady_clock::now();
+    const auto t0 = Clock::now();
     const TriMesh recon = ReadMesh(release.EntryPath(l.id, "recon.ply"));
     CategoryFitOptions one = options;
     one.threads = 1;  // parallel over queries instead
@@ -290,7 +289,7 @@ Json OptionsToJson(const CategoryFitOptions& o) {
 Json EvaluateCategoryFit(const Release& release, const Database& db, const Weights* weights,
                          const std::vector<EvalQuery>& queries, const CategoryFitOptions& options) {
   options.Validate();
-  const auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = Clock::now();
   const Recognizer rec(db, weights);
   const double tau = weights ? weights->height_gates.category : 0;
   const auto hung = ReleaseHungMeshes(release, db);
@@ -377,7 +376,7 @@ Json NestedJson(const std::vector<std::vector<char>>& ok, const SelectionRule& r
 
 Json SelectCategoryFit(const Release& release, const Database& db, double category_gate,
                        const std::vector<LabelledCode>& calibration, int threads) {
-  const auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = Clock::now();
   std::vector<LabelledCode> train(db.size());
   for (int i = 0; i < db.size(); ++i) train[i] = {db.label(i), db.code(i)};
   std::vector<FitQuery> qs;

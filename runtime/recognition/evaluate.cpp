@@ -8,16 +8,21 @@
 
 namespace drape::recognition {
 
-std::vector<std::string> SymmetryTwins(const std::string& anchor) {
-  // Whole '_'-separated tokens only, so e.g. "leftover" stays as it is.
+std::vector<std::string> AnchorTokens(const std::string& label) {
   std::vector<std::string> tokens(1);
-  for (char c : anchor) {
+  for (char c : label) {
     if (c == '_') {
       tokens.emplace_back();
     } else {
       tokens.back() += c;
     }
   }
+  return tokens;
+}
+
+std::vector<std::string> SymmetryTwins(const std::string& anchor) {
+  // Whole '_'-separated tokens only, so e.g. "leftover" stays as it is.
+  const std::vector<std::string> tokens = AnchorTokens(anchor);
   auto swapped = [&](bool lr, bool tb) {
     std::string out;
     for (size_t i = 0; i < tokens.size(); ++i) {

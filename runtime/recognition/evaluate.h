@@ -40,6 +40,8 @@ using AnchorUvMap = std::map<std::pair<std::string, std::string>, Vec2>;
 // and trousers differ front to back (neckline, back waist), which tells them apart.
 // Reported beside the strict (paper's) accuracy as "twin credited".
 std::vector<std::string> SymmetryTwins(const std::string& anchor);
+// An anchor label's whole '_'-separated tokens ("left_leg_outer" -> left, leg, outer).
+std::vector<std::string> AnchorTokens(const std::string& label);
 
 struct EvalOptions {
   int top_k = 3;  // for the top-k accuracy (distinct anchors)

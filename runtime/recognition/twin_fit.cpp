@@ -2,7 +2,6 @@
 #include "runtime/recognition/twin_fit.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <map>
@@ -23,20 +22,8 @@ namespace drape::recognition {
 
 namespace {
 
-std::vector<std::string> Tokens(const std::string& label) {
-  std::vector<std::string> t(1);
-  for (char c : label) {
-    if (c == '_') {
-      t.emplace_back();
-    } else {
-      t.back() += c;
-    }
-  }
-  return t;
-}
-
 bool HasToken(const std::string& label, const std::string& token) {
-  const std::vector<std::string> t = Tokens(label);
+  const std::vector<std::string> t = AnchorTokens(label);
   return std::find(t.begin(), t.end(), token) != t.end();
 }
 
@@ -279,7 +266,7 @@ TwinFit TwinByFit(const Database& db, const std::vector<Match>& matches, int mat
   options.Validate();
   if (matched < 0 || matched >= db.size()) throw Error("twin fit: no matched database entry");
   DRAPE_CHECK(static_cast<int>(matches.size()) == db.size(), "one match per database entry");
-  const auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = Clock::now();
   const EntryLabel& m = db.label(matched);
   TwinFit fit;
   fit.matched_anchor = fit.anchor = m.anchor;
@@ -308,7 +295,7 @@ TwinFit TwinByFit(const Database& db, const std::vector<Match>& matches, int mat
   const ExactClosestPoint onto_recon(recon);
   ParallelFor(static_cast<int>(fit.sides.size()), options.threads, [&](int i) {
     TwinSide& s = fit.sides[i];
-    const auto ts = std::chrono::steady_clock::now();
+    const auto ts = Clock::now();
     try {
       const TriMesh source = TurnedToQuery(hung_mesh(s.entry), s.rotation, db.sectors());
       const TriMesh reg = registration::Register(source, recon, ro).rigid;
@@ -438,7 +425,7 @@ void RunTwinQuery(const Release& release, const Database& db, const Recognizer& 
   const Recognition r = rec.Rank(pq, matches, o);
   q.bits_anchor = r.anchor;
   q.fit.matched_anchor = q.fit.anchor = r.anchor;
-  const auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = Clock::now();
   try {
     TwinFitOptions one = options;
     one.threads = 1;  // parallel over queries instead
@@ -492,7 +479,7 @@ struct TwinAcc {
 Json EvaluateTwinFit(const Release& release, const Database& db, const Weights* weights,
                      const std::vector<EvalQuery>& queries, const TwinFitOptions& options) {
   options.Validate();
-  const auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = Clock::now();
   const Recognizer rec(db, weights);
   const auto hung = ReleaseHungMeshes(release, db);
   std::vector<TwinQuery> qs(queries.size());
@@ -594,7 +581,7 @@ std::vector<TwinQuery> SelectionQueries(const Database& db, const std::vector<La
 
 Json SelectTwinFit(const Release& release, const Database& db, const Weights* weights,
                    const std::vector<LabelledCode>& calibration, int threads) {
-  const auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = Clock::now();
   const Recognizer rec(db, weights);
   std::vector<LabelledCode> train(db.size());
   for (int i = 0; i < db.size(); ++i) train[i] = {db.label(i), db.code(i)};
