@@ -174,6 +174,12 @@ std::vector<AnchorPoint> ReleaseModel::InstanceAnchors(const std::string& instan
   return out;
 }
 
+std::optional<Vec2> ReleaseModel::AnchorUv(const std::string& instance, const std::string& anchor) const {
+  const auto it = impl_->uvs.find({instance, anchor});
+  if (it == impl_->uvs.end()) return std::nullopt;
+  return it->second;
+}
+
 int ReleaseModel::AnchorVertex(const std::string& instance, const std::string& anchor) const {
   for (int i = 0; i < impl_->db.size(); ++i) {
     const rec::EntryLabel& l = impl_->db.label(i);
@@ -556,11 +562,8 @@ struct TrialRun {
     const int e = model.AnchorVertex(c.candidate.instance, end);
     const TriMesh& rigid = reg.reg.rigid;
     if (v < 0 || e < 0 || v >= rigid.NumVertices() || e >= rigid.NumVertices()) return;
-    std::optional<Vec2> uv_anchor, uv_end;
-    for (const AnchorPoint& a : model.InstanceAnchors(c.candidate.instance)) {
-      if (a.label == c.next_anchor) uv_anchor = a.uv;
-      if (a.label == end) uv_end = a.uv;
-    }
+    const std::optional<Vec2> uv_anchor = model.AnchorUv(c.candidate.instance, c.next_anchor);
+    const std::optional<Vec2> uv_end = model.AnchorUv(c.candidate.instance, end);
     if (!uv_anchor || !uv_end) return;
     const double length = (*uv_anchor - *uv_end).norm();
     if (rigid.V(v, 1) - rigid.V(e, 1) < o.hanging.min_drop * length) return;  // the end is not below

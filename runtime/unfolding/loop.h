@@ -217,6 +217,8 @@ class ReleaseModel {
   const TriMesh& HungMesh(int entry) const;
   // Anchors (label, uv) of a database garment instance, in label order.
   std::vector<AnchorPoint> InstanceAnchors(const std::string& instance) const;
+  // Flat-pattern position (m) of `anchor` on database `instance`; none if unknown.
+  std::optional<Vec2> AnchorUv(const std::string& instance, const std::string& anchor) const;
   // Vertex of `anchor` in the meshes of database `instance`'s entries; -1 if unknown.
   int AnchorVertex(const std::string& instance, const std::string& anchor) const;
   // The category's test garment instances (from the recipe's test split): garment,
