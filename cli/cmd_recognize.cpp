@@ -1,7 +1,6 @@
 // drape recognize / calibrate / eval: pose recognition against a release (paper
 // §"Pose Estimation"), RankSVM calibration of the weighted Hamming distance, and the
 // evaluation report.
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -177,7 +176,7 @@ Json RecognizeTwinByFit(const Release& rel, const Database& db, const Code& q, c
                         const std::optional<std::string>& id, const std::optional<TwinFitOptions>& options,
                         Recognition& r, Json& timing) {
   if (!options) return nullptr;
-  const auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = Clock::now();
   Json j = ToJson(EntryTwinByFit(rel, db, q, o, id.value(), *options, r));
   j["options"] = ToJson(*options);
   timing["twin_fit_seconds"] = Since(t0);
@@ -271,7 +270,7 @@ int RunRecognize(const std::vector<std::string>& argv) {
   const std::optional<TwinFitOptions> twin_options = TwinFitFromArgs(a);
   if (twin_options && !a.Get("--entry")) throw Error("--twin-fit needs the query's reconstruction: only with --entry");
 
-  auto t0 = std::chrono::steady_clock::now();
+  auto t0 = Clock::now();
   const Release rel = Release::Open(a.positional()[0]);
   LoadReport lr;
   Database db = LoadDatabase(rel, &lr, ParseKernel(a.Get("--kernel", "auto")));
@@ -299,7 +298,7 @@ int RunRecognize(const std::vector<std::string>& argv) {
   const bool by_default =
       !a.Flag("--no-category-fit") && id && o.category.empty() && fs::exists(rel.EntryPath(*id, "recon.ply"));
   if (a.Flag("--category-fit") || by_default) {
-    const auto tf = std::chrono::steady_clock::now();
+    const auto tf = Clock::now();
     fit = RecognizeCategoryByFit(a, rel, db, rec, q, o);
     timing["category_fit_seconds"] = Since(tf);
   }
@@ -441,7 +440,7 @@ int RunCalibrate(const std::vector<std::string>& argv) {
   }
   std::optional<CrossValidation> cv;
   if (cross_validate) {
-    const auto tcv = std::chrono::steady_clock::now();
+    const auto tcv = Clock::now();
     const HeightGates gates = opt.height_gates ? SelectHeightGates(db, queries, opt).chosen : HeightGates{};
     cv = CrossValidate(db, queries, opt, gates, DefaultCvGrid());
     if (cv->chosen < 0) throw Error("calibrate: cross-validation had no held-out query (too few garment instances)");
@@ -461,7 +460,7 @@ int RunCalibrate(const std::vector<std::string>& argv) {
       }
     }
   }
-  const auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = Clock::now();
   CalibrationResult res = Calibrate(db, queries, opt, rel.digest());
   const double secs = Since(t0);
   res.weights.options["split"] = split;
@@ -657,7 +656,7 @@ int RunEval(const std::vector<std::string>& argv) {
   TwinFitFromArgs(a);  // bad settings fail before any work
   const Release rel = Release::Open(a.positional()[0]);
   const std::string split = a.Get("--split", "test");
-  auto t0 = std::chrono::steady_clock::now();
+  auto t0 = Clock::now();
   LoadReport lr;
   const Database db = LoadDatabase(rel, &lr, ParseKernel(a.Get("--kernel", "auto")));
   const double load_s = Since(t0);

@@ -10,7 +10,11 @@ namespace drape {
 // The monotonic clock every wall-time figure is taken with (never jumps with the system time).
 using Clock = std::chrono::steady_clock;
 
+// Seconds from a to b (negative if b is earlier): for laps that reuse one reading as the
+// end of a step and the start of the next.
+inline double Seconds(Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double>(b - a).count(); }
+
 // Seconds elapsed since t0, a Clock::now() taken earlier.
-inline double Since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+inline double Since(Clock::time_point t0) { return Seconds(t0, Clock::now()); }
 
 }  // namespace drape

@@ -26,5 +26,12 @@ TEST(Since, CountsSecondsFromAnEarlierTime) {
   EXPECT_LT(Since(Clock::now() + 1h), 0.0);
 }
 
+TEST(Seconds, IsTheSignedDifferenceInSeconds) {
+  const auto t0 = Clock::now();
+  EXPECT_EQ(Seconds(t0, t0), 0.0);
+  EXPECT_DOUBLE_EQ(Seconds(t0, t0 + 1500ms), 1.5);
+  EXPECT_DOUBLE_EQ(Seconds(t0 + 2s, t0), -2.0);
+}
+
 }  // namespace
 }  // namespace drape

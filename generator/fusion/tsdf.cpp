@@ -1,7 +1,6 @@
 // TSDF integration, space carving and queries (no OpenVDB here: it lives in vdb.cpp).
 #include <algorithm>
 #include <array>
-#include <chrono>
 #include <cmath>
 #include <ctime>
 #include <limits>
@@ -17,6 +16,7 @@
 #include "common/field_error.h"
 #include "common/parallel.h"
 #include "common/rng.h"
+#include "common/timing.h"
 #include "generator/fusion/fusion.h"
 #include "generator/fusion/tsdf_impl.h"
 
@@ -39,11 +39,10 @@ void CheckFrame(const std::vector<float>& depth, const Intrinsics& K) {
   }
 }
 
-using Clock = std::chrono::steady_clock;
 // Seconds since t0; restarts t0.
 double Lap(Clock::time_point& t0) {
   const auto now = Clock::now();
-  const double s = std::chrono::duration<double>(now - t0).count();
+  const double s = Seconds(t0, now);
   t0 = now;
   return s;
 }
@@ -1374,7 +1373,7 @@ FusionStats Tsdf::Stats() const {
 FusionResult FuseFrames(const std::vector<DepthFrame>& frames, const Intrinsics& intrinsics,
                         const FusionOptions& options, uint64_t seed, bool extract_mesh) {
   options.Validate();
-  const auto start = std::chrono::steady_clock::now();
+  const auto start = Clock::now();
   FusionResult result;
   result.tsdf = std::make_shared<Tsdf>(options);
   const uint64_t pose_seed = DeriveSeed(seed, "fusion/pose");
@@ -1399,8 +1398,7 @@ FusionResult FuseFrames(const std::vector<DepthFrame>& frames, const Intrinsics&
   result.stats = result.tsdf->Stats();
   result.stats.mesh_vertices = result.mesh.NumVertices();
   result.stats.mesh_faces = result.mesh.NumFaces();
-  result.stats.wall_seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  result.stats.wall_seconds = Since(start);
   return result;
 }
 

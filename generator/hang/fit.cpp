@@ -3,13 +3,13 @@
 // garment starts to slide at the measured friction angle.
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <numbers>
 
 #include "common/error.h"
 #include "common/format.h"
 #include "common/rng.h"
+#include "common/timing.h"
 #include "generator/hang/hang.h"
 
 namespace drape {
@@ -140,7 +140,7 @@ double SlidingAngle(double mu, const Material& material, const MaterialFit& fit,
 }
 
 MaterialFit FitMaterial(const Material& material, const HangOptions& options) {
-  const auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = Clock::now();
   material.Validate();
   options.Validate();
   MaterialFit fit;
@@ -165,7 +165,7 @@ MaterialFit FitMaterial(const Material& material, const HangOptions& options) {
     fit.reproduced_friction_deg =
         SlidingAngle(fit.friction, material, fit, options, theta - 2, theta + 2, &fit.friction_iterations);
   }
-  fit.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  fit.wall_seconds = Since(t0);
   return fit;
 }
 

@@ -1,14 +1,14 @@
 #include "generator/hang/hang.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <memory>
 
 #include "common/error.h"
-#include "common/format.h"
 #include "common/field_error.h"
+#include "common/format.h"
 #include "common/rng.h"
+#include "common/timing.h"
 #include "generator/cloth/measure.h"
 
 namespace drape {
@@ -57,10 +57,6 @@ double ShearFraction(const TriMesh& hung, const Points3& flat, const Vec3& flat_
 }
 
 namespace {
-
-using Clock = std::chrono::steady_clock;
-double Seconds(Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double>(b - a).count(); }
-
 
 // The gripper for hanging: closing across the layers (world z, the flat garment's
 // normal), pads in the garment's plane, at the grasp point (the origin).
@@ -288,7 +284,7 @@ HangResult Hang(const Garment& garment, int anchor_vertex, const Vec3& grasp_off
     result.mesh.V = run.x.allFinite() ? run.x : start;
     const auto tm = Clock::now();
     m = MeasureCloth(result.mesh, garment.mesh.V);
-    measure_seconds += Seconds(tm, Clock::now());
+    measure_seconds += Since(tm);
     result.failure = Verdict(run.settle, m, material, options);
     if (result.failure.empty()) break;
   }
@@ -303,7 +299,7 @@ HangResult Hang(const Garment& garment, int anchor_vertex, const Vec3& grasp_off
     result.failure += " (after a retry at time_step " + FormatNumber(dt) + " s)";
   }
   result.ok = result.failure.empty();
-  st.wall_seconds = Seconds(wall0, Clock::now());
+  st.wall_seconds = Since(wall0);
   return result;
 }
 

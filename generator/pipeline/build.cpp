@@ -17,6 +17,7 @@
 #include "common/error.h"
 #include "common/parallel.h"
 #include "common/rng.h"
+#include "common/timing.h"
 #include "common/version.h"
 #include "garments/io.h"
 #include "garments/templates.h"
@@ -31,11 +32,7 @@ namespace fs = std::filesystem;
 
 namespace drape {
 
-using Clock = std::chrono::steady_clock;
-
 namespace {
-
-double Seconds(Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double>(b - a).count(); }
 
 // A value computed once per key by whichever job needs it first; other jobs wait.
 template <typename T>
@@ -203,7 +200,7 @@ struct StageClock {
   void operator()(const char* name, Fn&& fn) {
     const auto t0 = Clock::now();
     fn();
-    timing[name] = Seconds(t0, Clock::now());
+    timing[name] = Since(t0);
   }
 };
 
@@ -287,7 +284,7 @@ Entry BuildEntry(const Recipe& recipe, const Job& job, JobCache& cache) {
   auto fail = [&](const std::string& why) {
     e.failed = true;
     e.failure = why;
-    timing["total"] = Seconds(t_start, Clock::now());
+    timing["total"] = Since(t_start);
     e.timing = timing;
     return e;
   };
@@ -307,7 +304,7 @@ Entry BuildEntry(const Recipe& recipe, const Job& job, JobCache& cache) {
   } catch (const NumericalError& err) {
     return fail(std::string("numerical: ") + err.what());
   }
-  timing["total"] = Seconds(t_start, Clock::now());
+  timing["total"] = Since(t_start);
   e.timing = timing;
   return e;
 }
@@ -330,7 +327,7 @@ void ProgressLine::Print(int done, int total, int failed, double elapsed, double
        << (done < total ? FormatDuration(eta) : "0s") << suffix;
   if (mode_ == ProgressMode::kTty) {
     log_ << "\r\033[K" << line.str() << (over ? "\n" : "") << std::flush;
-  } else if (done != last_reported_ && (over || Seconds(last_plain_, Clock::now()) >= interval_)) {
+  } else if (done != last_reported_ && (over || Since(last_plain_) >= interval_)) {
     log_ << line.str() << "\n" << std::flush;
     last_plain_ = Clock::now();
     last_reported_ = done;
@@ -529,8 +526,7 @@ void WatchJobs(JobsState& st, std::ostream& log, ProgressMode mode, const BuildO
       log << (mode == ProgressMode::kTty ? "\n" : "") << "drape build: interrupted; letting " << st.running
           << " running job(s) finish and commit (Ctrl-C again quits at once; --resume continues)\n";
     }
-    progress.Print(report.already_done + st.finished, report.shard_jobs, report.failed, Seconds(t0, Clock::now()), eta,
-                   last);
+    progress.Print(report.already_done + st.finished, report.shard_jobs, report.failed, Since(t0), eta, last);
     if (last) break;
     st.cv.wait_for(lock, std::chrono::milliseconds(500));
   }
@@ -585,7 +581,7 @@ BuildReport RunBuild(const Recipe& recipe, const BuildOptions& options) {
       report.aborted = true;
     } else {
       ++st.finished;
-      st.busy_seconds += Seconds(tj, Clock::now());
+      st.busy_seconds += Since(tj);
       CountEntry(*entry, job, report);
     }
     st.cv.notify_all();
@@ -603,7 +599,7 @@ BuildReport RunBuild(const Recipe& recipe, const BuildOptions& options) {
 
   writer->SetBuildInfo("threads", threads);
   FinishBuild(*writer, report, mode, log);
-  report.wall_seconds = Seconds(t0, Clock::now());
+  report.wall_seconds = Since(t0);
   return report;
 }
 

@@ -8,7 +8,6 @@
 #pragma once
 
 #include <atomic>
-#include <chrono>
 #include <filesystem>
 #include <map>
 #include <memory>
@@ -16,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "common/timing.h"
 #include "generator/recipe/jobs.h"
 #include "generator/recipe/recipe.h"
 #include "generator/release/entry.h"
@@ -132,7 +132,7 @@ class ProgressLine {
   std::ostream& log_;
   ProgressMode mode_;
   double interval_;
-  std::chrono::steady_clock::time_point last_plain_ = std::chrono::steady_clock::now();
+  Clock::time_point last_plain_ = Clock::now();
   int last_reported_ = -1;
 };
 

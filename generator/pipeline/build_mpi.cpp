@@ -14,10 +14,11 @@
 #include <thread>
 #include <vector>
 
-#include "common/version.h"
 #include "common/error.h"
 #include "common/hash.h"
 #include "common/json.h"
+#include "common/timing.h"
+#include "common/version.h"
 #include "generator/recipe/jobs.h"
 #include "generator/release/release.h"
 
@@ -198,10 +199,6 @@ bool MpiCompiled() { return true; }
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-
-double Seconds(Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double>(b - a).count(); }
-
 enum Tag : int { kReady = 1, kResult = 2, kData = 3, kJob = 4, kStop = 5, kFinal = 6 };
 
 // MPI counts are ints: byte strings go in chunks of at most 1 GiB.
@@ -352,7 +349,7 @@ class JobServer {
       MPI_Iprobe(MPI_ANY_SOURCE, MPI_ANY_TAG, MPI_COMM_WORLD, &flag, &st);
       NoteStop();
       if (!flag) {
-        if (Seconds(last_tick, Clock::now()) >= 0.5) {
+        if (Since(last_tick) >= 0.5) {
           Progress(false);
           last_tick = Clock::now();
         }
@@ -405,8 +402,7 @@ class JobServer {
     if (error_) return;
     const int remaining = static_cast<int>(start_.todo.size()) - finished_;
     const double eta = finished_ ? busy_seconds_ / finished_ * remaining / std::max(1, workers_) : NAN;
-    progress_line_.Print(report_.already_done + finished_, report_.shard_jobs, report_.failed,
-                         Seconds(t0_, Clock::now()), eta, over,
+    progress_line_.Print(report_.already_done + finished_, report_.shard_jobs, report_.failed, Since(t0_), eta, over,
                          ", " + std::to_string(InFlight()) + "/" + std::to_string(workers_) + " ranks busy");
   }
   // A worker is ready: it must have read the same recipe with the same binary.
@@ -440,7 +436,7 @@ class JobServer {
       FailBuild(job.key + ": " + err);
     } else {
       ++finished_;
-      busy_seconds_ += Seconds(started_[w], Clock::now());
+      busy_seconds_ += Since(started_[w]);
       CountEntry(*entry, job, report_);
     }
     HandOut(w);
@@ -507,7 +503,7 @@ MpiBuildOutcome Coordinate(const Recipe& recipe, const BuildOptions& options, in
     }
   }
   start.writer.reset();  // releases the lock before the workers are let go
-  report.wall_seconds = Seconds(t0, Clock::now());
+  report.wall_seconds = Since(t0);
 
   const std::string bytes = FinalMessage(report, error).dump();
   for (int w = 1; w < size; ++w) SendBytes(bytes, w, kFinal);

@@ -2,7 +2,6 @@
 #include "generator/sweep/sweep.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <sstream>
 #include <string>
@@ -10,6 +9,7 @@
 #include "common/error.h"
 #include "common/field_error.h"
 #include "common/parallel.h"
+#include "common/timing.h"
 
 namespace drape {
 
@@ -62,7 +62,7 @@ Eigen::Isometry3d ObjectToWorld(const SweepOptions& o, double angle) {
 }
 
 Sweep SimulateSweep(const TriMesh& hung, const SweepOptions& options, uint64_t seed) {
-  const auto start = std::chrono::steady_clock::now();
+  const auto start = Clock::now();
   SweepScene scene(hung, options);
   Sweep sweep;
   sweep.intrinsics = options.kinect.intrinsics;
@@ -138,8 +138,7 @@ Sweep SimulateSweep(const TriMesh& hung, const SweepOptions& options, uint64_t s
        << b.min().y() << ".." << b.max().y() << " m)";
     st.warnings.push_back(os.str());
   }
-  st.wall_seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  st.wall_seconds = Since(start);
   return sweep;
 }
 

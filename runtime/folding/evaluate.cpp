@@ -1,13 +1,12 @@
 #include "runtime/folding/evaluate.h"
 
-#include <opencv2/imgproc.hpp>
-
 #include <algorithm>
-#include <chrono>
 #include <cmath>
+#include <opencv2/imgproc.hpp>
 
 #include "common/error.h"
 #include "common/rng.h"
+#include "common/timing.h"
 
 namespace drape::folding {
 
@@ -92,7 +91,7 @@ TrialResult RunTrial(const FoldSetup& setup, const FoldingPlan& plan, const Plan
                      const std::vector<std::vector<RelativeTrajectory>>& trajectories, const TrialOptions& o,
                      int index) {
   o.Validate();
-  const auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = Clock::now();
   Rng rng(DeriveSeed(o.seed, "fold/trial/" + std::to_string(index)));
   TrialResult r;
   r.index = index;
@@ -108,7 +107,7 @@ TrialResult RunTrial(const FoldSetup& setup, const FoldingPlan& plan, const Plan
   auto stop = [&](const std::exception& e) {
     r.failure = e.what();
     for (const auto& s : r.run.steps) r.sim_time += s.result.after.sim_time;
-    r.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    r.wall_seconds = Since(t0);
   };
   try {
     RunPlan(r.run, scene, laid, setup.garment.category, plan, run_options, &trajectories);
@@ -121,7 +120,7 @@ TrialResult RunTrial(const FoldSetup& setup, const FoldingPlan& plan, const Plan
   }
   r.completed = true;
   JudgeFold(r, setup.garment.mesh.F, o);
-  r.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  r.wall_seconds = Since(t0);
   return r;
 }
 

@@ -4,16 +4,16 @@
 
 #include <algorithm>
 #include <bit>
-#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <map>
 #include <set>
 
 #include "common/error.h"
-#include "common/format.h"
 #include "common/files.h"
+#include "common/format.h"
 #include "common/hash.h"
+#include "common/timing.h"
 
 namespace drape::recognition {
 
@@ -274,7 +274,7 @@ std::vector<QueryData> GatherCategory(const Database& db, const std::string& cat
 // statistics (into out.categories); queries without both kinds of entries are skipped.
 void CalibrateCategory(const Database& db, const std::string& cat, const std::vector<const LabelledCode*>& qs,
                        const CalibrateOptions& options, CalibrationResult& out) {
-  const auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = Clock::now();
   const Shape sh{db.layers(), db.rings(), db.sectors()};
   CategoryCalibration st;
   st.category = cat;
@@ -322,7 +322,7 @@ void CalibrateCategory(const Database& db, const std::string& cat, const std::ve
   double dep = 0;
   for (double v : w) dep += std::abs(v - 1);
   st.mean_abs_departure = dep / sh.bits();
-  st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  st.seconds = Since(t0);
   out.weights.per_category[cat] = std::move(w);
   out.categories.push_back(st);
 }

@@ -9,13 +9,13 @@
 #include <benchmark/benchmark.h>
 
 #include <bit>
-#include <chrono>
 #include <cstdio>
 #include <ctime>
 #include <map>
 
 #include "common/cpu_time.h"
 #include "common/rng.h"
+#include "common/timing.h"
 #include "generator/feature/feature.h"
 #include "generator/fusion/fusion.h"
 #include "generator/fusion/synthetic.h"
@@ -235,11 +235,11 @@ using StageTimes = std::map<std::string, std::pair<double, double>>;
 
 Feature QueryFeature(const std::vector<DepthFrame>& frames, const Intrinsics& K, int stride, double voxels_per_metre,
                      bool field, StageTimes* steps) {
-  auto lap = [&, w0 = std::chrono::steady_clock::now(), c0 = ProcessCpuSeconds()](const char* name) mutable {
-    const auto w1 = std::chrono::steady_clock::now();
+  auto lap = [&, w0 = Clock::now(), c0 = ProcessCpuSeconds()](const char* name) mutable {
+    const auto w1 = Clock::now();
     const double c1 = ProcessCpuSeconds();
     if (steps) {
-      (*steps)[name].first += std::chrono::duration<double>(w1 - w0).count();
+      (*steps)[name].first += Seconds(w0, w1);
       (*steps)[name].second += c1 - c0;
     }
     w0 = w1, c0 = c1;
@@ -301,12 +301,12 @@ void BM_PaperQuery(benchmark::State& state) {
   Feature f;
   for (auto _ : state) {
     f = QueryFeature(frames, K, stride, vpm, field, &steps);
-    const auto w0 = std::chrono::steady_clock::now();
+    const auto w0 = Clock::now();
     const double c0 = ProcessCpuSeconds();
     Code q = ZeroFeature(f.layers, f.rings, f.sectors);
     q.words = f.words;
     benchmark::DoNotOptimize(rec.Recognize(q, RecognizeOptions()).best.entry);
-    steps["matching"].first += std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count();
+    steps["matching"].first += Since(w0);
     steps["matching"].second += ProcessCpuSeconds() - c0;
   }
   double wall = 0, cpu = 0;

@@ -1,13 +1,13 @@
 #include "runtime/recognition/recognizer.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <limits>
 #include <set>
 #include <sstream>
 
 #include "common/error.h"
+#include "common/timing.h"
 
 namespace drape::recognition {
 
@@ -122,12 +122,12 @@ HeightGates Recognizer::GatesFor(const RecognizeOptions& options) const {
 Recognition Recognizer::Recognize(const Code& query, const RecognizeOptions& options) const {
   options.Validate();
   if (db_.empty()) throw Error("recognize: the database is empty (the release has no usable train entries)");
-  const auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = Clock::now();
   PreparedQuery q(query);
   std::vector<Match> matches;
   db_.matcher().MatchAll(q, &matches);
   Recognition r = Rank(q, matches, options);
-  r.match_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  r.match_seconds = Since(t0);
   return r;
 }
 

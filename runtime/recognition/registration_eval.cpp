@@ -2,7 +2,6 @@
 #include "runtime/recognition/registration_eval.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <map>
 #include <numeric>
@@ -203,7 +202,7 @@ PairOutcome RegisterPair(const Release& release, const Pair& p, const EntryLabel
                          const reg::RegistrationOptions& ro, bool wants_figure) {
   PairOutcome o;
   try {
-    const auto t0 = std::chrono::steady_clock::now();
+    const auto t0 = Clock::now();
     const TriMesh source = ReadMesh(release.EntryPath(d.id, "hang.ply"));
     const TriMesh target = ReadMesh(release.EntryPath(p.test->id, "recon.ply"));
     std::optional<Vec3> truth = HungVertex(release, p.test->id, p.test_label.anchor_vertex);
@@ -296,7 +295,7 @@ Json OptionsJson(const reg::RegistrationOptions& ro, int max_pairs_per_category)
 RegistrationEvalResult EvaluateRegistration(const Release& release, const Database& db, const Json& per_query,
                                             const std::string& split, const RegistrationEvalOptions& options) {
   options.Validate();
-  const auto t_all = std::chrono::steady_clock::now();
+  const auto t_all = Clock::now();
   Json skipped = Json::array();
   int limited = 0;
   const std::vector<Pair> pairs =

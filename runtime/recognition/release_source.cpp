@@ -1,12 +1,12 @@
 #include "runtime/recognition/release_source.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cstring>
 #include <limits>
 #include <sstream>
 
 #include "common/error.h"
+#include "common/timing.h"
 #include "garments/mesh_read.h"
 #include "generator/feature/feature.h"
 
@@ -75,7 +75,7 @@ double ReconHeight(const Release& release, const Release::EntryInfo& e) {
 }
 
 std::vector<LabelledCode> LoadSplit(const Release& release, const std::string& split, LoadReport* report) {
-  const auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = Clock::now();
   LoadReport local;
   LoadReport& rep = report ? *report : local;
   std::vector<LabelledCode> out;
@@ -93,7 +93,7 @@ std::vector<LabelledCode> LoadSplit(const Release& release, const std::string& s
     out.push_back(std::move(lc));
     ++rep.loaded;
   }
-  rep.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  rep.seconds += Since(t0);
   return out;
 }
 

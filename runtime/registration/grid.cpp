@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <array>
-#include <chrono>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -54,7 +53,7 @@ ClosestPointGrid::ClosestPointGrid(const TriMesh& target, const GridOptions& opt
 // surface thus ends with its exact closest point. Planes of constant k are
 // independent, so they run in parallel with identical results.
 void ClosestPointGrid::FillBand(const GridOptions& options) {
-  const auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = Clock::now();
   const double band = options.band * h_;
   const int F = target_.NumFaces();
   std::vector<std::array<int, 6>> range(F);
@@ -95,7 +94,7 @@ void ClosestPointGrid::FillBand(const GridOptions& options) {
 
 // Fast sweeping: Gauss–Seidel over the 8 diagonal orderings until a pass changes nothing.
 void ClosestPointGrid::Sweep(const GridOptions& options) {
-  const auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = Clock::now();
   for (int pass = 0; pass < options.max_passes; ++pass) {
     int64_t updates = 0;
     for (int order = 0; order < 8; ++order) updates += SweepOrder(order);

@@ -1,11 +1,11 @@
 #include "runtime/registration/rigid.h"
 
 #include <Eigen/Geometry>
-#include <chrono>
 #include <cmath>
 #include <string>
 
 #include "common/error.h"
+#include "common/timing.h"
 
 namespace drape::registration {
 
@@ -59,7 +59,7 @@ void IcpOptions::Validate() const {
 
 Similarity Icp(Points3& V, const ClosestPointGrid& grid, const IcpOptions& options, IcpReport* report) {
   options.Validate();
-  const auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = Clock::now();
   const int n = static_cast<int>(V.rows());
   IcpReport rep;
   Similarity total;
@@ -94,7 +94,7 @@ Similarity Icp(Points3& V, const ClosestPointGrid& grid, const IcpOptions& optio
     }
   }
   rep.rms_after = rms;
-  rep.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  rep.seconds = Since(t0);
   if (report) *report = rep;
   return total;
 }
