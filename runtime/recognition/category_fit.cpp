@@ -380,14 +380,16 @@ Json SelectCategoryFit(const Release& release, const Database& db, double catego
   std::vector<LabelledCode> train(db.size());
   for (int i = 0; i < db.size(); ++i) train[i] = {db.label(i), db.code(i)};
   std::vector<FitQuery> qs;
-  for (const LabelledCode& c : calibration) qs.push_back({&c});
+  for (const LabelledCode& c : calibration) qs.emplace_back().query = &c;
   int left_out = 0;
   for (const LabelledCode& c : train) {
     if (db.instances(c.label.category).size() < 2) {
       ++left_out;  // no other instance of its category: cannot be right
       continue;
     }
-    qs.push_back({&c, c.label.instance});
+    FitQuery& q = qs.emplace_back();
+    q.query = &c;
+    q.exclude_instance = c.label.instance;  // queried against the other instances
   }
   CategoryFitOptions largest;
   largest.per_category = 3;

@@ -562,7 +562,7 @@ std::vector<std::vector<char>> GridAnswers(std::vector<TwinQuery>& qs,
 std::vector<TwinQuery> SelectionQueries(const Database& db, const std::vector<LabelledCode>& calibration,
                                         const std::vector<LabelledCode>& train, int& left_out) {
   std::vector<TwinQuery> qs;
-  for (const LabelledCode& c : calibration) qs.push_back({&c});
+  for (const LabelledCode& c : calibration) qs.emplace_back().query = &c;
   for (const LabelledCode& c : train) {
     std::vector<std::string> others;
     for (const std::string& i : db.instances(c.label.category)) {
@@ -572,7 +572,9 @@ std::vector<TwinQuery> SelectionQueries(const Database& db, const std::vector<La
       ++left_out;
       continue;
     }
-    qs.push_back({&c, others});
+    TwinQuery& q = qs.emplace_back();
+    q.query = &c;
+    q.instances = std::move(others);
   }
   return qs;
 }

@@ -952,7 +952,7 @@ TrialResult RunTrial(const ReleaseModel& model, const std::string& category, con
   res.sensing_height = o.sensing_height;
   for (const Anchor& a : tg.garment.anchors) res.true_anchors.push_back({a.label, a.uv});
   hw::SimWorld world(tg.garment, tg.material, tg.fit, so, DeriveSeed(seed, "world"));
-  TrialRun run{model, o, category, seed, world, res, progress, 0, "", {}, ""};
+  TrialRun run{model, o, category, seed, world, res, progress, 0, "", {}, "", false, {}};
   try {
     run.Run();
   } catch (const NumericalError& e) {
