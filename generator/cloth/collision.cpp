@@ -14,8 +14,9 @@
 namespace drape {
 namespace {
 
-// Phase timings in thread CPU seconds: a busy shared machine does not inflate them.
-double Since(double t0) { return ThreadCpuSeconds() - t0; }
+// Thread CPU seconds since t0, a ThreadCpuSeconds() taken earlier (drape::Since is wall
+// time): phase timings that a busy shared machine does not inflate.
+double CpuSince(double t0) { return ThreadCpuSeconds() - t0; }
 
 constexpr double kTiny = 1e-30;          // m²: below this a segment has zero length
 constexpr double kAccdShrink = 0.1;      // ACCD's s: report when the gap falls below s × initial
@@ -709,7 +710,7 @@ void LimitStrain(ApplyContext& cx, const Eigen::VectorXd& w) {
     ClampSweeps(cx, w, b);
   else
     ClampSweepsReference(cx, w, b);
-  cx.rep.strain_seconds += Since(t0);
+  cx.rep.strain_seconds += CpuSince(t0);
 }
 
 // Edges of x1 outside the accepted bounds (sorted); *max_strain: the largest (l − L0)/L0.
@@ -879,7 +880,7 @@ void Repel(ApplyContext& cx) {
     if (moved == 0) break;
     for (int i = 0; i < n; ++i) moved_node[i] = cx.x1.row(i) != before.row(i);
   }
-  cx.rep.proximity_seconds += Since(t0);
+  cx.rep.proximity_seconds += CpuSince(t0);
 }
 
 // ---- static boxes --------------------------------------------------------------------
@@ -945,7 +946,7 @@ void HandleColliders(ApplyContext& cx, const std::vector<BoxCollider>& colliders
       ++cx.rep.collider_contacts;
     }
   }
-  cx.rep.collider_seconds += Since(t0);
+  cx.rep.collider_seconds += CpuSince(t0);
 }
 
 // ---- box edges and corners ------------------------------------------------------------------
@@ -1044,7 +1045,7 @@ std::vector<BoxHit> DetectBoxes(ApplyContext& cx, const std::vector<BoxCollider>
       }
     }
   }
-  cx.rep.collider_seconds += Since(t0);
+  cx.rep.collider_seconds += CpuSince(t0);
   return hits;
 }
 
@@ -1109,7 +1110,7 @@ std::vector<Hit> Detect(ApplyContext& cx, const std::vector<int>* zone_of) {
   };
   for (const auto& [v, f] : cand.vf) test(cx.VF(v, f));
   for (const auto& [a, b] : cand.ee) test(cx.EE(a, b));
-  cx.rep.ccd_seconds += Since(t0);
+  cx.rep.ccd_seconds += CpuSince(t0);
   return hits;
 }
 
@@ -1273,9 +1274,9 @@ void ImpactZones(ApplyContext& cx, Pending pending, std::vector<int> stretched,
   }
   cx.rep.remaining_collisions = static_cast<int>(hits.size());
   cx.rep.collider_violations = static_cast<int>(DetectBoxes(cx, colliders, &pinned).size());
-  const CollisionReport& r = cx.rep;
-  cx.rep.zone_seconds += Since(t0) - (r.ccd_seconds - before.ccd_seconds) - (r.broad_seconds - before.broad_seconds) -
-                         (r.strain_seconds - before.strain_seconds) - (r.collider_seconds - before.collider_seconds);
+  CollisionReport& r = cx.rep;
+  r.zone_seconds += CpuSince(t0) - (r.ccd_seconds - before.ccd_seconds) - (r.broad_seconds - before.broad_seconds) -
+                    (r.strain_seconds - before.strain_seconds) - (r.collider_seconds - before.collider_seconds);
 }
 
 // CCD + impulse passes until no pair collides (cloth–cloth and cloth–box) or

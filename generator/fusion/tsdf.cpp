@@ -2,7 +2,6 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <ctime>
 #include <limits>
 #include <sstream>
 #include <unordered_map>
@@ -47,11 +46,6 @@ double Lap(Clock::time_point& t0) {
   return s;
 }
 
-double ProcessCpuSeconds() {
-  timespec ts;
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-  return ts.tv_sec + 1e-9 * ts.tv_nsec;
-}
 // CPU seconds since c0; restarts c0.
 double CpuLap(double& c0) {
   const double now = ProcessCpuSeconds();

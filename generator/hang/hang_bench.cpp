@@ -5,21 +5,15 @@
 // 1,000-node job took ~4 CPU-s (Bullet + proximity pass + KINSOL), printed as
 // before_cpu_s for comparison. Goal: ≤ 5 CPU-s at 1,000 nodes.
 #include <benchmark/benchmark.h>
-#include <time.h>
 
 #include <cmath>
 #include <cstdint>
 
+#include "common/cpu_time.h"
 #include "generator/hang/hang.h"
 
 namespace drape {
 namespace {
-
-double ThreadCpuSeconds() {
-  timespec ts;
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return ts.tv_sec + 1e-9 * ts.tv_nsec;
-}
 
 // FNV-1a over the bytes of the positions, cut to 48 bits (a counter is a double): equal
 // before and after a change that claims to keep results bit-identical.

@@ -1,27 +1,21 @@
 // Sweep benchmarks, one run: our sweep's rays/s (noise on and off) against Embree's bare
 // rtcIntersect16 throughput on the same garment and the same rays, and the time of a
 // 300-frame sweep of a ~2,000-vertex garment (+ PNG encoding).
+// Times are process CPU seconds: the machine is shared, so rates are per CPU second (one
+// core: the sweep runs with threads=1 and Embree with threads=1).
 #include <benchmark/benchmark.h>
 #include <embree3/rtcore.h>
 
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <ctime>
 
+#include "common/cpu_time.h"
 #include "common/embree.h"
 #include "generator/sweep/sweep.h"
 
 namespace drape {
 namespace {
-
-// Process CPU seconds: the machine is shared, so rates are per CPU second (one core: the
-// sweep runs with threads=1 and Embree with threads=1).
-double CpuSeconds() {
-  timespec ts;
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-  return ts.tv_sec + 1e-9 * ts.tv_nsec;
-}
 
 // A folded tube hanging from the origin (a pants leg / sleeve stand-in): 40 × 51
 // vertices = 2,040 vertices, 4,000 triangles, 0.95 m long.
@@ -62,9 +56,9 @@ void BM_Sweep(benchmark::State& state) {
   int64_t rays = 0;
   double seconds = 0;
   for (auto _ : state) {
-    const double t0 = CpuSeconds();
+    const double t0 = ProcessCpuSeconds();
     Sweep s = SimulateSweep(Garment(), o, 1);
-    seconds += CpuSeconds() - t0;
+    seconds += ProcessCpuSeconds() - t0;
     rays += s.stats.rays_cast;
     benchmark::DoNotOptimize(s.frames[0].depth.data());
   }
@@ -84,9 +78,9 @@ void BM_SweepIsa(benchmark::State& state) {
   o.embree_isa = state.range(0) ? "" : "avx2";
   double seconds = 0;
   for (auto _ : state) {
-    const double t0 = CpuSeconds();
+    const double t0 = ProcessCpuSeconds();
     Sweep s = SimulateSweep(Garment(), o, 1);
-    seconds += CpuSeconds() - t0;
+    seconds += ProcessCpuSeconds() - t0;
     benchmark::DoNotOptimize(s.frames[0].depth.data());
   }
   state.counters["cpu_s_per_sweep"] = seconds / state.iterations();
@@ -122,7 +116,7 @@ void BM_EmbreeBare(benchmark::State& state) {
   int64_t rays = 0;
   double seconds = 0;
   for (auto _ : state) {
-    const double t0 = CpuSeconds();
+    const double t0 = ProcessCpuSeconds();
     RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
@@ -151,7 +145,7 @@ void BM_EmbreeBare(benchmark::State& state) {
         }
     }
     benchmark::DoNotOptimize(sink);
-    seconds += CpuSeconds() - t0;
+    seconds += ProcessCpuSeconds() - t0;
   }
   g_bare_rays_per_s = rays / seconds;
   state.counters["Mrays_per_cpu_s"] = rays / seconds / 1e6;
@@ -167,9 +161,9 @@ void BM_EncodeSweep(benchmark::State& state) {
   size_t bytes = 0;
   double seconds = 0;
   for (auto _ : state) {
-    const double t0 = CpuSeconds();
+    const double t0 = ProcessCpuSeconds();
     const auto files = EncodeSweep(s);
-    seconds += CpuSeconds() - t0;
+    seconds += ProcessCpuSeconds() - t0;
     bytes = 0;
     for (const auto& f : files) bytes += f.second.size();
   }

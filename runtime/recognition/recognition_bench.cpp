@@ -10,7 +10,6 @@
 
 #include <bit>
 #include <cstdio>
-#include <ctime>
 #include <map>
 
 #include "common/cpu_time.h"
@@ -222,12 +221,6 @@ const std::vector<DepthFrame>& PaperSweep(Intrinsics* K) {
   }();
   *K = k;
   return frames;
-}
-
-double ProcessCpuSeconds() {
-  timespec ts;
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-  return ts.tv_sec + 1e-9 * ts.tv_nsec;
 }
 
 // stage → (wall s, CPU s), summed over iterations.
