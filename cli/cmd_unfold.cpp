@@ -59,6 +59,8 @@ const char* kUsage =
     "  --category-once   decide the category at the first step and keep it for the trial\n"
     "                    (default: by registration at every hang, the fits summed over the hangs\n"
     "                    deciding, docs/unfolding.md \"The category at every hang\")\n"
+    "  --refit-absent P  at every hang, a category left out of the hang's registration counts\n"
+    "                    the hang's worst score + P (default 0.5)\n"
     "  --category-evidence  decide it from every hang: each adds each category's Eq. match\n"
     "                    distance over the nearest's, within the height gate and without it;\n"
     "                    the pose is recognised within the category with the least sum, and\n"
@@ -312,6 +314,8 @@ void CategoryOptions(const Args& a, LoopOptions& lo) {
   lo.category_evidence = a.Flag("--category-evidence");
   lo.category_fit = !a.Flag("--no-category-fit") && !lo.category_evidence && !a.Flag("--category-known");
   lo.category_refit = lo.category_fit && !a.Flag("--category-once");
+  lo.refit_absent_penalty = a.GetDouble("--refit-absent").value_or(lo.refit_absent_penalty);
+  if (!(lo.refit_absent_penalty >= 0)) throw Error("--refit-absent: must be >= 0");
   lo.first_hang_weight = a.GetDouble("--first-hang-weight").value_or(lo.first_hang_weight);
   if (!(lo.first_hang_weight >= 0)) throw Error("--first-hang-weight: must be >= 0");
   lo.gated_out_excess = a.GetDouble("--gated-out-excess").value_or(lo.gated_out_excess);
@@ -343,6 +347,7 @@ Json OptionsJson(const LoopOptions& lo, int trials, const std::vector<int>& only
           {"category_evidence", lo.category_evidence},
           {"category_fit", lo.category_fit},
           {"category_refit", lo.category_refit},
+          {"refit_absent_penalty", lo.refit_absent_penalty},
           {"first_hang_weight", lo.first_hang_weight},
           {"gated_out_excess", lo.gated_out_excess},
           {"category_gate", lo.category_gate},
@@ -363,15 +368,57 @@ Json OptionsJson(const LoopOptions& lo, int trials, const std::vector<int>& only
           {"place_flat", lo.place_flat}};
 }
 
+// drape unfold's flags and its options with a value.
+const std::vector<std::string> kUnfoldFlags = {"--no-ir",          "--ir-above-jaws",      "--rigid",
+                                               "--unweighted",     "--ablations",          "--no-figures",
+                                               "--no-place",       "--dump-meshes",        "--category-known",
+                                               "--category-once",  "--category-evidence",  "--no-category-fit",
+                                               "--no-trust-aimed", "--first-holder-stops", "--hem-edge",
+                                               "--hem-corner",     "--no-lowest-point",    "--no-hanging-end"};
+const std::vector<std::string> kUnfoldValues = {"--category",
+                                                "--trials",
+                                                "--only",
+                                                "--seed",
+                                                "-o",
+                                                "--weights",
+                                                "--frames",
+                                                "--max-regrasps",
+                                                "--jobs",
+                                                "--plan-prior",
+                                                "--candidates",
+                                                "--candidate-fit",
+                                                "--candidate-fit-radius",
+                                                "--candidate-point",
+                                                "--unobserved-margin",
+                                                "--first-hang-weight",
+                                                "--refit-absent",
+                                                "--gated-out-excess",
+                                                "--category-gate",
+                                                "--category-ungated"};
+
+// The loop's options from the command line.
+LoopOptions LoopOptionsFrom(const Args& a) {
+  LoopOptions lo;
+  lo.capture.frames = static_cast<int>(a.GetInt("--frames").value_or(550));
+  lo.max_regrasps = static_cast<int>(a.GetInt("--max-regrasps").value_or(4));
+  lo.category_known = a.Flag("--category-known");
+  CategoryOptions(a, lo);
+  lo.ir_at_jaw_line = !a.Flag("--ir-above-jaws");
+  lo.hem_edge = a.Flag("--hem-edge");
+  lo.lowest_point = !a.Flag("--no-lowest-point");
+  lo.hanging_end = !a.Flag("--no-hanging-end");
+  lo.hem_corner = a.Flag("--hem-corner");
+  if (lo.hem_corner && !lo.hem_edge) throw Error("--hem-corner: needs --hem-edge");
+  lo.place_flat = !a.Flag("--no-place");
+  PlanPriorOptions(a, lo);
+  CandidateOptions(a, lo);
+  lo.unobserved_margin = a.GetDouble("--unobserved-margin").value_or(lo.unobserved_margin);
+  if (!(lo.unobserved_margin < 0.5)) throw Error("--unobserved-margin: must be below 0.5 m");
+  return lo;
+}
+
 int RunUnfold(const std::vector<std::string>& argv) {
-  Args a(argv,
-         {"--no-ir", "--ir-above-jaws", "--rigid", "--unweighted", "--ablations", "--no-figures", "--no-place",
-          "--dump-meshes", "--category-known", "--category-once", "--category-evidence", "--no-category-fit",
-          "--no-trust-aimed", "--first-holder-stops", "--hem-edge", "--hem-corner", "--no-lowest-point",
-          "--no-hanging-end"},
-         {"--category", "--trials", "--only", "--seed", "-o", "--weights", "--frames", "--max-regrasps", "--jobs",
-          "--plan-prior", "--candidates", "--candidate-fit", "--candidate-fit-radius", "--candidate-point",
-          "--unobserved-margin", "--first-hang-weight", "--gated-out-excess", "--category-gate", "--category-ungated"});
+  Args a(argv, kUnfoldFlags, kUnfoldValues);
   if (a.help()) {
     std::cout << kUsage;
     return 0;
@@ -389,22 +436,7 @@ int RunUnfold(const std::vector<std::string>& argv) {
   const ReleaseModel model(dir, wpath);
   CheckCategories(model, dir, unweighted_only, categories);
 
-  LoopOptions lo;
-  lo.capture.frames = static_cast<int>(a.GetInt("--frames").value_or(550));
-  lo.max_regrasps = static_cast<int>(a.GetInt("--max-regrasps").value_or(4));
-  lo.category_known = a.Flag("--category-known");
-  CategoryOptions(a, lo);
-  lo.ir_at_jaw_line = !a.Flag("--ir-above-jaws");
-  lo.hem_edge = a.Flag("--hem-edge");
-  lo.lowest_point = !a.Flag("--no-lowest-point");
-  lo.hanging_end = !a.Flag("--no-hanging-end");
-  lo.hem_corner = a.Flag("--hem-corner");
-  if (lo.hem_corner && !lo.hem_edge) throw Error("--hem-corner: needs --hem-edge");
-  lo.place_flat = !a.Flag("--no-place");
-  PlanPriorOptions(a, lo);
-  CandidateOptions(a, lo);
-  lo.unobserved_margin = a.GetDouble("--unobserved-margin").value_or(lo.unobserved_margin);
-  if (!(lo.unobserved_margin < 0.5)) throw Error("--unobserved-margin: must be below 0.5 m");
+  LoopOptions lo = LoopOptionsFrom(a);
   const int jobs = static_cast<int>(a.GetInt("--jobs").value_or(1));
   if (jobs < 1) throw Error("--jobs: must be >= 1");
   if (jobs > 1) lo.fusion_threads = 1;  // the trials share the cores instead

@@ -74,7 +74,9 @@ bool CategoryDecision::Add(const HangEvidence& e, double weight) {
   return !before.empty() && decided_ != before;
 }
 
-std::string SummedFitCategory(const std::vector<std::map<std::string, double>>& hangs, const std::string& standing) {
+std::string SummedFitCategory(const std::vector<std::map<std::string, double>>& hangs, const std::string& standing,
+                              double absent_penalty) {
+  DRAPE_CHECK(absent_penalty >= 0, "the absent category's penalty must be >= 0");
   std::map<std::string, double> total;
   for (const auto& h : hangs)
     for (const auto& [c, score] : h) total[c] = 0;
@@ -84,7 +86,7 @@ std::string SummedFitCategory(const std::vector<std::map<std::string, double>>& 
     for (const auto& [c, score] : h) worst = std::max(worst, score);
     for (auto& [c, sum] : total) {
       const auto it = h.find(c);
-      sum += it == h.end() ? worst : it->second;
+      sum += it == h.end() ? worst + absent_penalty : it->second;
     }
   }
   std::string best;

@@ -83,9 +83,13 @@ class CategoryDecision {
 // The category from the category-by-registration scores of a trial's hangs
 // (LoopOptions::category_refit; recognition/category_fit.h: per hang, score_c of the
 // nearest categories that took part, a category's best fit over the hang's best, so 1 for
-// the hang's best and every hang weighs alike). A category that took no part at a
-// hang counts that hang's largest score (never better than one that was registered). The
-// least sum decides; ties keep `standing`. "" when no hang has a score.
-std::string SummedFitCategory(const std::vector<std::map<std::string, double>>& hangs, const std::string& standing);
+// the hang's best and every hang weighs alike). A category that took no part at a hang
+// (the height gate or the two nearest categories by Eq. match left it out) counts that
+// hang's largest score plus `absent_penalty` (>= 0): never better than one that was
+// registered, and with a penalty worse, so that a category left out at the first hang
+// does not win by one later hang that it fits a little better. The least sum decides;
+// ties keep `standing`. "" when no hang has a score.
+std::string SummedFitCategory(const std::vector<std::map<std::string, double>>& hangs, const std::string& standing,
+                              double absent_penalty = 0);
 
 }  // namespace drape::unfolding

@@ -53,6 +53,7 @@ void LoopOptions::Validate() const {
   if (!(unobserved_margin < 0.5)) throw Error("unfold.unobserved_margin: must be below 0.5 m");
   if (!(first_hang_weight >= 0)) throw Error("unfold.first_hang_weight: must be >= 0");
   if (!(gated_out_excess >= 0)) throw Error("unfold.gated_out_excess: must be >= 0");
+  if (!(refit_absent_penalty >= 0)) throw Error("unfold.refit_absent_penalty: must be >= 0");
   if (!(category_gate < 3)) throw Error("unfold.category_gate: must be below 3 (< 0: the weights' gate)");
   if (!(category_ungated_weight >= 0)) throw Error("unfold.category_ungated_weight: must be >= 0");
   if (category_fit && (category_known || category_evidence))
@@ -503,7 +504,8 @@ struct TrialRun {
       trial_category = fitted;
       return false;
     }
-    if (const std::string c = SummedFitCategory(fit_scores, before); !c.empty()) trial_category = c;
+    if (const std::string c = SummedFitCategory(fit_scores, before, o.refit_absent_penalty); !c.empty())
+      trial_category = c;
     return trial_category != before;
   }
 

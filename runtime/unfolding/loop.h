@@ -84,6 +84,15 @@ struct LoopOptions {
   // 20, shorts 8 -> 7 of 10; docs/unfolding.md, "The category at every hang").
   // false: the first step's, kept for the trial. No effect without category_fit.
   bool category_refit = true;
+  // With category_refit: what a category left out of a hang's registration (by the height
+  // gate, or as not among the two nearest categories) counts there beyond that hang's
+  // largest score (category.h SummedFitCategory); must be >= 0. With 0 a shorts trial
+  // whose first hang passed the height gate of shorts alone switched to a long-sleeve
+  // shirt at the second hang if a shirt fit it 18-29 % better (3 of 30 shorts trials,
+  // all lost); 0.5 (twice the median runner-up's excess, 0.25, over the 97 two-category
+  // hangs of those runs) kept all three shorts (unfolded) and changed no shirt's repair
+  // (docs/unfolding.md, "A category left out").
+  double refit_absent_penalty = 0.5;
   // Weight of a hang from the random first grasp in that evidence (a hang after an aimed
   // regrasp weighs 1); must be >= 0.
   double first_hang_weight = 1;

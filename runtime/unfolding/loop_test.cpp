@@ -38,6 +38,15 @@ TEST(LoopOptions, CategoryByRegistrationDecidesAloneOrNotAtAll) {
   EXPECT_NO_THROW(o.Validate());
 }
 
+TEST(LoopOptions, ALeftOutCategorysPenaltyIsNotNegative) {
+  LoopOptions o;
+  EXPECT_EQ(o.refit_absent_penalty, 0.5);
+  o.refit_absent_penalty = 0;
+  EXPECT_NO_THROW(o.Validate());
+  o.refit_absent_penalty = -0.1;
+  EXPECT_THROW(o.Validate(), Error);
+}
+
 TEST(PlanPrior, KeepsTheAimedAnchorOrItsTwinWithinTheTopK) {
   // The trouser-leg case of the paper release: a hang from a leg's outer corner is ranked
   // behind both inner corners.
