@@ -97,13 +97,26 @@ bool AnchorIsLowest(const TriMesh& hang, int v, double tolerance) {
   return hang.V(v, 1) - hang.V.col(1).minCoeff() <= tolerance;
 }
 
+namespace {
+// The lowest vertex of `recon` (y up; the first of equals) among those within `radius`
+// horizontally of `around` (none given: all); none when there is none or it lies within
+// `floor_margin` of `floor_y`, where the fusion cut the garment. LowestPoint and LowestNear.
+std::optional<Vec3> LowestVertex(const TriMesh& recon, const std::optional<Vec3>& around, double radius, double floor_y,
+                                 double floor_margin) {
+  std::optional<Vec3> best;
+  for (Eigen::Index i = 0; i < recon.V.rows(); ++i) {
+    const Vec3 p = recon.V.row(i).transpose();
+    if (around && std::hypot(p.x() - around->x(), p.z() - around->z()) > radius) continue;
+    if (!best || p.y() < best->y()) best = p;
+  }
+  if (best && best->y() - floor_y < floor_margin) return std::nullopt;
+  return best;
+}
+}  // namespace
+
 std::optional<Vec3> LowestPoint(const TriMesh& recon, double floor_y, const LowestPointOptions& o) {
-  if (recon.NumVertices() == 0) return std::nullopt;
-  Eigen::Index i = 0;
-  recon.V.col(1).minCoeff(&i);
-  Vec3 p = recon.V.row(i).transpose();
-  if (p.y() - floor_y < o.floor_margin) return std::nullopt;
-  p.y() += o.lift;
+  std::optional<Vec3> p = LowestVertex(recon, std::nullopt, 0, floor_y, o.floor_margin);
+  if (p) p->y() += o.lift;
   return p;
 }
 
@@ -121,14 +134,7 @@ std::string HangingEnd(const std::string& anchor) {
 }
 
 std::optional<Vec3> LowestNear(const TriMesh& recon, const Vec3& around, double floor_y, const HangingEndOptions& o) {
-  std::optional<Vec3> best;
-  for (Eigen::Index i = 0; i < recon.V.rows(); ++i) {
-    const Vec3 p = recon.V.row(i).transpose();
-    if (std::hypot(p.x() - around.x(), p.z() - around.z()) > o.radius) continue;
-    if (!best || p.y() < best->y()) best = p;
-  }
-  if (best && best->y() - floor_y < o.floor_margin) return std::nullopt;
-  return best;
+  return LowestVertex(recon, around, o.radius, floor_y, o.floor_margin);
 }
 
 int KeepCandidate(const std::vector<double>& fits) {

@@ -852,8 +852,8 @@ struct TrialRun {
                            [&](int i) { return plan.JawDuringScan((i - half) * o.refine.sample_spacing); });
       RefineOptions ro = o.refine;
       if (s.lowest_taken && o.lowest.centre_only) ro.search_half_width_samples = 0;  // depth only
-      if (s.hanging_taken && o.hanging.centre_only) ro.search_half_width_samples = 0;
       if (s.hanging_taken) {
+        if (o.hanging.centre_only) ro.search_half_width_samples = 0;  // depth only
         ro.depth_half_width_samples =
             std::min(ro.half_width_samples, static_cast<int>(std::lround(o.hanging.depth_window / ro.sample_spacing)));
       }
