@@ -245,18 +245,30 @@ Eigen::Isometry3d ClothWorld::GripperPose(int gripper) const {
 
 GraspReport ClothWorld::Close(int gripper) {
   CheckGripper(gripper, NumGrippers());
-  Gripper& g = grippers_[gripper];
+  const Gripper& g = grippers_[gripper];
   const Eigen::Isometry3d inv = g.pose.inverse();
   const Vec3 half(g.jaw.opening / 2, g.jaw.pad_length / 2, g.jaw.pad_width / 2);
+  std::vector<int> inside;
   for (int i = 0; i < x_.rows(); ++i) {
-    if (holder_[i] >= 0) continue;
     const Vec3 p = inv * Vec3(x_.row(i).transpose());
-    if ((p.cwiseAbs().array() <= half.array()).all()) {
-      holder_[i] = gripper;
-      g.held.push_back(i);
-    }
+    if ((p.cwiseAbs().array() <= half.array()).all()) inside.push_back(i);
+  }
+  return Hold(gripper, inside);
+}
+
+GraspReport ClothWorld::Hold(int gripper, const std::vector<int>& nodes) {
+  CheckGripper(gripper, NumGrippers());
+  for (int i : nodes)
+    if (i < 0 || i >= x_.rows())
+      throw Error("cloth world: Hold: node " + std::to_string(i) + " is not one of " + std::to_string(x_.rows()));
+  Gripper& g = grippers_[gripper];
+  for (int i : nodes) {
+    if (holder_[i] >= 0) continue;
+    holder_[i] = gripper;
+    g.held.push_back(i);
   }
   std::sort(g.held.begin(), g.held.end());
+  const Eigen::Isometry3d inv = g.pose.inverse();
   g.local.resize(static_cast<Eigen::Index>(g.held.size()), 3);
   for (size_t k = 0; k < g.held.size(); ++k) g.local.row(k) = (inv * Vec3(x_.row(g.held[k]).transpose())).transpose();
   g.closed = !g.held.empty();

@@ -205,6 +205,10 @@ class ClothWorld {
   // Holds every free node inside the jaw volume now (see Jaw); a miss holds nothing.
   // Closing a closed gripper adds the free nodes now inside.
   GraspReport Close(int gripper);
+  // Holds the given nodes (those still free; indices checked) where they are now, as
+  // jaws that closed on them elsewhere (e.g. the pinch a caller's own jaw model found).
+  // Holding with a closed gripper adds them.
+  GraspReport Hold(int gripper, const std::vector<int>& nodes);
   // Releases the held nodes: they get their mass back and move freely from the next step.
   void Open(int gripper);
   bool IsClosed(int gripper) const;

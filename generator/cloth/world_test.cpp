@@ -144,6 +144,41 @@ TEST(ClothWorld, CloseHoldsExactlyTheNodesInsideTheJawOnBothLayers) {
   EXPECT_EQ(w.HeldNodes(k), want);
 }
 
+TEST(ClothWorld, HoldTakesExactlyTheGivenFreeNodesWhereTheyAre) {
+  const Garment g = MakeRectangleGarment(0.2, 0.3, 0.05, false);
+  ClothWorld w(Model(g), g.mesh.V);
+  const int a = w.AddGripper(Jaw{}, PinchPose(Vec3(0, 0.3, 0)));
+  const int b = w.AddGripper(Jaw{}, PinchPose(Vec3(0.1, 0.3, 0)));
+  // Nodes far outside a's jaw volume are held all the same (a pinch found elsewhere).
+  const int far = 0, other = g.mesh.NumVertices() - 1;
+  GraspReport r = w.Hold(a, {other, far});
+  EXPECT_FALSE(r.miss);
+  EXPECT_EQ(r.node_ids, (std::vector<int>{far, other}));
+  EXPECT_TRUE(w.IsClosed(a));
+  // Holding again adds; a node another gripper holds stays with it.
+  EXPECT_EQ(w.Hold(b, {far, 1}).node_ids, (std::vector<int>{1}));
+  EXPECT_EQ(w.Hold(a, {2}).node_ids, (std::vector<int>{far, 2, other}));
+  // Held where they were: a second of gravity does not move them.
+  const Points3 x0 = w.positions();
+  while (w.time() < 1.0) w.Step();
+  for (int i : {far, 1, 2, other}) EXPECT_TRUE(w.positions().row(i).isApprox(x0.row(i), 1e-12)) << i;
+  // Opened, a's nodes hang from b's one node: the far corner swings down.
+  w.Open(a);
+  while (w.time() < 1.5) w.Step();
+  EXPECT_LT(w.positions()(other, 1), x0(other, 1) - 0.05);
+  // An empty list holds nothing; a bad index names itself.
+  const int c = w.AddGripper(Jaw{}, PinchPose(Vec3(0, 1, 0)));
+  EXPECT_TRUE(w.Hold(c, {}).miss);
+  EXPECT_FALSE(w.IsClosed(c));
+  try {
+    w.Hold(c, {g.mesh.NumVertices()});
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("node " + std::to_string(g.mesh.NumVertices())), std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(ClothWorld, HeldNodesFollowTheGripperPathAndOpenReleasesThem) {
   const Garment g = MakeRectangleGarment(0.2, 0.3, 0.05, false);
   ClothWorld w(Model(g), g.mesh.V);

@@ -35,6 +35,10 @@ struct Pinch {
   Vec3 bary = Vec3::Zero();
   int vertex = -1;          // the face's vertex nearest the pinch (Hang's anchor vertex)
   Vec3 rest = Vec3::Zero(); // the point on the flat garment (m)
+  // What the jaws hold of the mesh: its nodes inside the jaw box, and of every face with
+  // a sample inside it the vertex nearest the jaw centre (a coarse mesh may have no
+  // node between the jaws). The let-go fall and the placing hold exactly these.
+  std::vector<int> nodes;
 };
 
 }  // namespace
@@ -194,6 +198,7 @@ struct SimWorld::Impl {
     mesh.V.resize(r.mesh.NumVertices(), 3);
     for (int i = 0; i < r.mesh.NumVertices(); ++i)
       mesh.V.row(i) = (R * r.mesh.V.row(i).transpose() + a.pose.position).transpose();
+    arms[k].pinch.nodes = {arms[k].pinch.vertex};  // what the hang held
     state = ClothState::kHanging;
     hang_from = k;
     ++version;
@@ -222,6 +227,7 @@ struct SimWorld::Impl {
     const bool layered = int(garment.layer.size()) == garment.mesh.NumVertices();
     Pinch& pin = out.pinch;
     int samples = 0;
+    std::vector<int> faces;  // captured
     for (int f = 0; f < mesh.NumFaces(); ++f) {
       const Vec3 A = mesh.V.row(mesh.F(f, 0)), B = mesh.V.row(mesh.F(f, 1)), C = mesh.V.row(mesh.F(f, 2));
       bool hit = false;
@@ -243,6 +249,7 @@ struct SimWorld::Impl {
         }
       if (!hit) continue;
       ++rep.captured;
+      faces.push_back(f);
       bool is_back = false;
       if (layered)
         for (int c = 0; c < 3; ++c) is_back |= garment.layer[mesh.F(f, c)] == 1;
@@ -257,10 +264,32 @@ struct SimWorld::Impl {
     for (int c = 1; c < 3; ++c)
       if (pin.bary[c] > pin.bary[m]) m = c;
     pin.vertex = mesh.F(pin.face, m);
+    pin.nodes = JawNodes(faces, Rt, pose.position, half);
     pin.rest = Vec3::Zero();
     for (int c = 0; c < 3; ++c) pin.rest += pin.bary[c] * garment.mesh.V.row(mesh.F(pin.face, c)).transpose();
     rep.outcome = front && back ? GraspOutcome::kBothLayers : GraspOutcome::kOneLayer;
     rep.note = std::to_string(rep.captured) + " faces between the jaws";
+    return out;
+  }
+
+  // Pinch::nodes of jaws at `centre` with axes Rt (rows) and half-extents `half`.
+  std::vector<int> JawNodes(const std::vector<int>& faces, const Eigen::Matrix3d& Rt, const Vec3& centre,
+                            const Vec3& half) const {
+    std::vector<int> out;
+    for (int i = 0; i < mesh.NumVertices(); ++i) {
+      const Vec3 q = Rt * (mesh.V.row(i).transpose() - centre);
+      if ((q.cwiseAbs().array() <= half.array()).all()) out.push_back(i);
+    }
+    for (int f : faces) {
+      int best = mesh.F(f, 0);
+      for (int c = 1; c < 3; ++c)
+        if ((mesh.V.row(mesh.F(f, c)).transpose() - centre).squaredNorm() <
+            (mesh.V.row(best).transpose() - centre).squaredNorm())
+          best = mesh.F(f, c);
+      out.push_back(best);
+    }
+    std::sort(out.begin(), out.end());
+    out.erase(std::unique(out.begin(), out.end()), out.end());
     return out;
   }
 
@@ -403,8 +432,9 @@ Eigen::Isometry3d JawFrame(const GripperPose& p) {
   return T;
 }
 
-// The cloth-world jaw for laying flat. Pads: 1.5 mean edges at least, so a coarse mesh
-// has nodes between them.
+// The cloth-world jaw of a fall's or a placing's gripper: it holds its pinch's nodes
+// (Pinch::nodes), and these pads (1.5 mean edges at least) give the reach of the held
+// patch below the gripper (HangBound).
 Jaw PlaceJaw(const SimWorld::Impl& w, const PlaceFlatOptions& po) {
   double edge = 0;
   const auto edges = UniqueEdges(w.garment.mesh);
@@ -432,12 +462,11 @@ std::shared_ptr<const ClothModel> ClothModelOf(const SimWorld::Impl& w, double d
 }
 
 // Both grippers hold the garment and arm `let_go` opens: the cloth core runs from the
-// garment as the two grippers held it, the other gripper keeping the nodes between its
-// pads (PlaceJaw), until it comes to rest below that gripper (the hang's settling
-// criterion and time cap). A gripper whose pads hold no node of the cloth world (a
-// pinch between nodes of a coarse mesh) falls back to a hang from the flat garment at
-// the pinched point. A fall that blows up is run once more at half the time step (damping
-// per second kept), as a hang is; throws NumericalError if that blows up too.
+// garment as the two grippers held it, the other gripper keeping the nodes its jaws
+// pinched (Pinch::nodes), until it comes to rest below that gripper (the hang's settling
+// criterion and time cap). A gripper that holds no node (none left to pinch) falls back
+// to a hang from the flat garment at the pinched point. A fall that blows up is run once more at half the time step
+// (damping per second kept), as a hang is; throws NumericalError if that blows up too.
 void FallFrom(SimWorld::Impl& w, int let_go) {
   const int keep = 1 - let_go;
   const auto t0 = Clock::now();
@@ -455,7 +484,7 @@ void FallFrom(SimWorld::Impl& w, int let_go) {
     if (attempt > 0) dt /= 2, ++w.retries;
     ClothWorld cw(ClothModelOf(w, dt), w.mesh.V);
     const int g = cw.AddGripper(PlaceJaw(w, PlaceFlatOptions{}), JawFrame(w.arms[keep].pose));
-    if (cw.Close(g).nodes == 0) {
+    if (cw.Hold(g, w.arms[keep].pinch.nodes).nodes == 0) {
       w.sim_seconds += Since(t0);
       ++w.fallbacks;
       w.Rehang(keep);
@@ -614,7 +643,7 @@ PlaceFlatReport PlaceOnce(const SimWorld::Impl& w, const PlaceFlatOptions& po, d
   int g[2];
   for (int k = 0; k < 2; ++k) {
     g[k] = cw.AddGripper(jaw, JawFrame(w.arms[k].pose));
-    rep.held_nodes[k] = cw.Close(g[k]).nodes;
+    rep.held_nodes[k] = cw.Hold(g[k], w.arms[k].pinch.nodes).nodes;
   }
   if (rep.held_nodes[0] == 0 || rep.held_nodes[1] == 0) {
     rep.failure = "a gripper holds no cloth node in the cloth world";
@@ -732,6 +761,9 @@ ClothState SimWorld::state() const { return impl_->state; }
 const TriMesh& SimWorld::mesh() const { return impl_->mesh; }
 const Garment& SimWorld::garment() const { return impl_->garment; }
 int SimWorld::HeldVertex(int i) const { return impl_->arms[i].holds ? impl_->arms[i].pinch.vertex : -1; }
+std::vector<int> SimWorld::HeldNodes(int i) const {
+  return impl_->arms[i].holds ? impl_->arms[i].pinch.nodes : std::vector<int>{};
+}
 std::optional<Vec2> SimWorld::HeldUv(int i) const {
   const auto& a = impl_->arms[i];
   if (!a.holds) return std::nullopt;

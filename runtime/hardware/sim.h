@@ -21,7 +21,10 @@
 // centre, jaw_opening (≈ 8 cm, the paper's Baxter hand) along the closing direction,
 // finger_depth along the approach, finger_width across. No node: a miss; nodes of one
 // layer of the garment: one layer; of both (or a seam, shared by both): both layers. The
-// pinched point of the pattern is the captured node nearest the jaw centre.
+// pinched point of the pattern is the captured node nearest the jaw centre. The jaws then
+// hold the mesh nodes between the fingers and, of every face between them, its vertex
+// nearest the jaw centre (the mesh is coarser than the fingers); a let-go fall and a
+// placing hold exactly these, so the cloth world never grips cloth the jaws missed.
 #pragma once
 
 #include <memory>
@@ -68,8 +71,9 @@ struct SimOptions {
 // Placing the garment flat with both grippers holding it (paper: "the two arms open to
 // slightly stretch the garment and place it on a table"), simulated with the cloth core
 // (generator/cloth ClothWorld: Bullet + collision handling, the table as a box collider
-// with the material's friction): the grippers take the cloth nodes between their pads
-// where they pinch it, step back from the table and lift until the garment, hanging
+// with the material's friction): the grippers hold the cloth nodes their jaws pinched
+// (the nodes between the fingers, and the vertex nearest the jaw centre of every face
+// between them), step back from the table and lift until the garment, hanging
 // level from both, would clear its top, move apart to `spread` × the pinched points'
 // distance on the pattern above the near edge of the table, lower the garment while
 // carrying it across the table so that it lies down behind them, open, and the cloth
@@ -133,6 +137,7 @@ class SimWorld {
   const TriMesh& mesh() const;  // current cloth, world frame
   const Garment& garment() const;
   int HeldVertex(int arm) const;  // pinched node of the garment, -1 if none
+  std::vector<int> HeldNodes(int arm) const;  // nodes the arm's jaws hold (sorted; empty if none)
   std::optional<Vec2> HeldUv(int arm) const;  // pinched point on the flat pattern (m)
   // What a gripper closing at `pose` on the cloth as it is now would take (as
   // Arm::Close() would, without closing anything).
