@@ -140,9 +140,13 @@ TEST(SimHardware, LetGoFallHoldsWhatTheJawsPinchedAndNothingElse) {
     const Vec3 d = (before.row(i).transpose() - side.position).cwiseAbs();
     const bool inside = (d.array() <= half.array()).all();
     const bool is_held = std::binary_search(held.begin(), held.end(), i);
-    if (inside) EXPECT_TRUE(is_held) << "node " << i << " between the fingers is not held";
+    if (inside) {
+      EXPECT_TRUE(is_held) << "node " << i << " between the fingers is not held";
+    }
     // 5 cm edges: a held node outside the fingers is a vertex of a face reaching between them.
-    if (is_held) EXPECT_TRUE((d.array() <= half.array() + 0.05 * std::sqrt(2.0)).all()) << "node " << i;
+    if (is_held) {
+      EXPECT_TRUE((d.array() <= half.array() + 0.05 * std::sqrt(2.0)).all()) << "node " << i;
+    }
   }
   left.Open();
   ASSERT_EQ(w.state(), ClothState::kHanging);
@@ -151,7 +155,9 @@ TEST(SimHardware, LetGoFallHoldsWhatTheJawsPinchedAndNothingElse) {
   // Held nodes stayed with the (still) gripper; every other node fell or swung.
   for (int i = 0; i < before.rows(); ++i) {
     const double moved = (w.mesh().V.row(i) - before.row(i)).norm();
-    if (std::binary_search(held.begin(), held.end(), i)) EXPECT_LT(moved, 1e-9) << "held node " << i;
+    if (std::binary_search(held.begin(), held.end(), i)) {
+      EXPECT_LT(moved, 1e-9) << "held node " << i;
+    }
   }
   EXPECT_GT((w.mesh().V - before).rowwise().norm().maxCoeff(), 0.1);
   EXPECT_TRUE(w.HeldNodes(0).empty());
