@@ -105,6 +105,9 @@ const char* kUsage =
     "  --no-lowest-point regrasp at the registered anchor always, as the paper (default: when\n"
     "                    the database hang has the target as its lowest point, at the\n"
     "                    reconstruction's lowest point, 2 cm above it)\n"
+    "  --lowest-near R   when the target is not the database hang's lowest point but the\n"
+    "                    lowest within R metres of it, regrasp at the reconstruction's lowest\n"
+    "                    point within R of the registered target, 2 cm above it (default 0.06; 0: off)\n"
     "  --no-hanging-end  regrasp an elbow at its registered point, as the paper (default: at the\n"
     "                    reconstruction's lowest point near the registered cuff, raised by the\n"
     "                    pattern's elbow-to-cuff distance, when the database hang has the cuff below)\n"
@@ -364,6 +367,7 @@ Json OptionsJson(const LoopOptions& lo, int trials, const std::vector<int>& only
           {"hem_corner", lo.hem_corner},
           {"candidate_fit_radius_m", lo.fit_radius},
           {"lowest_point", lo.lowest_point},
+          {"lowest_near_radius_m", lo.lowest.near_radius},
           {"hanging_end", lo.hanging_end},
           {"place_flat", lo.place_flat}};
 }
@@ -394,7 +398,8 @@ const std::vector<std::string> kUnfoldValues = {"--category",
                                                 "--refit-absent",
                                                 "--gated-out-excess",
                                                 "--category-gate",
-                                                "--category-ungated"};
+                                                "--category-ungated",
+                                                "--lowest-near"};
 
 // The loop's options from the command line.
 LoopOptions LoopOptionsFrom(const Args& a) {
@@ -406,6 +411,8 @@ LoopOptions LoopOptionsFrom(const Args& a) {
   lo.ir_at_jaw_line = !a.Flag("--ir-above-jaws");
   lo.hem_edge = a.Flag("--hem-edge");
   lo.lowest_point = !a.Flag("--no-lowest-point");
+  lo.lowest.near_radius = a.GetDouble("--lowest-near").value_or(lo.lowest.near_radius);
+  if (!(lo.lowest.near_radius >= 0 && lo.lowest.near_radius < 0.5)) throw Error("--lowest-near: must be in [0, 0.5) m");
   lo.hanging_end = !a.Flag("--no-hanging-end");
   lo.hem_corner = a.Flag("--hem-corner");
   if (lo.hem_corner && !lo.hem_edge) throw Error("--hem-corner: needs --hem-edge");

@@ -90,11 +90,16 @@ void LowestPointOptions::Validate() const {
   if (!(tolerance >= 0 && tolerance < 0.5)) throw Error("lowest_point.tolerance: must be in [0, 0.5) m");
   if (!(floor_margin >= 0 && floor_margin < 0.5)) throw Error("lowest_point.floor_margin: must be in [0, 0.5) m");
   if (!(lift >= 0 && lift < 0.2)) throw Error("lowest_point.lift: must be in [0, 0.2) m");
+  if (!(near_radius >= 0 && near_radius < 0.5)) throw Error("lowest_point.near_radius: must be in [0, 0.5) m");
 }
 
-bool AnchorIsLowest(const TriMesh& hang, int v, double tolerance) {
+bool AnchorIsLowest(const TriMesh& hang, int v, double tolerance, double radius) {
   if (v < 0 || v >= hang.NumVertices()) throw Error("lowest point: vertex " + std::to_string(v) + " outside the mesh");
-  return hang.V(v, 1) - hang.V.col(1).minCoeff() <= tolerance;
+  double lowest = hang.V(v, 1);
+  for (Eigen::Index i = 0; i < hang.V.rows(); ++i)
+    if (std::hypot(hang.V(i, 0) - hang.V(v, 0), hang.V(i, 2) - hang.V(v, 2)) <= radius)
+      lowest = std::min(lowest, hang.V(i, 1));
+  return hang.V(v, 1) - lowest <= tolerance;
 }
 
 namespace {
@@ -114,8 +119,9 @@ std::optional<Vec3> LowestVertex(const TriMesh& recon, const std::optional<Vec3>
 }
 }  // namespace
 
-std::optional<Vec3> LowestPoint(const TriMesh& recon, double floor_y, const LowestPointOptions& o) {
-  std::optional<Vec3> p = LowestVertex(recon, std::nullopt, 0, floor_y, o.floor_margin);
+std::optional<Vec3> LowestPoint(const TriMesh& recon, double floor_y, const LowestPointOptions& o,
+                                const std::optional<Vec3>& around) {
+  std::optional<Vec3> p = LowestVertex(recon, around, o.near_radius, floor_y, o.floor_margin);
   if (p) p->y() += o.lift;
   return p;
 }

@@ -219,9 +219,39 @@ TEST(LowestPoint, TheHangsLowestVertexAndTheReconstructionsLiftedAboveIt) {
   EXPECT_FALSE(LowestPoint(TriMesh{}, -1.0, o).has_value());
 }
 
+TEST(LowestPoint, NearTheTargetTheLowestWithinTheRadiusNotTheGarments) {
+  // A leg hanging beside a lower waist (x-y plane, y up): the leg's hem corner at
+  // (0, -0.30), 2 cm above its hem's other points; the waist 12 cm away down to y = -0.42.
+  TriMesh hang;
+  hang.V.resize(5, 3);
+  hang.V << 0.0, -0.30, 0.0,                          // 0: the leg's hem corner (the target)
+      0.04, -0.28, 0.0,                               // 1: its hem, 4 cm in
+      0.0, -0.10, 0.0,                                // 2: the leg above it
+      0.12, -0.42, 0.0,                               // 3: the waist, the hang's lowest
+      0.30, -0.35, 0.0;                               // 4
+  EXPECT_FALSE(AnchorIsLowest(hang, 0, 0.03));        // 12 cm above the hang's lowest
+  EXPECT_TRUE(AnchorIsLowest(hang, 0, 0.03, 0.06));   // the lowest within 6 cm
+  EXPECT_FALSE(AnchorIsLowest(hang, 2, 0.03, 0.06));  // the corner lies below it
+  EXPECT_TRUE(AnchorIsLowest(hang, 1, 0.03, 0.06));   // 2 cm above the corner, within the tolerance
+  EXPECT_FALSE(AnchorIsLowest(hang, 1, 0.01, 0.06));
+  EXPECT_FALSE(AnchorIsLowest(hang, 0, 0.03, 0.2));  // a radius that reaches the waist
+  // The reconstruction, the registration 4 cm off the corner: the corner, lifted 2 cm.
+  LowestPointOptions o;  // near_radius 6 cm
+  const auto p = LowestPoint(hang, -1.0, o, Vec3(-0.04, -0.27, 0.0));
+  ASSERT_TRUE(p.has_value());
+  EXPECT_NEAR((*p - Vec3(0.0, -0.28, 0.0)).norm(), 0.0, 1e-12);
+  EXPECT_NEAR((*LowestPoint(hang, -1.0, o) - Vec3(0.12, -0.40, 0.0)).norm(), 0.0, 1e-12);  // without: the waist
+  // Nothing within the radius, or the corner at the region's floor: none.
+  EXPECT_FALSE(LowestPoint(hang, -1.0, o, Vec3(1.0, -0.3, 1.0)).has_value());
+  EXPECT_FALSE(LowestPoint(hang, -0.31, o, Vec3(0.0, -0.3, 0.0)).has_value());
+}
+
 TEST(LowestPoint, OptionsAreChecked) {
   LowestPointOptions o;
   EXPECT_NO_THROW(o.Validate());
+  o.near_radius = -0.01;
+  EXPECT_THROW(o.Validate(), Error);
+  o = {};
   o.lift = -0.01;
   EXPECT_THROW(o.Validate(), Error);
   o = {};

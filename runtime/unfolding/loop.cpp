@@ -543,13 +543,40 @@ struct TrialRun {
   // symmetry twin of it is the hang's lowest point: a twin's registration maps onto the
   // garment's other side, and the plan accepts either (from a crotch or a waist both leg
   // ends hang about as low, and either may be the lowest).
-  bool TargetIsLowest(const TriMesh& hang, int v, const Step::CandidateTrace& c) const {
-    if (AnchorIsLowest(hang, v, o.lowest.tolerance)) return true;
+  // Within `radius` horizontally: whether it is the lowest near itself.
+  bool TargetIsLowest(const TriMesh& hang, int v, const Step::CandidateTrace& c,
+                      double radius = std::numeric_limits<double>::infinity()) const {
+    if (AnchorIsLowest(hang, v, o.lowest.tolerance, radius)) return true;
     for (const std::string& twin : rec::SymmetryTwins(c.next_anchor)) {
       const int w = model.AnchorVertex(c.candidate.instance, twin);
-      if (w >= 0 && w < hang.NumVertices() && AnchorIsLowest(hang, w, o.lowest.tolerance)) return true;
+      if (w >= 0 && w < hang.NumVertices() && AnchorIsLowest(hang, w, o.lowest.tolerance, radius)) return true;
     }
     return false;
+  }
+
+  // The regrasp point from the reconstruction's lowest point (candidates.h LowestPoint): of
+  // the whole garment when the point candidate's registered hang (rigid) has the target or
+  // its twin lowest, else near the registered target when the target (not its twin: the
+  // search is around it) is the lowest near it.
+  void PointFromLowest(Step& s, const CandidateRegistration& preg, int v, const Eigen::Matrix3d& to_world,
+                       const Vec3& origin) const {
+    const double floor = model.recipe().fusion.box.min().y();
+    s.lowest_target = TargetIsLowest(preg.reg.rigid, v, s.candidates[s.point]);
+    if (!o.lowest_point) return;
+    std::optional<Vec3> p;
+    if (s.lowest_target) {
+      p = LowestPoint(s.recon, floor, o.lowest);
+      if (!p)
+        AddNote(s, "lowest point: the reconstruction's lowest point is the region's floor; registered point used");
+    } else if (o.lowest.near_radius > 0) {
+      s.lowest_near = TargetIsLowest(preg.reg.rigid, v, s.candidates[s.point], o.lowest.near_radius);
+      if (s.lowest_near) p = LowestPoint(s.recon, floor, o.lowest, Vec3(preg.final_mesh().V.row(v).transpose()));
+      if (s.lowest_near && !p)
+        AddNote(s, "lowest point near the target: none above the region's floor; registered point used");
+    }
+    if (!p) return;
+    s.predicted = to_world * *p + origin;
+    s.lowest_taken = true;
   }
 
   // The regrasp point from the free end hanging below the target (candidates.h HangingEnd):
@@ -602,15 +629,7 @@ struct TrialRun {
     s.ladder.nonrigid = to_world * preg.final_mesh().V.row(v).transpose() + origin;
     // The turn is about the vertical: "below" is the same in the object frame.
     s.edge_target = AnchorAtLowerEdge(preg.final_mesh(), v, o.edge);
-    s.lowest_target = TargetIsLowest(preg.reg.rigid, v, s.candidates[s.point]);
-    if (o.lowest_point && s.lowest_target) {
-      if (const auto p = LowestPoint(s.recon, model.recipe().fusion.box.min().y(), o.lowest)) {
-        s.predicted = to_world * *p + origin;
-        s.lowest_taken = true;
-      } else {
-        AddNote(s, "lowest point: the reconstruction's lowest point is the region's floor; registered point used");
-      }
-    }
+    PointFromLowest(s, preg, v, to_world, origin);
     if (!s.lowest_taken) PointFromHangingEnd(s, preg, s.candidates[s.point], to_world, origin);
     if (o.hem_corner) s.point_mesh = preg.final_mesh(), s.point_vertex = v, s.point_to_world = to_world;
   }
@@ -1085,7 +1104,7 @@ Json StepJson(const Step& s) {
          {"ir_response", s.refine.response},
          {"ir_best_offset", s.refine.offset},
          {"ir_fold_found", s.refine.fold_found},
-         {"lowest_point", {{"target", s.lowest_target}, {"taken", s.lowest_taken}}},
+         {"lowest_point", {{"target", s.lowest_target}, {"near", s.lowest_near}, {"taken", s.lowest_taken}}},
          {"hanging_end", {{"end", s.hanging_end}, {"taken", s.hanging_taken}, {"length_m", s.hanging_length}}},
          {"edge",
           {{"target", s.edge_target},

@@ -332,6 +332,7 @@ struct Step {
   // (recorded with the option off too), and whether the reconstruction's lowest point was
   // taken for it.
   bool lowest_target = false, lowest_taken = false;
+  bool lowest_near = false;  // the target is not the lowest but the lowest near it (LowestPointOptions::near_radius)
   // LoopOptions::hanging_end: the end below the target ("" when it has none or the database
   // hang does not have it below), whether the point was taken from it, and the distance used.
   std::string hanging_end;
