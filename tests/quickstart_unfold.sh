@@ -62,6 +62,7 @@ expect_error "\-\-only: '3' is not a trial number in 1..2" --weights "$w" --cate
 expect_error "\-\-only: 'x' is not a trial number" --weights "$w" --category towel --only x
 expect_error "\-\-first-hang-weight: must be >= 0" --weights "$w" --category towel --first-hang-weight -1
 expect_error "\-\-refit-absent: must be >= 0" --weights "$w" --category towel --refit-absent -0.5
+expect_error "\-\-lowest-near: must be in \[0, 0.5) m" --weights "$w" --category towel --lowest-near 0.5
 expect_error "\-\-category-once and \-\-category-evidence: give one" --weights "$w" --category towel --category-once --category-evidence
 expect_error "\-\-candidate-fit: must be 'rigid' or 'final'" --weights "$w" --category towel --candidate-fit best
 expect_error "\-\-candidate-point: must be 'consensus', 'outlier' or 'fit'" --weights "$w" --category towel --candidate-point mean
