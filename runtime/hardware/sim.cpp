@@ -465,8 +465,9 @@ std::shared_ptr<const ClothModel> ClothModelOf(const SimWorld::Impl& w, double d
 // garment as the two grippers held it, the other gripper keeping the nodes its jaws
 // pinched (Pinch::nodes), until it comes to rest below that gripper (the hang's settling
 // criterion and time cap). A gripper that holds no node (none left to pinch) falls back
-// to a hang from the flat garment at the pinched point. A fall that blows up is run once more at half the time step
-// (damping per second kept), as a hang is; throws NumericalError if that blows up too.
+// to a hang from the flat garment at the pinched point. A fall that blows up is run once
+// more at half the time step (damping per second kept), as a hang is; throws
+// NumericalError if that blows up too.
 void FallFrom(SimWorld::Impl& w, int let_go) {
   const int keep = 1 - let_go;
   const auto t0 = Clock::now();

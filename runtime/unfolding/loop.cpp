@@ -556,8 +556,9 @@ struct TrialRun {
 
   // The regrasp point from the reconstruction's lowest point (candidates.h LowestPoint): of
   // the whole garment when the point candidate's registered hang (rigid) has the target or
-  // its twin lowest, else near the registered target when the target (not its twin: the
-  // search is around it) is the lowest near it.
+  // its twin lowest, else the lowest near the registered target when the target or its
+  // twin is the lowest near itself (the search is around the target either way: around a
+  // registered twin it found waist corners on shorts held by the crotch).
   void PointFromLowest(Step& s, const CandidateRegistration& preg, int v, const Eigen::Matrix3d& to_world,
                        const Vec3& origin) const {
     const double floor = model.recipe().fusion.box.min().y();
