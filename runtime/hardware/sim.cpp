@@ -29,6 +29,9 @@ Eigen::Matrix3d GripperAxes(const GripperPose& p) {
   return R;
 }
 
+// Whether a point `q` in the jaw frame lies in the jaw box of half-extents `half`.
+bool InJaws(const Vec3& q, const Vec3& half) { return (q.cwiseAbs().array() <= half.array()).all(); }
+
 // A pinch: a point of the garment's pattern, on face `face` at barycentric `bary`.
 struct Pinch {
   int face = -1;
@@ -236,7 +239,7 @@ struct SimWorld::Impl {
           const Vec3 bary(double(n - i - j) / n, double(i) / n, double(j) / n);
           const Vec3 p = bary[0] * A + bary[1] * B + bary[2] * C;
           const Vec3 q = Rt * (p - pose.position);
-          if (std::abs(q.x()) > half.x() || std::abs(q.y()) > half.y() || std::abs(q.z()) > half.z()) continue;
+          if (!InJaws(q, half)) continue;
           hit = true;
           out.centroid += p;
           ++samples;
@@ -277,8 +280,7 @@ struct SimWorld::Impl {
                             const Vec3& half) const {
     std::vector<int> out;
     for (int i = 0; i < mesh.NumVertices(); ++i) {
-      const Vec3 q = Rt * (mesh.V.row(i).transpose() - centre);
-      if ((q.cwiseAbs().array() <= half.array()).all()) out.push_back(i);
+      if (InJaws(Rt * (mesh.V.row(i).transpose() - centre), half)) out.push_back(i);
     }
     for (int f : faces) {
       int best = mesh.F(f, 0);
