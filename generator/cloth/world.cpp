@@ -55,6 +55,7 @@ void SettleOptions::Validate() const {
   if (!(window > 0)) Bad("settle", "window", "must be > 0 s");
   if (!(min_time >= 0)) Bad("settle", "min_time", "must be >= 0 s");
   if (!(time_cap > min_time + window)) Bad("settle", "time_cap", "must exceed min_time + window");
+  if (ccd_test_cap < 0) Bad("settle", "ccd_test_cap", "must be >= 0 (0: no cap)");
 }
 
 void GripperPath::Validate() const {
@@ -428,14 +429,20 @@ SettleReport ClothWorld::Settle(const SettleOptions& o) {
   // Snapshots every quarter window; settled when now vs 4 snapshots ago moved < distance.
   std::vector<Points3> ring;
   int step = 0;
+  bool capped = false;
   for (step = 1; step <= max_steps; ++step) {
-    Step();
-    if (step % quarter) continue;
+    const CollisionReport c = Step();
+    r.fail_safe_steps += c.fail_safe_used;
+    r.zone_rounds += c.zone_iterations;
+    r.ccd_tests += c.ccd_tests;
+    capped = o.ccd_test_cap > 0 && r.ccd_tests >= o.ccd_test_cap;
+    if (step % quarter && !capped) continue;
     const std::string bad = Health();
     if (!bad.empty()) {
       r.failure = bad;
       break;
     }
+    if (capped && step % quarter) break;  // the ring keeps snapshots a quarter window apart
     ring.push_back(x_);
     if (ring.size() > 5) ring.erase(ring.begin());
     if (ring.size() == 5) {
@@ -445,6 +452,7 @@ SettleReport ClothWorld::Settle(const SettleOptions& o) {
         break;
       }
     }
+    if (capped) break;
   }
   r.steps = std::min(step, max_steps);
   r.sim_time = r.steps * dt;
@@ -453,8 +461,10 @@ SettleReport ClothWorld::Settle(const SettleOptions& o) {
     if (holder_[i] < 0) r.max_speed = std::max(r.max_speed, v_.row(i).norm());
   if (r.failure.empty() && !r.settled) {
     r.timed_out = true;
-    r.failure = "not settled within time_cap " + FormatNumber(o.time_cap) + " s (still moving " +
-                FormatNumber(r.motion) + " m per settle window)";
+    const std::string moving = " (still moving " + FormatNumber(r.motion) + " m per settle window)";
+    r.failure = capped ? "not settled when its " + std::to_string(o.ccd_test_cap) +
+                             " pair CCD tests were spent, after " + FormatNumber(r.steps * dt) + " s" + moving
+                       : "not settled within time_cap " + FormatNumber(o.time_cap) + " s" + moving;
   }
   return r;
 }

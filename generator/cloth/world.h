@@ -164,14 +164,22 @@ struct SettleOptions {
   double window = 0.25;     // s: ... over this window (checked every window/4)
   double min_time = 0.75;   // s simulated (by this call) before settling may be declared
   double time_cap = 8.0;    // s simulated (by this call); not settled by then → failure
+  // Collision work after which the call stops as at time_cap; 0: no cap. The work is the
+  // pair CCD tests (CollisionReport::ccd_tests: every pass and fail-safe round) summed
+  // over this call's steps. A state the fail-safe must hold together with large rigid
+  // zones in every step can cost a third of a second per step.
+  long long ccd_test_cap = 0;
   void Validate() const;    // throws drape::Error naming the field
 };
 
 struct SettleReport {
   bool settled = false;
   std::string failure;      // empty when settled; else blow-up reason or time cap
-  bool timed_out = false;   // reached time_cap without blowing up
+  bool timed_out = false;   // reached time_cap or ccd_test_cap without blowing up
   int steps = 0;            // steps taken by this call
+  int fail_safe_steps = 0;  // ... of which needed rigid impact zones
+  long zone_rounds = 0;     // fail-safe rounds summed over them
+  long long ccd_tests = 0;  // pair CCD tests summed over this call's steps
   double sim_time = 0;      // s simulated by this call
   double motion = 0;        // m, max node move over the last full window
   double kinetic_energy = 0;  // J, final state
@@ -226,7 +234,7 @@ class ClothWorld {
   CollisionReport Step();
   // Steps until no node moved more than options.distance over options.window (after
   // options.min_time), or until a blow-up (NaN, speed > max_speed, kinetic energy above
-  // 50 × weight × extent) or options.time_cap. Deterministic.
+  // 50 × weight × extent), options.time_cap or options.ccd_test_cap. Deterministic.
   SettleReport Settle(const SettleOptions& options);
   // "" when the state is finite, no node is faster than max_speed and the kinetic
   // energy is below the cap; otherwise why not.

@@ -242,26 +242,34 @@ TEST(ClothWorld, HeldByTwoGrippersSpreadApartItSettlesIntersectionFree) {
             << ", fail-safe steps " << w.timings().fail_safe_steps << "\n";
 }
 
+constexpr double kHungLimit = 0.04;  // strain bound of the hung rectangle
+
+// The two-layer rectangle `g` (strain bound kHungLimit) held across both layers at `grip`,
+// with a seeded jitter that breaks the symmetry (the standing cloth falls over to one side).
+std::unique_ptr<ClothWorld> HungRectangle(const Garment& g, const Vec3& grip, const char* what) {
+  auto w = std::make_unique<ClothWorld>(Model(g, kHungLimit), g.mesh.V);
+  Jaw jaw;
+  jaw.pad_length = jaw.pad_width = 0.045;  // the nodes within about a cell of the grip, both layers
+  const GraspReport grasp = w->Close(w->AddGripper(jaw, PinchPose(grip)));
+  EXPECT_GE(grasp.nodes, 2) << what;
+  Rng rng(DeriveSeed(11, what));
+  Points3 dx(g.mesh.NumVertices(), 3);
+  for (int i = 0; i < dx.rows(); ++i)
+    for (int c = 0; c < 3; ++c) dx(i, c) = rng.Uniform(-0.002, 0.002);
+  w->Perturb(dx);
+  return w;
+}
+
 // A two-layer rectangle held across both layers at `grip` (pattern coordinates) and
 // let fall: the worst cases of the hang (towel centre, pants crotch) — the cloth folds
 // onto itself around the grip, where the load and the contacts are largest. Every step
 // must end with no edge beyond the strain bound and an intersection-free mesh.
 void ExpectHungWithinStrainBound(const Vec3& grip, const char* what) {
   const Garment g = MakeRectangleGarment(0.3, 0.3, 0.03, true);
-  const double limit = 0.04;
-  const auto model = Model(g, limit);
-  const CollisionOptions& co = model->options.collision;
-  ClothWorld w(model, g.mesh.V);
-  Jaw jaw;
-  jaw.pad_length = jaw.pad_width = 0.045;  // the nodes within about a cell of the grip, both layers
-  const GraspReport grasp = w.Close(w.AddGripper(jaw, PinchPose(grip)));
-  ASSERT_GE(grasp.nodes, 2);
-  // A seeded jitter breaks the symmetry (the standing cloth falls over to one side).
-  Rng rng(DeriveSeed(11, what));
-  Points3 dx(g.mesh.NumVertices(), 3);
-  for (int i = 0; i < dx.rows(); ++i)
-    for (int c = 0; c < 3; ++c) dx(i, c) = rng.Uniform(-0.002, 0.002);
-  w.Perturb(dx);
+  const double limit = kHungLimit;
+  const auto wp = HungRectangle(g, grip, what);
+  ClothWorld& w = *wp;
+  const CollisionOptions& co = w.model().options.collision;
   double worst = 0;
   int violations = 0, fail_safe = 0, merges = 0;
   for (int step = 0; step < 720; ++step) {  // 3 s: falling, folding, swinging
@@ -298,6 +306,38 @@ TEST(ClothWorld, HeldAtItsCentreItStaysWithinTheStrainBoundAndIntersectionFree) 
 TEST(ClothWorld, HeldAtTheMiddleOfAStitchedEdgeItStaysWithinTheStrainBound) {
   // Like a crotch: both halves hang on either side of the grip and press their layers together.
   ExpectHungWithinStrainBound(Vec3(0, 0.02, 0), "edge-middle grip");
+}
+
+// Settling stops, as at its time cap, at the first step where the collision handling's
+// pair CCD tests reach ccd_test_cap: the state is the one stepping gives, and the report
+// says why.
+TEST(ClothWorld, SettleStopsWhenItsCollisionWorkIsSpent) {
+  const Garment g = MakeRectangleGarment(0.3, 0.3, 0.03, true);
+  const Vec3 grip(0, 0.02, 0);  // the edge-middle grip: its cloth needs the fail-safe
+  SettleOptions so;
+  so.time_cap = 3;
+  const SettleReport full = HungRectangle(g, grip, "edge-middle grip")->Settle(so);
+  ASSERT_GT(full.ccd_tests, 1);
+  EXPECT_GT(full.fail_safe_steps, 0);
+  EXPECT_GE(full.zone_rounds, full.fail_safe_steps);
+  so.ccd_test_cap = full.ccd_tests / 2;
+  const auto capped_world = HungRectangle(g, grip, "edge-middle grip");
+  const SettleReport capped = capped_world->Settle(so);
+  EXPECT_FALSE(capped.settled);
+  EXPECT_TRUE(capped.timed_out);
+  EXPECT_NE(capped.failure.find("pair CCD tests were spent"), std::string::npos) << capped.failure;
+  EXPECT_GE(capped.ccd_tests, so.ccd_test_cap);
+  EXPECT_LT(capped.steps, full.steps);
+  // The same world stepped by hand reaches the cap at the same step, in the same state.
+  const auto stepped = HungRectangle(g, grip, "edge-middle grip");
+  long long tests = 0;
+  int steps = 0;
+  while (tests < so.ccd_test_cap) tests += stepped->Step().ccd_tests, ++steps;
+  EXPECT_EQ(steps, capped.steps);
+  EXPECT_EQ(tests, capped.ccd_tests);
+  EXPECT_TRUE(SameBytes(stepped->positions(), capped_world->positions()));
+  so.ccd_test_cap = -1;
+  EXPECT_THROW(HungRectangle(g, grip, "edge-middle grip")->Settle(so), Error);
 }
 
 // A 1 × 0.1 × 1 m table whose top face passes through (0, top, 0), turned by `tilt`.

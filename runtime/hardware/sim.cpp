@@ -93,6 +93,7 @@ void SimOptions::Validate() const {
   if (!(speed > 0)) throw Error("sim.speed: must be > 0 m/s");
   if (!(drag_coefficient >= 0 && drag_coefficient <= 10)) throw Error("sim.drag_coefficient: must be in [0, 10]");
   if (!(strain_lead_weight >= 0 && strain_lead_weight <= 1)) throw Error("sim.strain_lead_weight: must be in [0, 1]");
+  if (fall_ccd_test_cap < 0) throw Error("sim.fall_ccd_test_cap: must be >= 0 (0: no cap)");
   camera.Validate();
   ir.Validate();
   if (!ir_mount.allFinite()) throw Error("sim.ir_mount: must be finite");
@@ -169,6 +170,7 @@ struct SimWorld::Impl {
   int fallbacks = 0;  // let-go falls that re-hung from the flat garment (no node between the pads)
   int unsettled = 0;  // let-go falls that reached the time cap still moving (kept as they were)
   int retries = 0;    // falls and placings run again at half the time step after blowing up
+  SimWorld::FallCost fall_cost;
   double sim_seconds = 0, sense_seconds = 0;
   uint64_t version = 0, ir_version = ~uint64_t(0);
   std::unique_ptr<SweepScene> ir_scene;
@@ -478,6 +480,7 @@ void FallFrom(SimWorld::Impl& w, int let_go) {
   so.window = w.o.hang.settle_window;
   so.min_time = w.o.hang.min_time;
   so.time_cap = w.o.hang.time_cap;
+  so.ccd_test_cap = w.o.fall_ccd_test_cap;
   double dt = w.o.hang.time_step;
   const std::string side = keep ? "right" : "left";
   SettleReport sr;
@@ -495,6 +498,9 @@ void FallFrom(SimWorld::Impl& w, int let_go) {
     }
     sr = cw.Settle(so);
     x = cw.positions();
+    SimWorld::FallCost& c = w.fall_cost;
+    ++c.falls, c.steps += sr.steps, c.fail_safe_steps += sr.fail_safe_steps, c.zone_rounds += sr.zone_rounds;
+    c.ccd_tests += sr.ccd_tests, c.max_ccd_tests = std::max(c.max_ccd_tests, sr.ccd_tests);
     if (!sr.settled && !sr.timed_out) continue;
     // The database hang's verdict on where it came to rest (CGAL's exact test, strain bounds).
     TriMesh fallen;
@@ -790,6 +796,7 @@ int SimWorld::hangs() const { return impl_->hangs; }
 int SimWorld::fallbacks() const { return impl_->fallbacks; }
 int SimWorld::unsettled() const { return impl_->unsettled; }
 int SimWorld::retries() const { return impl_->retries; }
+const SimWorld::FallCost& SimWorld::fall_cost() const { return impl_->fall_cost; }
 double SimWorld::simulation_seconds() const { return impl_->sim_seconds; }
 double SimWorld::sensing_seconds() const { return impl_->sense_seconds; }
 

@@ -53,6 +53,12 @@ struct SimOptions {
   // the default lead weighting (0.6) pumps energy into a swinging cloth, and a trouser
   // leg swinging down past the new grip whipped to 13–22 m/s with it (4.1 m/s at 1).
   double strain_lead_weight = 1.0;
+  // A let-go fall stops, still moving, once its collision handling has run this many
+  // pair CCD tests (SettleOptions::ccd_test_cap; 0: only the time cap). A fall the
+  // fail-safe must hold together with large rigid zones in every step costs ~0.3 s per
+  // step, and one such fall ran 1,122 s to its 16 s time cap (docs/unfolding.md, "What
+  // a fall costs").
+  long long fall_ccd_test_cap = 0;
   double jaw_opening = 0.08;   // m (paper: ≈ 8 cm)
   double finger_depth = 0.03;  // m along the approach, centred on the jaw centre
   double finger_width = 0.02;  // m across the fingers
@@ -151,6 +157,14 @@ class SimWorld {
   int unsettled() const;
   // Falls and placings that blew up and were run again at half the time step.
   int retries() const;
+  // What the let-go falls cost the cloth core: steps, steps that needed the collision
+  // fail-safe, its rounds, pair CCD tests (summed, and the most in one fall).
+  struct FallCost {
+    int falls = 0, steps = 0, fail_safe_steps = 0;
+    long zone_rounds = 0;
+    long long ccd_tests = 0, max_ccd_tests = 0;
+  };
+  const FallCost& fall_cost() const;
   double simulation_seconds() const;
   double sensing_seconds() const;  // Kinect sweeps and IR readings
 

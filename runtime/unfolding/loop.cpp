@@ -1005,6 +1005,7 @@ TrialResult RunTrial(const ReleaseModel& model, const std::string& category, con
   res.times.simulation = world.simulation_seconds();
   res.hangs = world.hangs(), res.fallbacks = world.fallbacks(), res.unsettled = world.unsettled();
   res.retries = world.retries();
+  res.fall_cost = world.fall_cost();
   res.final_state = hw::ClothStateName(world.state());
   res.final_mesh = world.mesh();
   res.seconds = Since(t_start);
@@ -1163,7 +1164,17 @@ Json TrialResult::ToJson() const {
           {"place_failure", place_failure},
           {"coverage", placed ? Json(coverage) : Json(nullptr)},
           {"failure", failure},
-          {"simulation", {{"hangs", hangs}, {"fallbacks", fallbacks}, {"unsettled", unsettled}, {"retries", retries}}},
+          {"simulation",
+           {{"hangs", hangs},
+            {"fallbacks", fallbacks},
+            {"unsettled", unsettled},
+            {"retries", retries},
+            {"falls", fall_cost.falls},
+            {"fall_steps", fall_cost.steps},
+            {"fall_fail_safe_steps", fall_cost.fail_safe_steps},
+            {"fall_zone_rounds", fall_cost.zone_rounds},
+            {"fall_ccd_tests", fall_cost.ccd_tests},
+            {"max_fall_ccd_tests", fall_cost.max_ccd_tests}}},
           {"timing", times.ToJson()},
           {"seconds", seconds}};
 }

@@ -421,6 +421,7 @@ struct TrialResult {
   // from the flat garment, and falls that reached the time cap still moving (sim.h).
   int hangs = 0, fallbacks = 0, unsettled = 0;
   int retries = 0;  // falls and placings run again at half the time step after blowing up
+  hardware::SimWorld::FallCost fall_cost;  // the let-go falls' steps and collision fail-safe rounds
   StageTimes times;
   double seconds = 0;
   Json ToJson() const;           // the trace (no meshes)
