@@ -174,7 +174,7 @@ struct SettleOptions {
 
 struct SettleReport {
   bool settled = false;
-  std::string failure;      // empty when settled; else blow-up reason or time cap
+  std::string failure;      // empty when settled; else blow-up reason, time cap or CCD test cap
   bool timed_out = false;   // reached time_cap or ccd_test_cap without blowing up
   int steps = 0;            // steps taken by this call
   int fail_safe_steps = 0;  // ... of which needed rigid impact zones

@@ -168,7 +168,7 @@ struct SimWorld::Impl {
   ArmState arms[2];
   int hangs = 0;
   int fallbacks = 0;  // let-go falls that re-hung from the flat garment (no node between the pads)
-  int unsettled = 0;  // let-go falls that reached the time cap still moving (kept as they were)
+  int unsettled = 0;  // let-go falls stopped by the time or CCD test cap still moving (kept)
   int retries = 0;    // falls and placings run again at half the time step after blowing up
   SimWorld::FallCost fall_cost;
   double sim_seconds = 0, sense_seconds = 0;

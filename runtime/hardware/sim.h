@@ -153,13 +153,14 @@ class SimWorld {
   // Hangs and let-go falls so far: their count and wall seconds in the cloth simulation.
   int hangs() const;
   // Let-go falls that re-hung from the flat garment (no cloth-world node between the
-  // remaining gripper's pads), and that reached the time cap still moving.
+  // remaining gripper's pads), and that reached the time cap or the CCD test cap still moving.
   int fallbacks() const;
   int unsettled() const;
   // Falls and placings that blew up and were run again at half the time step.
   int retries() const;
-  // What the let-go falls cost the cloth core: steps, steps that needed the collision
-  // fail-safe, its rounds, pair CCD tests (summed, and the most in one fall).
+  // What the let-go falls cost the cloth core (a retry at half the time step counts as a
+  // fall): steps, steps that needed the collision fail-safe, its rounds, pair CCD tests
+  // (summed, and the most in one fall).
   struct FallCost {
     int falls = 0, steps = 0, fail_safe_steps = 0;
     long zone_rounds = 0;

@@ -418,7 +418,7 @@ struct TrialResult {
   double coverage = -1;
   std::vector<AnchorPoint> true_anchors;  // truth: the test garment's anchors on its pattern
   // Cloth simulations run (pick-up hangs and let-go falls), let-go falls that re-hung
-  // from the flat garment, and falls that reached the time cap still moving (sim.h).
+  // from the flat garment, and falls stopped by the time or CCD test cap still moving (sim.h).
   int hangs = 0, fallbacks = 0, unsettled = 0;
   int retries = 0;  // falls and placings run again at half the time step after blowing up
   hardware::SimWorld::FallCost fall_cost;  // the let-go falls' steps and collision fail-safe rounds
