@@ -171,13 +171,13 @@ std::string EntriesJson(const Release& r) {
 }
 
 // Algorithm 1 on surface points with the field of a stored sdf.vdb.
-py::array_t<bool> ExtractFeatureVdb(const DoubleArray& points,
-                                    const fs::path& vdb, int layers, int rings, int sectors) {
+py::array_t<bool> ExtractFeatureVdb(const DoubleArray& points, const fs::path& vdb, int layers, int rings, int sectors,
+                                    const std::string& origin) {
   if (points.ndim() != 2 || points.shape(1) != 3) throw Error("extract_feature: points must have shape (P, 3)");
   Points3 P(points.shape(0), 3);
   std::copy(points.data(), points.data() + points.size(), P.data());
   const SdfGrid grid = SdfGrid::Read(vdb);
-  FeatureOptions o{layers, rings, sectors};
+  FeatureOptions o{layers, rings, sectors, origin};
   o.Validate();
   Feature f;
   {
@@ -235,6 +235,6 @@ PYBIND11_MODULE(_drape, m) {
         return py::make_tuple(r.distance, r.rotation);
       }, py::arg("f1"), py::arg("f2"));
   m.def("extract_feature_vdb", &ExtractFeatureVdb, py::arg("points"), py::arg("vdb"), py::arg("layers"),
-        py::arg("rings"), py::arg("sectors"));
+        py::arg("rings"), py::arg("sectors"), py::arg("origin") = "top_layer");
   BindRuntime(m);
 }

@@ -69,6 +69,8 @@ void FeatureOptions::Validate() const {
   if (sectors < 1 || sectors > 64) BadField(sectors, "FeatureOptions.sectors", "must be in [1, 64]");
   if (int64_t(layers) * rings * sectors > (int64_t(1) << 24))
     throw Error("FeatureOptions: layers·rings·sectors must be at most 2^24 bits");
+  if (origin != "top_layer" && origin != "grip")
+    BadField(origin, "FeatureOptions.origin", "must be top_layer or grip, not '" + origin + "'");
 }
 
 bool Feature::Get(int l, int r, int s) const {
@@ -129,7 +131,7 @@ FeatureFrame ComputeFeatureFrame(const Points3& P, const FeatureOptions& opt) {
   if (!(height > 0)) throw Error("ExtractFeature: surface points have no vertical extent");
   fr.y_max = y_max;
   fr.layer_height = height / opt.layers;
-  // Origin: mean (x, z) of the top layer's points.
+  // Origin: mean (x, z) of the top layer's points (Algorithm 1), or the grip's axis.
   double sx = 0, sz = 0;
   int n = 0;
   for (Eigen::Index i = 0; i < P.rows(); ++i) {
@@ -140,8 +142,8 @@ FeatureFrame ComputeFeatureFrame(const Points3& P, const FeatureOptions& opt) {
     }
   }
   DRAPE_CHECK(n > 0, "the top point is in the top layer");
-  fr.origin_x = sx / n;
-  fr.origin_z = sz / n;
+  fr.origin_x = opt.origin == "grip" ? 0.0 : sx / n;
+  fr.origin_z = opt.origin == "grip" ? 0.0 : sz / n;
   double r2 = 0;
   for (Eigen::Index i = 0; i < P.rows(); ++i)
     r2 = std::max(r2, std::pow(P(i, 0) - fr.origin_x, 2) + std::pow(P(i, 2) - fr.origin_z, 2));

@@ -5,7 +5,9 @@
 // Geometry (object frame: grasp point at the origin, y up, garment below):
 //   - layers: the y extent [y_min, y_max] of the surface points cut into N equal
 //     slabs top-down; layer l spans y ∈ [y_max − (l+1)·H/N, y_max − l·H/N], H = y_max − y_min;
-//   - polar origin (ox, oz) = mean (x, z) of the points in layer 0 (the gripper's layer);
+//   - polar origin (ox, oz) = mean (x, z) of the points in layer 0 (the gripper's layer),
+//     as Algorithm 1; or, with FeatureOptions::origin "grip", (0, 0): the gripper's
+//     vertical axis;
 //   - r_m = the largest distance in the x–z plane from the origin over all points;
 //     ring r spans radii [r·r_m/R, (r+1)·r_m/R) (uniform, not logarithmic);
 //   - sector s spans angles φ ∈ [2πs/Φ, 2π(s+1)/Φ) with φ = atan2(−(z − oz), x − ox):
@@ -33,6 +35,10 @@ struct FeatureOptions {
   int layers = 16;   // N
   int rings = 16;    // R
   int sectors = 16;  // Φ, 1..64
+  // The polar axis: "top_layer" (Algorithm 1: the mean (x, z) of the top layer's points)
+  // or "grip" (x = z = 0, the gripper's vertical axis, known from the robot). The top
+  // layer's mean moves with how the cloth falls around the jaws, and every ring with it.
+  std::string origin = "top_layer";
   void Validate() const;  // throws drape::Error naming the bad field
 };
 

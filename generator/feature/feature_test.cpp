@@ -99,11 +99,43 @@ TEST(Feature, CellGeometryFollowsAlgorithm1) {
     }
 }
 
+// origin "grip": the polar axis is the gripper's (x = z = 0), not the top layer's mean.
+TEST(Feature, GripOriginIsTheGrippersAxis) {
+  Points3 P(4, 3);
+  P << 0.1, 0.0, 0.0,   //
+      0.3, -0.01, 0.0,  //
+      0.3, -1.0, 0.0,   //
+      0.0, -0.5, -0.2;
+  FeatureOptions o;
+  o.layers = 4;
+  o.rings = 2;
+  o.sectors = 4;
+  const FeatureFrame top = ComputeFeatureFrame(P, o);
+  EXPECT_NEAR(top.origin_x, 0.2, 1e-15);  // the top layer's mean
+  EXPECT_NEAR(top.r_max, std::hypot(0.2, 0.2), 1e-15);
+  o.origin = "grip";
+  const FeatureFrame grip = ComputeFeatureFrame(P, o);
+  EXPECT_EQ(grip.origin_x, 0.0);
+  EXPECT_EQ(grip.origin_z, 0.0);
+  EXPECT_NEAR(grip.r_max, 0.3, 1e-15);
+  EXPECT_EQ(grip.y_max, top.y_max);
+  EXPECT_EQ(grip.layer_height, top.layer_height);
+  // A cylinder about the gripper's axis fills ring 0 only, whichever way the top layer leans.
+  const Feature f = ExtractFeature(
+      P, [](const Vec3& p) { return std::hypot(p.x(), p.z()) - 0.15; }, o);
+  for (int l = 0; l < 4; ++l)
+    for (int s = 0; s < 4; ++s) {
+      EXPECT_TRUE(f.Get(l, 0, s));
+      EXPECT_FALSE(f.Get(l, 1, s));
+    }
+}
+
 TEST(Feature, RotatedGarmentMatchesAtItsRotation) {
   const Scene garment = Garment();
   for (int phi : {8, 12, 16}) {
     FeatureOptions o;
     o.sectors = phi;
+    o.origin = phi == 12 ? "grip" : "top_layer";  // both axes turn with the garment
     const auto sdf0 = [&](const Vec3& p) { return garment.Sdf(p); };
     const Points3 P0 = SurfacePoints(sdf0, 1);
     const Feature f0 = ExtractFeature(P0, sdf0, o);
@@ -230,6 +262,9 @@ TEST(Feature, EncodeDecodeRoundTripAndErrors) {
 TEST(Feature, BadInputIsRejected) {
   FeatureOptions o;
   o.sectors = 65;
+  EXPECT_THROW(o.Validate(), Error);
+  o = FeatureOptions();
+  o.origin = "centre";
   EXPECT_THROW(o.Validate(), Error);
   o = FeatureOptions();
   const auto sdf = [](const Vec3&) { return -1.0; };

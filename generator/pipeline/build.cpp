@@ -243,6 +243,8 @@ std::string SenseHung(const Recipe& recipe, const SensingSpec& sensing, const Jo
                     {"rings", feature.rings},
                     {"sectors", feature.sectors},
                     {"ones", feature.PopCount()}};
+  // Recorded only when not Algorithm 1's, so releases built before the option keep their digest.
+  if (recipe.feature.origin != FeatureOptions().origin) rec["feature"]["origin"] = recipe.feature.origin;
 
   stage("encode", [&] {
     e.files.push_back({"hang.ply", EncodeMesh(hung.mesh)});
@@ -361,6 +363,7 @@ Json RecipeSummary(const Recipe& r, const std::vector<Job>& jobs) {
   s["sensing"] = sensing;
   s["fusion"] = {{"voxels_per_metre", r.fusion.voxels_per_metre}, {"truncation", r.fusion.Truncation()}};
   s["feature"] = {{"layers", r.feature.layers}, {"rings", r.feature.rings}, {"sectors", r.feature.sectors}};
+  if (r.feature.origin != FeatureOptions().origin) s["feature"]["origin"] = r.feature.origin;
   return s;
 }
 

@@ -125,6 +125,8 @@ const std::vector<OptionKey<FeatureOptions>>& FeatureKeys() {
       {"layers", Ref(&F::layers), "count", "N, layers along the vertical axis"},
       {"rings", Ref(&F::rings), "count", "R, rings around it"},
       {"sectors", Ref(&F::sectors), "count", "Φ, angular sectors (≤ 64); the feature has N·R·Φ bits"},
+      {"origin", Ref(&F::origin), "`top_layer` or `grip`",
+       "polar axis: mean (x, z) of the top layer's points (Algorithm 1) or the gripper's axis"},
   };
   return t;
 }

@@ -87,11 +87,13 @@ def match(f1, f2) -> Tuple[int, int]:
 
 
 def extract_feature(points=None, sdf=None, *, entry=None, release=None, sweep=None, mesh=None,
-                    layers: int = 16, rings: int = 16, sectors: int = 16, seed: int = 0) -> np.ndarray:
+                    layers: int = 16, rings: int = 16, sectors: int = 16, origin: str = "top_layer",
+                    seed: int = 0) -> np.ndarray:
     """The paper's binary cylindrical feature (Algorithm 1, C++), from
       entry=Entry                 its recon.ply vertices and sdf.vdb, with the release's
                                   feature shape (what the build stored, up to float rounding)
-      points=(P, 3), sdf=PATH     surface points and a .vdb file's "sdf" grid
+      points=(P, 3), sdf=PATH     surface points and a .vdb file's "sdf" grid (origin: the
+                                  polar axis, "top_layer" as Algorithm 1 or "grip")
       release=R, sweep=DIR        a recorded sweep, fused with R's recipe options
       release=R, mesh=...         a hung mesh: synthetic sweep + fusion with R's options
     Returns numpy bool (layers, rings, sectors)."""
@@ -101,7 +103,9 @@ def extract_feature(points=None, sdf=None, *, entry=None, release=None, sweep=No
         shape = entry.record.get("feature", {})
         V, _ = entry.recon_mesh()
         return _drape.extract_feature_vdb(V, entry.path("sdf.vdb"), int(shape.get("layers", layers)),
-                                          int(shape.get("rings", rings)), int(shape.get("sectors", sectors)))
+                                          int(shape.get("rings", rings)), int(shape.get("sectors", sectors)),
+                                          str(shape.get("origin", origin)))
     if points is None or sdf is None:
         raise DrapeError("extract_feature: give entry=, points= and sdf=, or release= with sweep= or mesh=")
-    return _drape.extract_feature_vdb(np.asarray(points, dtype=np.float64), os.fspath(sdf), layers, rings, sectors)
+    return _drape.extract_feature_vdb(np.asarray(points, dtype=np.float64), os.fspath(sdf), layers, rings, sectors,
+                                      origin)
