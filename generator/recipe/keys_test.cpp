@@ -65,6 +65,9 @@ TEST(RecipeKeys, ValidateErrorsArePlacedAtTheirKey) {
   EXPECT_EQ(error("simulation: {min_time: 20}\n"),
             "r.yaml:4:13: simulation: time_cap: must exceed min_time + settle_window and be at most 3600 s");
   EXPECT_EQ(error("feature: {sectors: 65}\n"), "r.yaml:4:20: feature.sectors: must be in [1, 64]");
+  EXPECT_EQ(error("feature: {origin: centre}\n"),
+            "r.yaml:4:19: feature.origin: must be top_layer or grip, not 'centre'");
+  EXPECT_EQ(error("feature: {origin: grip}\n"), "");
 }
 
 }  // namespace

@@ -115,6 +115,19 @@ def test_feature_from_stored_sdf_equals_stored_feature(release):
         assert d <= 2, e.id
 
 
+def test_feature_origin_on_the_grip(release):
+    # The polar axis on the gripper's (x = z = 0) instead of the top layer's mean: a feature
+    # of the same shape, the default unchanged, and a bad name refused.
+    e = release.entries()[0]
+    V, _ = e.recon_mesh()
+    top = drape.extract_feature(points=V, sdf=e.path("sdf.vdb"))
+    grip = drape.extract_feature(points=V, sdf=e.path("sdf.vdb"), origin="grip")
+    assert grip.shape == top.shape and grip.any()
+    assert np.array_equal(drape.extract_feature(points=V, sdf=e.path("sdf.vdb"), origin="top_layer"), top)
+    with pytest.raises(drape.DrapeError, match="origin"):
+        drape.extract_feature(points=V, sdf=e.path("sdf.vdb"), origin="centre")
+
+
 def test_sweep_and_preview(release, release_dir):
     e = release.entries(split="test")[0]
     s = e.sweep()
