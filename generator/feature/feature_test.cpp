@@ -70,16 +70,26 @@ TEST(Feature, BitOrderAndPacking) {
   EXPECT_EQ(Rotate(g, 3), f);
 }
 
-TEST(Feature, CellGeometryFollowsAlgorithm1) {
+// Four points, two of them in the top layer (x = 0.1 and `second_top_x`), and a 4×2×4 shape.
+Points3 FourPoints(double second_top_x) {
   Points3 P(4, 3);
-  P << 0.1, 0.0, 0.0,  //
-      -0.1, -0.01, 0.0,  //
-      0.3, -1.0, 0.0,  //
+  P << 0.1, 0.0, 0.0,            //
+      second_top_x, -0.01, 0.0,  //
+      0.3, -1.0, 0.0,            //
       0.0, -0.5, -0.2;
+  return P;
+}
+FeatureOptions SmallShape() {
   FeatureOptions o;
   o.layers = 4;
   o.rings = 2;
   o.sectors = 4;
+  return o;
+}
+
+TEST(Feature, CellGeometryFollowsAlgorithm1) {
+  const Points3 P = FourPoints(-0.1);
+  const FeatureOptions o = SmallShape();
   const FeatureFrame fr = ComputeFeatureFrame(P, o);
   EXPECT_DOUBLE_EQ(fr.y_max, 0.0);
   EXPECT_DOUBLE_EQ(fr.layer_height, 0.25);
@@ -101,15 +111,8 @@ TEST(Feature, CellGeometryFollowsAlgorithm1) {
 
 // origin "grip": the polar axis is the gripper's (x = z = 0), not the top layer's mean.
 TEST(Feature, GripOriginIsTheGrippersAxis) {
-  Points3 P(4, 3);
-  P << 0.1, 0.0, 0.0,   //
-      0.3, -0.01, 0.0,  //
-      0.3, -1.0, 0.0,   //
-      0.0, -0.5, -0.2;
-  FeatureOptions o;
-  o.layers = 4;
-  o.rings = 2;
-  o.sectors = 4;
+  const Points3 P = FourPoints(0.3);
+  FeatureOptions o = SmallShape();
   const FeatureFrame top = ComputeFeatureFrame(P, o);
   EXPECT_NEAR(top.origin_x, 0.2, 1e-15);  // the top layer's mean
   EXPECT_NEAR(top.r_max, std::hypot(0.2, 0.2), 1e-15);
