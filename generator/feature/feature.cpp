@@ -131,19 +131,21 @@ FeatureFrame ComputeFeatureFrame(const Points3& P, const FeatureOptions& opt) {
   if (!(height > 0)) throw Error("ExtractFeature: surface points have no vertical extent");
   fr.y_max = y_max;
   fr.layer_height = height / opt.layers;
-  // Origin: mean (x, z) of the top layer's points (Algorithm 1), or the grip's axis.
-  double sx = 0, sz = 0;
-  int n = 0;
-  for (Eigen::Index i = 0; i < P.rows(); ++i) {
-    if (y_max - P(i, 1) < fr.layer_height) {
-      sx += P(i, 0);
-      sz += P(i, 2);
-      ++n;
+  // Origin: mean (x, z) of the top layer's points (Algorithm 1); "grip" keeps (0, 0).
+  if (opt.origin == "top_layer") {
+    double sx = 0, sz = 0;
+    int n = 0;
+    for (Eigen::Index i = 0; i < P.rows(); ++i) {
+      if (y_max - P(i, 1) < fr.layer_height) {
+        sx += P(i, 0);
+        sz += P(i, 2);
+        ++n;
+      }
     }
+    DRAPE_CHECK(n > 0, "the top point is in the top layer");
+    fr.origin_x = sx / n;
+    fr.origin_z = sz / n;
   }
-  DRAPE_CHECK(n > 0, "the top point is in the top layer");
-  fr.origin_x = opt.origin == "grip" ? 0.0 : sx / n;
-  fr.origin_z = opt.origin == "grip" ? 0.0 : sz / n;
   double r2 = 0;
   for (Eigen::Index i = 0; i < P.rows(); ++i)
     r2 = std::max(r2, std::pow(P(i, 0) - fr.origin_x, 2) + std::pow(P(i, 2) - fr.origin_z, 2));
