@@ -1,8 +1,7 @@
 #include "cli/args.h"
 
-#include <charconv>
-
 #include <algorithm>
+#include <charconv>
 #include <cstdlib>
 
 #include "common/error.h"
@@ -109,8 +108,7 @@ std::vector<std::string> Args::GetAll(const std::string& name) const {
 
 void Args::RequirePositional(size_t min, size_t max, const std::string& what) const {
   if (positional_.size() < min) throw Error("missing " + what + " (see --help)");
-  if (positional_.size() > max)
-    throw Error("unexpected argument '" + positional_[max] + "' (see --help)");
+  if (positional_.size() > max) throw Error("unexpected argument '" + positional_[max] + "' (see --help)");
 }
 
 }  // namespace drape::cli

@@ -1,8 +1,8 @@
 // A small strict argument parser: options must be declared, unknown ones are errors.
 #pragma once
 
-#include <map>
 #include <cstdint>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>

@@ -8,8 +8,7 @@ namespace drape::cli {
 namespace {
 
 TEST(Args, ParsesFlagsOptionsAndPositionals) {
-  Args a({"make", "shirt", "--size", "L", "--seed=3", "--json", "-o", "x.ply"}, {"--json"},
-         {"--size", "--seed", "-o"});
+  Args a({"make", "shirt", "--size", "L", "--seed=3", "--json", "-o", "x.ply"}, {"--json"}, {"--size", "--seed", "-o"});
   EXPECT_EQ(a.positional(), (std::vector<std::string>{"make", "shirt"}));
   EXPECT_EQ(a.Get("--size", "M"), "L");
   EXPECT_EQ(*a.GetInt("--seed"), 3);

@@ -5,11 +5,10 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
-#include <optional>
-#include <sstream>
-
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <optional>
+#include <sstream>
 
 #include "cli/args.h"
 #include "cli/command.h"
@@ -100,7 +99,8 @@ Json Vec(const Vec3& v) { return Json::array({v.x(), v.y(), v.z()}); }
 
 Json PathsJson(const std::vector<CubicBezier>& paths) {
   Json a = Json::array();
-  for (const auto& c : paths) a.push_back({{"P0", Vec(c.P[0])}, {"P1", Vec(c.P[1])}, {"P2", Vec(c.P[2])}, {"P3", Vec(c.P[3])}});
+  for (const auto& c : paths)
+    a.push_back({{"P0", Vec(c.P[0])}, {"P1", Vec(c.P[1])}, {"P2", Vec(c.P[2])}, {"P3", Vec(c.P[3])}});
   return a;
 }
 
@@ -205,8 +205,8 @@ PlanRunOptions WithProgress(PlanRunOptions ro) {
   ro.on_step = [](const StepRecord& s) {
     const StepOptimum& r = s.result;
     std::printf("  %-16s D %.1f -> %.1f mm, C %.3f -> %.3f (%d simulations, %.0f s)\n", s.name.c_str(),
-                1e3 * r.before.dissimilarity, 1e3 * r.after.dissimilarity, r.before.cost, r.after.cost,
-                r.simulations, r.wall_seconds);
+                1e3 * r.before.dissimilarity, 1e3 * r.after.dissimilarity, r.before.cost, r.after.cost, r.simulations,
+                r.wall_seconds);
     std::fflush(stdout);
   };
   return ro;
@@ -253,9 +253,9 @@ Json ReportSteps(const FoldScene& scene, const PlanRun& run, const PlanRunOption
     const StepSim alt = SimulateStep(scene, s.setup, r.optimised, other, ro.optimise.alpha);
     steps.push_back(StepJson(s, alt, other.gripper));
     char row[512];
-    std::snprintf(row, sizeof row, "| %s | %zu | %.1f | %.1f | %.3f | %.3f | %.3f | %.3f | %d | %.0f |\n", s.name.c_str(),
-                  s.grasps.size(), 1e3 * r.before.dissimilarity, 1e3 * r.after.dissimilarity, r.before.cost,
-                  r.after.cost, r.before.length, r.after.length, r.simulations, r.wall_seconds);
+    std::snprintf(row, sizeof row, "| %s | %zu | %.1f | %.1f | %.3f | %.3f | %.3f | %.3f | %d | %.0f |\n",
+                  s.name.c_str(), s.grasps.size(), 1e3 * r.before.dissimilarity, 1e3 * r.after.dissimilarity,
+                  r.before.cost, r.after.cost, r.before.length, r.after.length, r.simulations, r.wall_seconds);
     md << row;
     std::printf("step %zu %-16s D %.1f -> %.1f mm, C %.3f -> %.3f (%d simulations, %.0f s); %s gripper: D %.1f mm\n",
                 i + 1, s.name.c_str(), 1e3 * r.before.dissimilarity, 1e3 * r.after.dissimilarity, r.before.cost,
@@ -296,15 +296,16 @@ Json TrialJson(int t, const TrialResult& tr) {
 std::string TrialRow(const std::string& label, const TrialResult& tr) {
   char row[512];
   if (!tr.completed) {
-    std::snprintf(row, sizeof row, "| %s | %.3f | %.3f | %.3f | (%.3f, %.3f) | %.1f | – | – | – | – | did not finish: %s |\n",
-                  label.c_str(), tr.friction_scale, tr.stiffness_scale, tr.density_scale, tr.offset.x(),
-                  tr.offset.y(), tr.yaw_deg, tr.failure.c_str());
+    std::snprintf(row, sizeof row,
+                  "| %s | %.3f | %.3f | %.3f | (%.3f, %.3f) | %.1f | – | – | – | – | did not finish: %s |\n",
+                  label.c_str(), tr.friction_scale, tr.stiffness_scale, tr.density_scale, tr.offset.x(), tr.offset.y(),
+                  tr.yaw_deg, tr.failure.c_str());
   } else {
-    std::snprintf(row, sizeof row, "| %s | %.3f | %.3f | %.3f | (%.3f, %.3f) | %.1f | %.1f | %.1f | %.0f | %.1f | %s |\n",
-                  label.c_str(), tr.friction_scale, tr.stiffness_scale, tr.density_scale, tr.offset.x(),
-                  tr.offset.y(), tr.yaw_deg, 1e3 * tr.final_dissimilarity,
-                  100 * tr.final_dissimilarity / std::max(tr.diagonal, 1e-9), 100 * tr.inside_fraction, 100 * tr.reach,
-                  tr.success ? "success" : tr.failure.c_str());
+    std::snprintf(row, sizeof row,
+                  "| %s | %.3f | %.3f | %.3f | (%.3f, %.3f) | %.1f | %.1f | %.1f | %.0f | %.1f | %s |\n", label.c_str(),
+                  tr.friction_scale, tr.stiffness_scale, tr.density_scale, tr.offset.x(), tr.offset.y(), tr.yaw_deg,
+                  1e3 * tr.final_dissimilarity, 100 * tr.final_dissimilarity / std::max(tr.diagonal, 1e-9),
+                  100 * tr.inside_fraction, 100 * tr.reach, tr.success ? "success" : tr.failure.c_str());
   }
   return row;
 }
@@ -329,7 +330,8 @@ void WriteFailurePicture(const fs::path& file, const TrialResult& tr, const Face
     // The judged result beside the last step's frames, padded to the same height.
     if (judged.rows < steps.rows)
       cv::copyMakeBorder(judged, judged, 0, steps.rows - judged.rows, 0, 0, cv::BORDER_CONSTANT, cv::Scalar::all(255));
-    if (judged.rows > steps.rows) cv::resize(judged, judged, cv::Size(judged.cols * steps.rows / judged.rows, steps.rows));
+    if (judged.rows > steps.rows)
+      cv::resize(judged, judged, cv::Size(judged.cols * steps.rows / judged.rows, steps.rows));
     cv::hconcat(steps, judged, pic);
     WritePng(file, pic);
   } else if (!tr.run.steps.empty()) {
@@ -358,7 +360,8 @@ Json RunTrialsReport(const Args& args, const FoldSetup& setup, const FoldingPlan
   nominal_json = TrialJson(-1, nominal);
   PrintTrial("unperturbed", nominal);
   WritePng(out / "result.png",
-           ResultFigure(run, F, to.silhouette_tolerance, nominal.success ? "unperturbed: success" : "unperturbed: " + nominal.failure));
+           ResultFigure(run, F, to.silhouette_tolerance,
+                        nominal.success ? "unperturbed: success" : "unperturbed: " + nominal.failure));
   md << "\n| trial | friction × | stiffness × | density × | offset (m) | yaw (°) | D (mm) | D (% of diagonal) "
         "| silhouette inside (%) | reach (cm) | result |\n|---|---|---|---|---|---|---|---|---|---|---|\n"
      << TrialRow("unperturbed", nominal);
@@ -380,8 +383,9 @@ Json RunTrialsReport(const Args& args, const FoldSetup& setup, const FoldingPlan
     std::snprintf(row, sizeof row, "| %s | %zu | %d/%d | %.1f |\n", setup.garment.instance.c_str(), plan.steps.size(),
                   success, to.trials, seconds / to.trials);
     md << row << "| paper (average, real robot) | 2.3 | 9.3/10 | 97 |\n\n"
-       << "Success: D(ideal, final) <= " << to.d_fraction * 100 << " % of the flat garment's diagonal and >= "
-       << to.inside * 100 << " % of the final silhouette inside the ideal one grown by " << to.silhouette_tolerance * 100
+       << "Success: D(ideal, final) <= " << to.d_fraction * 100
+       << " % of the flat garment's diagonal and >= " << to.inside * 100
+       << " % of the final silhouette inside the ideal one grown by " << to.silhouette_tolerance * 100
        << " cm (reach: the distance from the ideal silhouette within which " << to.inside * 100
        << " % of the final one lies).\n";
     std::printf("success %d/%d\n", success, to.trials);
@@ -464,8 +468,9 @@ int KeyPointTrials(const Args& args, const FoldSetup& setup, const FoldingPlan& 
   RunTrials(setup, none, ro, {}, to, [&](const TrialResult& tr) {
     found += tr.completed;
     char caption[256];
-    std::snprintf(caption, sizeof caption, "trial %d: friction x%.3f, stiffness x%.3f, offset (%.3f, %.3f) m, yaw %.1f deg",
-                  tr.index, tr.friction_scale, tr.stiffness_scale, tr.offset.x(), tr.offset.y(), tr.yaw_deg);
+    std::snprintf(caption, sizeof caption,
+                  "trial %d: friction x%.3f, stiffness x%.3f, offset (%.3f, %.3f) m, yaw %.1f deg", tr.index,
+                  tr.friction_scale, tr.stiffness_scale, tr.offset.x(), tr.offset.y(), tr.yaw_deg);
     std::printf("%s: %s\n", caption, tr.completed ? "key points found" : tr.failure.c_str());
     std::fflush(stdout);
     if (tr.run.flat.rows() > 0)
@@ -550,8 +555,8 @@ int Run(const std::vector<std::string>& argv) {
   return 0;
 }
 
-Register reg({"fold", "fold a garment on a table: optimised trajectories with the cloth simulation in the loop",
-              kUsage, Run});
+Register reg({"fold", "fold a garment on a table: optimised trajectories with the cloth simulation in the loop", kUsage,
+              Run});
 
 }  // namespace
 }  // namespace drape::cli

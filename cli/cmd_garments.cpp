@@ -68,8 +68,8 @@ int List(const std::vector<std::string>& argv) {
     return 0;
   }
   args.RequirePositional(0, 0, "no positional arguments");
-  std::cout << std::left << std::setw(20) << "template" << std::setw(20) << "category" << std::setw(9)
-            << "anchors" << "openings\n";
+  std::cout << std::left << std::setw(20) << "template" << std::setw(20) << "category" << std::setw(9) << "anchors"
+            << "openings\n";
   for (const auto& t : Templates()) {
     std::string openings;
     for (const auto& o : t.openings) openings += (openings.empty() ? "" : ", ") + o;
@@ -81,8 +81,8 @@ int List(const std::vector<std::string>& argv) {
         std::ostringstream os;
         os << std::fixed << std::setprecision(3) << p.small << " / " << p.medium << " / " << p.large
            << (p.angle ? " rad" : " m");
-        std::cout << "    " << std::left << std::setw(16) << p.name << std::setw(28) << os.str()
-                  << p.description << "\n";
+        std::cout << "    " << std::left << std::setw(16) << p.name << std::setw(28) << os.str() << p.description
+                  << "\n";
       }
       std::string labels;
       for (const auto& l : t.anchor_labels) labels += (labels.empty() ? "" : " ") + l;
@@ -115,8 +115,9 @@ void PrintGarment(const Garment& g, const MeshReport& r) {
 }
 
 int Make(const std::vector<std::string>& argv) {
-  Args args(argv, {}, {"--size", "--seed", "--edge-length", "--layer-gap", "--perturbation", "--param", "-o",
-                       "--output", "--preview"});
+  Args args(
+      argv, {},
+      {"--size", "--seed", "--edge-length", "--layer-gap", "--perturbation", "--param", "-o", "--output", "--preview"});
   if (args.help()) {
     std::cout << kMakeUsage;
     return 0;
@@ -149,8 +150,8 @@ int Make(const std::vector<std::string>& argv) {
     std::cout << "wrote " << *png << "\n";
   }
   PrintGarment(g, InspectMesh(g.mesh));
-  std::cout << std::setprecision(2) << "edge/target p05 " << stats.ratio_p05 << "  p95 " << stats.ratio_p95
-            << "  (min " << stats.ratio_min << ", max " << stats.ratio_max << ")\n";
+  std::cout << std::setprecision(2) << "edge/target p05 " << stats.ratio_p05 << "  p95 " << stats.ratio_p95 << "  (min "
+            << stats.ratio_min << ", max " << stats.ratio_max << ")\n";
   return 0;
 }
 

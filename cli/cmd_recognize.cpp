@@ -117,9 +117,12 @@ Code EntryQuery(const Args& a, const Release& rel, const std::string& id, uint64
   if (e->failed) throw Error("--entry: entry " + id + " failed in the build (" + e->failure + ")");
   const EntryLabel l = LabelFromEntry(*e);
   Code q = LoadEntryCode(rel, *e);
-  query = {{"kind", "entry"},         {"id", id},
-           {"split", e->split},       {"true_category", l.category},
-           {"true_anchor", l.anchor}, {"instance", l.instance},
+  query = {{"kind", "entry"},
+           {"id", id},
+           {"split", e->split},
+           {"true_category", l.category},
+           {"true_anchor", l.anchor},
+           {"instance", l.instance},
            {"height", ReconHeight(rel, *e)}};
   if (e->split == "train") query["note"] = "a train entry is in the database: it matches itself at distance 0";
   const StageTiming st = EntryStageTiming(rel.build_info(), id);
@@ -479,8 +482,8 @@ int RunCalibrate(const std::vector<std::string>& argv) {
   }
   PrintCalibration(rel, db, queries, split, opt, secs, res);
   for (const auto& wmsg : res.warnings) std::cout << "warning: " << wmsg << "\n";
-  std::cout << "wrote " << (out / "weights.json").string() << " + weights.bin (release digest " << rel.digest().substr(0, 12)
-            << "…)\n";
+  std::cout << "wrote " << (out / "weights.json").string() << " + weights.bin (release digest "
+            << rel.digest().substr(0, 12) << "…)\n";
   return 0;
 }
 
@@ -705,8 +708,9 @@ int RunEval(const std::vector<std::string>& argv) {
     return 0;
   }
   std::cout << "eval " << rel.dir().string() << " split " << split << ": " << queries.size() << " queries, "
-            << db.size() << " database entries, weights: "
-            << (have_w ? wpath.string() : std::string("none (unweighted only)")) << "\n\n"
+            << db.size()
+            << " database entries, weights: " << (have_w ? wpath.string() : std::string("none (unweighted only)"))
+            << "\n\n"
             << ReportMarkdown(res.report);
   if (auto dir = a.Get("--report")) std::cout << "\nreport: " << (fs::path(*dir) / "report.md").string() << "\n";
   return 0;

@@ -199,14 +199,20 @@ int RunLs(const std::vector<std::string>& argv) {
     for (const auto* e : rows) {
       Json files = Json::array();
       for (const auto& f : e->files) files.push_back({{"path", f.path}, {"sha256", f.sha256}, {"size", f.size}});
-      out.push_back({{"id", e->id}, {"key", e->key}, {"split", e->split}, {"failed", e->failed},
-                     {"failure", e->failure}, {"record", e->record}, {"files", files},
+      out.push_back({{"id", e->id},
+                     {"key", e->key},
+                     {"split", e->split},
+                     {"failed", e->failed},
+                     {"failure", e->failure},
+                     {"record", e->record},
+                     {"files", files},
                      {"path", r.EntryPath(e->id).string()}});
     }
     std::cout << out.dump(2) << "\n";
     return 0;
   }
-  std::vector<std::vector<std::string>> table = {{"ID", "SPLIT", "CATEGORY", "INSTANCE", "MATERIAL", "ANCHOR", "FUSION_ERR", "STATUS"}};
+  std::vector<std::vector<std::string>> table = {
+      {"ID", "SPLIT", "CATEGORY", "INSTANCE", "MATERIAL", "ANCHOR", "FUSION_ERR", "STATUS"}};
   for (const auto* e : rows) {
     double err = 0;
     char buf[32] = "-";
@@ -239,17 +245,16 @@ void PrintReport(const VerifyReport& rep) {
 int RunVerify(const std::vector<std::string>& argv) {
   Args args(argv, {"--rebuild", "--keep", "--json"}, {"--published", "-j", "--recipe"});
   if (args.help()) {
-    std::cout
-        << "usage: drape verify RELEASE [--published REF_DIR] [--rebuild [-j N] [--recipe FILE] [--keep]]\n"
-           "Checks every file against SHA256SUMS, looks for unlisted files, and recomputes the\n"
-           "release digest from the entries; names each missing, extra or changed file.\n"
-           "  --published REF_DIR  also compare with a published reference (the dataset.json and\n"
-           "                       SHA256SUMS committed under datasets/NAME/VERSION/): digest and\n"
-           "                       content files (entries/, catalog.sqlite)\n"
-           "  --rebuild            rebuild the recipe into a temporary folder and compare entry by\n"
-           "                       entry (-j threads; --recipe if the recipe refers to files; --keep\n"
-           "                       keeps the rebuilt folder)\n"
-           "Exit status 0 if everything matches, 1 otherwise.\n";
+    std::cout << "usage: drape verify RELEASE [--published REF_DIR] [--rebuild [-j N] [--recipe FILE] [--keep]]\n"
+                 "Checks every file against SHA256SUMS, looks for unlisted files, and recomputes the\n"
+                 "release digest from the entries; names each missing, extra or changed file.\n"
+                 "  --published REF_DIR  also compare with a published reference (the dataset.json and\n"
+                 "                       SHA256SUMS committed under datasets/NAME/VERSION/): digest and\n"
+                 "                       content files (entries/, catalog.sqlite)\n"
+                 "  --rebuild            rebuild the recipe into a temporary folder and compare entry by\n"
+                 "                       entry (-j threads; --recipe if the recipe refers to files; --keep\n"
+                 "                       keeps the rebuilt folder)\n"
+                 "Exit status 0 if everything matches, 1 otherwise.\n";
     return 0;
   }
   args.RequirePositional(1, 1, "RELEASE");
@@ -276,7 +281,7 @@ int RunVerify(const std::vector<std::string>& argv) {
     req.recipe_path = args.Get("--recipe", "");
     req.threads = static_cast<int>(args.GetInt("-j").value_or(0));
     req.out = fs::temp_directory_path() / ("drape-rebuild-" + original.dataset().value("name", "x") + "-" +
-                                          original.dataset().value("version", "x") + "-" + std::to_string(::getpid()));
+                                           original.dataset().value("version", "x") + "-" + std::to_string(::getpid()));
     fs::remove_all(req.out);
     std::cout << "rebuilding into " << req.out.string() << "\n";
     rebuild(req);
@@ -292,8 +297,10 @@ int RunVerify(const std::vector<std::string>& argv) {
       std::cout << "error:   rebuild digest " << again.digest() << " vs release " << original.digest() << "\n";
       ok = false;
     }
-    if (args.Flag("--keep")) std::cout << "kept " << req.out.string() << "\n";
-    else fs::remove_all(req.out);
+    if (args.Flag("--keep"))
+      std::cout << "kept " << req.out.string() << "\n";
+    else
+      fs::remove_all(req.out);
   }
   return ok ? 0 : 1;
 }
@@ -311,19 +318,18 @@ int RunMerge(const std::vector<std::string>& argv) {
   if (!out) throw Error("merge: -o RELEASE is required");
   std::vector<fs::path> shards(args.positional().begin(), args.positional().end());
   const ReleaseWriter::Summary s = Merge(shards, *out);
-  std::cout << "merged " << shards.size() << " shards into " << *out << ": " << s.entries << " entries ("
-            << s.failed << " failed), " << Bytes(s.bytes) << ", digest " << s.digest << "\n";
+  std::cout << "merged " << shards.size() << " shards into " << *out << ": " << s.entries << " entries (" << s.failed
+            << " failed), " << Bytes(s.bytes) << ", digest " << s.digest << "\n";
   return 0;
 }
 
-Register info_reg({"info", "summary of a release: counts, failures, sizes, build time",
-                   "drape info RELEASE [--json]", RunInfo});
+Register info_reg({"info", "summary of a release: counts, failures, sizes, build time", "drape info RELEASE [--json]",
+                   RunInfo});
 Register ls_reg({"ls", "list a release's entries (filter by split, category, anchor)",
                  "drape ls RELEASE [--split S] [--category C] [--anchor A] [--json]", RunLs});
 Register verify_reg({"verify", "check a release's files and digest (and optionally rebuild it)",
                      "drape verify RELEASE [--published REF] [--rebuild]", RunVerify});
-Register merge_reg({"merge", "merge shard builds into one release", "drape merge SHARD_DIR... -o RELEASE",
-                    RunMerge});
+Register merge_reg({"merge", "merge shard builds into one release", "drape merge SHARD_DIR... -o RELEASE", RunMerge});
 
 }  // namespace
 }  // namespace drape::cli

@@ -26,8 +26,7 @@ void PrintHelp() {
                "that use them.\n\nUsage: drape COMMAND [ARGS...]   (drape COMMAND --help for more)\n\n"
                "Commands:\n";
   for (const auto& c : cmds) {
-    std::cout << "  " << c.name << std::string(c.name.size() < 12 ? 12 - c.name.size() : 1, ' ')
-              << c.summary << "\n";
+    std::cout << "  " << c.name << std::string(c.name.size() < 12 ? 12 - c.name.size() : 1, ' ') << c.summary << "\n";
   }
 }
 

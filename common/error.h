@@ -22,8 +22,7 @@ class NumericalError : public std::runtime_error {
 };
 
 namespace detail {
-[[noreturn]] inline void CheckFailed(const char* file, int line, const char* expr,
-                                     const std::string& msg) {
+[[noreturn]] inline void CheckFailed(const char* file, int line, const char* expr, const std::string& msg) {
   std::ostringstream os;
   os << "internal check failed at " << file << ":" << line << ": " << expr;
   if (!msg.empty()) os << " (" << msg << ")";
@@ -34,7 +33,7 @@ namespace detail {
 }  // namespace drape
 
 // Internal invariant; stays on in release builds. Use drape::Error for bad input.
-#define DRAPE_CHECK(cond, msg)                                                     \
-  do {                                                                             \
-    if (!(cond)) ::drape::detail::CheckFailed(__FILE__, __LINE__, #cond, (msg));   \
+#define DRAPE_CHECK(cond, msg)                                                   \
+  do {                                                                           \
+    if (!(cond)) ::drape::detail::CheckFailed(__FILE__, __LINE__, #cond, (msg)); \
   } while (0)

@@ -25,7 +25,11 @@ TEST(Parallel, EveryIndexOnceAndFirstErrorRethrown) {
   std::vector<int> hits(1000, 0);
   ParallelFor(1000, 2, [&](int i) { hits[i]++; });
   for (int h : hits) EXPECT_EQ(h, 1);
-  EXPECT_THROW(ParallelFor(10, 2, [](int i) { if (i == 3) throw Error("x"); }), Error);
+  EXPECT_THROW(ParallelFor(10, 2,
+                           [](int i) {
+                             if (i == 3) throw Error("x");
+                           }),
+               Error);
 }
 
 }  // namespace

@@ -9,8 +9,7 @@ namespace drape {
 Eigen::VectorXd FaceAreas(const TriMesh& mesh) {
   Eigen::VectorXd a(mesh.NumFaces());
   for (int f = 0; f < mesh.NumFaces(); ++f) {
-    const Vec3 p0 = mesh.V.row(mesh.F(f, 0)), p1 = mesh.V.row(mesh.F(f, 1)),
-               p2 = mesh.V.row(mesh.F(f, 2));
+    const Vec3 p0 = mesh.V.row(mesh.F(f, 0)), p1 = mesh.V.row(mesh.F(f, 1)), p2 = mesh.V.row(mesh.F(f, 2));
     a[f] = 0.5 * (p1 - p0).cross(p2 - p0).norm();
   }
   return a;
@@ -19,8 +18,7 @@ Eigen::VectorXd FaceAreas(const TriMesh& mesh) {
 Points3 FaceNormals(const TriMesh& mesh) {
   Points3 n(mesh.NumFaces(), 3);
   for (int f = 0; f < mesh.NumFaces(); ++f) {
-    const Vec3 p0 = mesh.V.row(mesh.F(f, 0)), p1 = mesh.V.row(mesh.F(f, 1)),
-               p2 = mesh.V.row(mesh.F(f, 2));
+    const Vec3 p0 = mesh.V.row(mesh.F(f, 0)), p1 = mesh.V.row(mesh.F(f, 1)), p2 = mesh.V.row(mesh.F(f, 2));
     Vec3 c = (p1 - p0).cross(p2 - p0);
     const double len = c.norm();
     n.row(f) = len > 0 ? Vec3(c / len) : Vec3::Zero();
@@ -130,8 +128,7 @@ Vec3 ClosestPointOnTriangle(const Vec3& p, const Vec3& a, const Vec3& b, const V
   const double vb = d5 * d2 - d1 * d6;
   if (vb <= 0 && d2 >= 0 && d6 <= 0) return a + ac * (d2 / (d2 - d6));
   const double va = d3 * d6 - d5 * d4;
-  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0)
-    return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
   const double denom = 1.0 / (va + vb + vc);
   return a + ab * (vb * denom) + ac * (vc * denom);
 }

@@ -46,7 +46,7 @@ struct EdgeFaces {
   std::array<int, 2> faces;
 };
 struct EdgeTopology {
-  std::vector<EdgeFaces> edges;            // sorted by edge
+  std::vector<EdgeFaces> edges;  // sorted by edge
   std::vector<std::array<int, 2>> nonmanifold;
 };
 EdgeTopology BuildEdgeTopology(const TriMesh& mesh);

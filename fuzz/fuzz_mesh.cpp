@@ -8,9 +8,12 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string_view in = fuzz::Bytes(data, size);
   fuzz::ExpectOnlyDrapeErrors([&] {
     MeshData m;
-    if (in.rfind("ply", 0) == 0) m = ParsePly(in, "fuzz.ply");
-    else if (in.rfind("glTF", 0) == 0) m = ParseWithAssimp(in, "glb", "fuzz.glb");
-    else m = ParseObj(in, "fuzz.obj");
+    if (in.rfind("ply", 0) == 0)
+      m = ParsePly(in, "fuzz.ply");
+    else if (in.rfind("glTF", 0) == 0)
+      m = ParseWithAssimp(in, "glb", "fuzz.glb");
+    else
+      m = ParseObj(in, "fuzz.obj");
     CheckMeshData(m, "fuzz");
     JoinIdenticalPositions(m);
   });

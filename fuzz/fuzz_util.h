@@ -19,9 +19,7 @@ namespace fs = std::filesystem;
 
 namespace drape::fuzz {
 
-inline std::string_view Bytes(const uint8_t* data, size_t size) {
-  return {reinterpret_cast<const char*>(data), size};
-}
+inline std::string_view Bytes(const uint8_t* data, size_t size) { return {reinterpret_cast<const char*>(data), size}; }
 
 // A scratch folder of this process (readers that take paths get their input here).
 inline const std::filesystem::path& Scratch() {

@@ -81,17 +81,16 @@ Contour CheckedContour(const Contour& in) {
   const size_t n = in.points.size();
   if (n < 3) throw Error("contour has " + std::to_string(n) + " points (need at least 3)");
   if (!in.edge_tag.empty() && in.edge_tag.size() != n)
-    throw Error("contour has " + std::to_string(n) + " points but " +
-                std::to_string(in.edge_tag.size()) + " edge tags");
+    throw Error("contour has " + std::to_string(n) + " points but " + std::to_string(in.edge_tag.size()) +
+                " edge tags");
   for (size_t i = 0; i < n; ++i) {
-    if (!in.points[i].allFinite())
-      throw Error("contour point " + std::to_string(i) + " is not finite");
+    if (!in.points[i].allFinite()) throw Error("contour point " + std::to_string(i) + " is not finite");
   }
   for (size_t i = 0; i < n; ++i) {
     const size_t j = (i + 1) % n;
     if ((in.points[i] - in.points[j]).norm() < 1e-9)
-      throw Error("contour points " + std::to_string(i) + " and " + std::to_string(j) +
-                  " coincide at " + Fmt(in.points[i]));
+      throw Error("contour points " + std::to_string(i) + " and " + std::to_string(j) + " coincide at " +
+                  Fmt(in.points[i]));
   }
   // Brute-force simplicity test with exact predicates: any two non-adjacent edges
   // must not touch, adjacent edges must only share their common point.
@@ -105,17 +104,15 @@ Contour CheckedContour(const Contour& in) {
       const bool adjacent = (j == i + 1) || (i == 0 && j == n - 1);
       if (!adjacent) {
         if (CGAL::do_intersect(seg[i], seg[j]))
-          throw Error("contour is not simple: edge " + std::to_string(i) + " " +
-                      Fmt(in.points[i]) + " crosses edge " + std::to_string(j) + " " +
-                      Fmt(in.points[j]));
+          throw Error("contour is not simple: edge " + std::to_string(i) + " " + Fmt(in.points[i]) + " crosses edge " +
+                      std::to_string(j) + " " + Fmt(in.points[j]));
       } else if (n == 3) {
         continue;
       } else {
         // Adjacent edges overlapping (a spike folding back on itself).
         const auto r = CGAL::intersection(seg[i], seg[j]);
         if (r && boost::get<K::Segment_2>(&*r))
-          throw Error("contour folds back on itself at edges " + std::to_string(i) + " and " +
-                      std::to_string(j));
+          throw Error("contour folds back on itself at edges " + std::to_string(i) + " and " + std::to_string(j));
       }
     }
   }
@@ -132,11 +129,10 @@ Contour CheckedContour(const Contour& in) {
       const std::string &t = in.edge_tag[i], &prev = in.edge_tag[(i + n - 1) % n];
       if (t.empty() || t == prev) continue;
       if (!prev.empty())
-        throw Error("openings '" + prev + "' and '" + t + "' touch at contour point " +
-                    std::to_string(i) + ": separate them by a seam edge");
+        throw Error("openings '" + prev + "' and '" + t + "' touch at contour point " + std::to_string(i) +
+                    ": separate them by a seam edge");
       if (++runs[t] > 1)
-        throw Error("opening '" + t + "' appears twice along the contour (again at edge " +
-                    std::to_string(i) + ")");
+        throw Error("opening '" + t + "' appears twice along the contour (again at edge " + std::to_string(i) + ")");
     }
   }
   Contour out = in;
@@ -405,8 +401,7 @@ CDT Smooth(const CDT& start, const Outline& o, int iterations, double h) {
     std::vector<double> weight(pts.size(), 0);
     for (auto f = cdt.finite_faces_begin(); f != cdt.finite_faces_end(); ++f) {
       if (!f->is_in_domain()) continue;
-      const Vec2 a = ToVec(f->vertex(0)->point()), c1 = ToVec(f->vertex(1)->point()),
-                 c2 = ToVec(f->vertex(2)->point());
+      const Vec2 a = ToVec(f->vertex(0)->point()), c1 = ToVec(f->vertex(1)->point()), c2 = ToVec(f->vertex(2)->point());
       const double area = 0.5 * std::abs((c1 - a).x() * (c2 - a).y() - (c1 - a).y() * (c2 - a).x());
       const Vec2 centroid = (a + c1 + c2) / 3.0;
       for (int k = 0; k < 3; ++k) {
@@ -437,9 +432,7 @@ CDT Smooth(const CDT& start, const Outline& o, int iterations, double h) {
       }
       moved.push_back(p);
     }
-    auto lex = [](const Vec2& a, const Vec2& c) {
-      return std::make_pair(a.x(), a.y()) < std::make_pair(c.x(), c.y());
-    };
+    auto lex = [](const Vec2& a, const Vec2& c) { return std::make_pair(a.x(), a.y()) < std::make_pair(c.x(), c.y()); };
     std::sort(moved.begin(), moved.end(), lex);
     std::sort(constraints.begin(), constraints.end(), [&](const auto& a, const auto& c) {
       if (lex(a[0], c[0])) return true;
@@ -699,8 +692,7 @@ Contour ContourFromMask(const cv::Mat& mask, const MaskOptions& options) {
   options.Validate();
   if (mask.empty()) throw Error("mask is empty");
   if (mask.type() != CV_8UC1)
-    throw Error("mask must be 8-bit single channel (CV_8UC1), got type " +
-                std::to_string(mask.type()));
+    throw Error("mask must be 8-bit single channel (CV_8UC1), got type " + std::to_string(mask.type()));
   cv::Mat bin = mask != 0;
   // A one-pixel frame so that blobs touching the border still get closed contours.
   cv::Mat padded;

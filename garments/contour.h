@@ -60,15 +60,15 @@ struct ContourOptions {
 // Quality of the built mesh; edge ratios are relative to ContourOptions::edge_length.
 struct MeshStats {
   int vertices = 0, faces = 0;
-  int front_vertices = 0;      // vertices of the front layer (interior + boundary)
-  int seam_vertices = 0;       // stitched (shared by both layers) boundary vertices
-  int boundary_loops = 0;      // == number of openings
+  int front_vertices = 0;  // vertices of the front layer (interior + boundary)
+  int seam_vertices = 0;   // stitched (shared by both layers) boundary vertices
+  int boundary_loops = 0;  // == number of openings
   int openings = 0;
   double edge_min = 0, edge_mean = 0, edge_max = 0;  // metres, 2D pattern edges
   double ratio_min = 0, ratio_p05 = 0, ratio_p95 = 0, ratio_max = 0;
-  double min_angle_deg = 0;    // smallest triangle angle in the pattern
-  double area = 0;             // front-layer pattern area, m²
-  int refine_rounds = 0;       // rounds of seam-chord splitting + re-refinement
+  double min_angle_deg = 0;  // smallest triangle angle in the pattern
+  double area = 0;           // front-layer pattern area, m²
+  int refine_rounds = 0;     // rounds of seam-chord splitting + re-refinement
 };
 
 // Builds the garment. category/instance are copied; anchors are snapped to the

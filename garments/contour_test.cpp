@@ -228,8 +228,7 @@ TEST(Contour, BadContoursAreNamed) {
   EXPECT_NE(ErrorOf([&] { GarmentFromContour(LShape(), {}, o); }).find("edge_length"), std::string::npos);
   EXPECT_NE(ErrorOf([&] { ContourFromMask(cv::Mat::zeros(10, 10, CV_8UC1), {}); }).find("no foreground"),
             std::string::npos);
-  EXPECT_NE(ErrorOf([&] { ContourFromMask(cv::Mat::zeros(10, 10, CV_32FC1), {}); }).find("8-bit"),
-            std::string::npos);
+  EXPECT_NE(ErrorOf([&] { ContourFromMask(cv::Mat::zeros(10, 10, CV_32FC1), {}); }).find("8-bit"), std::string::npos);
 }
 
 TEST(Contour, FinerEdgeLengthGivesMoreVertices) {

@@ -28,7 +28,7 @@ struct Garment {
   std::string category;  // "long_sleeve_shirt", "tshirt", "pants", "shorts", "towel", "skirt", or "custom"
   std::string instance;  // unique name of this instance, e.g. "pants-M-s3"
   TriMesh mesh;
-  Points2 uv;            // #V×2, metres on the flat pattern (empty if unknown, e.g. imports)
+  Points2 uv;              // #V×2, metres on the flat pattern (empty if unknown, e.g. imports)
   std::vector<int> layer;  // #V: 0 front (incl. stitched seam vertices), 1 back (empty if unknown)
   std::vector<Anchor> anchors;
 

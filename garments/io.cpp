@@ -1,10 +1,10 @@
 #include "garments/io.h"
 
-#include <assimp/Exporter.hpp>
 #include <assimp/config.h>
 #include <assimp/scene.h>
 
 #include <algorithm>
+#include <assimp/Exporter.hpp>
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -37,8 +37,7 @@ std::string ExporterId(std::string_view format, const std::string& where) {
   if (f == "glb" || f == ".glb") return "glb2";
   if (f == "gltf" || f == ".gltf") return "gltf2";
   if (f == "stl" || f == ".stl") return "stlb";
-  throw Error(where + ": unsupported mesh format '" + std::string(format) +
-              "' (use .ply, .obj, .glb, .gltf or .stl)");
+  throw Error(where + ": unsupported mesh format '" + std::string(format) + "' (use .ply, .obj, .glb, .gltf or .stl)");
 }
 
 // A one-mesh aiScene owning copies of V, F (and uv). The aiScene destructor frees it.
@@ -48,10 +47,10 @@ std::unique_ptr<aiScene> MakeScene(const TriMesh& mesh, const Points2* uv) {
   scene->mRootNode->mName = "garment";
   scene->mRootNode->mMeshes = new unsigned int[1]{0};
   scene->mRootNode->mNumMeshes = 1;
-  scene->mMaterials = new aiMaterial*[1]{new aiMaterial()};
+  scene->mMaterials = new aiMaterial* [1] { new aiMaterial() };
   scene->mNumMaterials = 1;
   auto* m = new aiMesh();
-  scene->mMeshes = new aiMesh*[1]{m};
+  scene->mMeshes = new aiMesh* [1] { m };
   scene->mNumMeshes = 1;
   m->mName = "garment";
   m->mMaterialIndex = 0;
@@ -149,8 +148,10 @@ RawAnchor ParseAnchor(const std::string& label, const Json& v, const std::string
     a.position = vec3(v);
   } else if (v.is_object()) {
     for (const auto& [k, x] : v.items()) {
-      if (k == "vertex") a.vertex = index(x);
-      else if (k == "position") a.position = vec3(x);
+      if (k == "vertex")
+        a.vertex = index(x);
+      else if (k == "position")
+        a.position = vec3(x);
       else if (k == "uv") {
         if (!x.is_array() || x.size() != 2 || !x[0].is_number() || !x[1].is_number())
           throw Error(at + ": uv must be [u, v] numbers");
@@ -186,8 +187,9 @@ std::string EncodeMesh(const TriMesh& mesh, std::string_view format, const Point
   auto scene = MakeScene(mesh, uv);
   Assimp::Exporter exporter;
   const aiExportDataBlob* blob = exporter.ExportToBlob(scene.get(), id);
-  if (!blob) throw Error(std::string("EncodeMesh: assimp could not export ") + std::string(format) + ": " +
-                         exporter.GetErrorString());
+  if (!blob)
+    throw Error(std::string("EncodeMesh: assimp could not export ") + std::string(format) + ": " +
+                exporter.GetErrorString());
   return std::string(static_cast<const char*>(blob->data), blob->size);
 }
 
@@ -225,13 +227,15 @@ TriMesh ReadMesh(const fs::path& path, double unit_scale, Points2* uv) {
   if (fs::is_directory(path, ec)) throw Error(where + ": is a directory, not a mesh file");
   const std::string ext = Lower(path.extension().string());
   MeshData m;
-  if (ext == ".ply" || LooksLikePly(path)) m = ParsePly(ReadFile(path), where);
-  else if (ext == ".obj") m = ParseObj(ReadFile(path), where);
-  else m = ReadWithAssimp(path);
+  if (ext == ".ply" || LooksLikePly(path))
+    m = ParsePly(ReadFile(path), where);
+  else if (ext == ".obj")
+    m = ParseObj(ReadFile(path), where);
+  else
+    m = ReadWithAssimp(path);
   CheckMeshData(m, where);
   JoinIdenticalPositions(m);  // STL and texture seams repeat positions
-  if (m.F.empty())
-    throw Error(where + ": no triangles (" + std::to_string(m.V.size()) + " vertices)");
+  if (m.F.empty()) throw Error(where + ": no triangles (" + std::to_string(m.V.size()) + " vertices)");
   TriMesh out;
   out.V.resize(static_cast<int>(m.V.size()), 3);
   for (size_t i = 0; i < m.V.size(); ++i) out.V.row(static_cast<int>(i)) = m.V[i] * unit_scale;
@@ -328,15 +332,14 @@ Garment ImportGarment(const fs::path& mesh_path, const fs::path& anchors_json, c
           const double d = DistanceToSurface(g.mesh, p);
           if (d > options.max_anchor_distance) {
             std::ostringstream os;
-            os << at << ": position " << FmtVec(p) << " is " << d << " m from the surface of " << where
-               << " (max " << options.max_anchor_distance << " m)";
+            os << at << ": position " << FmtVec(p) << " is " << d << " m from the surface of " << where << " (max "
+               << options.max_anchor_distance << " m)";
             throw Error(os.str());
           }
           const int nearest = NearestVertex(g.mesh, p);
           if (r.vertex && report)
             report->warnings.push_back(at + ": vertex " + std::to_string(a.vertex) +
-                                       " is not at the given position; snapped to vertex " +
-                                       std::to_string(nearest));
+                                       " is not at the given position; snapped to vertex " + std::to_string(nearest));
           a.vertex = nearest;
         }
       }

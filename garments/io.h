@@ -31,9 +31,9 @@
 namespace drape {
 
 struct ImportOptions {
-  double unit_scale = 1;            // multiplies file coordinates (e.g. 0.01 for centimetres)
-  std::string category = "custom";  // used unless the sidecar names one
-  std::string instance;             // default: sidecar's instance, else the file stem
+  double unit_scale = 1;              // multiplies file coordinates (e.g. 0.01 for centimetres)
+  std::string category = "custom";    // used unless the sidecar names one
+  std::string instance;               // default: sidecar's instance, else the file stem
   double max_anchor_distance = 0.02;  // metres (after scaling) from the surface
   void Validate() const;
 };

@@ -20,9 +20,7 @@ namespace {
 
 fs::path TempDir(const std::string& name) { return FreshTempDir("drape_garments_io_" + name); }
 
-void Write(const fs::path& p, const std::string& text) {
-  std::ofstream(p, std::ios::binary) << text;
-}
+void Write(const fs::path& p, const std::string& text) { std::ofstream(p, std::ios::binary) << text; }
 
 double F32(double x) { return static_cast<double>(static_cast<float>(x)); }
 

@@ -1,11 +1,10 @@
 #include "garments/mesh_companions.h"
 
-#include <nlohmann/json.hpp>
-
 #include <algorithm>
 #include <cctype>
 #include <cstdint>
 #include <cstring>
+#include <nlohmann/json.hpp>
 #include <sstream>
 
 #include "common/error.h"

@@ -1,11 +1,11 @@
 #include "garments/mesh_read.h"
 
 #include <assimp/BaseImporter.h>
-#include <assimp/Importer.hpp>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 
 #include <algorithm>
+#include <assimp/Importer.hpp>
 #include <bit>
 #include <charconv>
 #include <cmath>
@@ -27,7 +27,7 @@ enum class PlyFormat { kAscii, kLittle, kBig };
 
 struct PlyProperty {
   std::string name;
-  int type = 0;        // byte size of the value (negative codes below for float kinds)
+  int type = 0;  // byte size of the value (negative codes below for float kinds)
   bool is_float = false;
   bool is_signed = false;
   bool is_list = false;
@@ -62,10 +62,10 @@ bool PlyType(std::string_view t, int* size, bool* is_float, bool* is_signed) {
     int size;
     bool f, s;
   };
-  static const T kTypes[] = {{"char", "int8", 1, false, true},     {"uchar", "uint8", 1, false, false},
-                             {"short", "int16", 2, false, true},   {"ushort", "uint16", 2, false, false},
-                             {"int", "int32", 4, false, true},     {"uint", "uint32", 4, false, false},
-                             {"float", "float32", 4, true, true},  {"double", "float64", 8, true, true}};
+  static const T kTypes[] = {{"char", "int8", 1, false, true},    {"uchar", "uint8", 1, false, false},
+                             {"short", "int16", 2, false, true},  {"ushort", "uint16", 2, false, false},
+                             {"int", "int32", 4, false, true},    {"uint", "uint32", 4, false, false},
+                             {"float", "float32", 4, true, true}, {"double", "float64", 8, true, true}};
   for (const T& x : kTypes)
     if (t == x.a || t == x.b) {
       *size = x.size, *is_float = x.f, *is_signed = x.s;
@@ -97,10 +97,14 @@ PlyHeader ParsePlyHeader(std::string_view bytes, const std::string& where) {
     if (w[0] == "end_header") break;
     if (w[0] == "format") {
       if (w.size() < 2) throw Error(at + ": format line needs a format name");
-      if (w[1] == "ascii") h.format = PlyFormat::kAscii;
-      else if (w[1] == "binary_little_endian") h.format = PlyFormat::kLittle;
-      else if (w[1] == "binary_big_endian") h.format = PlyFormat::kBig;
-      else throw Error(at + ": unknown PLY format '" + std::string(w[1]) + "'");
+      if (w[1] == "ascii")
+        h.format = PlyFormat::kAscii;
+      else if (w[1] == "binary_little_endian")
+        h.format = PlyFormat::kLittle;
+      else if (w[1] == "binary_big_endian")
+        h.format = PlyFormat::kBig;
+      else
+        throw Error(at + ": unknown PLY format '" + std::string(w[1]) + "'");
       have_format = true;
     } else if (w[0] == "element") {
       if (w.size() != 3) throw Error(at + ": expected 'element NAME COUNT'");
@@ -161,9 +165,12 @@ class PlyReader {
       return std::bit_cast<double>(Load<uint64_t>(p));
     }
     switch (size) {
-      case 1: return is_signed ? static_cast<double>(static_cast<int8_t>(p[0])) : p[0];
-      case 2: return is_signed ? static_cast<double>(static_cast<int16_t>(Load<uint16_t>(p))) : Load<uint16_t>(p);
-      default: return is_signed ? static_cast<double>(static_cast<int32_t>(Load<uint32_t>(p))) : Load<uint32_t>(p);
+      case 1:
+        return is_signed ? static_cast<double>(static_cast<int8_t>(p[0])) : p[0];
+      case 2:
+        return is_signed ? static_cast<double>(static_cast<int16_t>(Load<uint16_t>(p))) : Load<uint16_t>(p);
+      default:
+        return is_signed ? static_cast<double>(static_cast<int32_t>(Load<uint32_t>(p))) : Load<uint32_t>(p);
     }
   }
   template <class U>
@@ -348,14 +355,17 @@ MeshData ParseObj(std::string_view text, const std::string& where) {
     if (w[0] == "v" || w[0] == "vt") {
       const size_t need = w[0] == "v" ? 3 : 1;
       double x[3] = {0, 0, 0};
-      if (w.size() < need + 1) throw Error(at + ": '" + std::string(w[0]) + "' needs " + std::to_string(need) + " numbers");
+      if (w.size() < need + 1)
+        throw Error(at + ": '" + std::string(w[0]) + "' needs " + std::to_string(need) + " numbers");
       for (size_t k = 0; k < std::min<size_t>(3, w.size() - 1); ++k) {
         const auto v = Number(w[k + 1]);
         if (!v) throw Error(at + ": '" + std::string(w[k + 1].substr(0, 40)) + "' is not a number");
         x[k] = *v;
       }
-      if (w[0] == "v") m.V.emplace_back(x[0], x[1], x[2]);
-      else vt.emplace_back(x[0], x[1]);
+      if (w[0] == "v")
+        m.V.emplace_back(x[0], x[1], x[2]);
+      else
+        vt.emplace_back(x[0], x[1]);
     } else if (w[0] == "f") {
       if (w.size() < 4) throw Error(at + ": a face needs at least 3 vertices");
       poly.clear();
@@ -383,9 +393,12 @@ MeshData ParseObj(std::string_view text, const std::string& where) {
   bool uv_ok = !vt.empty();
   for (const auto& [v, t] : corners) {
     if (!uv_ok) break;
-    if (v >= static_cast<int>(m.V.size()) || t < 0 || t >= static_cast<int>(vt.size())) uv_ok = false;
-    else if (vt_of[v] < 0) vt_of[v] = t;
-    else if (vt[vt_of[v]] != vt[t]) uv_ok = false;
+    if (v >= static_cast<int>(m.V.size()) || t < 0 || t >= static_cast<int>(vt.size()))
+      uv_ok = false;
+    else if (vt_of[v] < 0)
+      vt_of[v] = t;
+    else if (vt[vt_of[v]] != vt[t])
+      uv_ok = false;
   }
   if (uv_ok) {
     m.uv.resize(m.V.size(), Vec2::Zero());

@@ -130,8 +130,8 @@ std::string ObjText(const TriMesh& m) {
     s += buf;
   }
   for (int f = 0; f < m.NumFaces(); ++f) {
-    std::snprintf(buf, sizeof buf, "f %d/%d %d/%d %d/%d\n", m.F(f, 0) + 1, m.F(f, 0) + 1, m.F(f, 1) + 1,
-                  m.F(f, 1) + 1, m.F(f, 2) + 1, m.F(f, 2) + 1);
+    std::snprintf(buf, sizeof buf, "f %d/%d %d/%d %d/%d\n", m.F(f, 0) + 1, m.F(f, 0) + 1, m.F(f, 1) + 1, m.F(f, 1) + 1,
+                  m.F(f, 2) + 1, m.F(f, 2) + 1);
     s += buf;
   }
   for (int i = 0; i < m.NumVertices(); ++i) {
@@ -151,8 +151,8 @@ std::string AsciiPly(const TriMesh& m) {
     std::snprintf(buf, sizeof buf, "%.17g %.17g %.17g\n", m.V(i, 0), m.V(i, 1), m.V(i, 2));
     s += buf;
   }
-  for (int f = 0; f < m.NumFaces(); ++f) s += "3 " + std::to_string(m.F(f, 0)) + " " + std::to_string(m.F(f, 1)) +
-                                             " " + std::to_string(m.F(f, 2)) + "\n";
+  for (int f = 0; f < m.NumFaces(); ++f)
+    s += "3 " + std::to_string(m.F(f, 0)) + " " + std::to_string(m.F(f, 1)) + " " + std::to_string(m.F(f, 2)) + "\n";
   return s;
 }
 
@@ -192,9 +192,10 @@ TEST(MeshRead, ImportKeepsTheFilesVertexOrder) {
 
 TEST(MeshRead, PlyFormsAndPolygons) {
   // Big-endian binary with a quad, an extra property and an extra element.
-  std::string b = "ply\nformat binary_big_endian 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
-                  "property float z\nproperty uchar red\nelement face 1\nproperty list uchar int vertex_indices\n"
-                  "element edge 1\nproperty int vertex1\nproperty int vertex2\nend_header\n";
+  std::string b =
+      "ply\nformat binary_big_endian 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+      "property float z\nproperty uchar red\nelement face 1\nproperty list uchar int vertex_indices\n"
+      "element edge 1\nproperty int vertex1\nproperty int vertex2\nend_header\n";
   auto be32 = [&](uint32_t u) {
     for (int k = 3; k >= 0; --k) b.push_back(static_cast<char>((u >> (8 * k)) & 0xff));
   };
@@ -219,9 +220,10 @@ TEST(MeshRead, PlyFormsAndPolygons) {
 }
 
 TEST(MeshRead, MalformedFilesAreErrorsNamingTheFile) {
-  const std::string head = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
-                           "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
-                           "0 0 0\n1 0 0\n0 1 0\n";
+  const std::string head =
+      "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+      "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
+      "0 0 0\n1 0 0\n0 1 0\n";
   auto check = [&](const std::string& text, const std::string& part) {
     const std::string e = ErrorOf([&] {
       MeshData m = ParsePly(text, "x.ply");

@@ -101,8 +101,8 @@ void DrawFaces(cv::Mat& img, const TriMesh& m, const std::vector<int>& front, co
   for (const auto& [e, c] : front_count) {
     if (c != 1) continue;
     const bool opening = all_count[e] == 1;  // a hole in the whole mesh, not a seam
-    cv::line(img, view.Fixed(e.first), view.Fixed(e.second), opening ? kOpening : kSeam, opening ? 3 : 2,
-             cv::LINE_AA, FlatView::kShift);
+    cv::line(img, view.Fixed(e.first), view.Fixed(e.second), opening ? kOpening : kSeam, opening ? 3 : 2, cv::LINE_AA,
+             FlatView::kShift);
   }
 }
 
@@ -173,14 +173,16 @@ void DrawTitleAndScale(cv::Mat& img, const Garment& g, const Vec2& ext, double s
         << " F=" << g.mesh.NumFaces() << " anchors=" << g.anchors.size();
   cv::putText(img, title.str(), cv::Point(12, 28), kFont, 0.6, kText, 1, cv::LINE_AA);
   const char* caption = g.category == "towel" ? "front view: left/right as in this picture; red = openings"
-                                               : "front view: wearer's left = image right; red = openings";
+                                              : "front view: wearer's left = image right; red = openings";
   cv::putText(img, caption, cv::Point(12, 46), kFont, 0.4, cv::Scalar(90, 90, 90), 1, cv::LINE_AA);
   const double bar = NiceLength(ext.x());
   const int bx = 20, by = img.rows - 25, bl = static_cast<int>(std::lround(bar * scale));
   cv::rectangle(img, cv::Point(bx, by - 4), cv::Point(bx + bl, by + 4), kText, cv::FILLED);
   std::ostringstream bt;
-  if (bar < 1) bt << std::lround(bar * 100) << " cm";
-  else bt << bar << " m";
+  if (bar < 1)
+    bt << std::lround(bar * 100) << " cm";
+  else
+    bt << bar << " m";
   std::ostringstream size;
   size << "  (garment " << std::lround(ext.x() * 100) << " x " << std::lround(ext.y() * 100) << " cm)";
   cv::putText(img, bt.str() + size.str(), cv::Point(bx + bl + 10, by + 5), kFont, 0.5, kText, 1, cv::LINE_AA);

@@ -6,8 +6,8 @@
 #include <sstream>
 
 #include "common/error.h"
-#include "common/format.h"
 #include "common/field_error.h"
+#include "common/format.h"
 #include "common/hash.h"
 #include "common/rng.h"
 
@@ -95,7 +95,7 @@ Builder Shirt(const Params& p, double h, bool long_sleeve) {
   Require(nd < ad && sd < ad, "neck_depth and shoulder_drop must be smaller than armhole_depth");
   Require(ad < H, "armhole_depth must be smaller than body_length");
   const Vec2 hem(hw / 2, 0), armpit(cw / 2, H - ad), shoulder(sw / 2, H - sd), neck(nw / 2, H);
-  const Vec2 d(std::cos(ang), -std::sin(ang));  // along the sleeve
+  const Vec2 d(std::cos(ang), -std::sin(ang));   // along the sleeve
   const Vec2 n(-std::sin(ang), -std::cos(ang));  // across the sleeve, towards its underside
   const Vec2 cuff_top = shoulder + sl * d, cuff_bottom = cuff_top + cuff * n;
   Require(cuff_bottom.y() > 0.02, "the sleeve reaches below the hem (sleeve_length/sleeve_angle)");
@@ -349,8 +349,7 @@ std::vector<std::string> Openings(const Builder& b) {
 
 Params Preset(const TemplateInfo& info, const std::string& size) {
   Params p;
-  for (const auto& tp : info.parameters)
-    p[tp.name] = size == "S" ? tp.small : size == "L" ? tp.large : tp.medium;
+  for (const auto& tp : info.parameters) p[tp.name] = size == "S" ? tp.small : size == "L" ? tp.large : tp.medium;
   return p;
 }
 
@@ -369,8 +368,8 @@ std::vector<TemplateDef> MakeDefs() {
     d.info.openings = Openings(b);
     defs.push_back(std::move(d));
   };
-  add("long_sleeve_shirt", "long-sleeve shirt / sweater laid flat, sleeves angled down",
-      ShirtParams(true), [](const Params& p, double h) { return Shirt(p, h, true); });
+  add("long_sleeve_shirt", "long-sleeve shirt / sweater laid flat, sleeves angled down", ShirtParams(true),
+      [](const Params& p, double h) { return Shirt(p, h, true); });
   add("tshirt", "short-sleeve T-shirt laid flat", ShirtParams(false),
       [](const Params& p, double h) { return Shirt(p, h, false); });
   add("pants", "long trousers / jeans laid flat", TrouserParams(false),
@@ -385,8 +384,7 @@ std::vector<TemplateDef> MakeDefs() {
        {"length", "waist to hem", 0.50, 0.55, 0.60}},
       Skirt);
   add("towel", "rectangular towel (two layers stitched all round; no openings)",
-      {{"width", "short side", 0.30, 0.50, 0.60}, {"length", "long side", 0.50, 0.90, 1.10}},
-      Towel);
+      {{"width", "short side", 0.30, 0.50, 0.60}, {"length", "long side", 0.50, 0.90, 1.10}}, Towel);
   return defs;
 }
 
@@ -486,8 +484,7 @@ Garment MakeGarment(const std::string& name, const TemplateOptions& options, Mes
   co.edge_length = options.edge_length;
   co.layer_gap = options.layer_gap;
   try {
-    return GarmentFromContour(shape.contour, shape.anchors, co, FindDef(name).info.category,
-                              shape.instance, stats);
+    return GarmentFromContour(shape.contour, shape.anchors, co, FindDef(name).info.category, shape.instance, stats);
   } catch (const Error& e) {
     throw Error("template " + shape.instance + ": " + e.what());
   }

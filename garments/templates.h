@@ -30,7 +30,7 @@ struct TemplateInfo {
   std::string description;
   std::vector<std::string> anchor_labels;  // in the order of Garment::anchors
   std::vector<TemplateParameter> parameters;
-  std::vector<std::string> openings;       // boundary loops of the mesh
+  std::vector<std::string> openings;  // boundary loops of the mesh
 };
 
 // All templates, in a fixed order.
@@ -66,7 +66,6 @@ TemplateShape MakeTemplateShape(const std::string& template_name, const Template
 
 // MakeTemplateShape → GarmentFromContour. Deterministic: same name + options → the
 // same mesh bit for bit. `stats` (optional) receives the mesh quality.
-Garment MakeGarment(const std::string& template_name, const TemplateOptions& options,
-                    MeshStats* stats = nullptr);
+Garment MakeGarment(const std::string& template_name, const TemplateOptions& options, MeshStats* stats = nullptr);
 
 }  // namespace drape

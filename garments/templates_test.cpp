@@ -241,8 +241,7 @@ TEST_P(TemplateTest, PerturbedInstancesStaySound) {
 }
 
 INSTANTIATE_TEST_SUITE_P(All, TemplateTest,
-                         ::testing::Values("long_sleeve_shirt", "tshirt", "pants", "shorts", "skirt",
-                                           "towel"),
+                         ::testing::Values("long_sleeve_shirt", "tshirt", "pants", "shorts", "skirt", "towel"),
                          [](const auto& info) { return info.param; });
 
 // Where a layer's boundary (mesh edges of one face; z > 0 front, z < 0 back) crosses the
@@ -517,11 +516,11 @@ TEST(Templates, PrintStats) {
   for (const auto& t : Templates()) {
     MeshStats s;
     const Garment g = MakeGarment(t.name, {}, &s);
-    std::printf("%-18s V=%5d F=%5d front=%4d seam=%3d anchors=%2zu loops=%d edge mean=%.4f "
-                "ratio[min %.2f p05 %.2f p95 %.2f max %.2f] min_angle=%.1f area=%.3f rounds=%d\n",
-                t.name.c_str(), s.vertices, s.faces, s.front_vertices, s.seam_vertices,
-                g.anchors.size(), s.boundary_loops, s.edge_mean, s.ratio_min, s.ratio_p05,
-                s.ratio_p95, s.ratio_max, s.min_angle_deg, s.area, s.refine_rounds);
+    std::printf(
+        "%-18s V=%5d F=%5d front=%4d seam=%3d anchors=%2zu loops=%d edge mean=%.4f "
+        "ratio[min %.2f p05 %.2f p95 %.2f max %.2f] min_angle=%.1f area=%.3f rounds=%d\n",
+        t.name.c_str(), s.vertices, s.faces, s.front_vertices, s.seam_vertices, g.anchors.size(), s.boundary_loops,
+        s.edge_mean, s.ratio_min, s.ratio_p05, s.ratio_p95, s.ratio_max, s.min_angle_deg, s.area, s.refine_rounds);
   }
 }
 

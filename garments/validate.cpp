@@ -36,7 +36,8 @@ TriMesh ValidFaces(const TriMesh& mesh, MeshReport& r, std::vector<int>* good_fa
     for (int k = 0; k < 3; ++k) ok &= mesh.F(f, k) >= 0 && mesh.F(f, k) < r.vertices;
     if (ok)
       good_faces->push_back(f);
-    else r.bad_index_faces.push_back(f);
+    else
+      r.bad_index_faces.push_back(f);
   }
   good.F.resize(static_cast<int>(good_faces->size()), 3);
   for (size_t i = 0; i < good_faces->size(); ++i) good.F.row(static_cast<int>(i)) = mesh.F.row((*good_faces)[i]);
@@ -137,15 +138,14 @@ MeshReport InspectMesh(const TriMesh& mesh) {
 double DistanceToSurface(const TriMesh& mesh, const Vec3& p) {
   double best = std::numeric_limits<double>::infinity();
   for (int f = 0; f < mesh.NumFaces(); ++f) {
-    const Vec3 q = ClosestPointOnTriangle(p, mesh.V.row(mesh.F(f, 0)), mesh.V.row(mesh.F(f, 1)),
-                                          mesh.V.row(mesh.F(f, 2)));
+    const Vec3 q =
+        ClosestPointOnTriangle(p, mesh.V.row(mesh.F(f, 0)), mesh.V.row(mesh.F(f, 1)), mesh.V.row(mesh.F(f, 2)));
     best = std::min(best, (q - p).norm());
   }
   return best;
 }
 
-std::vector<std::string> CheckGarment(const Garment& g, const std::string& where,
-                                      const ValidationOptions& options) {
+std::vector<std::string> CheckGarment(const Garment& g, const std::string& where, const ValidationOptions& options) {
   std::vector<std::string> out;
   auto add = [&](const std::string& s) { out.push_back(where + ": " + s); };
   const TriMesh& m = g.mesh;
@@ -158,15 +158,14 @@ std::vector<std::string> CheckGarment(const Garment& g, const std::string& where
   for (int v : r.nonfinite_vertices)
     add("vertex " + std::to_string(v) + " has a non-finite coordinate " + Fmt(m.V.row(v)));
   for (int f : r.bad_index_faces)
-    add("face " + std::to_string(f) + " (" + std::to_string(m.F(f, 0)) + ", " +
-        std::to_string(m.F(f, 1)) + ", " + std::to_string(m.F(f, 2)) + ") refers to a vertex " +
-        "outside 0.." + std::to_string(m.NumVertices() - 1));
+    add("face " + std::to_string(f) + " (" + std::to_string(m.F(f, 0)) + ", " + std::to_string(m.F(f, 1)) + ", " +
+        std::to_string(m.F(f, 2)) + ") refers to a vertex " + "outside 0.." + std::to_string(m.NumVertices() - 1));
   if (!out.empty()) return out;  // the rest would only repeat these
   for (int f : r.degenerate_faces) {
     const Vec3 a = m.V.row(m.F(f, 0)), b = m.V.row(m.F(f, 1)), c = m.V.row(m.F(f, 2));
     std::ostringstream os;
-    os << "face " << f << " (" << m.F(f, 0) << ", " << m.F(f, 1) << ", " << m.F(f, 2)
-       << ") is degenerate (area " << 0.5 * (b - a).cross(c - a).norm() << " m²)";
+    os << "face " << f << " (" << m.F(f, 0) << ", " << m.F(f, 1) << ", " << m.F(f, 2) << ") is degenerate (area "
+       << 0.5 * (b - a).cross(c - a).norm() << " m²)";
     add(os.str());
   }
   for (const auto& e : r.nonmanifold_edges)
@@ -175,11 +174,10 @@ std::vector<std::string> CheckGarment(const Garment& g, const std::string& where
   if (options.require_oriented && r.inconsistent_edges > 0)
     add(std::to_string(r.inconsistent_edges) + " edges join faces of opposite winding");
   if (g.uv.rows() != 0 && g.uv.rows() != m.NumVertices())
-    add("uv has " + std::to_string(g.uv.rows()) + " rows for " + std::to_string(m.NumVertices()) +
-        " vertices");
+    add("uv has " + std::to_string(g.uv.rows()) + " rows for " + std::to_string(m.NumVertices()) + " vertices");
   if (!g.layer.empty() && static_cast<int>(g.layer.size()) != m.NumVertices())
-    add("layer has " + std::to_string(g.layer.size()) + " entries for " +
-        std::to_string(m.NumVertices()) + " vertices");
+    add("layer has " + std::to_string(g.layer.size()) + " entries for " + std::to_string(m.NumVertices()) +
+        " vertices");
 
   std::vector<char> used(m.NumVertices(), 0);
   for (int f = 0; f < m.NumFaces(); ++f)
@@ -190,8 +188,8 @@ std::vector<std::string> CheckGarment(const Garment& g, const std::string& where
     if (a.label.empty()) add("an anchor has an empty label");
     if (!labels.insert(a.label).second) add("duplicate anchor label '" + a.label + "'");
     if (a.vertex < 0 || a.vertex >= m.NumVertices()) {
-      add(name + " names vertex " + std::to_string(a.vertex) + " but the mesh has " +
-          std::to_string(m.NumVertices()) + " vertices");
+      add(name + " names vertex " + std::to_string(a.vertex) + " but the mesh has " + std::to_string(m.NumVertices()) +
+          " vertices");
       continue;
     }
     if (!used[a.vertex]) add(name + " names vertex " + std::to_string(a.vertex) + ", which is on no face");

@@ -7,23 +7,22 @@
 #include <pybind11/stl.h>
 #include <pybind11/stl/filesystem.h>
 
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
-
 #include <cmath>
 #include <filesystem>
 #include <memory>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "common/error.h"
 #include "common/files.h"
+#include "garments/io.h"
 #include "generator/feature/feature.h"
 #include "generator/fusion/vdb_read.h"
 #include "generator/release/release.h"
 #include "generator/sweep/sweep.h"
-#include "garments/io.h"
 #include "python/convert.h"
 
 namespace py = pybind11;
@@ -114,7 +113,8 @@ py::dict ReadSweepDict(const fs::path& dir) {
   uint16_t* d = depth.mutable_data();
   for (int i = 0; i < n; ++i) {
     const DepthFrame& f = s.frames[i];
-    if (static_cast<int>(f.depth.size()) != h * w) throw Error(dir.string() + ": frame " + std::to_string(i) + " has the wrong size");
+    if (static_cast<int>(f.depth.size()) != h * w)
+      throw Error(dir.string() + ": frame " + std::to_string(i) + " has the wrong size");
     // ReadSweep gives metres from millimetre PNGs: back to the stored integers.
     for (float v : f.depth) *d++ = static_cast<uint16_t>(std::lround(double(v) * 1000.0));
     for (int r = 0; r < 4; ++r)
@@ -147,12 +147,16 @@ py::array ReadImage(const fs::path& path) {
   if (m.channels() > 1) shape.push_back(m.channels());
   if (m.depth() == CV_8U) {
     py::array_t<uint8_t> a(shape);
-    for (int r = 0; r < m.rows; ++r) std::copy(m.ptr<uint8_t>(r), m.ptr<uint8_t>(r) + m.cols * m.channels(), a.mutable_data() + size_t(r) * m.cols * m.channels());
+    for (int r = 0; r < m.rows; ++r)
+      std::copy(m.ptr<uint8_t>(r), m.ptr<uint8_t>(r) + m.cols * m.channels(),
+                a.mutable_data() + size_t(r) * m.cols * m.channels());
     return a;
   }
   if (m.depth() == CV_16U) {
     py::array_t<uint16_t> a(shape);
-    for (int r = 0; r < m.rows; ++r) std::copy(m.ptr<uint16_t>(r), m.ptr<uint16_t>(r) + m.cols * m.channels(), a.mutable_data() + size_t(r) * m.cols * m.channels());
+    for (int r = 0; r < m.rows; ++r)
+      std::copy(m.ptr<uint16_t>(r), m.ptr<uint16_t>(r) + m.cols * m.channels(),
+                a.mutable_data() + size_t(r) * m.cols * m.channels());
     return a;
   }
   throw Error(path.string() + ": unsupported pixel depth");
@@ -164,8 +168,14 @@ std::string EntriesJson(const Release& r) {
   for (const auto& e : r.entries()) {
     Json files = Json::array();
     for (const auto& f : e.files) files.push_back({{"path", f.path}, {"sha256", f.sha256}, {"size", f.size}});
-    out.push_back({{"id", e.id}, {"key", e.key}, {"split", e.split}, {"failed", e.failed}, {"failure", e.failure},
-                   {"record", e.record}, {"files", files}, {"entry_digest", e.entry_digest}});
+    out.push_back({{"id", e.id},
+                   {"key", e.key},
+                   {"split", e.split},
+                   {"failed", e.failed},
+                   {"failure", e.failure},
+                   {"record", e.record},
+                   {"files", files},
+                   {"entry_digest", e.entry_digest}});
   }
   return out.dump();
 }
@@ -182,7 +192,8 @@ py::array_t<bool> ExtractFeatureVdb(const DoubleArray& points, const fs::path& v
   Feature f;
   {
     py::gil_scoped_release nogil;
-    f = ExtractFeature(P, [&grid](const Vec3& p) { return grid.Sample(p); }, o);
+    f = ExtractFeature(
+        P, [&grid](const Vec3& p) { return grid.Sample(p); }, o);
   }
   return FeatureToArray(f);
 }
@@ -212,28 +223,29 @@ PYBIND11_MODULE(_drape, m) {
       .def("digest", &Release::digest)
       .def("dir", [](const Release& r) { return r.dir(); });
 
-  m.def("read_mesh", [](const fs::path& p) { return MeshTuple(ReadMesh(p)); }, py::arg("path"),
-        "(V float64 (n, 3), F int32 (m, 3)) of any mesh file assimp reads");
-  m.def("encode_ply", [](const DoubleArray& V,
-                         const IndexArray& F) {
-        return py::bytes(EncodeMesh(MeshFromArrays(V, F, "mesh"), "ply"));
-      });
-  m.def("read_feature", [](const fs::path& p) { return FeatureToArray(DecodeFeature(ReadFile(p), p.string())); },
-        py::arg("path"));
+  m.def(
+      "read_mesh", [](const fs::path& p) { return MeshTuple(ReadMesh(p)); }, py::arg("path"),
+      "(V float64 (n, 3), F int32 (m, 3)) of any mesh file assimp reads");
+  m.def("encode_ply", [](const DoubleArray& V, const IndexArray& F) {
+    return py::bytes(EncodeMesh(MeshFromArrays(V, F, "mesh"), "ply"));
+  });
+  m.def(
+      "read_feature", [](const fs::path& p) { return FeatureToArray(DecodeFeature(ReadFile(p), p.string())); },
+      py::arg("path"));
   m.def("decode_feature", [](const py::bytes& b, const std::string& where) {
-        return FeatureToArray(DecodeFeature(std::string(b), where));
-      });
-  m.def("encode_feature", [](const BoolArray& a) {
-        return py::bytes(EncodeFeature(FeatureFromArray(a, "feature")));
-      });
+    return FeatureToArray(DecodeFeature(std::string(b), where));
+  });
+  m.def("encode_feature", [](const BoolArray& a) { return py::bytes(EncodeFeature(FeatureFromArray(a, "feature"))); });
   m.def("read_sdf", &ReadSdf, py::arg("path"));
   m.def("read_sweep", &ReadSweepDict, py::arg("dir"));
   m.def("read_image", &ReadImage, py::arg("path"));
-  m.def("match", [](const BoolArray& a,
-                    const BoolArray& b) {
+  m.def(
+      "match",
+      [](const BoolArray& a, const BoolArray& b) {
         const Match r = Distance(FeatureFromArray(a, "f1"), FeatureFromArray(b, "f2"));
         return py::make_tuple(r.distance, r.rotation);
-      }, py::arg("f1"), py::arg("f2"));
+      },
+      py::arg("f1"), py::arg("f2"));
   m.def("extract_feature_vdb", &ExtractFeatureVdb, py::arg("points"), py::arg("vdb"), py::arg("layers"),
         py::arg("rings"), py::arg("sectors"), py::arg("origin") = "top_layer");
   BindRuntime(m);

@@ -63,10 +63,14 @@ class Runtime {
       if (e->failed) throw Error("recognize: entry " + value + " failed in the build (" + e->failure + ")");
       q = LoadEntryCode(rel_, *e);
       const EntryLabel l = LabelFromEntry(*e);
-      query.update({{"id", value}, {"split", e->split}, {"true_category", l.category}, {"true_anchor", l.anchor},
+      query.update({{"id", value},
+                    {"split", e->split},
+                    {"true_category", l.category},
+                    {"true_anchor", l.anchor},
                     {"height", ReconHeight(rel_, *e)}});
     } else if (kind == "sweep" || kind == "mesh") {
-      const PipelineResult pr = kind == "sweep" ? FeatureFromSweep(rel_, value, seed) : FeatureFromMesh(rel_, value, seed);
+      const PipelineResult pr =
+          kind == "sweep" ? FeatureFromSweep(rel_, value, seed) : FeatureFromMesh(rel_, value, seed);
       q = pr.code;
       query.update({{"path", value}, {"info", pr.info}, {"height", pr.height}});
     } else if (kind == "feature") {
@@ -115,7 +119,8 @@ class Runtime {
   // release's recipe options.
   py::array_t<bool> PipelineFeature(const std::string& kind, const fs::path& path, uint64_t seed) const {
     if (kind != "sweep" && kind != "mesh") throw Error("extract_feature: unknown kind '" + kind + "'");
-    return FeatureToArray(kind == "sweep" ? FeatureFromSweep(rel_, path, seed).code : FeatureFromMesh(rel_, path, seed).code);
+    return FeatureToArray(kind == "sweep" ? FeatureFromSweep(rel_, path, seed).code
+                                          : FeatureFromMesh(rel_, path, seed).code);
   }
 
   int database_size() const { return db_.size(); }

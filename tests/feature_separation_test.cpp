@@ -25,8 +25,7 @@ TEST(FeatureSeparation, SameAnchorCloserThanOtherAnchorsOnQuickstart) {
   std::vector<Item> database, sensed;
   for (const auto& e : release.entries()) {
     if (e.failed) continue;
-    Item it{e.record.at("category").get<std::string>(),
-            e.record.at("anchor").at("label").get<std::string>(),
+    Item it{e.record.at("category").get<std::string>(), e.record.at("anchor").at("label").get<std::string>(),
             DecodeFeature(release.ReadFile(e.id, "feature.bin"), e.id + "/feature.bin")};
     (e.split == "train" ? database : sensed).push_back(std::move(it));
   }
@@ -42,8 +41,10 @@ TEST(FeatureSeparation, SameAnchorCloserThanOtherAnchorsOnQuickstart) {
     for (const auto& d : database) {
       if (d.category != q.category) continue;
       const int dist = Distance(d.feature, q.feature).distance;
-      if (d.anchor == q.anchor) qs += dist, ++ns;
-      else qo += dist, ++no;
+      if (d.anchor == q.anchor)
+        qs += dist, ++ns;
+      else
+        qo += dist, ++no;
     }
     if (ns == 0 || no == 0) continue;
     ++queries;
@@ -52,9 +53,9 @@ TEST(FeatureSeparation, SameAnchorCloserThanOtherAnchorsOnQuickstart) {
   }
   ASSERT_GT(queries, 5);
   const double same = same_sum / same_n, other = other_sum / other_n;
-  std::cout << "queries " << queries << ": mean distance to the same anchor " << same
-            << " bits, to other anchors " << other << " bits (margin " << other - same
-            << "); same anchor closer on average for " << closer << " of " << queries << "\n";
+  std::cout << "queries " << queries << ": mean distance to the same anchor " << same << " bits, to other anchors "
+            << other << " bits (margin " << other - same << "); same anchor closer on average for " << closer << " of "
+            << queries << "\n";
   // Measured on quickstart 1.0.0 (see the printed line): a margin of tens of bits.
   EXPECT_LT(same, other - 10.0);
   EXPECT_GE(closer, queries * 6 / 10);

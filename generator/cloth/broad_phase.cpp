@@ -120,7 +120,8 @@ BroadPhase::BroadPhase(const Faces& F, const std::vector<std::array<int, 2>>& E,
   for (int f = nf - 1; f >= 0; --f)
     for (int k = 0; k < 3; ++k) {
       const int a = F(f, k), b = F(f, (k + 1) % 3);
-      if (a < 0 || a >= num_vertices_) throw Error("broad phase: face " + std::to_string(f) + " has an index out of range");
+      if (a < 0 || a >= num_vertices_)
+        throw Error("broad phase: face " + std::to_string(f) + " has an index out of range");
       vowner[a] = f;
       const std::array<int, 2> key{std::min(a, b), std::max(a, b)};
       const auto it = std::lower_bound(E.begin(), E.end(), key);
@@ -528,8 +529,7 @@ CandidatePairs BruteForceCandidates(const Faces& F, const std::vector<std::array
                                     const std::vector<Aabb>& vbox) {
   CandidatePairs out;
   std::vector<Aabb> fbox(F.rows()), ebox(E.size());
-  for (int f = 0; f < F.rows(); ++f)
-    fbox[f] = Aabb::Union(Aabb::Union(vbox[F(f, 0)], vbox[F(f, 1)]), vbox[F(f, 2)]);
+  for (int f = 0; f < F.rows(); ++f) fbox[f] = Aabb::Union(Aabb::Union(vbox[F(f, 0)], vbox[F(f, 1)]), vbox[F(f, 2)]);
   for (size_t e = 0; e < E.size(); ++e) ebox[e] = Aabb::Union(vbox[E[e][0]], vbox[E[e][1]]);
   for (int v = 0; v < static_cast<int>(vbox.size()); ++v)
     for (int f = 0; f < F.rows(); ++f)

@@ -118,12 +118,12 @@ class BroadPhase {
   Faces F_;
   std::vector<std::array<int, 2>> E_;
   int num_vertices_ = 0;
-  std::vector<Node> nodes_;                              // nodes_[0]: the root; children after parents
-  std::vector<int> leaf_faces_;                          // the faces of every leaf, leaf after leaf
-  std::vector<int> owned_start_v_, owned_v_;             // face → vertices it owns (CSR)
-  std::vector<int> owned_start_e_, owned_e_;             // face → edges it owns (CSR)
-  std::vector<int> orphan_vertices_;                     // vertices in no face
-  std::vector<std::array<int, 3>> fverts_;               // per face: its vertices
+  std::vector<Node> nodes_;                   // nodes_[0]: the root; children after parents
+  std::vector<int> leaf_faces_;               // the faces of every leaf, leaf after leaf
+  std::vector<int> owned_start_v_, owned_v_;  // face → vertices it owns (CSR)
+  std::vector<int> owned_start_e_, owned_e_;  // face → edges it owns (CSR)
+  std::vector<int> orphan_vertices_;          // vertices in no face
+  std::vector<std::array<int, 3>> fverts_;    // per face: its vertices
   // The VF and EE pairs LeafPair tests for the pairs of faces that share a vertex (boxes
   // that always overlap): tested from these lists, the search skips those face pairs.
   std::vector<std::array<int, 2>> adjacent_vf_, adjacent_ee_;
@@ -136,8 +136,8 @@ class BroadPhase {
   size_t num_vf_ = 0, num_ee_ = 0;  // pairs found in raw_vf_, raw_ee_ (LeafPair)
   std::vector<int> count_;
   // Superset reuse.
-  double reuse_margin_ = 0;         // m
-  std::vector<Aabb> grown_;         // per vertex: the boxes the superset was found for
+  double reuse_margin_ = 0;  // m
+  std::vector<Aabb> grown_;  // per vertex: the boxes the superset was found for
   CandidatePairs superset_;
   bool have_superset_ = false;
   Points3 search_points_;  // FindClose's x0 at the last search (empty: that search had none)

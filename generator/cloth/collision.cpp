@@ -18,13 +18,13 @@ namespace {
 // time): phase timings that a busy shared machine does not inflate.
 double CpuSince(double t0) { return ThreadCpuSeconds() - t0; }
 
-constexpr double kTiny = 1e-30;          // m²: below this a segment has zero length
-constexpr double kAccdShrink = 0.1;      // ACCD's s: report when the gap falls below s × initial
-constexpr int kAccdMaxSteps = 2000;      // ACCD step cap; hitting it reports a collision
-constexpr double kMaxZoneAngle = 1.5;    // rad per step: keeps (1−t)I + tR invertible
-constexpr double kBroadSlack = 0.25;      // × thickness: how far x1 may move before a new CCD broad-phase search
-constexpr double kReuseMargin = 0.5;     // × thickness: broad-phase superset margin (BroadPhase::SetReuseMargin)
-constexpr double kRigidTolerance = 1e-7; // m: kinematic nodes further off a rigid fit are non-rigid
+constexpr double kTiny = 1e-30;               // m²: below this a segment has zero length
+constexpr double kAccdShrink = 0.1;           // ACCD's s: report when the gap falls below s × initial
+constexpr int kAccdMaxSteps = 2000;           // ACCD step cap; hitting it reports a collision
+constexpr double kMaxZoneAngle = 1.5;         // rad per step: keeps (1−t)I + tR invertible
+constexpr double kBroadSlack = 0.25;          // × thickness: how far x1 may move before a new CCD broad-phase search
+constexpr double kReuseMargin = 0.5;          // × thickness: broad-phase superset margin (BroadPhase::SetReuseMargin)
+constexpr double kRigidTolerance = 1e-7;      // m: kinematic nodes further off a rigid fit are non-rigid
 constexpr long long kRepelSnapshotCalls = 4;  // Apply calls between repulsion snapshots
 // m: what a skipped repulsion pair must have to spare beyond thickness, far above the
 // closest-point routines' error (rounding; their near-parallel and near-degenerate
@@ -46,8 +46,7 @@ using Quad = std::array<Vec3, 4>;
 using Coeffs = std::array<double, 4>;
 
 Quad Gather(const Stencil& s, const Points3& x) {
-  return {x.row(s.n[0]).transpose(), x.row(s.n[1]).transpose(), x.row(s.n[2]).transpose(),
-          x.row(s.n[3]).transpose()};
+  return {x.row(s.n[0]).transpose(), x.row(s.n[1]).transpose(), x.row(s.n[2]).transpose(), x.row(s.n[3]).transpose()};
 }
 Quad Lerp(const Quad& a, const Quad& b, double t) {
   Quad q;
@@ -72,8 +71,7 @@ Vec3 Combine(const Coeffs& c, const Quad& q) { return c[0] * q[0] + c[1] * q[1] 
 
 // Changes the relative vector Σ c_k x_k by `delta`, split by inverse mass (Bridson
 // §7.1's weighted impulse). False when every node of the pair is kinematic.
-bool ShiftRelative(const Stencil& s, const Coeffs& c, const Vec3& delta, const Eigen::VectorXd& inv_mass,
-                   Points3& x1) {
+bool ShiftRelative(const Stencil& s, const Coeffs& c, const Vec3& delta, const Eigen::VectorXd& inv_mass, Points3& x1) {
   double denom = 0;
   for (int k = 0; k < 4; ++k) denom += c[k] * c[k] * inv_mass[s.n[k]];
   if (!(denom > 0)) return false;
@@ -361,16 +359,16 @@ double SegmentSegmentDistanceSquared(const Vec3& p0, const Vec3& p1, const Vec3&
   return ((p0 + s * d1) - (q0 + t * d2)).squaredNorm();
 }
 
-bool VertexTriangleCCD(const Vec3& p0, const Vec3& a0, const Vec3& b0, const Vec3& c0, const Vec3& p1,
-                       const Vec3& a1, const Vec3& b1, const Vec3& c1, double min_separation, double* toi) {
+bool VertexTriangleCCD(const Vec3& p0, const Vec3& a0, const Vec3& b0, const Vec3& c0, const Vec3& p1, const Vec3& a1,
+                       const Vec3& b1, const Vec3& c1, double min_separation, double* toi) {
   double t = 0;
   const bool hit = AdditiveCCD(true, {p0, a0, b0, c0}, {p1, a1, b1, c1}, min_separation, &t);
   if (hit && toi) *toi = t;
   return hit;
 }
 
-bool EdgeEdgeCCD(const Vec3& pa0, const Vec3& pb0, const Vec3& qa0, const Vec3& qb0, const Vec3& pa1,
-                 const Vec3& pb1, const Vec3& qa1, const Vec3& qb1, double min_separation, double* toi) {
+bool EdgeEdgeCCD(const Vec3& pa0, const Vec3& pb0, const Vec3& qa0, const Vec3& qb0, const Vec3& pa1, const Vec3& pb1,
+                 const Vec3& qa1, const Vec3& qb1, double min_separation, double* toi) {
   double t = 0;
   const bool hit = AdditiveCCD(false, {pa0, pb0, qa0, qb0}, {pa1, pb1, qa1, qb1}, min_separation, &t);
   if (hit && toi) *toi = t;
@@ -394,8 +392,8 @@ double MinimumNonAdjacentDistance(const Faces& F, const Points3& x) {
     for (const auto& [v, f] : cand.vf)
       best = std::min(best, PointTriangleDistanceSquared(x.row(v), x.row(F(f, 0)), x.row(F(f, 1)), x.row(F(f, 2))));
     for (const auto& [a, b] : cand.ee)
-      best = std::min(best,
-                      SegmentSegmentDistanceSquared(x.row(E[a][0]), x.row(E[a][1]), x.row(E[b][0]), x.row(E[b][1])));
+      best =
+          std::min(best, SegmentSegmentDistanceSquared(x.row(E[a][0]), x.row(E[a][1]), x.row(E[b][0]), x.row(E[b][1])));
     best = std::sqrt(best);
     if (best <= r) return best;
     if (r > 2 * extent.norm()) return best;  // every pair was a candidate
@@ -435,7 +433,6 @@ void CollisionOptions::Validate() const {
   if (!(cloth_friction >= 0 && cloth_friction <= 10)) bad("cloth_friction", "must be in [0, 10]");
 }
 
-
 // ===================================================================================
 // One Apply call.
 namespace {
@@ -458,15 +455,15 @@ struct ApplyContext {
   const Points3& x0;
   Points3& x1;
   const Eigen::VectorXd& inv_mass;
-  const Eigen::VectorXd& rest_lengths;           // m, per edge of E
-  const std::vector<int>& adj_start;             // vertex → neighbours (CSR)
+  const Eigen::VectorXd& rest_lengths;  // m, per edge of E
+  const std::vector<int>& adj_start;    // vertex → neighbours (CSR)
   const std::vector<int>& adj;
   double dt;
   CollisionReport& rep;
   BroadPhase& broad;
   CollisionHandler::StrainOrder& strain_order;
   CollisionHandler::RepelSnapshot& repel_snapshot;
-  CandidatePairs near = {};  // repulsion's pairs: within thickness somewhere on x0 → x1
+  CandidatePairs near = {};            // repulsion's pairs: within thickness somewhere on x0 → x1
   std::vector<Aabb> near_boxes = {};   // the path boxes they were found for (empty: none yet)
   std::vector<Aabb> fresh_boxes = {};  // the CCD's path boxes (scratch)
   CandidatePairs cand = {}, next = {};
@@ -956,11 +953,11 @@ void HandleColliders(ApplyContext& cx, const std::vector<BoxCollider>& colliders
 // same CCD with the box as infinitely heavy and static, and so does every node path
 // (against the box itself, no pad) after the last change of x1.
 struct BoxHit {
-  bool vf = false;            // corner–face (slot 0: the corner) or edge–edge (slots 2, 3: the box's)
-  std::array<int, 4> n{};     // node per cloth slot (−1: a box point)
+  bool vf = false;         // corner–face (slot 0: the corner) or edge–edge (slots 2, 3: the box's)
+  std::array<int, 4> n{};  // node per cloth slot (−1: a box point)
   Quad box{Vec3::Zero(), Vec3::Zero(), Vec3::Zero(), Vec3::Zero()};  // the box points in their slots
   double toi = 0;
-  int node_box = -1;          // ≥ 0: the path of node n[0] enters this box (no CCD pair)
+  int node_box = -1;  // ≥ 0: the path of node n[0] enters this box (no CCD pair)
 };
 
 Quad BoxGather(const BoxHit& h, const Points3& x) {
@@ -974,8 +971,8 @@ struct BoxGeometry {
   std::array<Vec3, 8> corner;
   Aabb bounds;
 };
-constexpr std::array<std::array<int, 2>, 12> kBoxEdges = {{{0, 1}, {2, 3}, {4, 5}, {6, 7}, {0, 2}, {1, 3},
-                                                           {4, 6}, {5, 7}, {0, 4}, {1, 5}, {2, 6}, {3, 7}}};
+constexpr std::array<std::array<int, 2>, 12> kBoxEdges = {
+    {{0, 1}, {2, 3}, {4, 5}, {6, 7}, {0, 2}, {1, 3}, {4, 6}, {5, 7}, {0, 4}, {1, 5}, {2, 6}, {3, 7}}};
 BoxGeometry Geometry(const BoxCollider& b) {
   BoxGeometry g;
   for (int k = 0; k < 8; ++k) {
@@ -1172,7 +1169,8 @@ std::vector<std::vector<int>> BuildZones(UnionFind& uf, const std::vector<char>&
 
 // Edges in `stretched` whose two nodes are not in one zone (a zone keeps x0's lengths:
 // merging cannot change an edge inside it).
-std::vector<int> AcrossZones(const ApplyContext& cx, const std::vector<int>& stretched, const std::vector<int>& zone_of) {
+std::vector<int> AcrossZones(const ApplyContext& cx, const std::vector<int>& stretched,
+                             const std::vector<int>& zone_of) {
   std::vector<int> out;
   for (int e : stretched) {
     const int z = zone_of[cx.E[e][0]];
@@ -1186,8 +1184,10 @@ std::vector<int> AcrossZones(const ApplyContext& cx, const std::vector<int>& str
 bool FreezeZone(ApplyContext& cx, const std::vector<int>& zone) {
   bool still = true;
   for (int i : zone) {
-    if (cx.inv_mass[i] != 0) cx.x1.row(i) = cx.x0.row(i);
-    else still &= cx.x1.row(i) == cx.x0.row(i);
+    if (cx.inv_mass[i] != 0)
+      cx.x1.row(i) = cx.x0.row(i);
+    else
+      still &= cx.x1.row(i) == cx.x0.row(i);
   }
   return still;
 }
@@ -1207,8 +1207,8 @@ void ImpactZones(ApplyContext& cx, Pending pending, std::vector<int> stretched,
   std::vector<char> in_zone(n, 0), nonrigid_node(n, 0), pinned(n, 0);
   std::vector<int> zone_of(n, -1);
   std::vector<std::vector<int>> zones;
-  Eigen::VectorXd w = cx.inv_mass;  // the clamp's inverse masses: zone nodes frozen
-  std::vector<int> level;           // hop levels from the kinematic nodes (lead node of an edge: the lower)
+  Eigen::VectorXd w = cx.inv_mass;          // the clamp's inverse masses: zone nodes frozen
+  std::vector<int> level;                   // hop levels from the kinematic nodes (lead node of an edge: the lower)
   if (!pending.Empty()) stretched.clear();  // the clamp after the first zone move may fix them
   while (!pending.Empty() || !stretched.empty()) {
     if (cx.rep.zone_iterations == cx.opt.max_zone_iterations) {  // last resort: one zone
@@ -1252,7 +1252,8 @@ void ImpactZones(ApplyContext& cx, Pending pending, std::vector<int> stretched,
     zones = BuildZones(uf, in_zone, &zone_of);
     for (const auto& zone : zones) {
       const bool pin = std::any_of(zone.begin(), zone.end(), [&](int i) { return pinned[i] != 0; });
-      if (pin) for (int i : zone) pinned[i] = 1;
+      if (pin)
+        for (int i : zone) pinned[i] = 1;
       if (!(pin ? FreezeZone(cx, zone) : MoveZone(cx, zone, xin))) {
         cx.rep.nonrigid_kinematic = true;
         for (int i : zone) nonrigid_node[i] = 1;
@@ -1326,10 +1327,11 @@ CollisionReport CollisionHandler::Apply(const Points3& x0, Points3& x1, const Ei
   const int n = num_vertices_;
   if (x0.rows() != n || x1.rows() != n || inv_mass.size() != n)
     throw Error("collision: Apply expects x0, x1 and inv_mass with " + std::to_string(n) + " rows (got " +
-                std::to_string(x0.rows()) + ", " + std::to_string(x1.rows()) + ", " +
-                std::to_string(inv_mass.size()) + ")");
+                std::to_string(x0.rows()) + ", " + std::to_string(x1.rows()) + ", " + std::to_string(inv_mass.size()) +
+                ")");
   if (!(dt > 0 && std::isfinite(dt))) throw Error("collision: dt must be > 0 s");
-  if (!inv_mass.allFinite() || (n > 0 && inv_mass.minCoeff() < 0)) throw Error("collision: inv_mass must be finite and >= 0");
+  if (!inv_mass.allFinite() || (n > 0 && inv_mass.minCoeff() < 0))
+    throw Error("collision: inv_mass must be finite and >= 0");
   if (!x0.allFinite()) throw Error("collision: x0 must be finite");
   if (!x1.allFinite()) throw NumericalError("collision: the proposed positions x1 are not finite");
   for (const BoxCollider& box : colliders) box.Validate();

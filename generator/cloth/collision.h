@@ -96,7 +96,7 @@ struct CollisionOptions {
   // caller sets max_strain from the material's stretch.
   double max_strain = 0.06;
   double max_compression = 0.0;
-  int strain_iterations = 20;       // Gauss–Seidel sweeps (stops early when all edges are within)
+  int strain_iterations = 20;  // Gauss–Seidel sweeps (stops early when all edges are within)
   // Strain (absolute, like max_strain) an edge may exceed the bound by and still count
   // as within it: the Gauss–Seidel clamp converges to the bound, not onto it.
   double strain_tolerance = 1e-3;
@@ -133,38 +133,40 @@ struct CollisionOptions {
   // four pants of the paper recipe blew up). Nearer 1 the clamp leaves more edges to
   // the fail-safe (those pants: 0–420 of ~2,000 steps at 0.6, 770–1,020 at 0.8).
   double strain_lead_weight = 0.6;
-  int proximity_iterations = 2;     // Gauss–Seidel sweeps over the close pairs
-  int ccd_iterations = 6;           // impulse passes before the fail-safe
-  int max_zone_iterations = 50;     // impact-zone merges before the whole-mesh zone
-  double cloth_friction = 0.0;      // Coulomb μ for cloth–cloth contacts
-  void Validate() const;            // throws drape::Error naming the field
+  int proximity_iterations = 2;  // Gauss–Seidel sweeps over the close pairs
+  int ccd_iterations = 6;        // impulse passes before the fail-safe
+  int max_zone_iterations = 50;  // impact-zone merges before the whole-mesh zone
+  double cloth_friction = 0.0;   // Coulomb μ for cloth–cloth contacts
+  void Validate() const;         // throws drape::Error naming the field
 };
 
 // What happened in one Apply call: counts, then timing (timing is never hashed).
 struct CollisionReport {
-  int strain_corrections = 0;   // edge clamps applied (summed over sweeps)
-  int proximity_pairs = 0;      // VF + EE pairs repelled
-  int collider_contacts = 0;    // nodes put back on a collider's surface
-  int ccd_collisions = 0;       // colliding pairs found by CCD (summed over passes)
-  int ccd_passes = 0;           // CCD + impulse passes run
-  int box_collisions = 0;       // cloth edges/faces/node paths found crossing a box's edges/corners/faces (summed over passes)
-  int collider_violations = 0;  // node paths, edges or faces still entering a box on the returned path (0 unless held nodes push into one)
-  int impact_zones = 0;         // zones in the final fail-safe state (0: fail-safe not used)
-  int zone_iterations = 0;      // fail-safe detect-and-merge rounds
-  int remaining_collisions = 0; // pairs still colliding on the returned path (0 unless non-rigid kinematics)
-  bool fail_safe_used = false;  // rigid impact zones were needed
-  bool reverted = false;        // gave up on zones: the whole mesh moved as one rigid zone
+  int strain_corrections = 0;  // edge clamps applied (summed over sweeps)
+  int proximity_pairs = 0;     // VF + EE pairs repelled
+  int collider_contacts = 0;   // nodes put back on a collider's surface
+  int ccd_collisions = 0;      // colliding pairs found by CCD (summed over passes)
+  int ccd_passes = 0;          // CCD + impulse passes run
+  int box_collisions =
+      0;  // cloth edges/faces/node paths found crossing a box's edges/corners/faces (summed over passes)
+  int collider_violations =
+      0;  // node paths, edges or faces still entering a box on the returned path (0 unless held nodes push into one)
+  int impact_zones = 0;             // zones in the final fail-safe state (0: fail-safe not used)
+  int zone_iterations = 0;          // fail-safe detect-and-merge rounds
+  int remaining_collisions = 0;     // pairs still colliding on the returned path (0 unless non-rigid kinematics)
+  bool fail_safe_used = false;      // rigid impact zones were needed
+  bool reverted = false;            // gave up on zones: the whole mesh moved as one rigid zone
   bool nonrigid_kinematic = false;  // a zone's kinematic nodes moved non-rigidly
-  int strain_rounds = 0;        // re-clamp rounds after the first CCD (step 5)
-  int strain_merges = 0;        // edges beyond the bound merged into impact zones (step 6)
-  int strain_violations = 0;    // edges of the returned x1 beyond the bound (0 unless x0 was, or non-rigid kinematics)
-  double max_strain = 0;        // largest edge strain (l − L0)/L0 of the returned x1
-  int broad_builds = 0;         // broad-phase candidate queries run (work counter)
-  int broad_searches = 0;       // of which needed a tree search (the rest filtered the kept superset)
+  int strain_rounds = 0;            // re-clamp rounds after the first CCD (step 5)
+  int strain_merges = 0;            // edges beyond the bound merged into impact zones (step 6)
+  int strain_violations = 0;  // edges of the returned x1 beyond the bound (0 unless x0 was, or non-rigid kinematics)
+  double max_strain = 0;      // largest edge strain (l − L0)/L0 of the returned x1
+  int broad_builds = 0;       // broad-phase candidate queries run (work counter)
+  int broad_searches = 0;     // of which needed a tree search (the rest filtered the kept superset)
   long long broad_candidates = 0;  // candidate pairs found (summed over searches)
-  long long ccd_tests = 0;      // pair CCD tests run (summed over passes)
-  double broad_seconds = 0, strain_seconds = 0, proximity_seconds = 0, collider_seconds = 0,
-         ccd_seconds = 0, zone_seconds = 0;  // s, thread CPU time, timing only
+  long long ccd_tests = 0;         // pair CCD tests run (summed over passes)
+  double broad_seconds = 0, strain_seconds = 0, proximity_seconds = 0, collider_seconds = 0, ccd_seconds = 0,
+         zone_seconds = 0;  // s, thread CPU time, timing only
 };
 
 class CollisionHandler {
@@ -232,10 +234,10 @@ class CollisionHandler {
   Points3 rest_;  // m: the flat garment (pairs closer than thickness at rest keep that distance)
   int num_vertices_ = 0;
   CollisionOptions options_;
-  std::vector<std::array<int, 2>> edges_;  // unique, sorted
+  std::vector<std::array<int, 2>> edges_;         // unique, sorted
   std::vector<int> adjacency_start_, adjacency_;  // vertex → neighbouring vertices (CSR)
-  Eigen::VectorXd rest_lengths_;           // m, per edge
-  BroadPhase broad_;                       // tree over the faces; its candidate superset is kept across calls
+  Eigen::VectorXd rest_lengths_;                  // m, per edge
+  BroadPhase broad_;                              // tree over the faces; its candidate superset is kept across calls
   StrainOrder strain_order_;
   RepelSnapshot repel_snapshot_;
   bool shortcuts_ = true;
@@ -247,8 +249,7 @@ double MinimumNonAdjacentDistance(const Faces& F, const Points3& x);
 
 // Squared distance from p to triangle (a, b, c) and the barycentric weights w of the
 // closest point (q = w0·a + w1·b + w2·c). Robust for zero-area triangles.
-double PointTriangleDistanceSquared(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c,
-                                    Vec3* w = nullptr);
+double PointTriangleDistanceSquared(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c, Vec3* w = nullptr);
 // Squared distance between segments p0p1 and q0q1 and the parameters of the closest
 // points (p0 + s·(p1−p0), q0 + t·(q1−q0)). Robust for parallel and zero-length segments.
 double SegmentSegmentDistanceSquared(const Vec3& p0, const Vec3& p1, const Vec3& q0, const Vec3& q1,
@@ -261,12 +262,10 @@ double SegmentSegmentDistanceSquared(const Vec3& p0, const Vec3& p1, const Vec3&
 // [0, toi]. It may report a collision that is not one (and does so when its iteration
 // cap is hit or when d0 == 0), it never misses one: each step advances t by at most
 // 0.9·(d − ξ)/l_p, where l_p bounds the relative speed of the closest points.
-bool VertexTriangleCCD(const Vec3& p0, const Vec3& a0, const Vec3& b0, const Vec3& c0,
-                       const Vec3& p1, const Vec3& a1, const Vec3& b1, const Vec3& c1,
-                       double min_separation, double* toi);
+bool VertexTriangleCCD(const Vec3& p0, const Vec3& a0, const Vec3& b0, const Vec3& c0, const Vec3& p1, const Vec3& a1,
+                       const Vec3& b1, const Vec3& c1, double min_separation, double* toi);
 // Same for edge (pa, pb) against edge (qa, qb); suffix 0: start of the path, 1: end.
-bool EdgeEdgeCCD(const Vec3& pa0, const Vec3& pb0, const Vec3& qa0, const Vec3& qb0,
-                 const Vec3& pa1, const Vec3& pb1, const Vec3& qa1, const Vec3& qb1,
-                 double min_separation, double* toi);
+bool EdgeEdgeCCD(const Vec3& pa0, const Vec3& pb0, const Vec3& qa0, const Vec3& qb0, const Vec3& pa1, const Vec3& pb1,
+                 const Vec3& qa1, const Vec3& qb1, double min_separation, double* toi);
 
 }  // namespace drape

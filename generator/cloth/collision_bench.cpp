@@ -39,8 +39,10 @@ struct Sim {
   CollisionReport Step(double dt) {
     Points3 x1 = x + 0.99 * (x - prev);
     for (int i = 0; i < x1.rows(); ++i) {
-      if (inv_mass[i] == 0) x1.row(i) = x.row(i);
-      else x1(i, 1) -= 9.81 * dt * dt;
+      if (inv_mass[i] == 0)
+        x1.row(i) = x.row(i);
+      else
+        x1(i, 1) -= 9.81 * dt * dt;
     }
     const CollisionReport rep = handler.Apply(x, x1, inv_mass, dt, {});
     prev = x;

@@ -106,8 +106,8 @@ double BruteMinimumDistance(const Faces& F, const Points3& x) {
   for (size_t a = 0; a < E.size(); ++a)
     for (size_t b = a + 1; b < E.size(); ++b) {
       if (E[a][0] == E[b][0] || E[a][0] == E[b][1] || E[a][1] == E[b][0] || E[a][1] == E[b][1]) continue;
-      best = std::min(best, SegmentSegmentDistanceSquared(x.row(E[a][0]), x.row(E[a][1]), x.row(E[b][0]),
-                                                          x.row(E[b][1])));
+      best =
+          std::min(best, SegmentSegmentDistanceSquared(x.row(E[a][0]), x.row(E[a][1]), x.row(E[b][0]), x.row(E[b][1])));
     }
   return std::sqrt(best);
 }
@@ -133,9 +133,7 @@ TEST(CollisionPrimitives, PointTriangleDegenerate) {
   for (int trial = 0; trial < 1000; ++trial) {
     const Vec3 p = RandomVec(rng, 1), a = RandomVec(rng, 1), dir = RandomVec(rng, 1);
     // collinear, two coincident, all coincident
-    const std::array<std::array<Vec3, 3>, 3> tris = {{{a, a + 0.3 * dir, a + dir},
-                                                      {a, a, a + dir},
-                                                      {a, a, a}}};
+    const std::array<std::array<Vec3, 3>, 3> tris = {{{a, a + 0.3 * dir, a + dir}, {a, a, a + dir}, {a, a, a}}};
     for (const auto& t : tris) {
       Vec3 w;
       const double d2 = PointTriangleDistanceSquared(p, t[0], t[1], t[2], &w);
@@ -153,7 +151,7 @@ TEST(CollisionPrimitives, SegmentSegmentAgainstSampling) {
   for (int trial = 0; trial < 400; ++trial) {
     Vec3 p0 = RandomVec(rng, 1), p1 = RandomVec(rng, 1), q0 = RandomVec(rng, 1), q1 = RandomVec(rng, 1);
     if (trial % 4 == 1) q1 = q0 + 0.7 * (p1 - p0);  // parallel
-    if (trial % 4 == 2) p1 = p0;                   // zero length
+    if (trial % 4 == 2) p1 = p0;                    // zero length
     if (trial % 4 == 3) q1 = q0 = p0 + 0.5 * (p1 - p0) + Vec3(0, 0, 0.1);
     double s = -1, t = -1;
     const double d2 = SegmentSegmentDistanceSquared(p0, p1, q0, q1, &s, &t);
@@ -205,13 +203,13 @@ TEST(CollisionCCD, ParallelEdgesApproaching) {
   const Vec3 q0(0, 0, 0), q1(0.03, 0, 0);
   double toi = -1;
   // Through each other: reported before touching.
-  ASSERT_TRUE(EdgeEdgeCCD(Vec3(0.01, 0, 0.01), Vec3(0.04, 0, 0.01), q0, q1, Vec3(0.01, 0, -0.01),
-                          Vec3(0.04, 0, -0.01), q0, q1, kXi, &toi));
+  ASSERT_TRUE(EdgeEdgeCCD(Vec3(0.01, 0, 0.01), Vec3(0.04, 0, 0.01), q0, q1, Vec3(0.01, 0, -0.01), Vec3(0.04, 0, -0.01),
+                          q0, q1, kXi, &toi));
   EXPECT_LT(toi, 0.5);
   EXPECT_GE(0.01 - 0.02 * toi, kXi);
   // Stopping 3 mm short: not reported.
-  EXPECT_FALSE(EdgeEdgeCCD(Vec3(0.01, 0, 0.01), Vec3(0.04, 0, 0.01), q0, q1, Vec3(0.01, 0, 0.003),
-                           Vec3(0.04, 0, 0.003), q0, q1, kXi, &toi));
+  EXPECT_FALSE(EdgeEdgeCCD(Vec3(0.01, 0, 0.01), Vec3(0.04, 0, 0.01), q0, q1, Vec3(0.01, 0, 0.003), Vec3(0.04, 0, 0.003),
+                           q0, q1, kXi, &toi));
 }
 
 TEST(CollisionCCD, NodeSlidingAlongEdge) {
@@ -236,14 +234,14 @@ TEST(CollisionCCD, DegenerateFacesAndEdges) {
   ASSERT_TRUE(VertexTriangleCCD(Vec3(0, 0, 0.01), a, a, a, Vec3(0, 0, -0.01), a, a, a, kXi, &toi));
   EXPECT_TRUE(std::isfinite(toi));
   // Zero-length edge (a point) passing through an edge.
-  ASSERT_TRUE(EdgeEdgeCCD(Vec3(0.01, 0, 0.01), Vec3(0.01, 0, 0.01), a, c, Vec3(0.01, 0, -0.01),
-                          Vec3(0.01, 0, -0.01), a, c, kXi, &toi));
+  ASSERT_TRUE(EdgeEdgeCCD(Vec3(0.01, 0, 0.01), Vec3(0.01, 0, 0.01), a, c, Vec3(0.01, 0, -0.01), Vec3(0.01, 0, -0.01), a,
+                          c, kXi, &toi));
   EXPECT_TRUE(std::isfinite(toi));
   // Two zero-length edges that never meet.
   EXPECT_FALSE(EdgeEdgeCCD(a, a, b, b, a + Vec3(0, 0.01, 0), a + Vec3(0, 0.01, 0), b, b, kXi, &toi));
   // Touching at the start: conservatively a collision at t = 0.
-  ASSERT_TRUE(VertexTriangleCCD(Vec3(0.01, 0.0, 0), a, b, Vec3(0, 0.03, 0), Vec3(0.01, 0, 0.01), a, b,
-                                Vec3(0, 0.03, 0), kXi, &toi));
+  ASSERT_TRUE(VertexTriangleCCD(Vec3(0.01, 0.0, 0), a, b, Vec3(0, 0.03, 0), Vec3(0.01, 0, 0.01), a, b, Vec3(0, 0.03, 0),
+                                kXi, &toi));
   EXPECT_EQ(toi, 0);
 }
 
@@ -273,7 +271,8 @@ void CheckNeverMisses(bool vf) {
       std::array<Vec3, 4> qs;
       for (int k = 0; k < 4; ++k) qs[k] = q0[k] + ts * (q1[k] - q0[k]);
       const double u = rng.Uniform(0, 1), v = rng.Uniform(0, 1 - u);
-      const Vec3 target = vf ? Vec3(qs[1] + u * (qs[2] - qs[1]) + v * (qs[3] - qs[1])) : Vec3(qs[2] + u * (qs[3] - qs[2]));
+      const Vec3 target =
+          vf ? Vec3(qs[1] + u * (qs[2] - qs[1]) + v * (qs[3] - qs[1])) : Vec3(qs[2] + u * (qs[3] - qs[2]));
       const Vec3 mine = vf ? qs[0] : Vec3(qs[0] + v * (qs[1] - qs[0]));
       const Vec3 shift = target - mine;
       for (int k = 0; k < (vf ? 1 : 2); ++k) {
@@ -331,8 +330,8 @@ CollisionOptions TestOptions() {
 
 TEST(CollisionApply, TriangleDroppedThroughAFaceStaysAbove) {
   // A big triangle at z = 0 and a small one 10 mm above, proposed 20 mm below it.
-  std::vector<Vec3> V = {Vec3(-0.1, -0.1, 0), Vec3(0.1, -0.1, 0), Vec3(0, 0.1, 0),
-                         Vec3(0, 0, 0.01), Vec3(0.01, 0, 0.01), Vec3(0, 0.01, 0.01)};
+  std::vector<Vec3> V = {Vec3(-0.1, -0.1, 0), Vec3(0.1, -0.1, 0),  Vec3(0, 0.1, 0),
+                         Vec3(0, 0, 0.01),    Vec3(0.01, 0, 0.01), Vec3(0, 0.01, 0.01)};
   std::vector<Eigen::Vector3i> F = {{0, 1, 2}, {3, 4, 5}};
   const TriMesh m = ToMesh(V, F);
   CollisionHandler handler(m.F, m.V, TestOptions());
@@ -347,8 +346,8 @@ TEST(CollisionApply, TriangleDroppedThroughAFaceStaysAbove) {
 }
 
 TEST(CollisionApply, ImpactZoneMovesRigidlyAndConservesMomentum) {
-  std::vector<Vec3> V = {Vec3(-0.1, -0.1, 0), Vec3(0.1, -0.1, 0), Vec3(0, 0.1, 0),
-                         Vec3(0, 0, 0.01), Vec3(0.03, 0, 0.012), Vec3(0, 0.02, 0.01)};
+  std::vector<Vec3> V = {Vec3(-0.1, -0.1, 0), Vec3(0.1, -0.1, 0),   Vec3(0, 0.1, 0),
+                         Vec3(0, 0, 0.01),    Vec3(0.03, 0, 0.012), Vec3(0, 0.02, 0.01)};
   std::vector<Eigen::Vector3i> F = {{0, 1, 2}, {3, 4, 5}};
   const TriMesh m = ToMesh(V, F);
   CollisionOptions o = TestOptions();
@@ -378,8 +377,8 @@ TEST(CollisionApply, ImpactZoneMovesRigidlyAndConservesMomentum) {
 }
 
 TEST(CollisionApply, ZoneWithAStaticHeldNodeDoesNotMove) {
-  std::vector<Vec3> V = {Vec3(-0.1, -0.1, 0), Vec3(0.1, -0.1, 0), Vec3(0, 0.1, 0),
-                         Vec3(0, 0, 0.01), Vec3(0.03, 0, 0.012), Vec3(0, 0.02, 0.01)};
+  std::vector<Vec3> V = {Vec3(-0.1, -0.1, 0), Vec3(0.1, -0.1, 0),   Vec3(0, 0.1, 0),
+                         Vec3(0, 0, 0.01),    Vec3(0.03, 0, 0.012), Vec3(0, 0.02, 0.01)};
   std::vector<Eigen::Vector3i> F = {{0, 1, 2}, {3, 4, 5}};
   const TriMesh m = ToMesh(V, F);
   CollisionOptions o = TestOptions();
@@ -819,7 +818,7 @@ TEST(CollisionApply, ClothEdgeSweptAcrossABoxEdgeStaysOutside) {
   const BoxCollider box = CornerBox();
   CollisionHandler handler(m.F, m.V, TestOptions());
   Points3 x1 = m.V;
-  x1.row(2) = Eigen::RowVector3d(0.004, -0.04, -0.02);  // beside the side face x = 0, below the top
+  x1.row(2) = Eigen::RowVector3d(0.004, -0.04, -0.02);        // beside the side face x = 0, below the top
   ASSERT_GT(PathBoxIntersections(m.F, m.V, x1, box, 64), 0);  // the proposal cuts the box
   const CollisionReport rep = handler.Apply(m.V, x1, Eigen::VectorXd::Ones(3), 1.0 / 240, {box});
   EXPECT_GT(rep.box_collisions, 0);

@@ -57,8 +57,8 @@ bool SoupPairIntersects(const TriMesh& m, int f, int g) {
 }
 
 std::vector<std::array<int, 2>> SoupIntersections(const TriMesh& m, int* degenerate) {
-  using Box = CGAL::Box_intersection_d::Box_with_handle_d<double, 3, const int*,
-                                                          CGAL::Box_intersection_d::ID_FROM_HANDLE>;
+  using Box =
+      CGAL::Box_intersection_d::Box_with_handle_d<double, 3, const int*, CGAL::Box_intersection_d::ID_FROM_HANDLE>;
   std::vector<int> ids(m.NumFaces());
   std::vector<Box> boxes;
   for (int f = 0; f < m.NumFaces(); ++f) {
@@ -91,8 +91,10 @@ std::vector<std::array<int, 2>> SelfIntersectingFacePairs(const TriMesh& mesh, b
     CGAL::Polygon_mesh_processing::self_intersections(sm, std::back_inserter(pairs));
     for (const auto& [a, b] : pairs) {
       const int f = static_cast<int>(a), g = static_cast<int>(b);
-      if (f == g) ++degenerate;  // CGAL reports a zero-area face as (f, f)
-      else out.push_back({std::min(f, g), std::max(f, g)});
+      if (f == g)
+        ++degenerate;  // CGAL reports a zero-area face as (f, f)
+      else
+        out.push_back({std::min(f, g), std::max(f, g)});
     }
   } else {
     out = SoupIntersections(mesh, &degenerate);

@@ -29,10 +29,10 @@ struct EdgeStrain {
 EdgeStrain MeasureEdgeStrain(const Faces& F, const Points3& rest, const Points3& x);
 
 struct ClothMeasurement {
-  int intersecting_pairs = 0;   // SelfIntersectingFacePairs().size()
+  int intersecting_pairs = 0;  // SelfIntersectingFacePairs().size()
   int degenerate_faces = 0;
   bool measured_as_soup = false;
-  double min_distance = 0;      // m, MinimumNonAdjacentDistance (collision.h)
+  double min_distance = 0;  // m, MinimumNonAdjacentDistance (collision.h)
   EdgeStrain strain;
 };
 // mesh: the simulated state; rest: its rest (flat) positions, same vertex order.

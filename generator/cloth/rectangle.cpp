@@ -30,8 +30,7 @@ bool DiagonalBD(int i, int j, int nx, bool two_layers) {
 
 }  // namespace
 
-Garment MakeRectangleGarment(double width, double height, double edge_length, bool two_layers,
-                             double gap) {
+Garment MakeRectangleGarment(double width, double height, double edge_length, bool two_layers, double gap) {
   if (!(width > 0 && height > 0 && edge_length > 0 && gap >= 0))
     throw Error("MakeRectangleGarment: sizes must be positive");
   const int nx = std::max(1, static_cast<int>(std::lround(width / edge_length)));

@@ -11,7 +11,6 @@ namespace drape {
 // "top_left", "top_right", "bottom_left", "bottom_right", "top_centre". A manifold mesh
 // (no triangle of three stitched points). Throws drape::Error on non-positive sizes and
 // on two layers less than two cells across.
-Garment MakeRectangleGarment(double width, double height, double edge_length, bool two_layers,
-                             double gap = 0.01);
+Garment MakeRectangleGarment(double width, double height, double edge_length, bool two_layers, double gap = 0.01);
 
 }  // namespace drape

@@ -16,7 +16,6 @@ namespace drape {
 
 namespace {
 
-
 [[noreturn]] void Bad(const char* where, const char* field, const std::string& what) {
   throw Error(std::string(where) + ": " + field + " " + what);
 }
@@ -34,7 +33,8 @@ void ClothMaterial::Validate() const {
 
 void ClothOptions::Validate() const {
   if (!(time_step > 1e-5 && time_step <= 1.0 / 30)) Bad("cloth options", "time_step", "must be in (1e-5, 1/30] s");
-  if (solver_iterations < 1 || solver_iterations > 100) Bad("cloth options", "solver_iterations", "must be in [1, 100]");
+  if (solver_iterations < 1 || solver_iterations > 100)
+    Bad("cloth options", "solver_iterations", "must be in [1, 100]");
   if (!(damping >= 0 && damping < 1)) Bad("cloth options", "damping", "must be in [0, 1)");
   if (!gravity.allFinite()) Bad("cloth options", "gravity", "must be finite");
   if (!(max_speed > 0)) Bad("cloth options", "max_speed", "must be > 0");
@@ -102,7 +102,8 @@ std::shared_ptr<const ClothModel> MakeClothModel(const TriMesh& rest, const std:
   for (int f = 0; f < rest.NumFaces(); ++f)
     for (int c = 0; c < 3; ++c) m->mass[rest.F(f, c)] += material.area_density * area[f] / 3;
   for (int i = 0; i < n; ++i)
-    if (!(m->mass[i] > 0)) throw Error("cloth model: vertex " + std::to_string(i) + " has no area (unused or degenerate)");
+    if (!(m->mass[i] > 0))
+      throw Error("cloth model: vertex " + std::to_string(i) + " has no area (unused or degenerate)");
   m->total_mass = m->mass.sum();
   m->extent = (rest.V.colwise().maxCoeff() - rest.V.colwise().minCoeff()).norm();
   const EdgeTopology topo = BuildEdgeTopology(rest);
@@ -350,7 +351,8 @@ CollisionReport ClothWorld::Step() {
   }
   for (size_t k = 0; k < grippers_.size(); ++k) {
     const Gripper& g = grippers_[k];
-    for (size_t j = 0; j < g.held.size(); ++j) x1.row(g.held[j]) = (pose1[k] * Vec3(g.local.row(j).transpose())).transpose();
+    for (size_t j = 0; j < g.held.size(); ++j)
+      x1.row(g.held[j]) = (pose1[k] * Vec3(g.local.row(j).transpose())).transpose();
   }
   CollisionReport rep;
   if (handler_) {

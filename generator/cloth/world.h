@@ -65,9 +65,9 @@ struct ClothOptions {
   // Run the collision handler after every step (self contact, colliders, strain
   // limit). Off only to measure what it costs or for a garment-free test of Bullet.
   bool collisions = true;
-  CollisionOptions collision;    // thickness, CCD and fail-safe settings; its
-                                 // max_strain is replaced by ClothMaterial::max_strain
-  Vec3 gravity{0, -9.81, 0};     // m/s²
+  CollisionOptions collision;  // thickness, CCD and fail-safe settings; its
+                               // max_strain is replaced by ClothMaterial::max_strain
+  Vec3 gravity{0, -9.81, 0};   // m/s²
   // Air drag, Bullet's own aerodynamic model (btSoftBody aeromodel F_TwoSidedLiftDrag:
   // every face takes 0.5·kDG·ρ·|v|²·A·cos θ against its velocity, θ between the face
   // normal and the velocity, a third to each node; no lift). kDG = drag_coefficient,
@@ -77,21 +77,21 @@ struct ClothOptions {
   // in air; edge-on (cos θ = 0) it feels none.
   double air_density = 1.2;  // kg/m³ (air at 20 °C)
   double drag_coefficient = 1.2;
-  double max_speed = 25.0;       // m/s: a faster node means the simulation blew up
-  void Validate() const;         // throws drape::Error naming the field
+  double max_speed = 25.0;  // m/s: a faster node means the simulation blew up
+  void Validate() const;    // throws drape::Error naming the field
 };
 
 // Rest geometry, masses and links: built once, never changed.
 struct ClothModel {
-  TriMesh rest;                  // rest (flat pattern) positions, m; the links' rest lengths
-  std::vector<int> layer;        // per node: garment layer (0 front, 1 back), empty if unknown
-  Eigen::VectorXd mass;          // kg per node
+  TriMesh rest;                                   // rest (flat pattern) positions, m; the links' rest lengths
+  std::vector<int> layer;                         // per node: garment layer (0 front, 1 back), empty if unknown
+  Eigen::VectorXd mass;                           // kg per node
   std::vector<std::array<int, 2>> stretch_links;  // mesh edges
   std::vector<std::array<int, 2>> bend_links;     // vertices opposite each interior edge
   ClothMaterial material;
   ClothOptions options;
-  double total_mass = 0;         // kg
-  double extent = 0;             // m, diagonal of the rest mesh's bounding box
+  double total_mass = 0;  // kg
+  double extent = 0;      // m, diagonal of the rest mesh's bounding box
 };
 
 // Throws drape::Error on bad input (empty mesh, non-finite positions, bad options,
@@ -125,10 +125,10 @@ struct Jaw {
 // positions interpolated linearly and orientations by slerp; before the first key the
 // first pose holds, after the last key the last.
 struct GripperPath {
-  std::vector<double> times;                 // s, strictly increasing
-  std::vector<Eigen::Isometry3d> poses;      // gripper frame → world, one per time
-  Eigen::Isometry3d Pose(double t) const;    // requires at least one key
-  void Validate() const;                     // throws drape::Error naming the field
+  std::vector<double> times;               // s, strictly increasing
+  std::vector<Eigen::Isometry3d> poses;    // gripper frame → world, one per time
+  Eigen::Isometry3d Pose(double t) const;  // requires at least one key
+  void Validate() const;                   // throws drape::Error naming the field
 };
 
 // What closing a gripper caught.
@@ -143,20 +143,20 @@ struct GraspReport {
 // never hashed).
 struct ClothTimings {
   int steps = 0;
-  double bullet_seconds = 0;      // inside Bullet's stepSimulation
-  double broad_seconds = 0;       // collision handler: broad phase
-  double strain_seconds = 0;      // ... strain limiting
-  double proximity_seconds = 0;   // ... VF/EE repulsion
-  double collider_seconds = 0;    // ... box colliders
-  double ccd_seconds = 0;         // ... continuous collision detection + impulses
-  double zone_seconds = 0;        // ... rigid impact zones (fail-safe)
-  double collision_seconds = 0;   // the handler in total (around Apply)
-  long ccd_collisions = 0;        // colliding pairs found by CCD, summed
-  int fail_safe_steps = 0;        // steps that needed rigid impact zones
-  int reverted_steps = 0;         // steps where the whole mesh moved as one zone
-  long remaining_collisions = 0;  // crossings left (only with non-rigid kinematics), summed
-  int strain_violation_steps = 0; // steps that ended with an edge beyond the strain bound
-  double max_strain = 0;          // largest edge strain (l − L0)/L0 at the end of any step
+  double bullet_seconds = 0;       // inside Bullet's stepSimulation
+  double broad_seconds = 0;        // collision handler: broad phase
+  double strain_seconds = 0;       // ... strain limiting
+  double proximity_seconds = 0;    // ... VF/EE repulsion
+  double collider_seconds = 0;     // ... box colliders
+  double ccd_seconds = 0;          // ... continuous collision detection + impulses
+  double zone_seconds = 0;         // ... rigid impact zones (fail-safe)
+  double collision_seconds = 0;    // the handler in total (around Apply)
+  long ccd_collisions = 0;         // colliding pairs found by CCD, summed
+  int fail_safe_steps = 0;         // steps that needed rigid impact zones
+  int reverted_steps = 0;          // steps where the whole mesh moved as one zone
+  long remaining_collisions = 0;   // crossings left (only with non-rigid kinematics), summed
+  int strain_violation_steps = 0;  // steps that ended with an edge beyond the strain bound
+  double max_strain = 0;           // largest edge strain (l − L0)/L0 at the end of any step
 };
 
 struct SettleOptions {
@@ -169,19 +169,19 @@ struct SettleOptions {
   // over this call's steps. A state the fail-safe must hold together with large rigid
   // zones in every step can cost a third of a second per step.
   long long ccd_test_cap = 0;
-  void Validate() const;    // throws drape::Error naming the field
+  void Validate() const;  // throws drape::Error naming the field
 };
 
 struct SettleReport {
   bool settled = false;
-  std::string failure;      // empty when settled; else blow-up reason, time cap or CCD test cap
-  bool timed_out = false;   // reached time_cap or ccd_test_cap without blowing up
-  int steps = 0;            // steps taken by this call
-  int fail_safe_steps = 0;  // ... of which needed rigid impact zones
-  long zone_rounds = 0;     // fail-safe rounds summed over them
-  long long ccd_tests = 0;  // pair CCD tests summed over this call's steps
-  double sim_time = 0;      // s simulated by this call
-  double motion = 0;        // m, max node move over the last full window
+  std::string failure;        // empty when settled; else blow-up reason, time cap or CCD test cap
+  bool timed_out = false;     // reached time_cap or ccd_test_cap without blowing up
+  int steps = 0;              // steps taken by this call
+  int fail_safe_steps = 0;    // ... of which needed rigid impact zones
+  long zone_rounds = 0;       // fail-safe rounds summed over them
+  long long ccd_tests = 0;    // pair CCD tests summed over this call's steps
+  double sim_time = 0;        // s simulated by this call
+  double motion = 0;          // m, max node move over the last full window
   double kinetic_energy = 0;  // J, final state
   double max_speed = 0;       // m/s, final state
 };
@@ -257,18 +257,18 @@ class ClothWorld {
     Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();  // at time_
     GripperPath path;
     bool closed = false;
-    std::vector<int> held;    // sorted
-    Points3 local;            // held nodes in the gripper frame, row per held[k]
+    std::vector<int> held;  // sorted
+    Points3 local;          // held nodes in the gripper frame, row per held[k]
   };
   Eigen::Isometry3d PoseAt(const Gripper& g, double t) const;
-  void SyncBullet();          // Bullet's nodes ← x_, v_, masses ← holds
+  void SyncBullet();  // Bullet's nodes ← x_, v_, masses ← holds
 
   std::shared_ptr<const ClothModel> model_;
   std::unique_ptr<Bullet> bullet_;
   std::unique_ptr<CollisionHandler> handler_;
   std::vector<BoxCollider> colliders_;
   std::vector<Gripper> grippers_;
-  std::vector<int> holder_;   // per node: gripper holding it, −1 free
+  std::vector<int> holder_;  // per node: gripper holding it, −1 free
   Points3 x_, v_;
   double time_ = 0;
   double kdp_ = 0;

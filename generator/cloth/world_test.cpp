@@ -34,8 +34,8 @@ std::shared_ptr<const ClothModel> Model(const Garment& g, double max_strain = 0.
 Eigen::Isometry3d PinchPose(const Vec3& at) {
   Eigen::Isometry3d p = Eigen::Isometry3d::Identity();
   p.linear() << 0, 1, 0,  //
-                0, 0, 1,  //
-                1, 0, 0;  // columns: gripper x → world z, y → world x, z → world y
+      0, 0, 1,            //
+      1, 0, 0;            // columns: gripper x → world z, y → world x, z → world y
   p.translation() = at;
   return p;
 }
@@ -200,8 +200,7 @@ TEST(ClothWorld, HeldNodesFollowTheGripperPathAndOpenReleasesThem) {
   EXPECT_FALSE(w.IsClosed(k));
   while (w.time() < 1.0) w.Step();
   // Released: the nodes it held fall with the rest.
-  for (size_t j = 0; j < r.node_ids.size(); ++j)
-    EXPECT_LT(w.positions()(r.node_ids[j], 1), held0(j, 1) + 0.05 - 0.1);
+  for (size_t j = 0; j < r.node_ids.size(); ++j) EXPECT_LT(w.positions()(r.node_ids[j], 1), held0(j, 1) + 0.05 - 0.1);
 }
 
 TEST(ClothWorld, HeldByTwoGrippersSpreadApartItSettlesIntersectionFree) {
@@ -366,16 +365,16 @@ TableScene LaidOnTable(double tilt_rad, double friction, bool two_layers) {
   // Flat frame → world: x stays, pattern y → −z, pattern z (front) → +y; then tilt about z.
   Eigen::Matrix3d flat;
   flat << 1, 0, 0,  //
-          0, 0, 1,  //
-          0, -1, 0;
+      0, 0, 1,      //
+      0, -1, 0;
   const Eigen::Matrix3d tilt = Eigen::AngleAxisd(tilt_rad, Vec3::UnitZ()).toRotationMatrix();
   const Vec3 centre(0, 0.12, 0);  // pattern centre
   const Vec3 above(0, s.top + 0.02, 0);
   s.start.resize(s.g.mesh.NumVertices(), 3);
   for (int i = 0; i < s.g.mesh.NumVertices(); ++i)
-    s.start.row(i) = (tilt * (flat * (s.g.mesh.V.row(i).transpose() - centre) + above - Vec3(0, s.top, 0)) +
-                      Vec3(0, s.top, 0))
-                         .transpose();
+    s.start.row(i) =
+        (tilt * (flat * (s.g.mesh.V.row(i).transpose() - centre) + above - Vec3(0, s.top, 0)) + Vec3(0, s.top, 0))
+            .transpose();
   s.table = TiltedTable(tilt, s.top, friction);
   return s;
 }
@@ -489,7 +488,8 @@ TEST(ClothWorld, SameCallsGiveTheSameBytesAlsoInAnotherThread) {
   auto run = [&] {
     ClothWorld w(Model(g), g.mesh.V);
     Points3 dx = Points3::Zero(g.mesh.NumVertices(), 3);
-    for (int i = 0; i < dx.rows(); ++i) dx.row(i) << 0.001 * std::sin(i), 0.001 * std::cos(3 * i), 0.0005 * std::sin(7 * i);
+    for (int i = 0; i < dx.rows(); ++i)
+      dx.row(i) << 0.001 * std::sin(i), 0.001 * std::cos(3 * i), 0.0005 * std::sin(7 * i);
     w.Perturb(dx);
     const int k = w.AddGripper(Jaw{}, PinchPose(Vec3(-0.1, 0.3, 0)));
     w.Close(k);

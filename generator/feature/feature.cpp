@@ -16,12 +16,10 @@ constexpr int kMaxDim = 1024;
 
 void CheckSameShape(const Feature& a, const Feature& b) {
   if (a.layers != b.layers || a.rings != b.rings || a.sectors != b.sectors)
-    throw Error("Distance: features of different shapes (" + std::to_string(a.layers) + "x" +
-                std::to_string(a.rings) + "x" + std::to_string(a.sectors) + " vs " +
-                std::to_string(b.layers) + "x" + std::to_string(b.rings) + "x" +
-                std::to_string(b.sectors) + ")");
-  DRAPE_CHECK(a.words.size() == size_t(a.NumWords()) && b.words.size() == a.words.size(),
-              "feature word count");
+    throw Error("Distance: features of different shapes (" + std::to_string(a.layers) + "x" + std::to_string(a.rings) +
+                "x" + std::to_string(a.sectors) + " vs " + std::to_string(b.layers) + "x" + std::to_string(b.rings) +
+                "x" + std::to_string(b.sectors) + ")");
+  DRAPE_CHECK(a.words.size() == size_t(a.NumWords()) && b.words.size() == a.words.size(), "feature word count");
 }
 
 uint64_t LowMask(int n) { return n >= 64 ? ~uint64_t(0) : (uint64_t(1) << n) - 1; }
@@ -196,8 +194,7 @@ Match DistanceReference(const Feature& a, const Feature& b) {
     int d = 0;
     for (int l = 0; l < a.layers; ++l)
       for (int r = 0; r < a.rings; ++r)
-        for (int s = 0; s < a.sectors; ++s)
-          d += a.Get(l, r, s) != b.Get(l, r, (s + k) % a.sectors);
+        for (int s = 0; s < a.sectors; ++s) d += a.Get(l, r, s) != b.Get(l, r, (s + k) % a.sectors);
     if (d < best.distance) best = {d, k};
   }
   return best;
@@ -275,8 +272,7 @@ Feature DecodeFeature(std::string_view s, const std::string& where) {
   f.layers = o.layers;
   f.rings = o.rings;
   f.sectors = o.sectors;
-  if (nw != uint32_t(f.NumWords()))
-    throw bad("word count " + std::to_string(nw) + " does not match the shape");
+  if (nw != uint32_t(f.NumWords())) throw bad("word count " + std::to_string(nw) + " does not match the shape");
   if (s.size() != 24 + 8 * size_t(nw))
     throw bad("size " + std::to_string(s.size()) + " bytes, expected " + std::to_string(24 + 8 * size_t(nw)));
   f.words.resize(nw);

@@ -70,8 +70,7 @@ using SdfFunction = std::function<double(const Vec3&)>;
 
 // Algorithm 1. surface_points: #P×3, e.g. the reconstructed mesh's vertices (P ≥ 1,
 // with a non-zero y extent). Throws drape::Error on bad input.
-Feature ExtractFeature(const Points3& surface_points, const SdfFunction& sdf,
-                       const FeatureOptions& options);
+Feature ExtractFeature(const Points3& surface_points, const SdfFunction& sdf, const FeatureOptions& options);
 
 // The cell centre of bit (l, r, s) for the given points (as ExtractFeature uses).
 struct FeatureFrame {

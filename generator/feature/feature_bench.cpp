@@ -15,8 +15,8 @@ const FusionResult& Fused() {
   static const FusionResult r = [] {
     synthetic::Scene garment;
     garment.shapes.push_back(synthetic::Shape::Box(Vec3(0, -0.4, 0), Vec3(0.25, 0.35, 0.05)));
-    garment.shapes.push_back(synthetic::Shape::Cylinder(
-        Vec3(0.33, -0.25, 0), 0.06, 0.2, Eigen::AngleAxisd(0.5, Vec3::UnitZ()).toRotationMatrix()));
+    garment.shapes.push_back(synthetic::Shape::Cylinder(Vec3(0.33, -0.25, 0), 0.06, 0.2,
+                                                        Eigen::AngleAxisd(0.5, Vec3::UnitZ()).toRotationMatrix()));
     synthetic::TurntableOptions t;
     t.frames = 60;
     return FuseFrames(synthetic::RenderTurntable(garment, Intrinsics(), t), Intrinsics(), FusionOptions(), 1);
@@ -28,7 +28,8 @@ void BM_ExtractFeature(benchmark::State& state) {
   const FusionResult& r = Fused();
   FeatureOptions o;
   for (auto _ : state) {
-    const Feature f = ExtractFeature(r.mesh.V, [&](const Vec3& p) { return r.tsdf->Sdf(p); }, o);
+    const Feature f = ExtractFeature(
+        r.mesh.V, [&](const Vec3& p) { return r.tsdf->Sdf(p); }, o);
     benchmark::DoNotOptimize(f.words.data());
   }
   state.counters["mesh_vertices"] = r.mesh.NumVertices();

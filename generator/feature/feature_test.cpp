@@ -19,8 +19,8 @@ Scene Garment() {
   Scene s;
   s.shapes.push_back(Shape::Box(Vec3(0.04, -0.35, 0.01), Vec3(0.2, 0.3, 0.05),
                                 Eigen::AngleAxisd(0.3, Vec3::UnitY()).toRotationMatrix()));
-  s.shapes.push_back(Shape::Cylinder(Vec3(0.28, -0.25, 0.05), 0.05, 0.18,
-                                     Eigen::AngleAxisd(0.6, Vec3::UnitZ()).toRotationMatrix()));
+  s.shapes.push_back(
+      Shape::Cylinder(Vec3(0.28, -0.25, 0.05), 0.05, 0.18, Eigen::AngleAxisd(0.6, Vec3::UnitZ()).toRotationMatrix()));
   s.shapes.push_back(Shape::Sphere(Vec3(-0.05, -0.08, -0.04), 0.07));
   return s;
 }
@@ -101,7 +101,8 @@ TEST(Feature, CellGeometryFollowsAlgorithm1) {
   EXPECT_NEAR(c.x(), 0.225 * std::cos(0.75 * M_PI), 1e-12);
   EXPECT_NEAR(c.z(), -0.225 * std::sin(0.75 * M_PI), 1e-12);
   // A solid cylinder of radius 0.3·(1/2) fills ring 0 only.
-  const Feature f = ExtractFeature(P, [](const Vec3& p) { return std::hypot(p.x(), p.z()) - 0.15; }, o);
+  const Feature f = ExtractFeature(
+      P, [](const Vec3& p) { return std::hypot(p.x(), p.z()) - 0.15; }, o);
   for (int l = 0; l < 4; ++l)
     for (int s = 0; s < 4; ++s) {
       EXPECT_TRUE(f.Get(l, 0, s));
@@ -181,11 +182,13 @@ TEST(Feature, FusedGarmentRotatedMatchesWithinAFewBits) {
   fo.frames_stride = 1;
   const FusionResult a = FuseFrames(synthetic::RenderTurntable(garment, K, t), K, fo, 1);
   const FusionResult b = FuseFrames(synthetic::RenderTurntable(turned, K, t), K, fo, 1);
-  const Feature fa = ExtractFeature(a.mesh.V, [&](const Vec3& p) { return a.tsdf->Sdf(p); }, o);
-  const Feature fb = ExtractFeature(b.mesh.V, [&](const Vec3& p) { return b.tsdf->Sdf(p); }, o);
+  const Feature fa = ExtractFeature(
+      a.mesh.V, [&](const Vec3& p) { return a.tsdf->Sdf(p); }, o);
+  const Feature fb = ExtractFeature(
+      b.mesh.V, [&](const Vec3& p) { return b.tsdf->Sdf(p); }, o);
   const Match m = Distance(fa, fb);
-  std::printf("fused garment turned by 5/16: distance %d of %d bits (%d set), rotation %d\n",
-              m.distance, fa.NumBits(), fa.PopCount(), m.rotation);
+  std::printf("fused garment turned by 5/16: distance %d of %d bits (%d set), rotation %d\n", m.distance, fa.NumBits(),
+              fa.PopCount(), m.rotation);
   EXPECT_EQ(m.rotation, k);
   EXPECT_LE(m.distance, 0.08 * fa.PopCount());  // measured 22 bits of 523 set
 }
@@ -193,7 +196,7 @@ TEST(Feature, FusedGarmentRotatedMatchesWithinAFewBits) {
 TEST(Feature, FastDistanceEqualsReference) {
   Rng rng(42);
   const int shapes[][3] = {{16, 16, 16}, {16, 16, 8}, {16, 16, 12}, {16, 16, 20}, {3, 5, 7},
-                           {1, 1, 1},    {2, 3, 64}, {5, 3, 32},   {7, 9, 13},   {4, 4, 2}};
+                           {1, 1, 1},    {2, 3, 64},  {5, 3, 32},   {7, 9, 13},   {4, 4, 2}};
   for (const auto& sh : shapes) {
     for (int trial = 0; trial < 6; ++trial) {
       const Feature a = RandomFeature(sh[0], sh[1], sh[2], rng);

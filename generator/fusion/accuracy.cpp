@@ -22,9 +22,7 @@ void CheckMesh(const TriMesh& mesh, const char* what) {
     throw Error(std::string("MeasureAccuracy: ") + what + " mesh has out-of-range face indices");
 }
 
-double Mean(const std::vector<double>& v) {
-  return std::accumulate(v.begin(), v.end(), 0.0) / double(v.size());
-}
+double Mean(const std::vector<double>& v) { return std::accumulate(v.begin(), v.end(), 0.0) / double(v.size()); }
 
 // Nearest-rank percentile.
 double Percentile(std::vector<double> v, double q) {
@@ -46,8 +44,8 @@ Points3 SampleSurface(const TriMesh& mesh, int samples, uint64_t seed) {
   Points3 out(samples, 3);
   for (int i = 0; i < samples; ++i) {
     const double r = rng.Uniform() * acc;
-    const int f = static_cast<int>(std::min<size_t>(
-        std::upper_bound(cdf.begin(), cdf.end(), r) - cdf.begin(), cdf.size() - 1));
+    const int f =
+        static_cast<int>(std::min<size_t>(std::upper_bound(cdf.begin(), cdf.end(), r) - cdf.begin(), cdf.size() - 1));
     // Uniform point in a triangle (Osada et al. 2002).
     const double s = std::sqrt(rng.Uniform()), t = rng.Uniform();
     const Vec3 a = mesh.V.row(mesh.F(f, 0)), b = mesh.V.row(mesh.F(f, 1)), c = mesh.V.row(mesh.F(f, 2));
@@ -72,8 +70,7 @@ Accuracy MeasureAccuracy(const TriMesh& recon, const TriMesh& truth, int samples
   if (samples < 1) throw Error("MeasureAccuracy: samples must be >= 1");
   const uint64_t seed = DeriveSeed(0, "fusion/accuracy");
   const std::vector<double> rt = PointToMeshDistances(SampleSurface(recon, samples, seed), truth);
-  const std::vector<double> tr =
-      PointToMeshDistances(SampleSurface(truth, samples, DeriveSeed(seed, "truth")), recon);
+  const std::vector<double> tr = PointToMeshDistances(SampleSurface(truth, samples, DeriveSeed(seed, "truth")), recon);
   Accuracy a;
   a.recon_to_truth_mean = Mean(rt);
   a.recon_to_truth_p95 = Percentile(rt, 0.95);

@@ -106,7 +106,7 @@ struct FusionStats {
   int observed_voxels = 0;        // voxels with weight > 0
   int inside_blocks = 0;          // unallocated blocks classified inside (unobserved interior)
   int mesh_vertices = 0, mesh_faces = 0;
-  double wall_seconds = 0;        // timing only, never hashed
+  double wall_seconds = 0;  // timing only, never hashed
   // Wall seconds of Integrate's steps summed over frames (timing only, never hashed).
   struct Steps {
     double segment = 0, dropouts = 0, allocate = 0, update = 0, carve = 0;

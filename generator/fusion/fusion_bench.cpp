@@ -31,10 +31,10 @@ const std::vector<DepthFrame>& Frames() {
   static const std::vector<DepthFrame> frames = [] {
     using synthetic::Shape;
     const Eigen::Matrix3d tilt = Eigen::AngleAxisd(0.5, Vec3::UnitZ()).toRotationMatrix();
-    const TriMesh garment = Concat({synthetic::MeshShape(Shape::Box(Vec3(0, -0.4, 0), Vec3(0.25, 0.35, 0.05))),
-                                    synthetic::MeshShape(Shape::Cylinder(Vec3(0.33, -0.25, 0), 0.06, 0.2, tilt)),
-                                    synthetic::MeshShape(Shape::Cylinder(Vec3(-0.3, -0.3, 0.02), 0.05, 0.22,
-                                                                         tilt.transpose()))});
+    const TriMesh garment =
+        Concat({synthetic::MeshShape(Shape::Box(Vec3(0, -0.4, 0), Vec3(0.25, 0.35, 0.05))),
+                synthetic::MeshShape(Shape::Cylinder(Vec3(0.33, -0.25, 0), 0.06, 0.2, tilt)),
+                synthetic::MeshShape(Shape::Cylinder(Vec3(-0.3, -0.3, 0.02), 0.05, 0.22, tilt.transpose()))});
     SweepOptions so;
     so.frames = 300;
     return SimulateSweep(garment, so, 1).frames;

@@ -52,8 +52,7 @@ struct Fused {
   Scene scene;
 };
 
-FusionResult Fuse(const Scene& scene, double noise, int frames = 60, int threads = 1,
-                  uint64_t seed = 7) {
+FusionResult Fuse(const Scene& scene, double noise, int frames = 60, int threads = 1, uint64_t seed = 7) {
   synthetic::TurntableOptions t;
   t.frames = frames;
   t.noise_sigma = noise;
@@ -66,8 +65,8 @@ FusionResult Fuse(const Scene& scene, double noise, int frames = 60, int threads
 }
 
 TEST(Fusion, SynthesisedMeshesAreOutwardAndClosed) {
-  for (const auto& s : {kSphere, Shape::Box(Vec3(0, -0.5, 0), Vec3(0.1, 0.2, 0.05)),
-                        Shape::Cylinder(Vec3(0, -0.5, 0), 0.1, 0.2)}) {
+  for (const auto& s :
+       {kSphere, Shape::Box(Vec3(0, -0.5, 0), Vec3(0.1, 0.2, 0.05)), Shape::Cylinder(Vec3(0, -0.5, 0), 0.1, 0.2)}) {
     const TriMesh m = synthetic::MeshShape(s, 4);
     EXPECT_GT(SignedVolume(m), 0);
     EXPECT_EQ(BoundaryEdges(m), 0);
@@ -238,8 +237,7 @@ TEST(Fusion, SegmentationDropsGripperAndDistractor) {
   const FusionResult clean = Fuse(Scene{{kSphere}}, 0);
   EXPECT_GT(r.tsdf->Sdf(distractor.center), 0);
   EXPECT_GT(r.tsdf->Sdf(gripper.center), 0);
-  const Eigen::AlignedBox3d near_sphere(kSphere.center - Vec3::Constant(0.17),
-                                        kSphere.center + Vec3::Constant(0.17));
+  const Eigen::AlignedBox3d near_sphere(kSphere.center - Vec3::Constant(0.17), kSphere.center + Vec3::Constant(0.17));
   for (int i = 0; i < r.mesh.NumVertices(); ++i)
     ASSERT_TRUE(near_sphere.contains(Vec3(r.mesh.V.row(i)))) << r.mesh.V.row(i);
   const Accuracy a = MeasureAccuracy(r.mesh, synthetic::MeshShape(kSphere, 6));
@@ -283,8 +281,8 @@ TEST(Fusion, PoseNoiseIsSeededAndDegradesGracefully) {
   EXPECT_EQ(MeshBytes(a.mesh), MeshBytes(b.mesh));
   EXPECT_NE(MeshBytes(a.mesh), MeshBytes(c.mesh));
   const Accuracy acc = MeasureAccuracy(a.mesh, synthetic::MeshShape(box));
-  std::printf("box with 1 deg encoder noise: recon->truth mean %.3f mm, p95 %.3f mm\n",
-              acc.recon_to_truth_mean * 1e3, acc.recon_to_truth_p95 * 1e3);
+  std::printf("box with 1 deg encoder noise: recon->truth mean %.3f mm, p95 %.3f mm\n", acc.recon_to_truth_mean * 1e3,
+              acc.recon_to_truth_p95 * 1e3);
   EXPECT_LT(acc.recon_to_truth_mean, 0.003);
 }
 
@@ -334,9 +332,11 @@ TEST(Fusion, KinectSweepOfAHangingSlab) {
   const FusionResult r = FuseFrames(sweep.frames, sweep.intrinsics, o, 5);
   ASSERT_GT(r.mesh.NumFaces(), 1000);
   const Accuracy a = MeasureAccuracy(r.mesh, truth);
-  std::printf("kinect sweep (60 frames, noisy): recon->truth mean %.2f p95 %.2f mm, truth->recon mean %.2f p95 %.2f mm; %d inside blocks\n",
-              a.recon_to_truth_mean * 1e3, a.recon_to_truth_p95 * 1e3, a.truth_to_recon_mean * 1e3,
-              a.truth_to_recon_p95 * 1e3, r.stats.inside_blocks);
+  std::printf(
+      "kinect sweep (60 frames, noisy): recon->truth mean %.2f p95 %.2f mm, truth->recon mean %.2f p95 %.2f mm; %d "
+      "inside blocks\n",
+      a.recon_to_truth_mean * 1e3, a.recon_to_truth_p95 * 1e3, a.truth_to_recon_mean * 1e3, a.truth_to_recon_p95 * 1e3,
+      r.stats.inside_blocks);
   // Nothing of the scene (gripper, table, wall, floor) enters the reconstruction.
   // (The scene's nearest objects are >= 10 cm away; a few noisy edge pixels that
   // survive fusion lie within 3–4 cm.)
@@ -369,9 +369,9 @@ std::vector<double> BruteDistances(const Points3& pts, const TriMesh& m) {
 
 TEST(Fusion, AccuracyMatchesBruteForce) {
   const TriMesh a = synthetic::MeshShape(Shape::Sphere(Vec3(0, 0, 0), 0.1), 2);
-  const TriMesh b = synthetic::MeshShape(
-      Shape::Box(Vec3(0.01, 0.02, 0), Vec3(0.08, 0.09, 0.07),
-                 Eigen::AngleAxisd(0.3, Vec3(1, 1, 0).normalized()).toRotationMatrix()));
+  const TriMesh b =
+      synthetic::MeshShape(Shape::Box(Vec3(0.01, 0.02, 0), Vec3(0.08, 0.09, 0.07),
+                                      Eigen::AngleAxisd(0.3, Vec3(1, 1, 0).normalized()).toRotationMatrix()));
   const Points3 pa = SampleSurface(a, 500, 1);
   const std::vector<double> fast = PointToMeshDistances(pa, b), slow = BruteDistances(pa, b);
   for (size_t i = 0; i < fast.size(); ++i) ASSERT_NEAR(fast[i], slow[i], 1e-12);
@@ -453,8 +453,8 @@ void ExpectSameAsReference(const std::vector<DepthFrame>& frames, const Intrinsi
 TEST(Fusion, FastPathMatchesReferenceOnKinectSweeps) {
   const Shape slab = Shape::Box(Vec3(0.02, -0.36, 0.0), Vec3(0.22, 0.32, 0.04),
                                 Eigen::AngleAxisd(0.2, Vec3::UnitY()).toRotationMatrix());
-  const Shape sleeve = Shape::Cylinder(Vec3(0.3, -0.3, 0.02), 0.05, 0.2,
-                                       Eigen::AngleAxisd(0.5, Vec3::UnitZ()).toRotationMatrix());
+  const Shape sleeve =
+      Shape::Cylinder(Vec3(0.3, -0.3, 0.02), 0.05, 0.2, Eigen::AngleAxisd(0.5, Vec3::UnitZ()).toRotationMatrix());
   TriMesh truth = synthetic::MeshShape(slab);
   synthetic::AppendMesh(truth, synthetic::MeshShape(sleeve));
   SweepOptions so;

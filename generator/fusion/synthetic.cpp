@@ -116,8 +116,7 @@ double Scene::Intersect(const Vec3& o, const Vec3& d) const {
   return t;
 }
 
-std::vector<DepthFrame> RenderTurntable(const Scene& scene, const Intrinsics& K,
-                                        const TurntableOptions& opt) {
+std::vector<DepthFrame> RenderTurntable(const Scene& scene, const Intrinsics& K, const TurntableOptions& opt) {
   if (opt.frames < 1) throw Error("TurntableOptions.frames: must be >= 1");
   std::vector<DepthFrame> frames(opt.frames);
   for (int i = 0; i < opt.frames; ++i) {
@@ -178,12 +177,12 @@ TriMesh MeshShape(const Shape& shape, int subdivisions) {
   switch (shape.kind) {
     case Shape::Kind::kSphere: {
       const double t = (1 + std::sqrt(5.0)) / 2;
-      V = {{-1, t, 0}, {1, t, 0}, {-1, -t, 0}, {1, -t, 0}, {0, -1, t}, {0, 1, t},
-           {0, -1, -t}, {0, 1, -t}, {t, 0, -1}, {t, 0, 1}, {-t, 0, -1}, {-t, 0, 1}};
+      V = {{-1, t, 0},  {1, t, 0},  {-1, -t, 0}, {1, -t, 0}, {0, -1, t},  {0, 1, t},
+           {0, -1, -t}, {0, 1, -t}, {t, 0, -1},  {t, 0, 1},  {-t, 0, -1}, {-t, 0, 1}};
       for (auto& v : V) v.normalize();
-      F = {{0, 11, 5}, {0, 5, 1}, {0, 1, 7}, {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4},
-           {11, 10, 2}, {10, 7, 6}, {7, 1, 8}, {3, 9, 4}, {3, 4, 2}, {3, 2, 6}, {3, 6, 8},
-           {3, 8, 9}, {4, 9, 5}, {2, 4, 11}, {6, 2, 10}, {8, 6, 7}, {9, 8, 1}};
+      F = {{0, 11, 5},  {0, 5, 1},  {0, 1, 7},  {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4},
+           {11, 10, 2}, {10, 7, 6}, {7, 1, 8},  {3, 9, 4},  {3, 4, 2},   {3, 2, 6}, {3, 6, 8},
+           {3, 8, 9},   {4, 9, 5},  {2, 4, 11}, {6, 2, 10}, {8, 6, 7},   {9, 8, 1}};
       for (int s = 0; s < subdivisions; ++s) {
         std::map<std::pair<int, int>, int> mid;
         auto midpoint = [&](int a, int b) {
@@ -208,8 +207,7 @@ TriMesh MeshShape(const Shape& shape, int subdivisions) {
       break;
     }
     case Shape::Kind::kBox: {
-      for (int i = 0; i < 8; ++i)
-        V.push_back(Vec3(i & 1 ? 1 : -1, i & 2 ? 1 : -1, i & 4 ? 1 : -1));
+      for (int i = 0; i < 8; ++i) V.push_back(Vec3(i & 1 ? 1 : -1, i & 2 ? 1 : -1, i & 4 ? 1 : -1));
       F = {{0, 2, 1}, {1, 2, 3}, {4, 5, 6}, {5, 7, 6}, {0, 1, 4}, {1, 5, 4},
            {2, 6, 3}, {3, 6, 7}, {0, 4, 2}, {2, 4, 6}, {1, 3, 5}, {3, 7, 5}};
       for (auto& v : V) v = shape.center + shape.rotation * v.cwiseProduct(shape.half);

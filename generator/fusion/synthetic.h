@@ -39,12 +39,12 @@ struct Scene {
 };
 
 struct TurntableOptions {
-  int frames = 60;             // evenly over 360°
-  double distance = 1.2;       // camera to the y axis, metres
-  double camera_y = 0.0;       // camera height in the object frame (gripper height)
-  double target_y = -0.4;      // the camera looks at (0, target_y, 0)
-  double noise_sigma = 0;      // Gaussian depth noise, metres
-  double max_range = 4.0;      // beyond: no data
+  int frames = 60;         // evenly over 360°
+  double distance = 1.2;   // camera to the y axis, metres
+  double camera_y = 0.0;   // camera height in the object frame (gripper height)
+  double target_y = -0.4;  // the camera looks at (0, target_y, 0)
+  double noise_sigma = 0;  // Gaussian depth noise, metres
+  double max_range = 4.0;  // beyond: no data
   // Depth of a backdrop where a ray misses the scene (like the sweep scene's wall and
   // floor); 0 = no data there.
   double background_depth = 3.0;
@@ -53,8 +53,7 @@ struct TurntableOptions {
 
 // The camera circles the y axis (the garment turning on the gripper, seen in the
 // object frame); frame i at angle 2πi/frames. Depth = z-depth of the first hit.
-std::vector<DepthFrame> RenderTurntable(const Scene& scene, const Intrinsics& K,
-                                        const TurntableOptions& options);
+std::vector<DepthFrame> RenderTurntable(const Scene& scene, const Intrinsics& K, const TurntableOptions& options);
 
 // Appends m's vertices and faces (renumbered) to `to`: one mesh of several shapes.
 void AppendMesh(TriMesh& to, const TriMesh& m);

@@ -798,8 +798,7 @@ bool HaveAvx2() { return __builtin_cpu_supports("avx2"); }
 
 // UpdateBlockScalar on the 8 voxels of a z row at once. Same operations in the same
 // order (no FMA: target avx2 only), so the same bits.
-__attribute__((target("avx2"))) int64_t UpdateBlockAvx2(FusionBlock& blk, const VoxelProjector& p,
-                                                         const float* code) {
+__attribute__((target("avx2"))) int64_t UpdateBlockAvx2(FusionBlock& blk, const VoxelProjector& p, const float* code) {
   const __m256 zi = _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7);
   const __m256 ezx = _mm256_mul_ps(zi, _mm256_set1_ps(p.ez.x()));
   const __m256 ezy = _mm256_mul_ps(zi, _mm256_set1_ps(p.ez.y()));
@@ -821,13 +820,14 @@ __attribute__((target("avx2"))) int64_t UpdateBlockAvx2(FusionBlock& blk, const 
       const __m256 inv = _mm256_div_ps(one, zc);
       const __m256 uf = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(fx, cxv), inv), cx), half);
       const __m256 vf = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(fy, cyv), inv), cy), half);
-      keep = _mm256_and_ps(keep, _mm256_and_ps(_mm256_cmp_ps(uf, zero, _CMP_GE_OQ), _mm256_cmp_ps(vf, zero, _CMP_GE_OQ)));
+      keep =
+          _mm256_and_ps(keep, _mm256_and_ps(_mm256_cmp_ps(uf, zero, _CMP_GE_OQ), _mm256_cmp_ps(vf, zero, _CMP_GE_OQ)));
       keep = _mm256_and_ps(keep, _mm256_and_ps(_mm256_cmp_ps(uf, Wf, _CMP_LT_OQ), _mm256_cmp_ps(vf, Hf, _CMP_LT_OQ)));
       if (_mm256_movemask_ps(keep) == 0) continue;
       const __m256i pix = _mm256_add_epi32(_mm256_mullo_epi32(_mm256_cvttps_epi32(vf), Wi), _mm256_cvttps_epi32(uf));
       const __m256 d = _mm256_mask_i32gather_ps(zero, code, pix, keep, 4);
-      const __m256 len2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(cxv, cxv), _mm256_mul_ps(cyv, cyv)),
-                                        _mm256_mul_ps(zc, zc));
+      const __m256 len2 =
+          _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(cxv, cxv), _mm256_mul_ps(cyv, cyv)), _mm256_mul_ps(zc, zc));
       const __m256 lambda = _mm256_mul_ps(_mm256_sqrt_ps(len2), inv);
       const __m256 sdf = _mm256_mul_ps(_mm256_sub_ps(d, zc), lambda);
       const __m256 band = _mm256_and_ps(_mm256_cmp_ps(d, zero, _CMP_GT_OQ), _mm256_cmp_ps(sdf, mu, _CMP_LE_OQ));
@@ -1169,8 +1169,8 @@ void Tsdf::Impl::EnsureComplete() const {
     for (int by = 0; by < carve_dims.y(); ++by) {
       for (int bz = 0; bz < carve_dims.z(); ++bz) {
         const size_t ci = (size_t(bx) * carve_dims.y() + by) * carve_dims.z() + bz;
-        if (view_count[ci] == 0 || (free_count[ci] >= opt.carve_min_views &&
-                                    free_count[ci] >= opt.carve_min_fraction * view_count[ci]))
+        if (view_count[ci] == 0 ||
+            (free_count[ci] >= opt.carve_min_views && free_count[ci] >= opt.carve_min_fraction * view_count[ci]))
           continue;
         const Eigen::Vector3i b = carve_lo + Eigen::Vector3i(bx, by, bz);
         if ((b.array() < hull_lo.array()).any() || (b.array() > hull_hi.array()).any()) continue;
@@ -1212,8 +1212,7 @@ double Tsdf::Sdf(const Vec3& p) const {
   double value = 0;
   for (int c = 0; c < 8; ++c) {
     const Eigen::Vector3i o(c >> 2, (c >> 1) & 1, c & 1);
-    const double w = (o.x() ? f.x() : 1 - f.x()) * (o.y() ? f.y() : 1 - f.y()) *
-                     (o.z() ? f.z() : 1 - f.z());
+    const double w = (o.x() ? f.x() : 1 - f.x()) * (o.y() ? f.y() : 1 - f.y()) * (o.z() ? f.z() : 1 - f.z());
     if (w == 0) continue;
     value += w * m.VoxelValue(i0 + o);
   }
@@ -1224,8 +1223,7 @@ double Tsdf::Weight(const Vec3& p) const {
   const Impl& m = *impl_;
   const Vec3 g = p / m.h;
   if (!g.allFinite() || (g.array().abs() > 1e6).any()) return 0;
-  const Eigen::Vector3i ijk(static_cast<int>(std::floor(g.x() + 0.5)),
-                            static_cast<int>(std::floor(g.y() + 0.5)),
+  const Eigen::Vector3i ijk(static_cast<int>(std::floor(g.x() + 0.5)), static_cast<int>(std::floor(g.y() + 0.5)),
                             static_cast<int>(std::floor(g.z() + 0.5)));
   const Eigen::Vector3i b(FloorDiv8(ijk.x()), FloorDiv8(ijk.y()), FloorDiv8(ijk.z()));
   const int bi = m.FindBlock(b);

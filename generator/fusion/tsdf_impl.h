@@ -49,10 +49,10 @@ struct FrameScratch {
   std::vector<int> runs, parent;  // non-foreground runs of the dropout labelling
   std::vector<uint8_t> edge, reaches;
   std::vector<uint64_t> near_bits, row_bits;  // MarkNearForeground's bit masks
-  std::vector<uint64_t> seen;  // band blocks already listed this frame: a bit per block-grid cell
-  std::vector<double> band_xhat, band_d;  // a row's foreground samples (BandSamples)
+  std::vector<uint64_t> seen;                 // band blocks already listed this frame: a bit per block-grid cell
+  std::vector<double> band_xhat, band_d;      // a row's foreground samples (BandSamples)
   std::vector<int32_t> band_out;
-  float far = 0;               // the largest foreground depth (0: none)
+  float far = 0;                                   // the largest foreground depth (0: none)
   int fg_u0 = 0, fg_u1 = 0, fg_v0 = 0, fg_v1 = 0;  // the foreground's bounding rectangle [u0, u1) × [v0, v1)
 };
 
@@ -189,8 +189,8 @@ struct Tsdf::Impl {
   int frames = 0;
   int64_t foreground_pixels = 0, voxel_updates = 0;
   std::vector<std::unique_ptr<PreparedFrame>> prepared;  // buffers of a batch, kept between batches
-  FusionStats::Steps times;      // accumulated wall time of each step
-  FusionStats::Steps times_cpu;  // and process CPU time
+  FusionStats::Steps times;                              // accumulated wall time of each step
+  FusionStats::Steps times_cpu;                          // and process CPU time
 
   // Cached ray directions for the last intrinsics.
   Intrinsics rays_for{};
@@ -201,8 +201,8 @@ struct Tsdf::Impl {
   mutable std::mutex complete_mutex;
   mutable std::atomic<bool> dirty{true};
   mutable std::vector<std::array<float, kBlockVoxels>> completed;  // per block
-  mutable std::vector<uint8_t> has_observed;                        // per block
-  mutable std::vector<uint8_t> inside;                              // per carve cell
+  mutable std::vector<uint8_t> has_observed;                       // per block
+  mutable std::vector<uint8_t> inside;                             // per carve cell
   mutable int inside_blocks = 0, observed_voxels = 0;
 
   static uint64_t Key(const Eigen::Vector3i& b) {

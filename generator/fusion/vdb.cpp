@@ -83,8 +83,7 @@ TriMesh Tsdf::ExtractMesh() const {
   std::vector<openvdb::Vec4I> quads;
   openvdb::tools::volumeToMesh(*grid, points, tris, quads, 0.0, 0.0, true);
   mesh.V.resize(static_cast<Eigen::Index>(points.size()), 3);
-  for (size_t i = 0; i < points.size(); ++i)
-    mesh.V.row(i) = Vec3(points[i].x(), points[i].y(), points[i].z());
+  for (size_t i = 0; i < points.size(); ++i) mesh.V.row(i) = Vec3(points[i].x(), points[i].y(), points[i].z());
   mesh.F.resize(static_cast<Eigen::Index>(tris.size() + 2 * quads.size()), 3);
   // volumeToMesh winds polygons clockwise seen from outside (positive side) for a
   // negative-inside field; reverse to drape's counter-clockwise convention. Its quads
@@ -130,14 +129,13 @@ std::string Tsdf::EncodeVdb() const {
   // then a random UUID as 36 ASCII characters. Replace it by one derived from the
   // content, for reproducible bytes.
   constexpr size_t kUuidAt = 21, kUuidLen = 36;
-  DRAPE_CHECK(bytes.size() > kUuidAt + kUuidLen && bytes[kUuidAt + 8] == '-' &&
-                  bytes[kUuidAt + 13] == '-' && bytes[kUuidAt + 18] == '-' &&
-                  bytes[kUuidAt + 23] == '-',
+  DRAPE_CHECK(bytes.size() > kUuidAt + kUuidLen && bytes[kUuidAt + 8] == '-' && bytes[kUuidAt + 13] == '-' &&
+                  bytes[kUuidAt + 18] == '-' && bytes[kUuidAt + 23] == '-',
               "unexpected .vdb header layout");
   std::string rest = bytes.substr(0, kUuidAt) + bytes.substr(kUuidAt + kUuidLen);
   const std::string hex = Sha256Hex(rest);
-  std::string uuid = hex.substr(0, 8) + "-" + hex.substr(8, 4) + "-" + hex.substr(12, 4) + "-" +
-                     hex.substr(16, 4) + "-" + hex.substr(20, 12);
+  std::string uuid = hex.substr(0, 8) + "-" + hex.substr(8, 4) + "-" + hex.substr(12, 4) + "-" + hex.substr(16, 4) +
+                     "-" + hex.substr(20, 12);
   bytes.replace(kUuidAt, kUuidLen, uuid);
   return bytes;
 }

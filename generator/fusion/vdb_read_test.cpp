@@ -1,12 +1,11 @@
 #include "generator/fusion/vdb_read.h"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <unistd.h>
-
 #include <fstream>
 
 #include "common/error.h"

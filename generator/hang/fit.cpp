@@ -91,21 +91,21 @@ void FitStiffness(const Material& material, const HangOptions& options, Material
 
 }  // namespace
 
-bool SlidesOnTilt(double tilt_deg, double mu, const Material& material, const MaterialFit& fit,
-                  const HangOptions& o) {
+bool SlidesOnTilt(double tilt_deg, double mu, const Material& material, const MaterialFit& fit, const HangOptions& o) {
   const Garment sq = MakeRectangleGarment(o.friction_size, o.friction_size, o.fit_edge_length, false);
   // The square lies flat 5 mm above a table top through the origin, both tilted about z.
   const Eigen::Matrix3d tilt = Eigen::AngleAxisd(tilt_deg * kDeg, Vec3::UnitZ()).toRotationMatrix();
   Eigen::Matrix3d flat;  // pattern x → x, pattern y → −z, pattern normal → +y
-  flat << 1, 0, 0,  //
-          0, 0, 1,  //
-          0, -1, 0;
+  flat << 1, 0, 0,       //
+      0, 0, 1,           //
+      0, -1, 0;
   const Vec3 centre(0, o.friction_size / 2, 0);
   Points3 start(sq.mesh.NumVertices(), 3);
   for (int i = 0; i < start.rows(); ++i)
     start.row(i) = (tilt * (flat * (sq.mesh.V.row(i).transpose() - centre) + Vec3(0, 0.005, 0))).transpose();
   ClothWorld world(MakeClothModel(TriMesh{start, sq.mesh.F}, sq.layer, ClothMaterialFor(material, fit, o),
-                                    ClothOptionsFor(o, o.time_step)), start);
+                                  ClothOptionsFor(o, o.time_step)),
+                   start);
   BoxCollider table;
   table.half_extents = Vec3(1, 0.05, 1);
   table.pose.linear() = tilt;
@@ -120,8 +120,8 @@ bool SlidesOnTilt(double tilt_deg, double mu, const Material& material, const Ma
   return (world.positions().colwise().mean().transpose() - c0).norm() > o.friction_slide_distance;
 }
 
-double SlidingAngle(double mu, const Material& material, const MaterialFit& fit, const HangOptions& o,
-                    double lo_deg, double hi_deg, int* runs) {
+double SlidingAngle(double mu, const Material& material, const MaterialFit& fit, const HangOptions& o, double lo_deg,
+                    double hi_deg, int* runs) {
   int count = 0;
   // Invariant: stays at lo, slides at hi (checked at the ends first).
   auto slides = [&](double deg) {
@@ -129,8 +129,10 @@ double SlidingAngle(double mu, const Material& material, const MaterialFit& fit,
     return SlidesOnTilt(deg, mu, material, fit, o);
   };
   double lo = lo_deg, hi = hi_deg;
-  if (slides(lo)) hi = lo, lo = std::max(0.0, lo - 10);
-  else if (!slides(hi)) lo = hi, hi = std::min(89.0, hi + 10);
+  if (slides(lo))
+    hi = lo, lo = std::max(0.0, lo - 10);
+  else if (!slides(hi))
+    lo = hi, hi = std::min(89.0, hi + 10);
   while (hi - lo > o.friction_tolerance_deg) {
     const double mid = 0.5 * (lo + hi);
     (slides(mid) ? hi : lo) = mid;

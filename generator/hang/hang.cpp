@@ -16,10 +16,13 @@ namespace drape {
 void HangOptions::Validate() const {
   auto bad = [](const auto& field, const char* name, const std::string& what) { BadField(field, name, what); };
   if (!(time_step > 1e-5 && time_step <= 1.0 / 30)) bad(time_step, "time_step", "must be in (1e-5, 1/30] s");
-  if (solver_iterations < 1 || solver_iterations > 100) bad(solver_iterations, "solver_iterations", "must be in [1, 100]");
+  if (solver_iterations < 1 || solver_iterations > 100)
+    bad(solver_iterations, "solver_iterations", "must be in [1, 100]");
   if (!(damping >= 0 && damping < 1)) bad(damping, "damping", "must be in [0, 1)");
-  if (!(layer_thickness > 0 && layer_thickness < 0.05)) bad(layer_thickness, "layer_thickness", "must be in (0, 0.05) m");
-  if (!(strain_limit > 0 && strain_limit <= 20)) bad(strain_limit, "strain_limit", "must be in (0, 20] × the material's stretch");
+  if (!(layer_thickness > 0 && layer_thickness < 0.05))
+    bad(layer_thickness, "layer_thickness", "must be in (0, 0.05) m");
+  if (!(strain_limit > 0 && strain_limit <= 20))
+    bad(strain_limit, "strain_limit", "must be in (0, 20] × the material's stretch");
   if (!(accept_strain_max > 0)) bad(accept_strain_max, "accept_strain_max", "must be > 0");
   if (!(accept_strain_p99 > 0)) bad(accept_strain_p99, "accept_strain_p99", "must be > 0");
   // Caps: a simulated hour or a metre of motion is a typo, not a setting (a hang
@@ -38,13 +41,15 @@ void HangOptions::Validate() const {
     bad(drag_coefficient, "drag_coefficient", "must be in [0, 10]");
   if (!(fit_width > 0.05)) bad(fit_width, "fit_width", "must be > 0.05 m");
   if (!(fit_height > 0.05)) bad(fit_height, "fit_height", "must be > 0.05 m");
-  if (!(fit_edge_length > 0.002 && fit_edge_length < 0.2)) bad(fit_edge_length, "fit_edge_length", "must be in (0.002, 0.2) m");
+  if (!(fit_edge_length > 0.002 && fit_edge_length < 0.2))
+    bad(fit_edge_length, "fit_edge_length", "must be in (0.002, 0.2) m");
   if (!(fit_tolerance_percent > 0)) bad(fit_tolerance_percent, "fit_tolerance_percent", "must be > 0");
   if (fit_max_iterations < 2) bad(fit_max_iterations, "fit_max_iterations", "must be >= 2");
   if (!(friction_size > 2 * fit_edge_length)) bad(friction_size, "friction_size", "must exceed two fit edge lengths");
   if (!(friction_time > 0)) bad(friction_time, "friction_time", "must be > 0 s");
   if (!(friction_slide_distance > 0)) bad(friction_slide_distance, "friction_slide_distance", "must be > 0 m");
-  if (!(friction_tolerance_deg > 0 && friction_tolerance_deg < 5)) bad(friction_tolerance_deg, "friction_tolerance_deg", "must be in (0, 5)");
+  if (!(friction_tolerance_deg > 0 && friction_tolerance_deg < 5))
+    bad(friction_tolerance_deg, "friction_tolerance_deg", "must be in (0, 5)");
 }
 
 double ShearFraction(const TriMesh& hung, const Points3& flat, const Vec3& flat_grasp) {
@@ -63,8 +68,8 @@ namespace {
 Eigen::Isometry3d HangGripperPose() {
   Eigen::Isometry3d p = Eigen::Isometry3d::Identity();
   p.linear() << 0, 1, 0,  //
-                0, 0, 1,  //
-                1, 0, 0;  // gripper x → world z, y → world x, z → world y
+      0, 0, 1,            //
+      1, 0, 0;            // gripper x → world z, y → world x, z → world y
   return p;
 }
 
@@ -167,7 +172,8 @@ Run RunHang(const Garment& garment, const Points3& start, const Material& materi
 
 void RecordRun(const Run& run, HangStats& st) {
   st.steps = run.settle.steps + run.finish_steps;
-  st.sim_time = run.settle.sim_time + run.finish_steps * (run.settle.steps > 0 ? run.settle.sim_time / run.settle.steps : 0);
+  st.sim_time =
+      run.settle.sim_time + run.finish_steps * (run.settle.steps > 0 ? run.settle.sim_time / run.settle.steps : 0);
   st.kinetic_energy = run.settle.kinetic_energy;
   st.max_speed = run.settle.max_speed;
   st.settled = run.settle.settled;

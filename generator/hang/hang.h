@@ -29,15 +29,15 @@
 namespace drape {
 
 struct HangOptions {
-  double time_step = 1.0 / 240;   // s; 1/60 does not settle
-  int solver_iterations = 8;      // Bullet position iterations (piterations)
+  double time_step = 1.0 / 240;  // s; 1/60 does not settle
+  int solver_iterations = 8;     // Bullet position iterations (piterations)
   // Bullet kDP: fraction of node velocity removed per step of time_step, 0..1 (kept per
   // second at a retry's half step). 0.01 settles shirts and pants in 5–8 s; 0.03
   // over-damps the garment's twist about the gripper.
   double damping = 0.01;
   // Run the collision handler (self contact, strain limit). Off only to measure its cost.
   bool self_collision = true;
-  double layer_thickness = 0.004; // m: VF/EE pairs closer than this are repelled ...
+  double layer_thickness = 0.004;  // m: VF/EE pairs closer than this are repelled ...
   // ... when repulsion is on (the handler re-clamps the strain after it). Off, only CCD
   // and the impact zones keep the mesh intersection-free: layers then rest ~1e-8 m apart
   // and most steps need the fail-safe (towel test: 821 of ~980 steps; on: 0, 2 mm apart).
@@ -71,17 +71,17 @@ struct HangOptions {
   // m: settled when no node moved more than this ... (3 mm: contact jitter keeps fine
   // two-layer meshes above 1 mm)
   double settle_distance = 0.003;
-  double settle_window = 0.25;    // s: ... over this window
-  double min_time = 0.75;         // s simulated before settling may be declared
-  double time_cap = 8.0;          // s simulated; not settled by then → retry/fail
+  double settle_window = 0.25;  // s: ... over this window
+  double min_time = 0.75;       // s simulated before settling may be declared
+  double time_cap = 8.0;        // s simulated; not settled by then → retry/fail
   // The gripper (cloth/world.h Jaw): pads jaw_width × jaw_width, open jaw_opening across
   // the layers; it holds the nodes inside that box around the grasp point (at least the
   // nearest node's one ring: a jaw narrower than the mesh would hold one node, about
   // which the garment spins without settling).
-  double jaw_width = 0.03;        // m
-  double jaw_opening = 0.08;      // m (Baxter's parallel gripper opens about 8 cm)
-  double jitter = 0.001;          // m, seeded start perturbation (breaks symmetry)
-  double max_speed = 25.0;        // m/s; faster = blown up
+  double jaw_width = 0.03;    // m
+  double jaw_opening = 0.08;  // m (Baxter's parallel gripper opens about 8 cm)
+  double jitter = 0.001;      // m, seeded start perturbation (breaks symmetry)
+  double max_speed = 25.0;    // m/s; faster = blown up
   // FitMaterial's stretch reference: a single-layer strip of cloth hung from the middle
   // of one end (a towel hung from a corner curls and buckles; a strip hangs straight and
   // measures stretch alone).
@@ -93,28 +93,28 @@ struct HangOptions {
   // table tilted by the measured friction angle (paper: the angle at which the garment
   // starts to slide); "slides" = its centroid moves more than friction_slide_distance
   // within friction_time after landing.
-  double friction_size = 0.24;               // m
-  double friction_time = 1.5;                // s
-  double friction_slide_distance = 0.005;    // m
-  double friction_tolerance_deg = 0.1;       // bracket width of the angle found, degrees
+  double friction_size = 0.24;             // m
+  double friction_time = 1.5;              // s
+  double friction_slide_distance = 0.005;  // m
+  double friction_tolerance_deg = 0.1;     // bracket width of the angle found, degrees
   void Validate() const;
 };
 
 // A material's measured stretch and friction turned into simulation parameters.
 struct MaterialFit {
-  double stiffness = 0.5;          // Bullet structural link kLST (0, 1]
+  double stiffness = 0.5;  // Bullet structural link kLST (0, 1]
   double target_stretch_percent = 0;
   double reproduced_stretch_percent = 0;  // on the reference strip, with the strain limit
-  int iterations = 0;              // reference hangs used (secant on kLST)
+  int iterations = 0;                     // reference hangs used (secant on kLST)
   bool converged = false;
   double friction = 0;             // Coulomb μ of the cloth on colliders (tables)
   double target_friction_deg = 0;  // measured: the tilt at which the garment starts to slide
   // Reproduced: the tilt at which the reference square starts to slide with `friction`
   // (midpoint of a bracket friction_tolerance_deg wide: stays below, slides above).
   double reproduced_friction_deg = 0;
-  int friction_iterations = 0;     // tilted-table runs used
-  std::string note;                // e.g. target out of Bullet's reach at this resolution
-  double wall_seconds = 0;         // timing only
+  int friction_iterations = 0;  // tilted-table runs used
+  std::string note;             // e.g. target out of Bullet's reach at this resolution
+  double wall_seconds = 0;      // timing only
 };
 
 // Deterministic; callers cache it per material (and per HangOptions). Throws
@@ -131,7 +131,7 @@ bool SlidesOnTilt(double tilt_deg, double mu, const Material& material, const Ma
                   const HangOptions& options);
 
 struct HangStats {
-  double sim_time = 0;        // s simulated in the accepted run
+  double sim_time = 0;  // s simulated in the accepted run
   int steps = 0;
   double time_step = 0;       // s, of the accepted run
   double kinetic_energy = 0;  // J, final state
@@ -141,37 +141,37 @@ struct HangStats {
   int held_nodes = 0;         // nodes inside the gripper's jaw
   int held_layers = 0;        // garment layers among them
   // The hung mesh as measured (generator/cloth/measure.h).
-  int intersecting_pairs = 0;   // CGAL exact self-intersection test
-  double min_distance = 0;      // m, smallest distance between non-adjacent elements
-  double strain_mean = 0;       // edge strain (l − L0)/L0 over the mesh edges
+  int intersecting_pairs = 0;  // CGAL exact self-intersection test
+  double min_distance = 0;     // m, smallest distance between non-adjacent elements
+  double strain_mean = 0;      // edge strain (l − L0)/L0 over the mesh edges
   double strain_median = 0;
   double strain_p99 = 0;
   double strain_max = 0;
-  double strain_limit = 0;      // the clamp used (strain_limit × stretch)
+  double strain_limit = 0;  // the clamp used (strain_limit × stretch)
   // m, horizontal distance from the grasp point to the hung mesh's centre of area: a
   // gripper that carried no moment would hold it straight below (0); the held patch
   // and the cloth's in-plane stiffness at the mesh's resolution move it sideways.
   double com_offset = 0;
   // Collision handling over the accepted run.
-  long ccd_collisions = 0;      // colliding pairs found by CCD, summed over steps
-  int fail_safe_steps = 0;      // steps that needed rigid impact zones
-  long remaining_collisions = 0;  // crossings left by the handler (0 with one still gripper)
-  int strain_violation_steps = 0; // steps that ended with an edge beyond the strain clamp
-  int retries = 0;                // runs repeated at half the step (not settled or not publishable)
-  double wall_seconds = 0;        // timing only (never hashed), from here down
-  double bullet_seconds = 0;      // inside Bullet's stepSimulation
-  double collision_seconds = 0;   // the collision handler in total
-  double broad_seconds = 0;       // ... its broad phase
-  double ccd_seconds = 0;         // ... CCD + impulses
-  double zone_seconds = 0;        // ... rigid impact zones (fail-safe)
+  long ccd_collisions = 0;             // colliding pairs found by CCD, summed over steps
+  int fail_safe_steps = 0;             // steps that needed rigid impact zones
+  long remaining_collisions = 0;       // crossings left by the handler (0 with one still gripper)
+  int strain_violation_steps = 0;      // steps that ended with an edge beyond the strain clamp
+  int retries = 0;                     // runs repeated at half the step (not settled or not publishable)
+  double wall_seconds = 0;             // timing only (never hashed), from here down
+  double bullet_seconds = 0;           // inside Bullet's stepSimulation
+  double collision_seconds = 0;        // the collision handler in total
+  double broad_seconds = 0;            // ... its broad phase
+  double ccd_seconds = 0;              // ... CCD + impulses
+  double zone_seconds = 0;             // ... rigid impact zones (fail-safe)
   double other_collision_seconds = 0;  // ... strain limiting, repulsion, colliders
-  double measure_seconds = 0;     // CGAL test + clearance + strain
+  double measure_seconds = 0;          // CGAL test + clearance + strain
 };
 
 struct HangResult {
   bool ok = false;
-  std::string failure;  // reason when !ok
-  TriMesh mesh;         // object frame: grasp point at origin, y up, hanging below; garment's F
+  std::string failure;             // reason when !ok
+  TriMesh mesh;                    // object frame: grasp point at origin, y up, hanging below; garment's F
   std::vector<int> held_vertices;  // held by the gripper, sorted
   HangStats stats;
 };
@@ -180,9 +180,8 @@ struct HangResult {
 // garment's flat frame; z ignored) away from vertex `anchor_vertex`. Throws drape::Error
 // on bad input; numerical failure (blow-up, never settled, self-intersecting or
 // over-stretched result) is returned as ok=false with the reason. Thread-safe.
-HangResult Hang(const Garment& garment, int anchor_vertex, const Vec3& grasp_offset,
-                const Material& material, const MaterialFit& fit, const HangOptions& options,
-                uint64_t seed);
+HangResult Hang(const Garment& garment, int anchor_vertex, const Vec3& grasp_offset, const Material& material,
+                const MaterialFit& fit, const HangOptions& options, uint64_t seed);
 
 // The cloth core's material and options for a fit and these options at step dt (s; a
 // retry halves it): one model for hanging and the material fits' reference runs.

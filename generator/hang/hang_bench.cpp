@@ -78,8 +78,12 @@ void BM_HangJob(benchmark::State& state) {
 }
 // Args: {nodes, collision handler on/off}.
 BENCHMARK(BM_HangJob)
-    ->Args({500, 1})->Args({1000, 1})->Args({2000, 1})->Args({1000, 0})
-    ->Unit(benchmark::kSecond)->Iterations(1);
+    ->Args({500, 1})
+    ->Args({1000, 1})
+    ->Args({2000, 1})
+    ->Args({1000, 0})
+    ->Unit(benchmark::kSecond)
+    ->Iterations(1);
 
 }  // namespace
 }  // namespace drape

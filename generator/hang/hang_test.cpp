@@ -1,5 +1,7 @@
 // Physics tests of hanging: the hung garment's shape, no self-intersection, strain
 // bounds, settling, determinism across runs and threads, material fitting.
+#include "generator/hang/hang.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -9,7 +11,6 @@
 
 #include "common/error.h"
 #include "generator/cloth/measure.h"
-#include "generator/hang/hang.h"
 
 namespace drape {
 namespace {
@@ -35,7 +36,7 @@ const MaterialFit& TowelFit() {
 // the waist (top) and the leg openings (bottom).
 Garment MakePantsLike(double edge) {
   const int nx = 9, ny = 14, waist_rows = 5;  // cells
-  auto in = [&](int i, int j) {  // cell (i, j) in the shape?
+  auto in = [&](int i, int j) {               // cell (i, j) in the shape?
     if (i < 0 || j < 0 || i >= nx || j >= ny) return false;
     if (j >= ny - waist_rows) return true;
     return i < 4 || i >= 5;  // legs: columns 0–3 and 5–8, crotch gap at column 4
@@ -78,8 +79,13 @@ Garment MakePantsLike(double edge) {
       for (int i = 0; i < nx; ++i) {
         if (!in(i, j)) continue;
         const int a = id[l][j][i], b = id[l][j][i + 1], c = id[l][j + 1][i + 1], d = id[l][j + 1][i];
-        if (l == 0) { F.push_back({a, b, c}); F.push_back({a, c, d}); }
-        else { F.push_back({a, c, b}); F.push_back({a, d, c}); }
+        if (l == 0) {
+          F.push_back({a, b, c});
+          F.push_back({a, c, d});
+        } else {
+          F.push_back({a, c, b});
+          F.push_back({a, d, c});
+        }
       }
   g.mesh.V.resize(V.size(), 3);
   g.uv.resize(V.size(), 2);
@@ -107,7 +113,8 @@ Garment MakePantsLike(double edge) {
 double Hausdorff(const Points3& a, const Points3& b) {
   auto one = [](const Points3& p, const Points3& q) {
     double h = 0;
-    for (int i = 0; i < p.rows(); ++i) h = std::max(h, std::sqrt((q.rowwise() - p.row(i)).rowwise().squaredNorm().minCoeff()));
+    for (int i = 0; i < p.rows(); ++i)
+      h = std::max(h, std::sqrt((q.rowwise() - p.row(i)).rowwise().squaredNorm().minCoeff()));
     return h;
   };
   return std::max(one(a, b), one(b, a));
@@ -122,8 +129,8 @@ double HeldRadius(const Garment& g, const HangResult& r, int anchor) {
 
 // `extra_com_offset`: sideways allowance beyond the held patch's radius + 2 cm (see the
 // one caller that needs one, and why).
-void ExpectHangsLikeCloth(const Garment& g, int anchor, const HangResult& r, const Material& mat,
-                          const HangOptions& o, double extra_com_offset = 0) {
+void ExpectHangsLikeCloth(const Garment& g, int anchor, const HangResult& r, const Material& mat, const HangOptions& o,
+                          double extra_com_offset = 0) {
   std::cout << g.instance << " from vertex " << anchor << ": " << (r.ok ? "ok" : r.failure) << "; settled after "
             << r.stats.sim_time << " s, strain median " << r.stats.strain_median << " p99 " << r.stats.strain_p99
             << " max " << r.stats.strain_max << " (limit " << r.stats.strain_limit << "), min distance "
@@ -290,8 +297,8 @@ TEST(Hang, NeverSettlingIsRetriedThenReported) {
 
 TEST(Hang, OverStretchedResultIsFailedWithItsReason) {
   HangOptions o = TestOptions();
-  o.strain_limit = 10;         // let the grip stretch ...
-  o.accept_strain_max = 1.5;   // ... and accept less than the strip itself needs
+  o.strain_limit = 10;        // let the grip stretch ...
+  o.accept_strain_max = 1.5;  // ... and accept less than the strip itself needs
   const Garment towel = MakeRectangleGarment(0.3, 0.4, 0.04, true);
   Material soft = Towel();
   MaterialFit loose = TowelFit();

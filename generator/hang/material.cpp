@@ -4,14 +4,12 @@
 #include <numbers>
 
 #include "common/error.h"
-#include "common/format.h"
 #include "common/field_error.h"
+#include "common/format.h"
 
 namespace drape {
 
-double Material::FrictionCoefficient() const {
-  return std::tan(friction_deg * std::numbers::pi / 180.0);
-}
+double Material::FrictionCoefficient() const { return std::tan(friction_deg * std::numbers::pi / 180.0); }
 
 void Material::Validate() const {
   auto bad = [&](const auto& field, const char* field_name, const std::string& what) {
@@ -31,12 +29,12 @@ const std::vector<Material>& MaterialPresets() {
   // name, stretch %, friction °, kg/m² per layer, relative bending (material.h says
   // why so low).
   static const std::vector<Material> presets = {
-      {"tshirt", 2.9, 24.3, 0.18, 0.0075},   // long-sleeve T-shirt (large; small is 2.9/24.7)
-      {"jeans", 2.9, 19.1, 0.35, 0.05},    // denim
+      {"tshirt", 2.9, 24.3, 0.18, 0.0075},  // long-sleeve T-shirt (large; small is 2.9/24.7)
+      {"jeans", 2.9, 19.1, 0.35, 0.05},     // denim
       {"pants", 1.7, 21.9, 0.25, 0.025},    // cotton twill
-      {"towel_a", 2.2, 18.7, 0.40, 0.02},  // large towel, terry
-      {"towel_b", 3.1, 22.3, 0.35, 0.02},  // medium towel
-      {"towel_c", 1.1, 24.3, 0.30, 0.02},  // small towel
+      {"towel_a", 2.2, 18.7, 0.40, 0.02},   // large towel, terry
+      {"towel_b", 3.1, 22.3, 0.35, 0.02},   // medium towel
+      {"towel_c", 1.1, 24.3, 0.30, 0.02},   // small towel
   };
   return presets;
 }

@@ -27,7 +27,6 @@
 #include "generator/release/release.h"
 #include "generator/sweep/sweep.h"
 
-
 namespace fs = std::filesystem;
 
 namespace drape {
@@ -237,12 +236,11 @@ std::string SenseHung(const Recipe& recipe, const SensingSpec& sensing, const Jo
   Feature feature;
   stage("feature", [&] {
     const Tsdf& tsdf = *fused.tsdf;
-    feature = ExtractFeature(fused.mesh.V, [&tsdf](const Vec3& p) { return tsdf.Sdf(p); }, recipe.feature);
+    feature = ExtractFeature(
+        fused.mesh.V, [&tsdf](const Vec3& p) { return tsdf.Sdf(p); }, recipe.feature);
   });
-  rec["feature"] = {{"layers", feature.layers},
-                    {"rings", feature.rings},
-                    {"sectors", feature.sectors},
-                    {"ones", feature.PopCount()}};
+  rec["feature"] = {
+      {"layers", feature.layers}, {"rings", feature.rings}, {"sectors", feature.sectors}, {"ones", feature.PopCount()}};
   // Recorded only when not Algorithm 1's, so releases built before the option keep their digest.
   if (recipe.feature.origin != FeatureOptions().origin) rec["feature"]["origin"] = recipe.feature.origin;
 
@@ -293,9 +291,8 @@ Entry BuildEntry(const Recipe& recipe, const Job& job, JobCache& cache) {
 
   try {
     HangResult hung;
-    stage("hang", [&] {
-      hung = Hang(*garment, anchor->vertex, offset, job.material, *fit, hang_options, job.hang_seed);
-    });
+    stage("hang",
+          [&] { hung = Hang(*garment, anchor->vertex, offset, job.material, *fit, hang_options, job.hang_seed); });
     rec["hang"] = HangStatsJson(hung.stats);
     timing["bullet"] = hung.stats.bullet_seconds;
     timing["collision"] = hung.stats.collision_seconds;
@@ -315,9 +312,12 @@ std::string FormatDuration(double s) {
   if (!std::isfinite(s) || s < 0) return "--";
   const long t = std::lround(s);
   char buf[32];
-  if (t >= 3600) std::snprintf(buf, sizeof buf, "%ldh%02ldm", t / 3600, (t / 60) % 60);
-  else if (t >= 60) std::snprintf(buf, sizeof buf, "%ldm%02lds", t / 60, t % 60);
-  else std::snprintf(buf, sizeof buf, "%lds", t);
+  if (t >= 3600)
+    std::snprintf(buf, sizeof buf, "%ldh%02ldm", t / 3600, (t / 60) % 60);
+  else if (t >= 60)
+    std::snprintf(buf, sizeof buf, "%ldm%02lds", t / 60, t % 60);
+  else
+    std::snprintf(buf, sizeof buf, "%lds", t);
   return buf;
 }
 
@@ -545,8 +545,8 @@ BuildReport RunBuild(const Recipe& recipe, const BuildOptions& options) {
   const std::vector<Job>& jobs = start.jobs;
   const std::vector<int>& todo = start.todo;
   std::unique_ptr<ReleaseWriter>& writer = start.writer;
-  const int threads = std::max(1, std::min<int>(options.threads > 0 ? options.threads : HardwareThreads(),
-                                                std::max<size_t>(1, todo.size())));
+  const int threads = std::max(
+      1, std::min<int>(options.threads > 0 ? options.threads : HardwareThreads(), std::max<size_t>(1, todo.size())));
   const ProgressMode mode = ResolveProgressMode(options.progress, log);
   if (mode != ProgressMode::kQuiet) {
     LogBuildStart(log, recipe, options, report, todo.size());

@@ -26,9 +26,9 @@ namespace drape {
 enum class ProgressMode { kAuto, kTty, kPlain, kQuiet };
 
 struct BuildOptions {
-  std::filesystem::path output;  // empty = datasets/<name>/<version>/ (relative to the working folder)
-  int threads = 0;               // jobs run at once; <= 0 = all cores
-  bool resume = false;           // expect an unfinished build in `output` (plain builds resume anyway)
+  std::filesystem::path output;          // empty = datasets/<name>/<version>/ (relative to the working folder)
+  int threads = 0;                       // jobs run at once; <= 0 = all cores
+  bool resume = false;                   // expect an unfinished build in `output` (plain builds resume anyway)
   int shard_index = 1, shard_count = 1;  // shard K of N (1-based): jobs with index % N == K − 1
   // Without keep_going, an unexpected error in a job (a bug, bad input found late)
   // stops handing out jobs and fails the build (committed entries are kept for
@@ -36,26 +36,26 @@ struct BuildOptions {
   // Numerical failures (hang not settled, NumericalError) are always failed entries.
   bool keep_going = false;
   ProgressMode progress = ProgressMode::kAuto;  // kAuto: TTY line if `log` is a terminal
-  double progress_interval = 10;  // seconds between plain progress lines
-  std::ostream* log = nullptr;    // progress and summary (nullptr = std::cerr)
-  const std::atomic<bool>* stop = nullptr;  // set (e.g. by SIGINT) → hand out no more jobs
-  std::string code_version;       // recorded in dataset.json; empty = this binary's git version
+  double progress_interval = 10;                // seconds between plain progress lines
+  std::ostream* log = nullptr;                  // progress and summary (nullptr = std::cerr)
+  const std::atomic<bool>* stop = nullptr;      // set (e.g. by SIGINT) → hand out no more jobs
+  std::string code_version;                     // recorded in dataset.json; empty = this binary's git version
 };
 
 struct BuildReport {
   std::filesystem::path output;
-  int total_jobs = 0;      // in the recipe
-  int shard_jobs = 0;      // this shard's share
-  int already_done = 0;    // skipped: committed by an earlier (interrupted) run
-  int built = 0;           // committed by this run
-  int failed = 0;          // failed entries committed by this run
+  int total_jobs = 0;                                         // in the recipe
+  int shard_jobs = 0;                                         // this shard's share
+  int already_done = 0;                                       // skipped: committed by an earlier (interrupted) run
+  int built = 0;                                              // committed by this run
+  int failed = 0;                                             // failed entries committed by this run
   std::vector<std::pair<std::string, std::string>> failures;  // job key, reason (this run)
-  bool interrupted = false;  // stopped by `stop` before every job ran
-  bool aborted = false;      // an unexpected job error stopped the build (see error)
+  bool interrupted = false;                                   // stopped by `stop` before every job ran
+  bool aborted = false;                                       // an unexpected job error stopped the build (see error)
   std::string error;
   bool finalized = false;
-  std::string digest;            // release digest, when finalized
-  int release_failed = 0;        // failed entries in the whole release, when finalized
+  std::string digest;                           // release digest, when finalized
+  int release_failed = 0;                       // failed entries in the whole release, when finalized
   std::map<std::string, double> stage_seconds;  // summed wall time per stage (this run)
   double wall_seconds = 0;
 };

@@ -1,5 +1,3 @@
-#include "generator/pipeline/build_mpi.h"
-
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -8,6 +6,7 @@
 
 #include "common/error.h"
 #include "common/hash.h"
+#include "generator/pipeline/build_mpi.h"
 #include "generator/release/release.h"
 
 namespace drape {

@@ -1,7 +1,5 @@
 // End-to-end builds of a tiny recipe (two coarse towel jobs, few frames, low voxel
 // density) through every stage and the release writer. Slow-ish: tens of seconds.
-#include "generator/pipeline/build.h"
-
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -13,6 +11,7 @@
 #include "common/files.h"
 #include "garments/io.h"
 #include "garments/templates.h"
+#include "generator/pipeline/build.h"
 #include "generator/release/release.h"
 
 namespace fs = std::filesystem;
@@ -88,7 +87,8 @@ TEST(Build, TinyRecipeEndToEndIsDeterministicAcrossThreadsAndResume) {
   ASSERT_FALSE(e.failed) << e.failure;
   std::set<std::string> files;
   for (const auto& f : e.files) files.insert(f.path);
-  for (const char* f : {"hang.ply", "recon.ply", "sdf.vdb", "feature.bin", "preview.png"}) EXPECT_TRUE(files.count(f)) << f;
+  for (const char* f : {"hang.ply", "recon.ply", "sdf.vdb", "feature.bin", "preview.png"})
+    EXPECT_TRUE(files.count(f)) << f;
   EXPECT_EQ(e.record["anchor"]["label"], "top_left");
   EXPECT_EQ(e.record["feature"]["layers"], 8);
   EXPECT_GT(e.record["fusion"]["recon_to_truth_mean"].get<double>(), 0.0);

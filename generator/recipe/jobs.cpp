@@ -53,15 +53,16 @@ HangOptions HangOptionsFor(const Recipe& recipe, const GarmentSpec& g) {
 std::string Slug(const std::string& key) {
   std::string s;
   for (char c : key) {
-    const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' ||
-                    c == '-' || c == '.';
+    const bool ok =
+        (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-' || c == '.';
     s += ok ? c : '-';
   }
   return s;
 }
 
 std::vector<int> ShardJobs(int num_jobs, int k, int n) {
-  if (n < 1 || k < 1 || k > n) throw Error("shard " + std::to_string(k) + "/" + std::to_string(n) + ": need 1 <= K <= N");
+  if (n < 1 || k < 1 || k > n)
+    throw Error("shard " + std::to_string(k) + "/" + std::to_string(n) + ": need 1 <= K <= N");
   std::vector<int> out;
   for (int i = k - 1; i < num_jobs; i += n) out.push_back(i);
   return out;

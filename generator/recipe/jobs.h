@@ -14,29 +14,29 @@
 namespace drape {
 
 struct Job {
-  int index = 0;        // position in the expansion order (train, calibration, test)
-  std::string key;      // stable unique key, e.g. "pants/i2/jeans/waist_left" ("/p1" added when repeats > 1)
-  std::string id;       // entry folder name: zero-padded index + slug, e.g. "00007-pants-i2-jeans-waist_left"
-  std::string split;    // "train" | "calibration" | "test"
-  std::string sensing;  // key into Recipe::sensing
-  int garment = 0;      // index into Recipe::garments
-  int instance = 0;     // 0-based instance of that garment
-  std::string instance_name;  // "<garment>/i<k>"
-  uint64_t instance_seed = 0; // TemplateOptions::seed of this instance (never 0)
-  std::string material_name;  // the recipe's material name (before jitter)
-  Material material;          // the values used (jittered on perturbed splits)
-  std::string anchor;         // anchor label
+  int index = 0;               // position in the expansion order (train, calibration, test)
+  std::string key;             // stable unique key, e.g. "pants/i2/jeans/waist_left" ("/p1" added when repeats > 1)
+  std::string id;              // entry folder name: zero-padded index + slug, e.g. "00007-pants-i2-jeans-waist_left"
+  std::string split;           // "train" | "calibration" | "test"
+  std::string sensing;         // key into Recipe::sensing
+  int garment = 0;             // index into Recipe::garments
+  int instance = 0;            // 0-based instance of that garment
+  std::string instance_name;   // "<garment>/i<k>"
+  uint64_t instance_seed = 0;  // TemplateOptions::seed of this instance (never 0)
+  std::string material_name;   // the recipe's material name (before jitter)
+  Material material;           // the values used (jittered on perturbed splits)
+  std::string anchor;          // anchor label
   int repeat = 0;
-  uint64_t seed = 0;          // DeriveSeed(recipe seed, key)
+  uint64_t seed = 0;  // DeriveSeed(recipe seed, key)
   // Seed of the hang: DeriveSeed(DeriveSeed(recipe seed, key without a ladder split's
   // "<split>/" prefix), "hang"), so a ladder rung hangs like the database entry.
   uint64_t hang_seed = 0;
   // Perturbations (zero / one when the split has none).
-  double size_scale = 1.0;    // uniform scale of the instance's mesh and pattern
+  double size_scale = 1.0;                   // uniform scale of the instance's mesh and pattern
   double material_jitter[4] = {0, 0, 0, 0};  // applied factors − 1: stretch, friction, density, bending
   Vec2 grasp_offset = Vec2::Zero();          // metres on the flat pattern
-  double turn = 0;                // radians about the gripper (y) axis, applied before the sweep
-  double pose_noise_degrees = 0;  // the fusion's gripper encoder noise (σ per frame)
+  double turn = 0;                           // radians about the gripper (y) axis, applied before the sweep
+  double pose_noise_degrees = 0;             // the fusion's gripper encoder noise (σ per frame)
 };
 
 // Seed of garment instance k (its TemplateOptions::seed): DeriveSeed(recipe seed,

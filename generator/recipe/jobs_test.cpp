@@ -118,7 +118,9 @@ TEST(Jobs, ShardsCoverEveryJobOnce) {
 }
 
 TEST(Jobs, DefaultSplitIsTrainWithEveryInstance) {
-  const auto jobs = ExpandJobs(Parse("name: x\nversion: 1.0.0\nseed: 1\ngarments:\n  - template: towel\n    instances: 2\n    materials: [towel_a]\n"));
+  const auto jobs =
+      ExpandJobs(Parse("name: x\nversion: 1.0.0\nseed: 1\ngarments:\n  - template: towel\n    instances: 2\n    "
+                       "materials: [towel_a]\n"));
   ASSERT_FALSE(jobs.empty());
   for (const auto& j : jobs) EXPECT_EQ(j.split, "train");
   EXPECT_EQ(jobs.back().instance, 1);
@@ -175,7 +177,11 @@ TEST(Jobs, LadderRungsReuseTheDatabaseHang) {
   EXPECT_THROW(Parse(std::string(kRecipe) + "  test_:\n    garments: [{garment: pants, instances: [0]}]\n"), Error);
   EXPECT_THROW(Parse(std::string(kRecipe) + "  testing:\n    garments: [{garment: pants, instances: [0]}]\n"), Error);
   // Gripper noise beyond 45° is rejected.
-  EXPECT_THROW(Parse(std::string(kRecipe) + "  test_x:\n    garments: [{garment: pants, instances: [0]}]\n    perturbation: {gripper_pose_noise: 50}\n"), Error);
+  EXPECT_THROW(
+      Parse(
+          std::string(kRecipe) +
+          "  test_x:\n    garments: [{garment: pants, instances: [0]}]\n    perturbation: {gripper_pose_noise: 50}\n"),
+      Error);
 }
 
 // A split with `unperturbed: true` holds each anchor's job of the unperturbed split (same

@@ -8,12 +8,19 @@ namespace recipe_keys {
 
 const std::vector<OptionKey<Recipe>>& TopKeys() {
   static const std::vector<OptionKey<Recipe>> t = {
-      {"name", {}, "name", "required; release name (letters, digits, `_`, `-`); default output `datasets/<name>/<version>/`"},
-      {"version", {}, "MAJOR.MINOR.PATCH", "required; TFDS meaning: PATCH same records, MINOR added fields, MAJOR records/splits changed"},
+      {"name",
+       {},
+       "name",
+       "required; release name (letters, digits, `_`, `-`); default output `datasets/<name>/<version>/`"},
+      {"version",
+       {},
+       "MAJOR.MINOR.PATCH",
+       "required; TFDS meaning: PATCH same records, MINOR added fields, MAJOR records/splits changed"},
       {"seed", {}, "integer ≥ 0", "required; every random number of the build derives from it and the job key"},
       {"description", Ref(&Recipe::description), "string", "free text for the dataset card"},
       {"license", Ref(&Recipe::license), "string", "Hugging Face license id"},
-      {"allow_outside_paths", Ref(&Recipe::allow_outside_paths), "bool", "allow file paths outside the recipe's folder"},
+      {"allow_outside_paths", Ref(&Recipe::allow_outside_paths), "bool",
+       "allow file paths outside the recipe's folder"},
       {"materials", {}, "mapping", "custom materials (presets are always available by name)"},
       {"garments", {}, "list", "required; what to hang (non-empty)"},
       {"simulation", {}, "mapping", "hanging options"},
@@ -28,10 +35,12 @@ const std::vector<OptionKey<Recipe>>& TopKeys() {
 const std::vector<OptionKey<Material>>& MaterialKeys() {
   static const std::vector<OptionKey<Material>> t = {
       {"preset", {}, "name", "start from this preset's values"},
-      {"stretch_percent", Ref(&Material::stretch_percent), "%", "measured stretch: (L1−L2)/L2 × 100 hung from an extremum vs flat"},
+      {"stretch_percent", Ref(&Material::stretch_percent), "%",
+       "measured stretch: (L1−L2)/L2 × 100 hung from an extremum vs flat"},
       {"friction_deg", Ref(&Material::friction_deg), "degrees", "tilt angle at which the garment starts to slide"},
       {"area_density", Ref(&Material::area_density), "kg/m²", "mass per area of one layer"},
-      {"bending", Ref(&Material::bending_stiffness), "—", "bending stiffness relative to stretch stiffness (generator/hang/material.h)"},
+      {"bending", Ref(&Material::bending_stiffness), "—",
+       "bending stiffness relative to stretch stiffness (generator/hang/material.h)"},
   };
   return t;
 }
@@ -41,17 +50,28 @@ const std::vector<OptionKey<GarmentSpec>>& GarmentKeys() {
   using T = TemplateOptions;
   static const std::vector<OptionKey<G>> t = {
       {"name", {}, "name", "unique garment name used in job keys (default: template name or file stem)"},
-      {"template", {}, "name", "`long_sleeve_shirt`, `tshirt`, `pants`, `shorts`, `skirt`, `towel` (exactly one of `template`/`file`)", "templates"},
+      {"template",
+       {},
+       "name",
+       "`long_sleeve_shirt`, `tshirt`, `pants`, `shorts`, `skirt`, `towel` (exactly one of `template`/`file`)",
+       "templates"},
       {"file", {}, "path", "mesh file (any format assimp reads), relative to the recipe's folder", "imports"},
       {"anchors_file", {}, "path", "the `NAME.anchors.json` sidecar with labelled anchors", "imports"},
-      {"unit_scale", Ref(&G::unit_scale), "m per file unit", "file units → metres (e.g. 0.01 for centimetres)", "imports"},
+      {"unit_scale", Ref(&G::unit_scale), "m per file unit", "file units → metres (e.g. 0.01 for centimetres)",
+       "imports"},
       {"category", {}, "string", "category recorded for the garment (default `custom`)", "imports"},
       {"size", Ref(&G::options, &T::size), "`S`, `M`, `L`", "preset proportions", "templates"},
-      {"params", {}, "mapping", "exact template parameters in metres/radians (e.g. towel `width`, `length`); names as in garments/templates.cpp", "templates"},
+      {"params",
+       {},
+       "mapping",
+       "exact template parameters in metres/radians (e.g. towel `width`, `length`); names as in garments/templates.cpp",
+       "templates"},
       {"edge_length", Ref(&G::options, &T::edge_length), "m", "target mesh edge length", "templates"},
       {"layer_gap", Ref(&G::options, &T::layer_gap), "m", "distance between front and back layer", "templates"},
-      {"perturbation", Ref(&G::options, &T::perturbation), "fraction", "relative random variation of every parameter per instance", "templates"},
-      {"instances", Ref(&G::instances), "count", "seeded instances; instance k's shape seed is DeriveSeed(seed, \"NAME/i<k>\")"},
+      {"perturbation", Ref(&G::options, &T::perturbation), "fraction",
+       "relative random variation of every parameter per instance", "templates"},
+      {"instances", Ref(&G::instances), "count",
+       "seeded instances; instance k's shape seed is DeriveSeed(seed, \"NAME/i<k>\")"},
       {"materials", {}, "list", "required, non-empty; material names (variants)"},
       {"anchors", {}, "`all` or list", "anchor labels to hang from (default `all`; see garments/anchors.md)"},
   };
@@ -64,15 +84,21 @@ const std::vector<OptionKey<HangOptions>>& SimulationKeys() {
       {"time_step", Ref(&H::time_step), "s", "Bullet step (1/60 does not settle)"},
       {"solver_iterations", Ref(&H::solver_iterations), "count", "Bullet position iterations"},
       {"damping", Ref(&H::damping), "fraction per step", "Bullet kDP: node velocity removed per step"},
-      {"self_collision", Ref(&H::self_collision), "bool", "the collision handler after every step (off only to measure its cost: no guarantee)"},
-      {"layer_thickness", Ref(&H::layer_thickness), "m", "vertex–face and edge–edge pairs closer than this are repelled (with repulsion)"},
-      {"repulsion", Ref(&H::repulsion), "bool", "proximity repulsion in the collision handler (off: CCD and impact zones alone keep the mesh intersection-free, layers touch)"},
-      {"strain_limit", Ref(&H::strain_limit), "× stretch", "edges clamped to (1 + strain_limit × the material's stretch) × rest length"},
+      {"self_collision", Ref(&H::self_collision), "bool",
+       "the collision handler after every step (off only to measure its cost: no guarantee)"},
+      {"layer_thickness", Ref(&H::layer_thickness), "m",
+       "vertex–face and edge–edge pairs closer than this are repelled (with repulsion)"},
+      {"repulsion", Ref(&H::repulsion), "bool",
+       "proximity repulsion in the collision handler (off: CCD and impact zones alone keep the mesh intersection-free, "
+       "layers touch)"},
+      {"strain_limit", Ref(&H::strain_limit), "× stretch",
+       "edges clamped to (1 + strain_limit × the material's stretch) × rest length"},
       {"settle.distance", Ref(&H::settle_distance), "m", "settled when no node moved more than this ..."},
       {"settle.window", Ref(&H::settle_window), "s", "... over this window"},
       {"min_time", Ref(&H::min_time), "s", "simulated time before settling may be declared"},
       {"time_cap", Ref(&H::time_cap), "s", "not settled by then → retried with a smaller step, then failed"},
-      {"jaw_width", Ref(&H::jaw_width), "m", "gripper pad size: the nodes inside the jaw (pads × opening) at the grasp point are held"},
+      {"jaw_width", Ref(&H::jaw_width), "m",
+       "gripper pad size: the nodes inside the jaw (pads × opening) at the grasp point are held"},
       {"jaw_opening", Ref(&H::jaw_opening), "m", "gripper opening across the layers"},
   };
   return t;
@@ -86,14 +112,18 @@ const std::vector<OptionKey<SensingSpec>>& SensingKeys() {
   static const std::vector<OptionKey<S>> t = {
       {"frames", Ref(&S::sweep, &W::frames), "count", "depth frames per sweep (both directions with back_and_forth)"},
       {"degrees", Ref(&S::sweep, &W::degrees), "degrees", "turn of the gripper (one way)"},
-      {"back_and_forth", Ref(&S::sweep, &W::back_and_forth), "bool", "turn one way then back (the unfolding set-up, ~550 frames)"},
-      {"noise", Ref(&S::sweep, &W::kinect, &K::noise), "bool", "Kinect v1 noise model (axial, lateral, quantisation, dropouts); default true for `sensed`"},
-      {"keep_frames", Ref(&S::keep_frames), "bool", "store `sweep/` (16-bit PNG depth in mm + cameras.json) in the entries"},
+      {"back_and_forth", Ref(&S::sweep, &W::back_and_forth), "bool",
+       "turn one way then back (the unfolding set-up, ~550 frames)"},
+      {"noise", Ref(&S::sweep, &W::kinect, &K::noise), "bool",
+       "Kinect v1 noise model (axial, lateral, quantisation, dropouts); default true for `sensed`"},
+      {"keep_frames", Ref(&S::keep_frames), "bool",
+       "store `sweep/` (16-bit PNG depth in mm + cameras.json) in the entries"},
       {"scene", Ref(&S::sweep, &W::scene), "bool", "gripper, arm, table, wall and floor in view"},
       {"camera.height", Ref(&S::sweep, &W::camera_height), "m", "camera height (see generator/sweep/sweep.h)"},
       {"camera.distance", Ref(&S::sweep, &W::camera_distance), "m", "horizontal distance camera → turning axis"},
       {"camera.gripper_height", Ref(&S::sweep, &W::gripper_height), "m", "world height of the grasp point"},
-      {"camera.look_at_height", Ref(&S::sweep, &W::look_at_height), "m", "where the optical axis crosses the turning axis"},
+      {"camera.look_at_height", Ref(&S::sweep, &W::look_at_height), "m",
+       "where the optical axis crosses the turning axis"},
       {"camera.image_width", Ref(&S::sweep, &W::kinect, &K::intrinsics, &I::width), "px", "image width"},
       {"camera.image_height", Ref(&S::sweep, &W::kinect, &K::intrinsics, &I::height), "px", "image height"},
       {"camera.fx", Ref(&S::sweep, &W::kinect, &K::intrinsics, &I::fx), "px", "focal length, x"},
@@ -111,7 +141,10 @@ const std::vector<OptionKey<FusionOptions>>& FusionKeys() {
   static const std::vector<OptionKey<F>> t = {
       {"voxels_per_metre", Ref(&F::voxels_per_metre), "1/m", "TSDF voxel density (paper: 384)"},
       {"truncation", Ref(&F::truncation), "m", "truncation distance (0 = 4 voxels)"},
-      {"box", {}, "`{min: [x,y,z], max: [x,y,z]}`", "segmentation box, object frame (grasp at origin, y up); default in generator/fusion/fusion.h"},
+      {"box",
+       {},
+       "`{min: [x,y,z], max: [x,y,z]}`",
+       "segmentation box, object frame (grasp at origin, y up); default in generator/fusion/fusion.h"},
       {"pose_noise_degrees", Ref(&F::pose_noise_degrees), "degrees", "simulated gripper-encoder error per frame"},
       {"frames_stride", Ref(&F::frames_stride), "count", "fuse every k-th frame"},
       {"carve_min_views", Ref(&F::carve_min_views), "count", "views needed to carve a block as free space"},
@@ -150,18 +183,26 @@ const std::vector<OptionKey<SplitSelector>>& SelectorKeys() {
       {"instances", {}, "`all` or list", "instance indices, from 0 (default `all`)"},
       {"materials", {}, "list", "narrows the garment's materials (default: all)"},
       {"anchors", {}, "`all` or list", "narrows the garment's anchors (default `all`)"},
-      {"max_anchors", Ref(&SplitSelector::max_anchors), "count", "> 0: a seeded sample of this many anchors per instance"},
+      {"max_anchors", Ref(&SplitSelector::max_anchors), "count",
+       "> 0: a seeded sample of this many anchors per instance"},
   };
   return t;
 }
 
 const std::vector<OptionKey<Perturbation>>& PerturbationKeys() {
   static const std::vector<OptionKey<Perturbation>> t = {
-      {"grasp_offset", Ref(&Perturbation::grasp_offset), "m", "grasp point moved this far from the anchor on the flat pattern, random direction per job"},
-      {"size_scale", {}, "factor or `[min, max]`", "each instance scaled uniformly by a factor drawn once per instance (default 1)"},
-      {"material_jitter", Ref(&Perturbation::material_jitter), "fraction", "each of the material's four values × (1 + U(−j, j)), drawn once per instance and material"},
-      {"turn", Ref(&Perturbation::turn), "bool", "the hung garment turned about the gripper by a seeded angle U(0, 360°) before the sweep"},
-      {"gripper_pose_noise", Ref(&Perturbation::gripper_pose_noise), "degrees", "σ of the turning gripper's encoder error per frame (the fusion's pose noise)"},
+      {"grasp_offset", Ref(&Perturbation::grasp_offset), "m",
+       "grasp point moved this far from the anchor on the flat pattern, random direction per job"},
+      {"size_scale",
+       {},
+       "factor or `[min, max]`",
+       "each instance scaled uniformly by a factor drawn once per instance (default 1)"},
+      {"material_jitter", Ref(&Perturbation::material_jitter), "fraction",
+       "each of the material's four values × (1 + U(−j, j)), drawn once per instance and material"},
+      {"turn", Ref(&Perturbation::turn), "bool",
+       "the hung garment turned about the gripper by a seeded angle U(0, 360°) before the sweep"},
+      {"gripper_pose_noise", Ref(&Perturbation::gripper_pose_noise), "degrees",
+       "σ of the turning gripper's encoder error per frame (the fusion's pose noise)"},
   };
   return t;
 }
@@ -189,8 +230,10 @@ RecipeSectionDoc Doc(std::string name, const std::vector<OptionKey<O>>& table, O
   for (const auto& k : table) {
     // (ostringstream: GCC 12's -Wrestrict misfires on string concatenation here)
     std::ostringstream def, doc;
-    if (k.ref && defaults) def << '`' << Format(k.ref(*defaults)) << '`';
-    else def << "—";
+    if (k.ref && defaults)
+      def << '`' << Format(k.ref(*defaults)) << '`';
+    else
+      def << "—";
     if (!k.scope.empty()) doc << '(' << k.scope << " only) ";
     doc << k.doc;
     s.keys.push_back({k.key, def.str(), k.unit, doc.str()});

@@ -36,7 +36,7 @@ struct OptionKey {
 // A member, or a member of a member: Ref(&SensingSpec::sweep, &SweepOptions::frames).
 template <typename O, typename T, typename... M>
 std::function<OptionRef(O&)> Ref(T O::*first, M... rest) {
-  return [=](O& o) -> OptionRef { return &((o.*first) .* ... .* rest); };
+  return [=](O& o) -> OptionRef { return &((o.*first).*....*rest); };
 }
 
 const std::vector<OptionKey<Recipe>>& TopKeys();

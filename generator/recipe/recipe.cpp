@@ -84,8 +84,8 @@ class Parser {
 
   [[noreturn]] void Fail(const YAML::Mark& m, const std::string& path, const std::string& what) const {
     std::ostringstream os;
-    os << label_ << ":" << (m.is_null() ? 0 : m.line + 1) << ":" << (m.is_null() ? 0 : m.column + 1)
-       << ": " << path << ": " << what;
+    os << label_ << ":" << (m.is_null() ? 0 : m.line + 1) << ":" << (m.is_null() ? 0 : m.column + 1) << ": " << path
+       << ": " << what;
     throw Error(os.str());
   }
   [[noreturn]] void Fail(const YAML::Node& n, const std::string& path, const std::string& what) const {
@@ -168,9 +168,12 @@ class Parser {
     if (!n.IsDefined()) return;
     const std::string p = Sub(path, key);
     const std::string s = n.IsScalar() ? n.Scalar() : "";
-    if (s == "true") out = true;
-    else if (s == "false") out = false;
-    else Fail(n, p, "expected true or false, got " + Describe(n));
+    if (s == "true")
+      out = true;
+    else if (s == "false")
+      out = false;
+    else
+      Fail(n, p, "expected true or false, got " + Describe(n));
   }
 
   std::optional<std::string> String(const YAML::Node& map, const std::string& key, const std::string& path) const {
@@ -192,7 +195,8 @@ class Parser {
     if (!n.IsSequence()) Fail(n, path, "expected a list, got " + Describe(n));
     std::vector<std::string> out;
     for (size_t i = 0; i < n.size(); ++i) {
-      if (!n[i].IsScalar()) Fail(n[i], path + "[" + std::to_string(i) + "]", "expected a string, got " + Describe(n[i]));
+      if (!n[i].IsScalar())
+        Fail(n[i], path + "[" + std::to_string(i) + "]", "expected a string, got " + Describe(n[i]));
       out.push_back(n[i].Scalar());
     }
     return out;
@@ -258,7 +262,7 @@ class Parser {
   template <typename O>
   std::vector<SetField> Keys(const YAML::Node& n, const std::string& path,
                              const std::vector<recipe_keys::OptionKey<O>>& table, O& o) const {
-    std::vector<std::string> here;                        // keys of this mapping, in table order
+    std::vector<std::string> here;                         // keys of this mapping, in table order
     std::vector<std::pair<std::string, std::string>> sub;  // (sub-map, key) of "a.b" keys
     for (const auto& k : table) {
       const size_t dot = k.key.find('.');
@@ -283,8 +287,7 @@ class Parser {
       if (!map.IsDefined() || !map[leaf].IsDefined()) continue;
       const recipe_keys::OptionRef ref = k.ref(o);
       std::visit([&](auto* field) { Read(map, leaf, map_path, *field); }, ref);
-      set.push_back({std::visit([](auto* field) -> const void* { return field; }, ref), map[leaf],
-                     Sub(path, k.key)});
+      set.push_back({std::visit([](auto* field) -> const void* { return field; }, ref), map[leaf], Sub(path, k.key)});
     }
     return set;
   }
@@ -307,8 +310,8 @@ Material ParseMaterial(const Parser& P, const std::string& name, const YAML::Nod
     if (!base) {
       std::vector<std::string> names;
       for (const auto& pm : MaterialPresets()) names.push_back(pm.name);
-      P.Fail(n["preset"], path + ".preset", "unknown material preset '" + *preset + "'" + Suggest(*preset, names) +
-                                                "; presets: " + Join(names));
+      P.Fail(n["preset"], path + ".preset",
+             "unknown material preset '" + *preset + "'" + Suggest(*preset, names) + "; presets: " + Join(names));
     }
     m = *base;
   } else {
@@ -429,7 +432,6 @@ void ParseGarmentMaterials(const Parser& P, const YAML::Node& n, const std::stri
     if (std::count(g.materials.begin(), g.materials.begin() + i, m))
       P.Fail(n["materials"][i], path + ".materials[" + std::to_string(i) + "]", "material listed twice");
   }
-
 }
 
 // Anchors: `all` (default) or a list of labels the garment has.
@@ -438,7 +440,8 @@ void ParseGarmentAnchors(const Parser& P, const YAML::Node& n, const std::string
   if (!a.IsDefined() || (a.IsScalar() && a.Scalar() == "all")) {
     g.anchor_labels = g.all_anchor_labels;
   } else {
-    if (!a.IsSequence()) P.Fail(a, path + ".anchors", "expected 'all' or a list of anchor labels, got " + P.Describe(a));
+    if (!a.IsSequence())
+      P.Fail(a, path + ".anchors", "expected 'all' or a list of anchor labels, got " + P.Describe(a));
     g.anchor_labels = P.Strings(a, path + ".anchors");
     if (g.anchor_labels.empty()) P.Fail(a, path + ".anchors", "the list is empty");
     for (size_t i = 0; i < g.anchor_labels.size(); ++i) {
@@ -447,7 +450,8 @@ void ParseGarmentAnchors(const Parser& P, const YAML::Node& n, const std::string
       if (std::find(g.all_anchor_labels.begin(), g.all_anchor_labels.end(), l) == g.all_anchor_labels.end())
         P.Fail(a[i], ip,
                "anchor label '" + l + "' does not exist on " +
-                   (g.template_name.empty() ? "'" + g.file.filename().string() + "'" : "template '" + g.template_name + "'") +
+                   (g.template_name.empty() ? "'" + g.file.filename().string() + "'"
+                                            : "template '" + g.template_name + "'") +
                    Suggest(l, g.all_anchor_labels) + "; labels: " + Join(g.all_anchor_labels));
       if (std::count(g.anchor_labels.begin(), g.anchor_labels.begin() + i, l)) P.Fail(a[i], ip, "label listed twice");
     }
@@ -464,8 +468,10 @@ GarmentSpec ParseGarment(const Parser& P, const YAML::Node& n, const std::string
     if (!k.scope.empty() && k.scope != kind && n[k.key].IsDefined())
       P.Fail(P.KeyNode(n, k.key), Parser::Sub(path, k.key),
              has_t ? "applies to imported files only" : "applies to templates only");
-  if (has_t) ParseTemplateGarment(P, n, path, g, set);
-  else ParseImportedGarment(P, n, path, g);
+  if (has_t)
+    ParseTemplateGarment(P, n, path, g, set);
+  else
+    ParseImportedGarment(P, n, path, g);
   P.Validate(g, n, path, set);
   ParseGarmentMaterials(P, n, path, r, g);
   ParseGarmentAnchors(P, n, path, g);
@@ -488,8 +494,9 @@ std::vector<int> ParseInstances(const Parser& P, const YAML::Node& n, const std:
       P.Fail(n[i], ip, "expected an instance index, got " + P.Describe(n[i]));
     }
     if (v < 0 || v >= count)
-      P.Fail(n[i], ip, "instance " + std::to_string(v) + " out of range (the garment has " + std::to_string(count) +
-                           " instances, numbered from 0)");
+      P.Fail(n[i], ip,
+             "instance " + std::to_string(v) + " out of range (the garment has " + std::to_string(count) +
+                 " instances, numbered from 0)");
     if (std::count(out.begin(), out.end(), static_cast<int>(v))) P.Fail(n[i], ip, "instance listed twice");
     out.push_back(static_cast<int>(v));
   }

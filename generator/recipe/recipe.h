@@ -23,24 +23,24 @@ namespace drape {
 // One entry of `garments:`: a template or an imported file, with a number of
 // seeded instances and the material variants and anchors to hang it by.
 struct GarmentSpec {
-  std::string name;           // unique within the recipe; first part of job keys
-  std::string template_name;  // empty for imports
-  std::filesystem::path file;     // absolute, imports only
-  std::filesystem::path anchors;  // absolute, imports only (may be empty)
+  std::string name;                                 // unique within the recipe; first part of job keys
+  std::string template_name;                        // empty for imports
+  std::filesystem::path file;                       // absolute, imports only
+  std::filesystem::path anchors;                    // absolute, imports only (may be empty)
   std::string file_as_written, anchors_as_written;  // the recipe's text for them (a release keys its copies by it)
-  double unit_scale = 1.0;        // imports: file units → metres
-  std::string category;           // template's category, or `category:` for imports
-  TemplateOptions options;        // size, params, edge_length, ... (seed set per instance)
+  double unit_scale = 1.0;                          // imports: file units → metres
+  std::string category;                             // template's category, or `category:` for imports
+  TemplateOptions options;                          // size, params, edge_length, ... (seed set per instance)
   int instances = 1;
-  std::vector<std::string> materials;      // names in Recipe::materials
-  std::vector<std::string> anchor_labels;  // the labels to hang from (resolved; never empty)
+  std::vector<std::string> materials;          // names in Recipe::materials
+  std::vector<std::string> anchor_labels;      // the labels to hang from (resolved; never empty)
   std::vector<std::string> all_anchor_labels;  // every label the garment has, in its order
-  void Validate() const;  // throws drape::FieldError
+  void Validate() const;                       // throws drape::FieldError
 };
 
 // Perturbations applied to the sensed splits (calibration, test).
 struct Perturbation {
-  double grasp_offset = 0.0;  // metres on the flat pattern, random direction per job
+  double grasp_offset = 0.0;                          // metres on the flat pattern, random direction per job
   double size_scale_min = 1.0, size_scale_max = 1.0;  // uniform per instance
   double material_jitter = 0.0;  // fraction: each measured material value × (1 + U(−j, j)), per instance
   // The hung garment turned about the gripper (y) axis by a seeded angle U(0, 2π) before
@@ -124,8 +124,7 @@ Recipe LoadRecipe(const std::filesystem::path& path);
 // Parses recipe text; relative paths resolve against `base_dir`. `file_label`
 // names the file in error messages. `files` (a release's copies, Release::SourceFiles)
 // maps each file path as written in the recipe to the file to read instead.
-Recipe ParseRecipe(const std::string& text, const std::string& file_label,
-                   const std::filesystem::path& base_dir,
+Recipe ParseRecipe(const std::string& text, const std::string& file_label, const std::filesystem::path& base_dir,
                    const std::map<std::string, std::filesystem::path>* files = nullptr);
 
 // The recipe's keys for the documentation, from the parser's own tables

@@ -50,7 +50,8 @@ TEST(Recipe, BadRecipesNameFileLineColumnAndKey) {
 class TempRecipe {
  public:
   explicit TempRecipe(const std::string& text) {
-    dir_ = fs::temp_directory_path() / ("drape_recipe_test_" + std::to_string(::getpid()) + "_" + std::to_string(count_++));
+    dir_ = fs::temp_directory_path() /
+           ("drape_recipe_test_" + std::to_string(::getpid()) + "_" + std::to_string(count_++));
     fs::create_directories(dir_);
     path_ = dir_ / "recipe.yaml";
     std::ofstream(path_) << text;
@@ -175,8 +176,9 @@ TEST(Recipe, AnchorSubsetMustBeLabelsOfTheTemplate) {
 }
 
 TEST(Recipe, SeedTakesTheWhole64BitRange) {
-  TempRecipe t("name: x\nversion: 1.0.0\nseed: 18446744073709551615\ngarments:\n  - template: towel\n"
-               "    materials: [towel_a]\n");
+  TempRecipe t(
+      "name: x\nversion: 1.0.0\nseed: 18446744073709551615\ngarments:\n  - template: towel\n"
+      "    materials: [towel_a]\n");
   EXPECT_EQ(LoadRecipe(t.path()).seed, 18446744073709551615ull);
   for (const char* bad : {"18446744073709551616", "-1", "1.5"}) {
     TempRecipe u(std::string("name: x\nversion: 1.0.0\nseed: ") + bad +
@@ -201,9 +203,12 @@ TEST(Recipe, StageCapsRejectValuesPastThemAtTheirKey) {
     std::string section, bad, good, where;
   };
   const std::vector<Case> cases = {
-      {"sensing:\n  database:\n    camera:\n      image_width: ", "8193", "8192", ":7:20: sensing.database.camera.image_width"},
-      {"sensing:\n  database:\n    camera:\n      image_height: ", "4", "8", ":7:21: sensing.database.camera.image_height"},
-      {"sensing:\n  database:\n    camera:\n      look_at_height: ", "10.5", "-10", ":7:23: sensing.database.camera.look_at_height"},
+      {"sensing:\n  database:\n    camera:\n      image_width: ", "8193", "8192",
+       ":7:20: sensing.database.camera.image_width"},
+      {"sensing:\n  database:\n    camera:\n      image_height: ", "4", "8",
+       ":7:21: sensing.database.camera.image_height"},
+      {"sensing:\n  database:\n    camera:\n      look_at_height: ", "10.5", "-10",
+       ":7:23: sensing.database.camera.look_at_height"},
       {"fusion:\n  voxels_per_metre: 10\n  truncation: ", "1.5", "1", ":6:15: fusion.truncation"},
       {"fusion:\n  frames_stride: ", "100001", "100000", ":5:18: fusion.frames_stride"},
       {"fusion:\n  carve_min_views: ", "100001", "100000", ":5:20: fusion.carve_min_views"},

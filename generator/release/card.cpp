@@ -20,12 +20,23 @@ std::string Html(const std::string& s) {
   std::string out;
   for (char c : s) {
     switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      case '\'': out += "&#39;"; break;
-      default: out += c;
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      case '\'':
+        out += "&#39;";
+        break;
+      default:
+        out += c;
     }
   }
   return out;
@@ -40,7 +51,8 @@ bool FusionError(const Json& r, double* v) {
   if (!r.is_object() || !r.contains("fusion") || !r["fusion"].is_object()) return false;
   const Json& f = r["fusion"];
   const Json* x = nullptr;
-  if (f.contains("recon_to_truth_mean")) x = &f["recon_to_truth_mean"];
+  if (f.contains("recon_to_truth_mean"))
+    x = &f["recon_to_truth_mean"];
   else if (f.contains("accuracy") && f["accuracy"].is_object() && f["accuracy"].contains("recon_to_truth_mean"))
     x = &f["accuracy"]["recon_to_truth_mean"];
   if (!x || !x->is_number()) return false;
@@ -109,8 +121,8 @@ std::string SimulationQuality(const std::vector<Release::EntryInfo>& entries) {
     << " × its material's stretch), p99 " << Fmt(100 * worst_p99, 2) << " % (" << Fmt(worst_p99_rel, 2) << " ×)\n";
   if (!medians_rel.empty()) {
     std::sort(medians_rel.begin(), medians_rel.end());
-    o << "- median edge strain / material stretch, median over entries: "
-      << Fmt(medians_rel[medians_rel.size() / 2], 2) << "\n";
+    o << "- median edge strain / material stretch, median over entries: " << Fmt(medians_rel[medians_rel.size() / 2], 2)
+      << "\n";
   }
   if (!com_offsets.empty()) {
     std::sort(com_offsets.begin(), com_offsets.end());
@@ -213,8 +225,8 @@ void CardSummary(std::ostream& o, const Json& ds) {
   if (ds.contains("summary") && ds["summary"].is_object() && !ds["summary"].empty()) {
     o << "\n## Recipe summary\n\n";
     for (auto it = ds["summary"].begin(); it != ds["summary"].end(); ++it) {
-      o << "- **" << it.key() << "**: "
-        << (it.value().is_string() ? it.value().get<std::string>() : it.value().dump()) << "\n";
+      o << "- **" << it.key() << "**: " << (it.value().is_string() ? it.value().get<std::string>() : it.value().dump())
+        << "\n";
     }
   }
 }
@@ -232,7 +244,8 @@ void CardLayout(std::ostream& o) {
        "- `viewer/`: the gallery's 3D view: three.js (MIT, `LICENSE.three.txt`) and each entry's "
        "hang.ply + recon.ply as a script `viewer/meshes/<id>.js` (pages opened from file:// may load "
        "scripts but not read files); outside the release digest.\n"
-       "- `SHA256SUMS`: hashes of every file; `build.json`: build times (not hashed); `calibration/`: learned weights written by `drape calibrate` (bound to the digest, not hashed).\n";
+       "- `SHA256SUMS`: hashes of every file; `build.json`: build times (not hashed); `calibration/`: learned weights "
+       "written by `drape calibrate` (bound to the digest, not hashed).\n";
   o << "\n## Verify and rebuild\n\n```sh\nsha256sum -c SHA256SUMS        # files\n"
        "drape verify .                  # files + release digest\n"
        "drape verify . --rebuild        # rebuild from the recipe and compare entry by entry\n"
@@ -296,7 +309,9 @@ void GalleryHead(std::ostream& o, const Json& ds, const std::vector<Release::Ent
        "#grid{display:flex;flex-wrap:wrap;gap:10px}\n"
        ".card{width:330px;background:#fff;border:1px solid #ccc;border-radius:6px;padding:6px;font-size:12px}\n"
        ".card img{width:330px;height:150px;object-fit:contain;background:#eee}\n"
-       ".card .noimg{width:330px;height:150px;background:#eee;display:flex;align-items:center;justify-content:center;color:#888}\n"
+       ".card "
+       ".noimg{width:330px;height:150px;background:#eee;display:flex;align-items:center;justify-content:center;color:#"
+       "888}\n"
        ".card.failed{border-color:#c33}\n.card .fail{color:#c33}\n"
        ".card b{font-size:13px}\n"
        ".card button.v3d{float:right;font-size:12px}\n"
@@ -311,8 +326,8 @@ void GalleryHead(std::ostream& o, const Json& ds, const std::vector<Release::Ent
   for (const auto& s : OrderedSplits(entries)) o << "<option>" << Html(s) << "</option>";
   o << "</select></label> <label>category <select id=\"category\"><option value=\"\">all</option>";
   for (const auto& c : cats) o << "<option>" << Html(c) << "</option>";
-  o << "</select></label> showing <span id=\"shown\">" << entries.size() << "</span> of "
-    << entries.size() << " <span id=\"ready\"></span></p>\n";
+  o << "</select></label> showing <span id=\"shown\">" << entries.size() << "</span> of " << entries.size()
+    << " <span id=\"ready\"></span></p>\n";
 }
 
 // One entry's card: preview, 3D view button, split, garment, material, anchor, fusion error.
@@ -332,8 +347,10 @@ void GalleryCard(std::ostream& o, const Release::EntryInfo& e) {
   if (EntryHas3d(e)) o << "<button class=\"v3d\" data-id=\"" << Html(e.id) << "\">3D view</button>";
   o << "<br><b>" << Html(e.id) << "</b><br>split: " << Html(e.split) << "<br>garment: " << Html(cat);
   const std::string inst = Str(e.record, "instance"), garment = Str(e.record, "garment");
-  if (!inst.empty()) o << " / " << Html(inst);
-  else if (!garment.empty()) o << " / " << Html(garment);
+  if (!inst.empty())
+    o << " / " << Html(inst);
+  else if (!garment.empty())
+    o << " / " << Html(garment);
   const std::string mat = Str(e.record, "material");
   if (!mat.empty()) o << "<br>material: " << Html(mat);
   const std::string a = AnchorLabel(e);
@@ -370,7 +387,8 @@ void GalleryScript(std::ostream& o) {
        "    if(kv[0]==='category') ca.value=decodeURIComponent(kv[1]||'');\n"
        "    if(kv[0]==='view'&&window.drapeOpen3d) window.drapeOpen3d(decodeURIComponent(kv[1]||''));}\n"
        "  var b=document.querySelectorAll('button.v3d');\n"
-       "  for(var i=0;i<b.length;i++) b[i].addEventListener('click',function(){window.drapeOpen3d(this.getAttribute('data-id'));});\n"
+       "  for(var i=0;i<b.length;i++) "
+       "b[i].addEventListener('click',function(){window.drapeOpen3d(this.getAttribute('data-id'));});\n"
        "  sp.addEventListener('change',apply); ca.addEventListener('change',apply);\n"
        "  apply(); document.getElementById('ready').textContent='(filters ready)';\n"
        "})();\n"

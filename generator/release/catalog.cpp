@@ -34,8 +34,8 @@ class Db {
   sqlite3_stmt* Prepare(const std::string& sql) {
     sqlite3_stmt* st = nullptr;
     if (sqlite3_prepare_v2(db_, sql.c_str(), -1, &st, nullptr) != SQLITE_OK)
-      throw Error(path_ + ": " + sqlite3_errmsg(db_) + " (not a drape catalog, or truncated/damaged) in: " +
-                  sql.substr(0, 200));
+      throw Error(path_ + ": " + sqlite3_errmsg(db_) +
+                  " (not a drape catalog, or truncated/damaged) in: " + sql.substr(0, 200));
     return st;
   }
   void Step(sqlite3_stmt* st) {
@@ -182,8 +182,9 @@ void CreateTables(Db& db, const CatalogColumns& cols) {
   for (const auto& [f, c] : cols.blob_cols) create += ", " + Quote(c) + " BLOB";
   create += ")";
   db.Exec(create);
-  db.Exec("CREATE TABLE files (id TEXT NOT NULL, path TEXT NOT NULL, sha256 TEXT NOT NULL, "
-          "size INTEGER NOT NULL, PRIMARY KEY (id, path))");
+  db.Exec(
+      "CREATE TABLE files (id TEXT NOT NULL, path TEXT NOT NULL, sha256 TEXT NOT NULL, "
+      "size INTEGER NOT NULL, PRIMARY KEY (id, path))");
   db.Exec("CREATE TABLE jobs (position INTEGER PRIMARY KEY, key TEXT NOT NULL UNIQUE, id TEXT)");
   db.Exec("CREATE TABLE meta (key TEXT PRIMARY KEY, value TEXT NOT NULL)");
 }
@@ -295,8 +296,7 @@ void WriteCatalog(const fs::path& path, const fs::path& release_dir, const Json&
   db.Exec("COMMIT");
 }
 
-void ReadCatalog(const fs::path& path, std::vector<Release::EntryInfo>* entries,
-                 std::vector<std::string>* job_keys) {
+void ReadCatalog(const fs::path& path, std::vector<Release::EntryInfo>* entries, std::vector<std::string>* job_keys) {
   Db db(path, SQLITE_OPEN_READONLY);
   {
     // A truncated file can still answer queries that touch only its first pages.
@@ -326,7 +326,8 @@ void ReadCatalog(const fs::path& path, std::vector<Release::EntryInfo>* entries,
     try {
       e.record = Json::parse(text(st.st, 6));
       for (const auto& f : Json::parse(text(st.st, 7)))
-        e.files.push_back({f.at("path").get<std::string>(), f.at("sha256").get<std::string>(), f.at("size").get<uint64_t>()});
+        e.files.push_back(
+            {f.at("path").get<std::string>(), f.at("sha256").get<std::string>(), f.at("size").get<uint64_t>()});
     } catch (const Json::exception& ex) {
       throw Error(db.path() + ": entry '" + e.id + "': " + ex.what());
     }

@@ -35,8 +35,7 @@ void CheckSafeName(const std::string& s, const std::string& what) {
     if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '_' || c == '-')) ok = false;
   }
   if (!ok) {
-    throw Error(what + " '" + s +
-                "' is not a safe name (use letters, digits, '.', '_', '-'; not starting with '.')");
+    throw Error(what + " '" + s + "' is not a safe name (use letters, digits, '.', '_', '-'; not starting with '.')");
   }
 }
 
@@ -59,9 +58,8 @@ std::string CanonicalJson(const Json& j) { return nlohmann::json(j).dump(); }
 Json EntryJson(const Release::EntryInfo& e) {
   Json files = Json::array();
   for (const auto& f : e.files) files.push_back({{"path", f.path}, {"sha256", f.sha256}, {"size", f.size}});
-  return Json{{"id", e.id},         {"key", e.key},         {"split", e.split},
-              {"failed", e.failed}, {"failure", e.failure}, {"record", e.record},
-              {"files", files},     {"entry_digest", e.entry_digest}};
+  return Json{{"id", e.id},           {"key", e.key},       {"split", e.split}, {"failed", e.failed},
+              {"failure", e.failure}, {"record", e.record}, {"files", files},   {"entry_digest", e.entry_digest}};
 }
 
 Release::EntryInfo ParseEntryJson(const Json& j, const std::string& where) {
@@ -74,8 +72,8 @@ Release::EntryInfo ParseEntryJson(const Json& j, const std::string& where) {
     e.failure = j.at("failure").get<std::string>();
     e.record = j.at("record");
     for (const auto& f : j.at("files")) {
-      e.files.push_back({f.at("path").get<std::string>(), f.at("sha256").get<std::string>(),
-                         f.at("size").get<uint64_t>()});
+      e.files.push_back(
+          {f.at("path").get<std::string>(), f.at("sha256").get<std::string>(), f.at("size").get<uint64_t>()});
     }
     std::sort(e.files.begin(), e.files.end(), [](auto& a, auto& b) { return a.path < b.path; });
     e.entry_digest = j.value("entry_digest", std::string());
@@ -161,8 +159,11 @@ Json Counts(const std::vector<Release::EntryInfo>& entries) {
     split_categories[s] = per;
   }
   for (const auto& [c, k] : cat) categories[c] = k;
-  return Json{{"entries", entries.size()}, {"failed", failed}, {"splits", splits},
-              {"categories", categories}, {"split_categories", split_categories}};
+  return Json{{"entries", entries.size()},
+              {"failed", failed},
+              {"splits", splits},
+              {"categories", categories},
+              {"split_categories", split_categories}};
 }
 
 void CheckFormatVersion(const Json& dataset, const std::string& where) {
@@ -217,9 +218,8 @@ using namespace release_detail;
 
 // ---------------------------------------------------------------- digest
 
-std::string EntryDigest(const std::string& id, const std::string& key, const std::string& split,
-                        bool failed, const std::string& failure, const Json& record,
-                        const std::vector<Release::FileInfo>& files) {
+std::string EntryDigest(const std::string& id, const std::string& key, const std::string& split, bool failed,
+                        const std::string& failure, const Json& record, const std::vector<Release::FileInfo>& files) {
   std::vector<std::pair<std::string, std::string>> fl;
   for (const auto& f : files) fl.emplace_back(f.path, f.sha256);
   std::sort(fl.begin(), fl.end());
@@ -320,8 +320,10 @@ void ReleaseMeta::Validate() const {
     bool ok = !version.empty() && std::isdigit(static_cast<unsigned char>(version.front())) &&
               std::isdigit(static_cast<unsigned char>(version.back()));
     for (char c : version) {
-      if (c == '.') ++dots;
-      else if (!std::isdigit(static_cast<unsigned char>(c))) ok = false;
+      if (c == '.')
+        ++dots;
+      else if (!std::isdigit(static_cast<unsigned char>(c)))
+        ok = false;
     }
     if (!ok || dots != 2 || version.find("..") != std::string::npos) {
       throw Error("ReleaseMeta.version '" + version + "' is not MAJOR.MINOR.PATCH");
@@ -366,13 +368,13 @@ std::string JobKeysSha(const std::vector<std::string>& keys) {
 // The fields that must agree for a build to be resumed or a finished release reused.
 Json IdentityJson(const ReleaseMeta& m) {
   Json id{{"name", m.name},
-              {"version", m.version},
-              {"seed", m.seed},
-              {"recipe_sha256", m.recipe_sha256},
-              {"code_version", m.code_version},
-              {"jobs_sha256", JobKeysSha(m.job_keys)},
-              {"shard_index", m.shard_index},
-              {"shard_count", m.shard_count}};
+          {"version", m.version},
+          {"seed", m.seed},
+          {"recipe_sha256", m.recipe_sha256},
+          {"code_version", m.code_version},
+          {"jobs_sha256", JobKeysSha(m.job_keys)},
+          {"shard_index", m.shard_index},
+          {"shard_count", m.shard_count}};
   if (!m.sources.empty()) id["sources_sha256"] = SourcesSha(SourceSums(m.sources));
   return id;
 }
@@ -425,9 +427,9 @@ struct ReleaseWriter::Impl {
   int lock_fd = -1;
   int journal_fd = -1;
   mutable std::mutex mu;
-  std::set<std::string> expected;      // keys this writer must produce
-  std::set<std::string> done;          // committed keys
-  std::set<std::string> in_progress;   // keys being committed
+  std::set<std::string> expected;     // keys this writer must produce
+  std::set<std::string> done;         // committed keys
+  std::set<std::string> in_progress;  // keys being committed
   std::map<std::string, std::string> id_of_key;
   std::set<std::string> ids;
   std::atomic<uint64_t> staging_seq{0};
@@ -463,11 +465,12 @@ struct ReleaseWriter::Impl {
         }
         ::close(lock_fd);
         lock_fd = -1;
-        throw Error(dir.string() + ": another build is writing this release: " + holder + " holds " +
-                    lp.string() + ". Wait for it to finish, or stop it; a dead build's lock is released "
+        throw Error(dir.string() + ": another build is writing this release: " + holder + " holds " + lp.string() +
+                    ". Wait for it to finish, or stop it; a dead build's lock is released "
                     "automatically.");
       }
-      struct stat a {}, b {};
+      struct stat a {
+      }, b{};
       if (::fstat(lock_fd, &a) == 0 && ::stat(lp.c_str(), &b) == 0 && a.st_ino == b.st_ino && a.st_dev == b.st_dev)
         break;
       ::close(lock_fd);
@@ -570,8 +573,7 @@ void ReleaseWriter::SetBuildInfo(const std::string& key, Json value) {
   impl_->build_info[key] = std::move(value);
 }
 
-std::unique_ptr<ReleaseWriter> ReleaseWriter::Open(const fs::path& dir_in, const ReleaseMeta& meta_in,
-                                                   bool resume) {
+std::unique_ptr<ReleaseWriter> ReleaseWriter::Open(const fs::path& dir_in, const ReleaseMeta& meta_in, bool resume) {
   ReleaseMeta meta = meta_in;
   if (meta.recipe_sha256.empty()) meta.recipe_sha256 = Sha256Hex(meta.recipe_text);
   for (auto& f : meta.sources)
@@ -582,8 +584,7 @@ std::unique_ptr<ReleaseWriter> ReleaseWriter::Open(const fs::path& dir_in, const
   if (existed && !fs::is_directory(dir)) throw Error(dir.string() + ": exists and is not a folder");
   if (resume && !existed) throw Error(dir.string() + ": nothing to resume (the folder does not exist)");
   // Never leave a lock file in a folder that is not ours.
-  if (existed && !fs::exists(dir / kBuildDir) && !fs::exists(dir / "SHA256SUMS") &&
-      !DirHasOnly(dir, {kLockFile})) {
+  if (existed && !fs::exists(dir / kBuildDir) && !fs::exists(dir / "SHA256SUMS") && !DirHasOnly(dir, {kLockFile})) {
     throw Error(dir.string() + ": folder is not empty and is not a drape release; refusing to write into it");
   }
   fs::create_directories(dir);
@@ -775,8 +776,7 @@ void ReleaseWriter::Commit(const Entry& entry) {
     std::lock_guard<std::mutex> g(m.mu);
     if (!m.expected.count(entry.key)) throw Error(where + ": job key is not one of this build's jobs");
     if (m.already_finished) throw Error(where + ": the release is already finished");
-    if (m.done.count(entry.key) || m.in_progress.count(entry.key))
-      throw Error(where + ": job already committed");
+    if (m.done.count(entry.key) || m.in_progress.count(entry.key)) throw Error(where + ": job already committed");
     if (m.ids.count(entry.id)) throw Error(where + ": id already used by another job");
     m.in_progress.insert(entry.key);
     m.ids.insert(entry.id);
@@ -804,8 +804,10 @@ void ReleaseWriter::Commit(const Entry& entry) {
   m.done.insert(entry.key);
   m.id_of_key[entry.key] = entry.id;
   // One write() per line on an O_APPEND descriptor: lines never interleave.
-  const std::string line = Json{{"id", entry.id}, {"key", entry.key},
-                                {"timing", entry.timing.is_null() ? Json::object() : entry.timing}}.dump() + "\n";
+  const std::string line =
+      Json{{"id", entry.id}, {"key", entry.key}, {"timing", entry.timing.is_null() ? Json::object() : entry.timing}}
+          .dump() +
+      "\n";
   WriteAll(m.journal_fd, line, (m.build_dir() / "journal.jsonl").string());
 }
 
@@ -965,8 +967,11 @@ ReleaseWriter::Summary ReleaseWriter::Finalize() {
   s.wall_seconds = now - m.started_seconds;
   Json timings = Json::object();
   for (auto& [id, t] : m.ReadJournalTimings()) timings[id] = t;
-  Json build{{"started", m.started_utc}, {"finished", NowUtc()}, {"wall_seconds", s.wall_seconds},
-             {"host", HostName()},       {"code_version", meta.code_version}};
+  Json build{{"started", m.started_utc},
+             {"finished", NowUtc()},
+             {"wall_seconds", s.wall_seconds},
+             {"host", HostName()},
+             {"code_version", meta.code_version}};
   for (auto it = m.build_info.begin(); it != m.build_info.end(); ++it) build[it.key()] = it.value();
   build["entry_timing"] = timings;
   WriteFileAtomic(m.dir / "build.json", build.dump(1) + "\n");
@@ -986,8 +991,7 @@ ReleaseWriter::Summary ReleaseWriter::Finalize() {
 // ---------------------------------------------------------------- reader
 
 Release Release::Open(const fs::path& dir) {
-  if (!fs::exists(dir / "dataset.json") || !fs::exists(dir / "SHA256SUMS") ||
-      !fs::exists(dir / "catalog.sqlite")) {
+  if (!fs::exists(dir / "dataset.json") || !fs::exists(dir / "SHA256SUMS") || !fs::exists(dir / "catalog.sqlite")) {
     if (fs::exists(dir / kBuildDir))
       throw Error(dir.string() + ": unfinished build (resume it with drape build --resume)");
     throw Error(dir.string() + ": not a finished drape release (needs dataset.json, catalog.sqlite, SHA256SUMS)");
@@ -1009,21 +1013,24 @@ Release Release::Open(const fs::path& dir) {
       throw Error((dir / "catalog.sqlite").string() + ": entry '" + e.id + "' is listed twice");
     auto [it, fresh] = id_of_key.emplace(e.key, e.id);
     if (!fresh)
-      throw Error((dir / "catalog.sqlite").string() + ": job '" + e.key + "' is listed twice (entries '" +
-                  it->second + "' and '" + e.id + "')");
+      throw Error((dir / "catalog.sqlite").string() + ": job '" + e.key + "' is listed twice (entries '" + it->second +
+                  "' and '" + e.id + "')");
     CheckSafeName(e.id, (dir / "catalog.sqlite").string() + ": entry id");
     if (!fs::is_directory(dir / "entries" / e.id))
-      throw Error((dir / "entries" / e.id).string() + ": entry folder missing (catalog.sqlite lists it; "
-                  "run drape verify " + dir.string() + ")");
+      throw Error((dir / "entries" / e.id).string() +
+                  ": entry folder missing (catalog.sqlite lists it; "
+                  "run drape verify " +
+                  dir.string() + ")");
   }
-  SourceSums(r.dataset_, where);  // checks the shape
+  SourceSums(r.dataset_, where);                                     // checks the shape
   const Json sources = r.dataset_.value("sources", Json::object());  // items() must not outlive it
   for (const auto& [written, v] : sources.items()) r.sources_[written] = dir / v["path"].get<std::string>();
   return r;
 }
 
 const Release::EntryInfo* Release::Find(const std::string& id) const {
-  auto it = std::lower_bound(entries_.begin(), entries_.end(), id, [](const EntryInfo& e, const std::string& v) { return e.id < v; });
+  auto it = std::lower_bound(entries_.begin(), entries_.end(), id,
+                             [](const EntryInfo& e, const std::string& v) { return e.id < v; });
   return it != entries_.end() && it->id == id ? &*it : nullptr;
 }
 

@@ -62,10 +62,10 @@ namespace drape {
 // A file the recipe reads (an imported mesh, its companions, an anchors sidecar), copied
 // into the release.
 struct SourceFile {
-  std::string recipe_path;   // as written in the recipe (key of dataset.json "sources")
+  std::string recipe_path;     // as written in the recipe (key of dataset.json "sources")
   std::filesystem::path file;  // where the build reads it from
-  std::string release_path;  // "sources/…" inside the release
-  std::string sha256;        // of the bytes (ReleaseWriter::Open fills it if empty)
+  std::string release_path;    // "sources/…" inside the release
+  std::string sha256;          // of the bytes (ReleaseWriter::Open fills it if empty)
 };
 
 // Release paths for a recipe's imported files: "sources/<path as written>" when that is
@@ -82,11 +82,11 @@ struct ReleaseMeta {
   std::string name;     // e.g. "quickstart"; [A-Za-z0-9._-]
   std::string version;  // semantic "MAJOR.MINOR.PATCH" (TFDS meaning)
   uint64_t seed = 0;
-  std::string recipe_text;    // the full recipe file, verbatim
-  std::string recipe_sha256;  // of recipe_text (filled in if empty)
-  std::string code_version;   // e.g. git describe; recorded, never hashed into the digest
-  std::string description;    // free text for the card
-  std::string license = "cc-by-4.0";  // Hugging Face license identifier
+  std::string recipe_text;               // the full recipe file, verbatim
+  std::string recipe_sha256;             // of recipe_text (filled in if empty)
+  std::string code_version;              // e.g. git describe; recorded, never hashed into the digest
+  std::string description;               // free text for the card
+  std::string license = "cc-by-4.0";     // Hugging Face license identifier
   Json recipe_summary = Json::object();  // anything else for dataset.json / the card
   // Every job of the recipe, in recipe order (keys unique).
   std::vector<std::string> job_keys;
@@ -159,8 +159,8 @@ class ReleaseWriter {
  private:
   struct Impl;
   explicit ReleaseWriter(std::unique_ptr<Impl> impl);
-  static std::unique_ptr<ReleaseWriter> OpenLocked(std::unique_ptr<Impl>& impl, const ReleaseMeta& meta,
-                                                   bool resume, bool existed);
+  static std::unique_ptr<ReleaseWriter> OpenLocked(std::unique_ptr<Impl>& impl, const ReleaseMeta& meta, bool resume,
+                                                   bool existed);
   std::unique_ptr<Impl> impl_;
 };
 
@@ -206,18 +206,17 @@ class Release {
 };
 
 // Canonical per-entry digest and release digest (see the top of this file).
-std::string EntryDigest(const std::string& id, const std::string& key, const std::string& split,
-                        bool failed, const std::string& failure, const Json& record,
-                        const std::vector<Release::FileInfo>& files);
+std::string EntryDigest(const std::string& id, const std::string& key, const std::string& split, bool failed,
+                        const std::string& failure, const Json& record, const std::vector<Release::FileInfo>& files);
 // `sources`: release path → sha256 of the release's carried source files.
 std::string ComputeDigest(const std::vector<Release::EntryInfo>& entries,
                           const std::map<std::string, std::string>& sources = {});
 
 struct VerifyReport {
-  std::vector<std::string> missing;  // listed in SHA256SUMS, not on disk
-  std::vector<std::string> extra;    // on disk, not listed
-  std::vector<std::string> changed;  // hash differs
-  std::vector<std::string> problems; // anything else (digest mismatch, bad entry.json, …)
+  std::vector<std::string> missing;   // listed in SHA256SUMS, not on disk
+  std::vector<std::string> extra;     // on disk, not listed
+  std::vector<std::string> changed;   // hash differs
+  std::vector<std::string> problems;  // anything else (digest mismatch, bad entry.json, …)
   std::string expected_digest, actual_digest;
   int files_checked = 0;
   bool ok() const { return missing.empty() && extra.empty() && changed.empty() && problems.empty(); }

@@ -1,8 +1,7 @@
 // Release writer costs: committing an entry (files + entry.json + syncfs + rename),
 // finalizing (catalog, card, gallery, SHA256SUMS) and verifying (hashing).
-#include <unistd.h>
-
 #include <benchmark/benchmark.h>
+#include <unistd.h>
 
 #include "common/rng.h"
 #include "generator/release/release.h"

@@ -1,5 +1,6 @@
 #include "generator/release/release.h"
 
+#include <gtest/gtest.h>
 #include <signal.h>
 #include <sqlite3.h>
 #include <sys/mount.h>
@@ -15,8 +16,6 @@
 #include <random>
 #include <regex>
 #include <thread>
-
-#include <gtest/gtest.h>
 
 #include "common/error.h"
 #include "common/files.h"
@@ -69,15 +68,16 @@ Entry MakeEntry(int i) {
   e.split = i % 4 == 3 ? "test" : (i % 4 == 2 ? "calibration" : "train");
   e.failed = i == 5;
   if (e.failed) e.failure = "simulation blew up (NaN at step 17)";
-  e.record = Json{{"category", i % 2 ? "pants" : "shirt"},
-                  {"garment", i % 2 ? "pants" : "long_sleeve_shirt"},
-                  {"instance", "garment" + std::to_string(i % 3)},
-                  {"material", "tshirt"},
-                  {"anchor", {{"label", "anchor" + std::to_string(i % 5)}, {"vertex", 10 + i}, {"uv", {0.25 * i, 0.5}}}},
-                  {"grasp_offset", {0.0, 0.001 * i, 0.0}},
-                  {"seed", 18446744073709551615ull - static_cast<uint64_t>(i)},
-                  {"hang", {{"steps", 480 + i}, {"settled", true}, {"strain_max", 0.01 * i}}},
-                  {"fusion", {{"recon_to_truth_mean", 0.0015 + 0.0001 * i}}}};
+  e.record =
+      Json{{"category", i % 2 ? "pants" : "shirt"},
+           {"garment", i % 2 ? "pants" : "long_sleeve_shirt"},
+           {"instance", "garment" + std::to_string(i % 3)},
+           {"material", "tshirt"},
+           {"anchor", {{"label", "anchor" + std::to_string(i % 5)}, {"vertex", 10 + i}, {"uv", {0.25 * i, 0.5}}}},
+           {"grasp_offset", {0.0, 0.001 * i, 0.0}},
+           {"seed", 18446744073709551615ull - static_cast<uint64_t>(i)},
+           {"hang", {{"steps", 480 + i}, {"settled", true}, {"strain_max", 0.01 * i}}},
+           {"fusion", {{"recon_to_truth_mean", 0.0015 + 0.0001 * i}}}};
   e.timing = Json{{"hang_seconds", 0.1 * i}};
   if (!e.failed) {
     std::string ply = "ply\nformat binary_little_endian 1.0\n";
@@ -94,9 +94,8 @@ Entry MakeEntry(int i) {
 class ReleaseTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    root_ = fs::temp_directory_path() /
-            ("drape_release_test_" + std::to_string(::getpid()) + "_" +
-             ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    root_ = fs::temp_directory_path() / ("drape_release_test_" + std::to_string(::getpid()) + "_" +
+                                         ::testing::UnitTest::GetInstance()->current_test_info()->name());
     fs::remove_all(root_);
     fs::create_directories(root_);
   }
@@ -124,8 +123,12 @@ TEST_F(ReleaseTest, DigestIndependentOfCommitOrderAndThreads) {
     for (int i = 0; i < kJobs; ++i) order[i] = i;
     std::mt19937 g(42);
     std::shuffle(order.begin(), order.end(), g);
-    std::thread t1([&] { for (int k = 0; k < kJobs; k += 2) w->Commit(MakeEntry(order[k])); });
-    std::thread t2([&] { for (int k = 1; k < kJobs; k += 2) w->Commit(MakeEntry(order[k])); });
+    std::thread t1([&] {
+      for (int k = 0; k < kJobs; k += 2) w->Commit(MakeEntry(order[k]));
+    });
+    std::thread t2([&] {
+      for (int k = 1; k < kJobs; k += 2) w->Commit(MakeEntry(order[k]));
+    });
     t1.join();
     t2.join();
     const auto b = w->Finalize();
@@ -217,7 +220,9 @@ TEST_F(ReleaseTest, SigkillMidBuildThenResumeGivesSameDigest) {
   }
   // Kill after a few entries are in (poll the folder).
   for (int t = 0; t < 400; ++t) {
-    if (fs::exists(dir / "entries") && std::distance(fs::directory_iterator(dir / "entries"), fs::directory_iterator()) >= 4) break;
+    if (fs::exists(dir / "entries") &&
+        std::distance(fs::directory_iterator(dir / "entries"), fs::directory_iterator()) >= 4)
+      break;
     ::usleep(5000);
   }
   ::kill(child, SIGKILL);
@@ -758,9 +763,9 @@ TEST_F(ReleaseTest, GalleryInHeadlessChromium) {
   if (chromium.empty()) GTEST_SKIP() << "chromium not installed (apt-get install chromium)";
   const fs::path dir = root_ / "chrome";
   Build(dir);
-  const std::string base = chromium + " --headless --no-sandbox --disable-gpu --user-data-dir=" +
-                           (root_ / "profile").string() + " --dump-dom 'file://" + fs::absolute(dir).string() +
-                           "/index.html";
+  const std::string base = chromium +
+                           " --headless --no-sandbox --disable-gpu --user-data-dir=" + (root_ / "profile").string() +
+                           " --dump-dom 'file://" + fs::absolute(dir).string() + "/index.html";
   const std::string all = RunCommand(base + "' 2>/dev/null");
   EXPECT_EQ(CountCards(all), kJobs) << all.substr(0, 500);
   EXPECT_NE(all.find("(filters ready)"), std::string::npos);  // the script ran

@@ -166,8 +166,10 @@ VerifyReport CompareToPublished(const fs::path& dir, const fs::path& reference) 
   for (const auto& [p, h] : ref_sums) {
     if (!content(p)) continue;
     auto it = sums.find(p);
-    if (it == sums.end()) r.missing.push_back(p);
-    else if (it->second != h) r.changed.push_back(p);
+    if (it == sums.end())
+      r.missing.push_back(p);
+    else if (it->second != h)
+      r.changed.push_back(p);
     ++r.files_checked;
   }
   for (const auto& [p, h] : sums) {
@@ -209,8 +211,10 @@ ReleaseDiff CompareReleases(const Release& a, const Release& b) {
     for (const auto& x : e.files) fa[x.path] = x.sha256;
     for (const auto& x : f.files) fb[x.path] = x.sha256;
     for (const auto& [p, h] : fa) {
-      if (!fb.count(p)) what.push_back(p + " only in first");
-      else if (fb[p] != h) what.push_back(p);
+      if (!fb.count(p))
+        what.push_back(p + " only in first");
+      else if (fb[p] != h)
+        what.push_back(p);
     }
     for (const auto& [p, h] : fb)
       if (!fa.count(p)) what.push_back(p + " only in second");

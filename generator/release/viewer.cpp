@@ -13,9 +13,9 @@
 #include "generator/release/release_internal.h"
 
 #if DRAPE_GALLERY_3D
-#define DRAPE_INCBIN(name, file)                                                        \
-  __asm__(".section .rodata\n.balign 16\n.hidden " #name "_begin\n.hidden " #name "_end\n" \
-          #name "_begin:\n.incbin \"" file "\"\n" #name "_end:\n.previous\n");         \
+#define DRAPE_INCBIN(name, file)                                                                 \
+  __asm__(".section .rodata\n.balign 16\n.hidden " #name "_begin\n.hidden " #name "_end\n" #name \
+          "_begin:\n.incbin \"" file "\"\n" #name "_end:\n.previous\n");                         \
   extern "C" const char name##_begin[], name##_end[];
 
 DRAPE_INCBIN(drape_three_js, DRAPE_THREE_DIR "/build/three.min.js")
@@ -83,7 +83,8 @@ std::vector<std::pair<std::string, std::string>> GalleryViewerFiles(const fs::pa
   for (const auto& e : entries) {
     if (!EntryHas3d(e)) continue;
     const Json a = e.record.is_object() && e.record.contains("anchor") ? e.record["anchor"] : Json::object();
-    const int vertex = a.is_object() && a.contains("vertex") && a["vertex"].is_number_integer() ? a["vertex"].get<int>() : -1;
+    const int vertex =
+        a.is_object() && a.contains("vertex") && a["vertex"].is_number_integer() ? a["vertex"].get<int>() : -1;
     auto mesh = [&](const char* name) { return Base64(Gzip(ReadFile(dir / "entries" / e.id / name))); };
     std::string js = "drapeViewerData(" + Json(e.id).dump() + ",{\"anchor_vertex\":" + std::to_string(vertex) +
                      ",\"encoding\":\"gzip+base64\",\"hang\":\"" + mesh("hang.ply") + "\",\"recon\":\"" +

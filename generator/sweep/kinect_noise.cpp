@@ -37,34 +37,28 @@ namespace detail {
 inline float Min(float a, float b) { return b < a ? b : a; }
 inline float Max(float a, float b) { return a < b ? b : a; }
 void NoiseParameters(const float* __restrict Zp, const float* __restrict Cp, float* __restrict sgp,
-                     float* __restrict slp, float* __restrict pdp, size_t n, float big,
-                     float max_theta, float half_pi, float sixty, float step, float bfq, float q12,
-                     float t0, float inv_ramp);
-void DrawMeasurements(const float* __restrict Z, const float* __restrict sg,
-                      const float* __restrict pdrop, const float* __restrict lit,
-                      const float* __restrict uni, const float* __restrict na,
-                      float* __restrict out, size_t n, float axial, bool quantize, float bfq,
-                      float step, float zmin, float zmax);
-void LateralOffsets(const float* __restrict sl, const float* __restrict nu,
-                    const float* __restrict nv, int8_t* __restrict du, int8_t* __restrict dv,
-                    size_t n);
+                     float* __restrict slp, float* __restrict pdp, size_t n, float big, float max_theta, float half_pi,
+                     float sixty, float step, float bfq, float q12, float t0, float inv_ramp);
+void DrawMeasurements(const float* __restrict Z, const float* __restrict sg, const float* __restrict pdrop,
+                      const float* __restrict lit, const float* __restrict uni, const float* __restrict na,
+                      float* __restrict out, size_t n, float axial, bool quantize, float bfq, float step, float zmin,
+                      float zmax);
+void LateralOffsets(const float* __restrict sl, const float* __restrict nu, const float* __restrict nv,
+                    int8_t* __restrict du, int8_t* __restrict dv, size_t n);
 }  // namespace detail
 namespace {
 
 // Standard normal quantiles at (k + 0.5)/65536: a 16-bit draw → N(0, 1) sample,
 // tails to ±3.97σ. Acklam's rational approximation polished by two Halley steps.
 double NormalQuantile(double p) {
-  static const double a[] = {-3.969683028665376e+01, 2.209460984245205e+02,
-                             -2.759285104469687e+02, 1.383577518672690e+02,
-                             -3.066479806614716e+01, 2.506628277459239e+00};
-  static const double b[] = {-5.447609879822406e+01, 1.615858368580409e+02,
-                             -1.556989798598866e+02, 6.680131188771972e+01,
-                             -1.328068155833272e+01};
-  static const double c[] = {-7.784894002430293e-03, -3.223964580411365e-01,
-                             -2.400758277161838e+00, -2.549732539343734e+00,
-                             4.374664141464968e+00,  2.938163982698783e+00};
-  static const double d[] = {7.784695709041462e-03, 3.224671290700398e-01,
-                             2.445134137142996e+00, 3.754408661907416e+00};
+  static const double a[] = {-3.969683028665376e+01, 2.209460984245205e+02,  -2.759285104469687e+02,
+                             1.383577518672690e+02,  -3.066479806614716e+01, 2.506628277459239e+00};
+  static const double b[] = {-5.447609879822406e+01, 1.615858368580409e+02, -1.556989798598866e+02,
+                             6.680131188771972e+01, -1.328068155833272e+01};
+  static const double c[] = {-7.784894002430293e-03, -3.223964580411365e-01, -2.400758277161838e+00,
+                             -2.549732539343734e+00, 4.374664141464968e+00,  2.938163982698783e+00};
+  static const double d[] = {7.784695709041462e-03, 3.224671290700398e-01, 2.445134137142996e+00,
+                             3.754408661907416e+00};
   const double plow = 0.02425;
   double x;
   if (p < plow) {
@@ -97,24 +91,22 @@ const std::array<float, 65536>& NormalTable() {
   return table;
 }
 
-
 }  // namespace
 
 namespace detail {
 // Per-pixel noise parameters (see ApplyKinectNoise). A separate external function with
 // restrict pointers and no control flow: GCC 12 vectorises it (not when inlined).
-__attribute__((noinline)) void NoiseParameters(const float* __restrict Zp, const float* __restrict Cp, float* __restrict sgp,
-                     float* __restrict slp, float* __restrict pdp, size_t n, float big,
-                     float max_theta, float half_pi, float sixty, float step, float bfq, float q12,
-                     float t0, float inv_ramp) {
+__attribute__((noinline)) void NoiseParameters(const float* __restrict Zp, const float* __restrict Cp,
+                                               float* __restrict sgp, float* __restrict slp, float* __restrict pdp,
+                                               size_t n, float big, float max_theta, float half_pi, float sixty,
+                                               float step, float bfq, float q12, float t0, float inv_ramp) {
   for (size_t p = 0; p < n; ++p) {
     const float zz = Zp[p];
     const float finite = zz <= big ? 1.0f : 0.0f;
     const float z = detail::Min(zz, big);
     const float c = detail::Min(detail::Max(Cp[p], 0.0f), 1.0f);
     // acos (Abramowitz & Stegun 4.4.45, |error| < 7e-5 rad).
-    const float th = std::sqrt(1.0f - c) *
-                     (1.5707288f + c * (-0.2121144f + c * (0.0742610f + c * -0.0187293f)));
+    const float th = std::sqrt(1.0f - c) * (1.5707288f + c * (-0.2121144f + c * (0.0742610f + c * -0.0187293f)));
     const float t = detail::Min(th, max_theta);
     const float r = t / (half_pi - t);
     // [N] σ_L = 0.8 + 0.035·θ/(π/2 − θ) px (θ capped at 85°; beyond it is dropped).
@@ -122,8 +114,7 @@ __attribute__((noinline)) void NoiseParameters(const float* __restrict Zp, const
     // [N] σ_z = 0.0012 + 0.0019·(z − 0.4)² m for θ ≤ 60°, plus
     // (0.0001/√z)·θ²/(π/2 − θ)² beyond 60° (their Eq. for large angles).
     const float beyond60 = t > sixty ? 1.0f : 0.0f;
-    const float sz = 0.0012f + 0.0019f * (z - 0.4f) * (z - 0.4f) +
-                     beyond60 * 0.0001f / std::sqrt(z) * r * r;
+    const float sz = 0.0012f + 0.0019f * (z - 0.4f) * (z - 0.4f) + beyond60 * 0.0001f / std::sqrt(z) * r * r;
     // [N] measured σ_z on real, quantised readings: when we quantise too, only the rest
     // is Gaussian (Sheppard: total variance ≈ σ_g² + ΔZ²/12, ΔZ = Z²·step/(b·f) [K]).
     const float dz = z * z * step / bfq;
@@ -136,11 +127,9 @@ __attribute__((noinline)) void NoiseParameters(const float* __restrict Zp, const
 // Measured depth of every source pixel: axial noise, disparity quantisation, random
 // dropouts, range cut (0 = no data). Branch-free (vectorised).
 __attribute__((noinline)) void DrawMeasurements(const float* __restrict Z, const float* __restrict sg,
-                                                const float* __restrict pdrop,
-                                                const float* __restrict lit,
-                                                const float* __restrict uni,
-                                                const float* __restrict na, float* __restrict out,
-                                                size_t n, float axial, bool quantize, float bfq,
+                                                const float* __restrict pdrop, const float* __restrict lit,
+                                                const float* __restrict uni, const float* __restrict na,
+                                                float* __restrict out, size_t n, float axial, bool quantize, float bfq,
                                                 float step, float zmin, float zmax) {
   const float qk = quantize ? 1.0f : 0.0f;
   for (size_t p = 0; p < n; ++p) {
@@ -159,8 +148,8 @@ __attribute__((noinline)) void DrawMeasurements(const float* __restrict Z, const
 // Lateral offsets round(σ_L·n) per axis (round to nearest without libm; +64 keeps the
 // argument positive).
 __attribute__((noinline)) void LateralOffsets(const float* __restrict sl, const float* __restrict nu,
-                                              const float* __restrict nv, int8_t* __restrict du,
-                                              int8_t* __restrict dv, size_t n) {
+                                              const float* __restrict nv, int8_t* __restrict du, int8_t* __restrict dv,
+                                              size_t n) {
   for (size_t p = 0; p < n; ++p) {
     du[p] = int8_t(int(Min(Max(sl[p] * nu[p], -60.0f), 60.0f) + 64.5f) - 64);
     dv[p] = int8_t(int(Min(Max(sl[p] * nv[p], -60.0f), 60.0f) + 64.5f) - 64);
@@ -201,8 +190,7 @@ void CheckSizes(const ExactFrame& exact, const KinectOptions& o) {
 
 }  // namespace
 
-void UpdateKinectPlan(const ExactFrame& exact, const KinectOptions& o, const PixelRect& region,
-                      KinectPlan& plan) {
+void UpdateKinectPlan(const ExactFrame& exact, const KinectOptions& o, const PixelRect& region, KinectPlan& plan) {
   CheckSizes(exact, o);
   const int W = o.intrinsics.width, H = o.intrinsics.height;
   const size_t n = size_t(W) * H;
@@ -221,8 +209,7 @@ void UpdateKinectPlan(const ExactFrame& exact, const KinectOptions& o, const Pix
   const float zmax = float(o.max_range);
   const float half_pi = float(M_PI / 2), max_theta = float(85 * M_PI / 180);
   const float sixty = float(M_PI / 3);
-  const float t0 = float(o.grazing_start_deg * M_PI / 180),
-              t1 = float(o.grazing_full_deg * M_PI / 180);
+  const float t0 = float(o.grazing_start_deg * M_PI / 180), t1 = float(o.grazing_full_deg * M_PI / 180);
   const float bfq = float(o.baseline * o.disparity_focal);  // m·px, [K]
   const float step = float(o.disparity_subpixel);           // px
   // Loop invariants as factors, so that the parameter loop has no control flow.
@@ -236,9 +223,8 @@ void UpdateKinectPlan(const ExactFrame& exact, const KinectOptions& o, const Pix
   for (int v = v0; v < v1; ++v) {
     const size_t row = size_t(v) * W;
     detail::NoiseParameters(Z + row + u0, C + row + u0, plan.sigma_axial.data() + row + u0,
-                            plan.sigma_lateral.data() + row + u0, plan.p_drop.data() + row + u0,
-                            size_t(u1 - u0), big, max_theta, half_pi, sixty, step, bfq, q12, t0,
-                            inv_ramp);
+                            plan.sigma_lateral.data() + row + u0, plan.p_drop.data() + row + u0, size_t(u1 - u0), big,
+                            max_theta, half_pi, sixty, step, bfq, q12, t0, inv_ramp);
     float* pd = plan.p_drop.data() + row;
     if (!o.dropouts) std::fill(pd + u0, pd + u1, 0.0f);
     // Projector shadow (deterministic). Projector at +baseline along camera x (Kinect v1:
@@ -282,8 +268,8 @@ KinectPlan PlanKinectNoise(const ExactFrame& exact, const KinectOptions& o) {
   return plan;
 }
 
-std::vector<float> DrawKinectNoise(const ExactFrame& exact, const KinectPlan& plan,
-                                   const KinectOptions& o, Rng& rng, KinectScratch* scratch) {
+std::vector<float> DrawKinectNoise(const ExactFrame& exact, const KinectPlan& plan, const KinectOptions& o, Rng& rng,
+                                   KinectScratch* scratch) {
   CheckSizes(exact, o);
   const int W = o.intrinsics.width, H = o.intrinsics.height;
   const size_t n = size_t(W) * H;
@@ -322,9 +308,8 @@ std::vector<float> DrawKinectNoise(const ExactFrame& exact, const KinectPlan& pl
   const float bfq = float(o.baseline * o.disparity_focal);  // m·px, [K]
   const float step = float(o.disparity_subpixel);
   auto& measured = s.measured;
-  detail::DrawMeasurements(Z, plan.sigma_axial.data(), plan.p_drop.data(), plan.lit.data(),
-                           uni.data(), na.data(), measured.data(), n, o.axial ? 1.0f : 0.0f,
-                           o.quantize, bfq, step, zmin, zmax);
+  detail::DrawMeasurements(Z, plan.sigma_axial.data(), plan.p_drop.data(), plan.lit.data(), uni.data(), na.data(),
+                           measured.data(), n, o.axial ? 1.0f : 0.0f, o.quantize, bfq, step, zmin, zmax);
   if (!o.lateral) return measured;
   // Lateral noise: pixel p reports the measurement of pixel p + round(σ_L·n) per axis.
   auto& du = s.du;

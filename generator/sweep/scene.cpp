@@ -23,8 +23,8 @@ namespace {
 constexpr float kInf = std::numeric_limits<float>::infinity();
 
 struct MeshBuffers {
-  std::vector<float> v;          // x, y, z per vertex
-  std::vector<unsigned> f;       // 3 per triangle
+  std::vector<float> v;     // x, y, z per vertex
+  std::vector<unsigned> f;  // 3 per triangle
   void AddTriangle(unsigned a, unsigned b, unsigned c) {
     f.push_back(a);
     f.push_back(b);
@@ -39,10 +39,8 @@ struct MeshBuffers {
   // Axis-aligned box [lo, hi], 12 triangles, outward normals.
   void AddBox(const Vec3& lo, const Vec3& hi) {
     unsigned b = unsigned(v.size() / 3);
-    for (int i = 0; i < 8; ++i)
-      AddVertex(i & 1 ? hi.x() : lo.x(), i & 2 ? hi.y() : lo.y(), i & 4 ? hi.z() : lo.z());
-    static const int q[6][4] = {{0, 4, 6, 2}, {1, 3, 7, 5}, {0, 1, 5, 4},
-                                {2, 6, 7, 3}, {0, 2, 3, 1}, {4, 5, 7, 6}};
+    for (int i = 0; i < 8; ++i) AddVertex(i & 1 ? hi.x() : lo.x(), i & 2 ? hi.y() : lo.y(), i & 4 ? hi.z() : lo.z());
+    static const int q[6][4] = {{0, 4, 6, 2}, {1, 3, 7, 5}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 2, 3, 1}, {4, 5, 7, 6}};
     for (const auto& s : q) {
       AddTriangle(b + s[0], b + s[1], b + s[2]);
       AddTriangle(b + s[0], b + s[2], b + s[3]);
@@ -71,11 +69,11 @@ struct MeshBuffers {
 
 unsigned AttachMesh(RTCDevice device, RTCScene scene, const MeshBuffers& m) {
   RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
-  auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(
-      g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), m.v.size() / 3));
+  auto* vb = static_cast<float*>(
+      rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), m.v.size() / 3));
   std::copy(m.v.begin(), m.v.end(), vb);
-  auto* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
-      g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), m.f.size() / 3));
+  auto* ib = static_cast<unsigned*>(
+      rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), m.f.size() / 3));
   std::copy(m.f.begin(), m.f.end(), ib);
   rtcCommitGeometry(g);
   unsigned id = rtcAttachGeometry(scene, g);
@@ -103,7 +101,7 @@ void AddGripper(MeshBuffers& m) {
 // World-fixed background: arm, wall, floor, table.
 void AddBackground(MeshBuffers& m, const SweepOptions& o) {
   const double g = o.gripper_height;
-  m.AddCylinder(0, 0, 0.04, g + 0.11, g + 0.45, 24);       // wrist/forearm above the palm
+  m.AddCylinder(0, 0, 0.04, g + 0.11, g + 0.45, 24);             // wrist/forearm above the palm
   m.AddBox({-0.045, g + 0.37, -1.2}, {0.045, g + 0.46, -0.04});  // link to the robot behind
   const double wall_z = -1.2, half = 4.0;
   unsigned a = m.AddVertex(-half, 0, wall_z), b = m.AddVertex(half, 0, wall_z);
@@ -139,7 +137,7 @@ struct SweepScene::Impl {
   unsigned garment_geom = 0;
   Eigen::AlignedBox3d bounds;
   Eigen::Isometry3d camera_to_world;
-  ExactFrame background_frame;    // cast once
+  ExactFrame background_frame;  // cast once
   // Camera-frame ray slopes per column, (u − cx)/fx, and row, (v − cy)/fy (padded to 4).
   std::vector<float> ray_x, ray_y;
   std::shared_ptr<const KinectPlan> background_plan;  // if kinect.noise
@@ -153,8 +151,8 @@ struct SweepScene::Impl {
   // Casts the pixels of `rect` in `scene` from a camera at camera_to_scene, keeping the
   // nearest hit in frame. Returns the number of pixels whose nearest hit is geometry
   // `count_geom` of this scene.
-  int Cast(RTCScene scene, const Eigen::Isometry3d& camera_to_scene, const PixelRect& rect,
-           ExactFrame& frame, unsigned count_geom) const {
+  int Cast(RTCScene scene, const Eigen::Isometry3d& camera_to_scene, const PixelRect& rect, ExactFrame& frame,
+           unsigned count_geom) const {
     const Intrinsics& K = options.kinect.intrinsics;
     const Eigen::Matrix3f R = camera_to_scene.linear().cast<float>();
     const Eigen::Vector3f o = camera_to_scene.translation().cast<float>();
@@ -201,8 +199,7 @@ struct SweepScene::Impl {
           const float dx = rh.ray.dir_x[k], dy = rh.ray.dir_y[k], dz = rh.ray.dir_z[k];
           const float nn = std::sqrt((nx * nx + ny * ny + nz * nz) * (dx * dx + dy * dy + dz * dz));
           frame.depth[p] = z;
-          frame.cos_incidence[p] =
-              nn > 0 ? std::min(1.0f, std::abs(nx * dx + ny * dy + nz * dz) / nn) : 1.0f;
+          frame.cos_incidence[p] = nn > 0 ? std::min(1.0f, std::abs(nx * dx + ny * dy + nz * dz) / nn) : 1.0f;
           if (rh.hit.geomID[k] == count_geom) ++counted;
         }
         frame.rays_cast += 16;
@@ -212,11 +209,9 @@ struct SweepScene::Impl {
   }
 };
 
-SweepScene::SweepScene(const TriMesh& hung, const SweepOptions& options)
-    : impl_(std::make_unique<Impl>()) {
+SweepScene::SweepScene(const TriMesh& hung, const SweepOptions& options) : impl_(std::make_unique<Impl>()) {
   options.Validate();
-  if (hung.NumFaces() == 0 || hung.NumVertices() == 0)
-    throw Error("sweep: the hung mesh is empty");
+  if (hung.NumFaces() == 0 || hung.NumVertices() == 0) throw Error("sweep: the hung mesh is empty");
   if (!hung.V.allFinite()) throw Error("sweep: the hung mesh has non-finite vertices");
   if (hung.F.minCoeff() < 0 || hung.F.maxCoeff() >= hung.NumVertices())
     throw Error("sweep: the hung mesh has face indices out of range");
@@ -228,8 +223,7 @@ SweepScene::SweepScene(const TriMesh& hung, const SweepOptions& options)
 
   MeshBuffers garment;
   garment.v.reserve(hung.V.size());
-  for (int i = 0; i < hung.NumVertices(); ++i)
-    garment.AddVertex(hung.V(i, 0), hung.V(i, 1), hung.V(i, 2));
+  for (int i = 0; i < hung.NumVertices(); ++i) garment.AddVertex(hung.V(i, 0), hung.V(i, 1), hung.V(i, 2));
   for (int i = 0; i < hung.NumFaces(); ++i)
     garment.AddTriangle(unsigned(hung.F(i, 0)), unsigned(hung.F(i, 1)), unsigned(hung.F(i, 2)));
   m.bounds = Bounds(hung);
@@ -264,8 +258,7 @@ SweepScene::SweepScene(const TriMesh& hung, const SweepOptions& options)
     m.Cast(m.background, m.camera_to_world, all, m.background_frame, RTC_INVALID_GEOMETRY_ID);
   }
   if (options.kinect.noise)
-    m.background_plan =
-        std::make_shared<const KinectPlan>(PlanKinectNoise(m.background_frame, options.kinect));
+    m.background_plan = std::make_shared<const KinectPlan>(PlanKinectNoise(m.background_frame, options.kinect));
 }
 
 namespace {
@@ -307,8 +300,7 @@ std::vector<float> SweepScene::RenderKinect(double angle, Rng& rng, KinectScratc
     s.owner = this;
     s.plan_dirty = s.exact_dirty = PixelRect{};
   }
-  const Eigen::Isometry3d camera_to_object =
-      ObjectToWorld(m.options, angle).inverse() * m.camera_to_world;
+  const Eigen::Isometry3d camera_to_object = ObjectToWorld(m.options, angle).inverse() * m.camera_to_world;
   s.exact.rays_cast = 0;
   s.exact.roi_pixels = Roi(angle).Area();
   s.exact.garment_pixels = m.Cast(m.object, camera_to_object, Roi(angle), s.exact, m.garment_geom);
@@ -344,8 +336,7 @@ PixelRect SweepScene::Roi(double angle) const {
   const Impl& m = *impl_;
   const Intrinsics& K = m.options.kinect.intrinsics;
   const PixelRect all{0, 0, (K.width + 3) / 4 * 4, (K.height + 3) / 4 * 4};
-  const Eigen::Isometry3d object_to_camera =
-      m.camera_to_world.inverse() * ObjectToWorld(m.options, angle);
+  const Eigen::Isometry3d object_to_camera = m.camera_to_world.inverse() * ObjectToWorld(m.options, angle);
   double umin = 1e30, umax = -1e30, vmin = 1e30, vmax = -1e30;
   // The projection of a box in front of the camera lies in the hull of its projected
   // corners.
@@ -358,9 +349,7 @@ PixelRect SweepScene::Roi(double angle) const {
     vmin = std::min(vmin, v);
     vmax = std::max(vmax, v);
   }
-  auto clampi = [](double x, int lo, int hi) {
-    return int(std::clamp(x, double(lo), double(hi)));
-  };
+  auto clampi = [](double x, int lo, int hi) { return int(std::clamp(x, double(lo), double(hi))); };
   PixelRect r;
   r.u0 = clampi(std::floor(umin) - 1, 0, K.width) / 4 * 4;
   r.v0 = clampi(std::floor(vmin) - 1, 0, K.height) / 4 * 4;
@@ -383,13 +372,12 @@ void SweepScene::RenderExact(double angle, ExactFrame& frame) const {
   frame.rays_cast = 0;
   const PixelRect roi = Roi(angle);
   frame.roi_pixels = roi.Area();
-  const Eigen::Isometry3d camera_to_object =
-      ObjectToWorld(m.options, angle).inverse() * m.camera_to_world;
+  const Eigen::Isometry3d camera_to_object = ObjectToWorld(m.options, angle).inverse() * m.camera_to_world;
   frame.garment_pixels = m.Cast(m.object, camera_to_object, roi, frame, m.garment_geom);
 }
 
-double SweepScene::RangeAlongRay(const Vec3& origin, const Vec3& dir, double angle,
-                                 const IrRangeOptions& ir, Rng* rng) const {
+double SweepScene::RangeAlongRay(const Vec3& origin, const Vec3& dir, double angle, const IrRangeOptions& ir,
+                                 Rng* rng) const {
   ir.Validate();
   const Impl& m = *impl_;
   const double len = dir.norm();
@@ -414,8 +402,7 @@ double SweepScene::RangeAlongRay(const Vec3& origin, const Vec3& dir, double ang
     rh.ray.flags = 0;
     rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
     rtcIntersect1(scene, &context, &rh);
-    return rh.hit.geomID == RTC_INVALID_GEOMETRY_ID ? std::numeric_limits<double>::infinity()
-                                                    : double(rh.ray.tfar);
+    return rh.hit.geomID == RTC_INVALID_GEOMETRY_ID ? std::numeric_limits<double>::infinity() : double(rh.ray.tfar);
   };
   const Eigen::Isometry3d world_to_object = ObjectToWorld(m.options, angle).inverse();
   double r = cast(m.object, world_to_object * origin, world_to_object.linear() * d);

@@ -17,10 +17,12 @@ void SweepOptions::Validate() const {
   if (frames < 1 || frames > 100000) BadField(frames, "sweep.frames", "must be in 1..100000");
   if (!(degrees > 0 && degrees <= 3600)) BadField(degrees, "sweep.degrees", "must be in (0, 3600]");
   if (!(frame_rate > 0)) BadField(frame_rate, "sweep.frame_rate", "must be > 0");
-  if (!(camera_height > 0 && camera_height < 10)) BadField(camera_height, "sweep.camera_height", "must be in (0, 10) m");
+  if (!(camera_height > 0 && camera_height < 10))
+    BadField(camera_height, "sweep.camera_height", "must be in (0, 10) m");
   if (!(camera_distance > 0.1 && camera_distance < 10))
     BadField(camera_distance, "sweep.camera_distance", "must be in (0.1, 10) m");
-  if (!(gripper_height > 0 && gripper_height < 10)) BadField(gripper_height, "sweep.gripper_height", "must be in (0, 10) m");
+  if (!(gripper_height > 0 && gripper_height < 10))
+    BadField(gripper_height, "sweep.gripper_height", "must be in (0, 10) m");
   if (!(look_at_height >= -10 && look_at_height <= 10))
     BadField(look_at_height, "sweep.look_at_height", "must be in [-10, 10] m");
   static const char* isas[] = {"", "sse2", "sse4.2", "avx", "avx2", "avx512"};
@@ -76,8 +78,7 @@ Sweep SimulateSweep(const TriMesh& hung, const SweepOptions& options, uint64_t s
   std::vector<Counters> counters(options.frames);
   // Contiguous chunks of frames, one scratch per chunk (buffers reused between frames;
   // every frame has its own seed, so the chunking does not change any byte).
-  const int chunks = std::max(1, std::min(options.frames, options.threads > 0 ? options.threads
-                                                                              : HardwareThreads()));
+  const int chunks = std::max(1, std::min(options.frames, options.threads > 0 ? options.threads : HardwareThreads()));
   ParallelFor(chunks, chunks, [&](int c) {
     KinectScratch scratch;
     const int begin = int(int64_t(options.frames) * c / chunks);
@@ -101,9 +102,8 @@ Sweep SimulateSweep(const TriMesh& hung, const SweepOptions& options, uint64_t s
   st.frames = options.frames;
   const double npix = double(sweep.intrinsics.width) * sweep.intrinsics.height;
   // The background image is cast once per sweep.
-  st.rays_cast = options.scene ? int64_t((sweep.intrinsics.width + 3) / 4 * 4) *
-                                     ((sweep.intrinsics.height + 3) / 4 * 4)
-                               : 0;
+  st.rays_cast =
+      options.scene ? int64_t((sweep.intrinsics.width + 3) / 4 * 4) * ((sweep.intrinsics.height + 3) / 4 * 4) : 0;
   double garment = 0, valid = 0;
   for (const Counters& c : counters) {
     st.rays_cast += c.rays;
@@ -119,23 +119,28 @@ Sweep SimulateSweep(const TriMesh& hung, const SweepOptions& options, uint64_t s
   const Intrinsics& K = sweep.intrinsics;
   bool out = false;
   for (int k = 0; k < 16 && !out; ++k) {
-    const Eigen::Isometry3d o2c =
-        camera_to_world.inverse() * ObjectToWorld(options, 2 * M_PI * k / 16);
+    const Eigen::Isometry3d o2c = camera_to_world.inverse() * ObjectToWorld(options, 2 * M_PI * k / 16);
     const double r = std::hypot(std::max(-b.min().x(), b.max().x()), std::max(-b.min().z(), b.max().z()));
     // Nearest points of the bounding cylinder's bottom and top rims.
     for (double y : {b.min().y(), b.max().y()}) {
       for (double a = 0; a < 2 * M_PI; a += M_PI / 8) {
         const Vec3 p = o2c * Vec3(r * std::cos(a), y, r * std::sin(a));
-        if (p.z() <= 0) { out = true; break; }
+        if (p.z() <= 0) {
+          out = true;
+          break;
+        }
         const double u = K.fx * p.x() / p.z() + K.cx, v = K.fy * p.y() / p.z() + K.cy;
-        if (u < 0 || u > K.width - 1 || v < 0 || v > K.height - 1) { out = true; break; }
+        if (u < 0 || u > K.width - 1 || v < 0 || v > K.height - 1) {
+          out = true;
+          break;
+        }
       }
     }
   }
   if (out) {
     std::ostringstream os;
-    os << "garment may leave the camera view while turning (object-frame bounds y "
-       << b.min().y() << ".." << b.max().y() << " m)";
+    os << "garment may leave the camera view while turning (object-frame bounds y " << b.min().y() << ".."
+       << b.max().y() << " m)";
     st.warnings.push_back(os.str());
   }
   st.wall_seconds = Since(start);

@@ -43,14 +43,14 @@ namespace drape {
 // Kinect v1 (structured light) depth camera. Every noise term has its source in
 // kinect_noise.cpp. noise=false gives the exact ray-cast z-depth (still range-cut).
 struct KinectOptions {
-  Intrinsics intrinsics;      // default 640×480, fx=fy=525, cx=319.5, cy=239.5
-  double min_range = 0.5;     // m; nearer/farther readings are 0 (no data)
-  double max_range = 4.0;     // m
-  bool noise = true;          // master switch; the switches below act only if true
-  bool axial = true;          // σ_z(z, θ) Gaussian along the ray (Nguyen et al. 2012)
-  bool lateral = true;        // σ_L(θ) px resampling offset (Nguyen et al. 2012)
-  bool quantize = true;       // 1/8 px disparity steps (Khoshelham & Elberink 2012)
-  bool dropouts = true;       // grazing angles, depth edges, projector shadows
+  Intrinsics intrinsics;              // default 640×480, fx=fy=525, cx=319.5, cy=239.5
+  double min_range = 0.5;             // m; nearer/farther readings are 0 (no data)
+  double max_range = 4.0;             // m
+  bool noise = true;                  // master switch; the switches below act only if true
+  bool axial = true;                  // σ_z(z, θ) Gaussian along the ray (Nguyen et al. 2012)
+  bool lateral = true;                // σ_L(θ) px resampling offset (Nguyen et al. 2012)
+  bool quantize = true;               // 1/8 px disparity steps (Khoshelham & Elberink 2012)
+  bool dropouts = true;               // grazing angles, depth edges, projector shadows
   double baseline = 0.075;            // m, IR projector ↔ IR camera
   double disparity_focal = 580.0;     // px, focal length of the IR camera (quantisation)
   double disparity_subpixel = 0.125;  // px, disparity quantisation step
@@ -58,21 +58,21 @@ struct KinectOptions {
   double grazing_full_deg = 85.0;     // ... and where every pixel is dropped
   double edge_jump = 0.03;            // m, a 4-neighbour depth jump above this is an edge
   double edge_dropout_probability = 0.5;
-  bool projector_shadow = true;       // no data where the projector cannot see the point
+  bool projector_shadow = true;  // no data where the projector cannot see the point
   void Validate() const;
 };
 
 struct SweepOptions {
-  int frames = 300;               // total frames (both directions if back_and_forth)
-  double degrees = 360;           // turn of the gripper (one way)
-  bool back_and_forth = false;    // turn `degrees` one way, then back (unfolding set-up, ~550 frames)
-  double frame_rate = 30;         // Hz, for timestamps only
-  double camera_height = 1.2;     // m (paper)
-  double camera_distance = 1.7;   // m, horizontal distance camera → turning axis
-  double gripper_height = 1.5;    // m, world y of the grasp point
-  double look_at_height = 0.9;    // m, where the optical axis crosses the turning axis
-  bool scene = true;              // gripper, arm, table, wall, floor
-  int threads = 1;                // frames rendered in parallel (<= 0: all cores); no effect on bytes
+  int frames = 300;                 // total frames (both directions if back_and_forth)
+  double degrees = 360;             // turn of the gripper (one way)
+  bool back_and_forth = false;      // turn `degrees` one way, then back (unfolding set-up, ~550 frames)
+  double frame_rate = 30;           // Hz, for timestamps only
+  double camera_height = 1.2;       // m (paper)
+  double camera_distance = 1.7;     // m, horizontal distance camera → turning axis
+  double gripper_height = 1.5;      // m, world y of the grasp point
+  double look_at_height = 0.9;      // m, where the optical axis crosses the turning axis
+  bool scene = true;                // gripper, arm, table, wall, floor
+  int threads = 1;                  // frames rendered in parallel (<= 0: all cores); no effect on bytes
   std::string embree_isa = "avx2";  // pinned for reproducible bytes; "" = Embree's best
   KinectOptions kinect;
   void Validate() const;
@@ -80,12 +80,12 @@ struct SweepOptions {
 
 struct SweepStats {
   int frames = 0;
-  int64_t rays_cast = 0;          // garment-scene rays (region of interest only) + background
-  int64_t roi_pixels = 0;         // sum over frames of region-of-interest pixels
-  double garment_pixels_mean = 0; // pixels per frame whose nearest hit is the garment
-  double valid_fraction_mean = 0; // fraction of pixels with data
+  int64_t rays_cast = 0;           // garment-scene rays (region of interest only) + background
+  int64_t roi_pixels = 0;          // sum over frames of region-of-interest pixels
+  double garment_pixels_mean = 0;  // pixels per frame whose nearest hit is the garment
+  double valid_fraction_mean = 0;  // fraction of pixels with data
   std::vector<std::string> warnings;
-  double wall_seconds = 0;        // timing only, never hashed
+  double wall_seconds = 0;  // timing only, never hashed
 };
 
 struct Sweep {
@@ -144,11 +144,11 @@ struct KinectScratch {
 // Infrared range sensor at the gripper (Baxter's hand range sensor, a Sharp-style
 // triangulating IR sensor). Defaults are typical of such sensors, not measured.
 struct IrRangeOptions {
-  double min_range = 0.04;       // m
-  double max_range = 0.40;       // m
+  double min_range = 0.04;  // m
+  double max_range = 0.40;  // m
   bool noise = true;
-  double sigma = 0.001;          // m, constant part of the reading noise
-  double sigma_per_metre = 0.01; // m per m of range
+  double sigma = 0.001;           // m, constant part of the reading noise
+  double sigma_per_metre = 0.01;  // m per m of range
   void Validate() const;
 };
 
@@ -181,8 +181,8 @@ class SweepScene {
   // gripper angle `angle`) to the first surface, or +infinity if none lies within
   // [min_range, max_range]. With rng and ir.noise: Gaussian reading noise
   // σ = sigma + sigma_per_metre·range.
-  double RangeAlongRay(const Vec3& origin, const Vec3& dir, double angle = 0.0,
-                       const IrRangeOptions& ir = {}, Rng* rng = nullptr) const;
+  double RangeAlongRay(const Vec3& origin, const Vec3& dir, double angle = 0.0, const IrRangeOptions& ir = {},
+                       Rng* rng = nullptr) const;
   // Object-frame bounds of the garment plus the gripper.
   Eigen::AlignedBox3d ObjectBounds() const;
 
@@ -193,23 +193,19 @@ class SweepScene {
 
 // Turns an exact frame into a Kinect reading (metres, 0 = no data) with the noise of
 // `kinect` and random draws from rng (one 64-bit draw per pixel, raster order).
-std::vector<float> ApplyKinectNoise(const ExactFrame& exact, const KinectOptions& kinect,
-                                    Rng& rng);
+std::vector<float> ApplyKinectNoise(const ExactFrame& exact, const KinectOptions& kinect, Rng& rng);
 
 KinectPlan PlanKinectNoise(const ExactFrame& exact, const KinectOptions& kinect);
 // Re-plans the pixels of `region` (whole rows of it, scanning the shadow from its right
 // edge). Exact if everything outside the region is as when it was planned and the region
 // reaches ≥ b·f/z_min px left of any change (a shadow's widest extent).
-void UpdateKinectPlan(const ExactFrame& exact, const KinectOptions& kinect,
-                      const PixelRect& region, KinectPlan& plan);
-std::vector<float> DrawKinectNoise(const ExactFrame& exact, const KinectPlan& plan,
-                                   const KinectOptions& kinect, Rng& rng,
-                                   KinectScratch* scratch = nullptr);
+void UpdateKinectPlan(const ExactFrame& exact, const KinectOptions& kinect, const PixelRect& region, KinectPlan& plan);
+std::vector<float> DrawKinectNoise(const ExactFrame& exact, const KinectPlan& plan, const KinectOptions& kinect,
+                                   Rng& rng, KinectScratch* scratch = nullptr);
 
 // Renders the sweep; frame i's noise comes from Rng(DeriveSeed(seed, "frame/<i>")).
 // Same inputs → identical frames for any thread count.
-Sweep SimulateSweep(const TriMesh& hung_object_frame, const SweepOptions& options,
-                    uint64_t seed);
+Sweep SimulateSweep(const TriMesh& hung_object_frame, const SweepOptions& options, uint64_t seed);
 
 // Files of a sweep, deterministic bytes, paths relative to the entry folder:
 //   sweep/000000.png ...   16-bit PNG depth, millimetres, 0 = no data

@@ -131,8 +131,8 @@ void BM_EmbreeBare(benchmark::State& state) {
       for (int tv = r.v0; tv < r.v1; tv += 4)
         for (int tu = r.u0; tu < r.u1; tu += 4) {
           for (int k = 0; k < 16; ++k) {
-            const Eigen::Vector3f d = R * Eigen::Vector3f(float((tu + (k & 3) - K.cx) / K.fx),
-                                                          float((tv + (k >> 2) - K.cy) / K.fy), 1.0f);
+            const Eigen::Vector3f d =
+                R * Eigen::Vector3f(float((tu + (k & 3) - K.cx) / K.fx), float((tv + (k >> 2) - K.cy) / K.fy), 1.0f);
             rh.ray.org_x[k] = org.x(), rh.ray.org_y[k] = org.y(), rh.ray.org_z[k] = org.z();
             rh.ray.dir_x[k] = d.x(), rh.ray.dir_y[k] = d.y(), rh.ray.dir_z[k] = d.z();
             rh.ray.tnear[k] = 0, rh.ray.tfar[k] = INFINITY, rh.ray.time[k] = 0;
@@ -188,8 +188,7 @@ int main(int argc, char** argv) {
     for (int n = 0; n < 2; ++n)
       if (g_rays_per_s[n] > 0)
         std::printf("our sweep, noise %-3s:        %.1f Mrays/s = %.2f x bare; %.3f CPU s per 300-frame sweep\n",
-                    n ? "on" : "off", g_rays_per_s[n] / 1e6, g_rays_per_s[n] / g_bare_rays_per_s,
-                    g_sweep_seconds[n]);
+                    n ? "on" : "off", g_rays_per_s[n] / 1e6, g_rays_per_s[n] / g_bare_rays_per_s, g_sweep_seconds[n]);
   }
   return 0;
 }

@@ -128,7 +128,6 @@ std::string EncodePng(const cv::Mat& image) {
   return std::string(buf.begin(), buf.end());
 }
 
-
 }  // namespace
 
 std::vector<std::pair<std::string, std::string>> EncodeSweep(const Sweep& sweep) {
@@ -150,9 +149,7 @@ std::vector<std::pair<std::string, std::string>> EncodeSweep(const Sweep& sweep)
       auto* row = m.ptr<uint16_t>(v);
       for (int u = 0; u < K.width; ++u) {
         const double z = f.depth[size_t(v) * K.width + u];
-        row[u] = (z > 0 && std::isfinite(z))
-                     ? uint16_t(std::clamp(std::lround(z * kDepthScale), 0L, 65535L))
-                     : 0;
+        row[u] = (z > 0 && std::isfinite(z)) ? uint16_t(std::clamp(std::lround(z * kDepthScale), 0L, 65535L)) : 0;
       }
     }
     const std::string name = FrameName(int(i));
@@ -168,36 +165,34 @@ std::vector<std::pair<std::string, std::string>> EncodeSweep(const Sweep& sweep)
     Json ext = Json::array();
     for (int c = 0; c < 4; ++c)
       for (int r = 0; r < 4; ++r) ext.push_back(E(r, c));
-    trajectory.push_back(Json{
-        {"class_name", "PinholeCameraParameters"},
-        {"extrinsic", ext},
-        {"intrinsic",
-         {{"height", K.height},
-          {"intrinsic_matrix", {K.fx, 0.0, 0.0, 0.0, K.fy, 0.0, K.cx, K.cy, 1.0}},
-          {"width", K.width}}},
-        {"version_major", 1},
-        {"version_minor", 0}});
+    trajectory.push_back(Json{{"class_name", "PinholeCameraParameters"},
+                              {"extrinsic", ext},
+                              {"intrinsic",
+                               {{"height", K.height},
+                                {"intrinsic_matrix", {K.fx, 0.0, 0.0, 0.0, K.fy, 0.0, K.cx, K.cy, 1.0}},
+                                {"width", K.width}}},
+                              {"version_major", 1},
+                              {"version_minor", 0}});
     depth_txt += FormatFixed(t, 6) + " " + name + "\n";
     const Eigen::Quaterniond q(f.camera_to_object.linear());
     const Vec3 p = f.camera_to_object.translation();
-    gt_txt += FormatFixed(t, 6) + " " + FormatFixed(p.x(), 9) + " " + FormatFixed(p.y(), 9) + " " + FormatFixed(p.z(), 9) +
-              " " + FormatFixed(q.x(), 9) + " " + FormatFixed(q.y(), 9) + " " + FormatFixed(q.z(), 9) + " " +
-              FormatFixed(q.w(), 9) + "\n";
+    gt_txt += FormatFixed(t, 6) + " " + FormatFixed(p.x(), 9) + " " + FormatFixed(p.y(), 9) + " " +
+              FormatFixed(p.z(), 9) + " " + FormatFixed(q.x(), 9) + " " + FormatFixed(q.y(), 9) + " " +
+              FormatFixed(q.z(), 9) + " " + FormatFixed(q.w(), 9) + "\n";
   }
-  Json cameras = {
-      {"format", "drape.sweep"},
-      {"version", 1},
-      {"description",
-       "Synthetic Kinect v1 sweep of a hung garment turning about the vertical axis through "
-       "the gripper. Depth: 16-bit PNG, value/depth_scale = z-depth in metres, 0 = no data. "
-       "Camera: x right, y down, z forward. Poses: 4x4 row-major; camera_to_object maps "
-       "camera coordinates into the object frame (grasp point at the origin, y up)."},
-      {"intrinsics",
-       {{"width", K.width}, {"height", K.height}, {"fx", K.fx}, {"fy", K.fy}, {"cx", K.cx}, {"cy", K.cy}}},
-      {"depth_scale", kDepthScale},
-      {"seed", sweep.seed},
-      {"options", OptionsJson(sweep.options)},
-      {"frames", frames}};
+  Json cameras = {{"format", "drape.sweep"},
+                  {"version", 1},
+                  {"description",
+                   "Synthetic Kinect v1 sweep of a hung garment turning about the vertical axis through "
+                   "the gripper. Depth: 16-bit PNG, value/depth_scale = z-depth in metres, 0 = no data. "
+                   "Camera: x right, y down, z forward. Poses: 4x4 row-major; camera_to_object maps "
+                   "camera coordinates into the object frame (grasp point at the origin, y up)."},
+                  {"intrinsics",
+                   {{"width", K.width}, {"height", K.height}, {"fx", K.fx}, {"fy", K.fy}, {"cx", K.cx}, {"cy", K.cy}}},
+                  {"depth_scale", kDepthScale},
+                  {"seed", sweep.seed},
+                  {"options", OptionsJson(sweep.options)},
+                  {"frames", frames}};
   files.emplace_back("sweep/cameras.json", cameras.dump(1) + "\n");
   Json traj = {{"class_name", "PinholeCameraTrajectory"},
                {"parameters", trajectory},
@@ -248,8 +243,8 @@ Sweep ReadSweep(const std::filesystem::path& dir) {
     f.gripper_angle = fj.value("gripper_angle", 0.0);
     const std::filesystem::path png = dir / fj["file"].get<std::string>();
     const std::string bytes = ReadFile(png);
-    cv::Mat m = cv::imdecode(cv::Mat(1, int(bytes.size()), CV_8UC1, const_cast<char*>(bytes.data())),
-                             cv::IMREAD_UNCHANGED);
+    cv::Mat m =
+        cv::imdecode(cv::Mat(1, int(bytes.size()), CV_8UC1, const_cast<char*>(bytes.data())), cv::IMREAD_UNCHANGED);
     if (m.empty()) throw Error(png.string() + ": not a readable image");
     if (m.type() != CV_16UC1) throw Error(png.string() + ": expected a 16-bit single-channel PNG");
     if (m.cols != K.width || m.rows != K.height)
@@ -319,12 +314,11 @@ std::string RenderDepthPreview(const DepthFrame& frame, const Intrinsics& K) {
       cv::putText(canvas, FormatFixed(z, 2) + " m", {x1 + 8, y + 5}, cv::FONT_HERSHEY_SIMPLEX, 0.45,
                   cv::Scalar(0, 0, 0), 1, cv::LINE_8);
     }
-    cv::putText(canvas, "depth", {x0, top - 10}, cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(0, 0, 0), 1,
+    cv::putText(canvas, "depth", {x0, top - 10}, cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(0, 0, 0), 1, cv::LINE_8);
+    cv::putText(canvas, "black:", {x0, K.height - 22}, cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(0, 0, 0), 1,
                 cv::LINE_8);
-    cv::putText(canvas, "black:", {x0, K.height - 22}, cv::FONT_HERSHEY_SIMPLEX, 0.4,
-                cv::Scalar(0, 0, 0), 1, cv::LINE_8);
-    cv::putText(canvas, "no data", {x0, K.height - 8}, cv::FONT_HERSHEY_SIMPLEX, 0.4,
-                cv::Scalar(0, 0, 0), 1, cv::LINE_8);
+    cv::putText(canvas, "no data", {x0, K.height - 8}, cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(0, 0, 0), 1,
+                cv::LINE_8);
   }
   return EncodePng(canvas);
 }

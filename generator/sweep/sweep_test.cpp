@@ -30,7 +30,8 @@ TriMesh UvSphere(const Vec3& c, double r, int slices, int stacks) {
   for (int i = 0; i <= stacks; ++i)
     for (int j = 0; j < slices; ++j) {
       const double t = M_PI * i / stacks, p = 2 * M_PI * j / slices;
-      m.V.row(i * slices + j) = (c + r * Vec3(std::sin(t) * std::cos(p), std::cos(t), std::sin(t) * std::sin(p))).transpose();
+      m.V.row(i * slices + j) =
+          (c + r * Vec3(std::sin(t) * std::cos(p), std::cos(t), std::sin(t) * std::sin(p))).transpose();
     }
   std::vector<std::array<int, 3>> f;
   for (int i = 0; i < stacks; ++i)
@@ -50,8 +51,7 @@ TriMesh Box(const Vec3& lo, const Vec3& hi) {
   for (int i = 0; i < 8; ++i)
     m.V.row(i) << (i & 1 ? hi.x() : lo.x()), (i & 2 ? hi.y() : lo.y()), (i & 4 ? hi.z() : lo.z());
   m.F.resize(12, 3);
-  m.F << 0, 4, 6, 0, 6, 2, 1, 3, 7, 1, 7, 5, 0, 1, 5, 0, 5, 4, 2, 6, 7, 2, 7, 3, 0, 2, 3, 0, 3, 1,
-      4, 5, 7, 4, 7, 6;
+  m.F << 0, 4, 6, 0, 6, 2, 1, 3, 7, 1, 7, 5, 0, 1, 5, 0, 5, 4, 2, 6, 7, 2, 7, 3, 0, 2, 3, 0, 3, 1, 4, 5, 7, 4, 7, 6;
   return m;
 }
 
@@ -85,9 +85,7 @@ SweepOptions Flat(bool noise = false) {
 }
 
 // Ray direction of pixel (u, v) in the camera frame, unit z.
-Vec3 PixelRay(const Intrinsics& K, int u, int v) {
-  return Vec3((u - K.cx) / K.fx, (v - K.cy) / K.fy, 1.0);
-}
+Vec3 PixelRay(const Intrinsics& K, int u, int v) { return Vec3((u - K.cx) / K.fx, (v - K.cy) / K.fy, 1.0); }
 
 // Brute-force nearest hit (Möller–Trumbore, double), parameter along `d`.
 double BruteHit(const TriMesh& m, const Vec3& o, const Vec3& d) {
@@ -112,8 +110,8 @@ double BruteHit(const TriMesh& m, const Vec3& o, const Vec3& d) {
 double DistanceToMesh(const TriMesh& m, const Vec3& p) {
   double best = 1e30;
   for (int f = 0; f < m.NumFaces(); ++f)
-    best = std::min(best, (ClosestPointOnTriangle(p, m.V.row(m.F(f, 0)), m.V.row(m.F(f, 1)),
-                                                  m.V.row(m.F(f, 2))) - p).norm());
+    best = std::min(best,
+                    (ClosestPointOnTriangle(p, m.V.row(m.F(f, 0)), m.V.row(m.F(f, 1)), m.V.row(m.F(f, 2))) - p).norm());
   return best;
 }
 
@@ -306,8 +304,8 @@ TEST(KinectNoise, AxialStdMatchesNguyen) {
       const double sd = Std(e, &mean);
       EXPECT_NEAR(sd, SigmaZ(D), 0.15 * SigmaZ(D)) << "D " << D << " quantize " << quantize;
       EXPECT_LT(std::abs(mean), 0.3 * SigmaZ(D)) << "D " << D;
-      std::printf("plane at %.1f m, quantize %d: std %.5f m (Nguyen %.5f m), mean error %+.5f m\n", D,
-                  int(quantize), sd, SigmaZ(D), mean);
+      std::printf("plane at %.1f m, quantize %d: std %.5f m (Nguyen %.5f m), mean error %+.5f m\n", D, int(quantize),
+                  sd, SigmaZ(D), mean);
     }
 }
 
@@ -458,7 +456,8 @@ TEST(SweepIo, RoundTripThroughFiles) {
   // cameras.json: 4×4 row-major camera_to_object.
   const Json j = Json::parse(files[5].second);
   EXPECT_EQ(j["depth_scale"].get<double>(), 1000.0);
-  EXPECT_NEAR(j["frames"][2]["camera_to_object"][3].get<double>(), s.frames[2].camera_to_object.translation().x(), 1e-15);
+  EXPECT_NEAR(j["frames"][2]["camera_to_object"][3].get<double>(), s.frames[2].camera_to_object.translation().x(),
+              1e-15);
   EXPECT_EQ(j["frames"][2]["camera_to_object"][12].get<double>(), 0.0);
   std::filesystem::remove_all(dir);
   EXPECT_THROW(ReadSweep(dir / "missing"), Error);
@@ -469,7 +468,8 @@ TEST(SweepIo, PreviewIsAColourPng) {
   o.frames = 1;
   const Sweep s = SimulateSweep(WavySheet(), o, 1);
   const std::string png = RenderDepthPreview(s.frames[0], s.intrinsics);
-  const cv::Mat m = cv::imdecode(cv::Mat(1, int(png.size()), CV_8UC1, const_cast<char*>(png.data())), cv::IMREAD_UNCHANGED);
+  const cv::Mat m =
+      cv::imdecode(cv::Mat(1, int(png.size()), CV_8UC1, const_cast<char*>(png.data())), cv::IMREAD_UNCHANGED);
   ASSERT_FALSE(m.empty());
   EXPECT_EQ(m.type(), CV_8UC3);
   EXPECT_EQ(m.rows, 480);

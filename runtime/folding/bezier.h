@@ -22,8 +22,7 @@ struct CubicBezier {
 // The paper's initialisation: P1 = ⅔P0 + ⅓P3 + h‖P0 − P3‖e_v,
 // P2 = ⅓P0 + ⅔P3 + h‖P0 − P3‖e_v (h = ⅓: equal horizontal extent between knots).
 // e_v is the unit upward vertical (world y up).
-CubicBezier InitialTrajectory(const Vec3& p0, const Vec3& p3, double h = 1.0 / 3,
-                              const Vec3& up = Vec3::UnitY());
+CubicBezier InitialTrajectory(const Vec3& p0, const Vec3& p3, double h = 1.0 / 3, const Vec3& up = Vec3::UnitY());
 
 struct LengthReport {
   double length = 0;  // metres, Σ chords of the pieces

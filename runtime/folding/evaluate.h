@@ -19,10 +19,10 @@ namespace drape::folding {
 
 // Everything that makes a folding scene, before perturbation.
 struct FoldSetup {
-  Garment garment;           // flat, pattern frame (rest shape)
-  ClothMaterial material;    // simulation material
-  ClothOptions cloth;        // solver options
-  double friction = 0.4;     // Coulomb μ on the table
+  Garment garment;         // flat, pattern frame (rest shape)
+  ClothMaterial material;  // simulation material
+  ClothOptions cloth;      // solver options
+  double friction = 0.4;   // Coulomb μ on the table
   TableOptions table;
   // How the garment lies when it does not start as its flat pattern (e.g. as `drape
   // unfold` placed it: placed.h), world frame of any table; empty = the pattern laid flat.
@@ -63,10 +63,10 @@ struct TrialResult {
   double final_dissimilarity = 0;  // m
   double diagonal = 0;             // m
   double inside_fraction = 0;
-  double reach = 0;                // m, SilhouetteReach of the final shape at options.inside
-  double sim_time = 0;             // s simulated (flat settle not counted)
-  double wall_seconds = 0;         // timing only
-  PlanRun run;                     // for pictures
+  double reach = 0;         // m, SilhouetteReach of the final shape at options.inside
+  double sim_time = 0;      // s simulated (flat settle not counted)
+  double wall_seconds = 0;  // timing only
+  PlanRun run;              // for pictures
 };
 
 // Fraction of `shape`'s top-down silhouette inside `reference`'s grown by tolerance.
@@ -89,8 +89,7 @@ TrialResult RunTrial(const FoldSetup& setup, const FoldingPlan& plan, const Plan
                      int index);
 
 // options.trials trials in order; `done` (if set) sees each as it finishes.
-std::vector<TrialResult> RunTrials(const FoldSetup& setup, const FoldingPlan& plan,
-                                   const PlanRunOptions& run_options,
+std::vector<TrialResult> RunTrials(const FoldSetup& setup, const FoldingPlan& plan, const PlanRunOptions& run_options,
                                    const std::vector<std::vector<RelativeTrajectory>>& trajectories,
                                    const TrialOptions& options,
                                    const std::function<void(const TrialResult&)>& done = {});

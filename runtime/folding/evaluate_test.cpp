@@ -88,8 +88,8 @@ TEST(Trials, ACompletedTrialIsJudged) {
   TrialOptions o;
   o.trials = 1;
   // Knots as high as the fold is wide (fold_test: this folds the small cloth).
-  std::vector<std::vector<RelativeTrajectory>> high(1, std::vector<RelativeTrajectory>(
-                                                           2, RelativeTrajectory{Vec3(1.0 / 3, 1, 0), Vec3(2.0 / 3, 1, 0)}));
+  std::vector<std::vector<RelativeTrajectory>> high(
+      1, std::vector<RelativeTrajectory>(2, RelativeTrajectory{Vec3(1.0 / 3, 1, 0), Vec3(2.0 / 3, 1, 0)}));
   const TrialResult t = RunTrial(SmallSetup("towel"), plan, PlanRunOptions{}, high, o, 0);
   ASSERT_TRUE(t.completed) << t.failure;
   ASSERT_EQ(t.run.steps.size(), 1u);

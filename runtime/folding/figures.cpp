@@ -1,11 +1,10 @@
 #include "runtime/folding/figures.h"
 
-#include <opencv2/imgproc.hpp>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <opencv2/imgproc.hpp>
 
 #include "common/error.h"
 #include "garments/render.h"
@@ -100,7 +99,8 @@ cv::Mat ResultFigure(const PlanRun& run, const Faces& F, double tolerance, const
   cv::Mat img = TopDownPicture(TriMesh{run.final, F}, cam, cv::Scalar(200, 140, 60));
   cv::Mat grown;
   const int r = static_cast<int>(std::ceil(tolerance / mpp));
-  cv::dilate(TopDownMask(run.ideal, cam), grown, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * r + 1, 2 * r + 1)));
+  cv::dilate(TopDownMask(run.ideal, cam), grown,
+             cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * r + 1, 2 * r + 1)));
   std::vector<std::vector<cv::Point>> contours;
   cv::findContours(grown, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
   cv::drawContours(img, contours, -1, cv::Scalar(150, 150, 150), 1, cv::LINE_AA);
@@ -115,7 +115,8 @@ cv::Mat ResultFigure(const PlanRun& run, const Faces& F, double tolerance, const
 
 std::vector<FanTrajectory> SolutionFan(const FoldScene& scene, const StepSetup& setup, const FoldSimOptions& sim,
                                        const std::string& kind, int count) {
-  if (kind != "symmetric" && kind != "early" && kind != "late") throw Error("fan kind must be symmetric, early or late");
+  if (kind != "symmetric" && kind != "early" && kind != "late")
+    throw Error("fan kind must be symmetric, early or late");
   std::vector<FanTrajectory> out;
   for (int k = 0; k < count; ++k) {
     const double h = 0.05 + 0.9 * k / std::max(1, count - 1);

@@ -5,10 +5,9 @@
 // with, projected onto the vertical plane through P0 and P3).
 #pragma once
 
+#include <opencv2/core.hpp>
 #include <string>
 #include <vector>
-
-#include <opencv2/core.hpp>
 
 #include "runtime/folding/run.h"
 

@@ -193,7 +193,7 @@ StepSim SimulateStep(const FoldScene& scene, const StepSetup& setup, const std::
 
 optim::SecantLmOptions OptimiseOptions::DefaultLm() {
   optim::SecantLmOptions lm;
-  lm.finite_difference_step = 0.1;   // paper's δ, metres
+  lm.finite_difference_step = 0.1;  // paper's δ, metres
   lm.max_iterations = 20;
   lm.max_residual_evaluations = 40;  // simulations per step
   lm.step_tolerance = 1e-3;          // relative to ‖x‖ (~0.3–1 m): sub-millimetre steps
@@ -216,7 +216,8 @@ void OptimiseOptions::Validate() const {
 
 Eigen::VectorXd StackKnots(const std::vector<CubicBezier>& paths) {
   Eigen::VectorXd x(6 * paths.size());
-  for (size_t a = 0; a < paths.size(); ++a) x.segment<3>(6 * a) = paths[a].P[1], x.segment<3>(6 * a + 3) = paths[a].P[2];
+  for (size_t a = 0; a < paths.size(); ++a)
+    x.segment<3>(6 * a) = paths[a].P[1], x.segment<3>(6 * a + 3) = paths[a].P[2];
   return x;
 }
 

@@ -59,7 +59,7 @@ struct StepSetup {
   std::vector<int> grasp_vertices;  // the cloth points grasped, one per arm
   std::vector<Vec3> p0, p3;         // each grasp point's start and target
   std::shared_ptr<IdealFold> fold;
-  TriMesh target;                   // S_t
+  TriMesh target;  // S_t
 };
 
 // `grasp_vertices`: the cloth points (vertices) the arms take; the fold line is fixed on
@@ -69,14 +69,14 @@ StepSetup PrepareStep(const FoldScene& scene, const Points3& start, const FoldLi
 
 struct StepSim {
   bool ok = false;
-  std::string failure;          // why not ok (a miss, a blow-up)
-  Points3 final;                // positions after release and settling
+  std::string failure;  // why not ok (a miss, a blow-up)
+  Points3 final;        // positions after release and settling
   bool settled = false;
-  std::vector<int> held;        // nodes held per gripper
-  double length = 0;            // l_x, m (sum over arms)
-  double dissimilarity = 0;     // D(S_t, S_x), m
-  double cost = 0;              // C = l_x + α·D
-  double sim_time = 0;          // s simulated
+  std::vector<int> held;     // nodes held per gripper
+  double length = 0;         // l_x, m (sum over arms)
+  double dissimilarity = 0;  // D(S_t, S_x), m
+  double cost = 0;           // C = l_x + α·D
+  double sim_time = 0;       // s simulated
   int steps = 0;
   double time_step = 0;         // s: the model's, or half of it after a blow-up
   double wall_seconds = 0;      // timing only
@@ -90,9 +90,9 @@ StepSim SimulateStep(const FoldScene& scene, const StepSetup& setup, const std::
                      const FoldSimOptions& options, double alpha = 1e3, bool keep_frames = false);
 
 struct OptimiseOptions {
-  double alpha = 1e3;             // paper's α
-  double h = 1.0 / 3;             // paper's initial knot height factor
-  double length_tolerance = 1e-4; // relative, De Casteljau length
+  double alpha = 1e3;              // paper's α
+  double h = 1.0 / 3;              // paper's initial knot height factor
+  double length_tolerance = 1e-4;  // relative, De Casteljau length
   optim::SecantLmOptions lm = DefaultLm();
   // δ = 0.1 m, ≤ 40 simulations, stop on < 1 % gains, steps ≤ 0.1 m (trust radius).
   static optim::SecantLmOptions DefaultLm();
@@ -101,7 +101,7 @@ struct OptimiseOptions {
 
 struct StepOptimum {
   std::vector<CubicBezier> initial, optimised;
-  StepSim before, after;          // simulations of the initial and optimised trajectories
+  StepSim before, after;  // simulations of the initial and optimised trajectories
   optim::SecantLmReport lm;
   int simulations = 0;            // inside the optimiser (before/after not counted)
   std::vector<double> evaluated;  // C of each of those simulations in order (NaN = failed)

@@ -1,11 +1,10 @@
 #include "runtime/folding/keypoints.h"
 
-#include <opencv2/imgproc.hpp>
-
 #include <algorithm>
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <opencv2/imgproc.hpp>
 
 #include "common/error.h"
 
@@ -14,16 +13,16 @@ namespace {
 
 struct Defect {
   Vec2 start, end, far;
-  double depth = 0;  // pixels
+  double depth = 0;            // pixels
   int i_start = 0, i_end = 0;  // contour indices of start and end (the notch between)
 };
 
 // Contour points in the y-up frame.
 struct Outline {
   std::vector<Vec2> pts;
-  std::vector<Defect> defects;  // sorted deepest first
+  std::vector<Defect> defects;               // sorted deepest first
   double min_depth = 0, min_neck_depth = 0;  // pixels: KeyPointOptions' fractions of the width
-  std::vector<Vec2> poly;       // the outline simplified to its corners (approxPolyDP)
+  std::vector<Vec2> poly;                    // the outline simplified to its corners (approxPolyDP)
   Vec2 centroid = Vec2::Zero();
   double width = 0, height = 0;
 };
@@ -114,9 +113,10 @@ void Towel(const Outline& o, Points& k) {
 void Legs(const Outline& o, Points& k) {
   // The crotch is the deepest notch opening downwards (its hull edge spans the legs'
   // openings, below it).
-  const Vec2 crotch = NotchBottom(
-      o, DeepestWhere(o, [&](const Defect& d) { return d.far.y() > std::max(d.start.y(), d.end.y()); },
-                      "the crotch (between the legs)"));
+  const Vec2 crotch =
+      NotchBottom(o, DeepestWhere(
+                         o, [&](const Defect& d) { return d.far.y() > std::max(d.start.y(), d.end.y()); },
+                         "the crotch (between the legs)"));
   k["crotch"] = crotch;
   auto above = [&](const Vec2& p) { return p.y() > crotch.y(); };
   k["left_waist"] = Extreme(o.pts, Vec2(1, 1), above, "left_waist");
@@ -172,18 +172,18 @@ void Shirt(const Outline& o, Points& k, bool long_sleeve) {
   k[l_end] = sleeve_end(1);
   k[r_end] = sleeve_end(-1);
   const double slack = 0.02 * W;
-  k["left_hem"] = Extreme(o.pts, Vec2(1, -1), [&](const Vec2& p) { return p.y() < la.y() && p.x() < la.x() + slack; },
-                          "left_hem");
-  k["right_hem"] = Extreme(o.pts, Vec2(-1, -1),
-                           [&](const Vec2& p) { return p.y() < ra.y() && p.x() > ra.x() - slack; }, "right_hem");
+  k["left_hem"] = Extreme(
+      o.pts, Vec2(1, -1), [&](const Vec2& p) { return p.y() < la.y() && p.x() < la.x() + slack; }, "left_hem");
+  k["right_hem"] = Extreme(
+      o.pts, Vec2(-1, -1), [&](const Vec2& p) { return p.y() < ra.y() && p.x() > ra.x() - slack; }, "right_hem");
   k["hem_center"] = 0.5 * (k["left_hem"] + k["right_hem"]);
   // Shoulders: the top of the outline straight above each armpit.
-  k["left_shoulder"] = Extreme(o.pts, Vec2(0, 1),
-                               [&](const Vec2& p) { return p.y() > la.y() && std::abs(p.x() - la.x()) <= slack; },
-                               "left_shoulder");
-  k["right_shoulder"] = Extreme(o.pts, Vec2(0, 1),
-                                [&](const Vec2& p) { return p.y() > ra.y() && std::abs(p.x() - ra.x()) <= slack; },
-                                "right_shoulder");
+  k["left_shoulder"] = Extreme(
+      o.pts, Vec2(0, 1), [&](const Vec2& p) { return p.y() > la.y() && std::abs(p.x() - la.x()) <= slack; },
+      "left_shoulder");
+  k["right_shoulder"] = Extreme(
+      o.pts, Vec2(0, 1), [&](const Vec2& p) { return p.y() > ra.y() && std::abs(p.x() - ra.x()) <= slack; },
+      "right_shoulder");
 }
 
 }  // namespace

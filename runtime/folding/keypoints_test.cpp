@@ -5,9 +5,8 @@
 
 #include <gtest/gtest.h>
 
-#include <opencv2/imgproc.hpp>
-
 #include <cstdio>
+#include <opencv2/imgproc.hpp>
 
 #include "common/error.h"
 #include "garments/templates.h"

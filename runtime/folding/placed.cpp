@@ -51,15 +51,9 @@ void WritePlacedGarment(const fs::path& dir, const PlacedGarment& p) {
   fs::create_directories(dir);
   ExportGarment(p.garment, dir / "garment.ply");
   WriteMesh(TriMesh{p.lying, p.garment.mesh.F}, dir / "lying.ply");
-  const Json doc = {{"format", kFormat},
-                    {"category", p.garment.category},
-                    {"instance", p.garment.instance},
-                    {"garment", "garment.ply"},
-                    {"lying", "lying.ply"},
-                    {"layer", p.garment.layer},
-                    {"material", p.material},
-                    {"stiffness", p.stiffness},
-                    {"friction", p.friction}};
+  const Json doc = {{"format", kFormat},        {"category", p.garment.category}, {"instance", p.garment.instance},
+                    {"garment", "garment.ply"}, {"lying", "lying.ply"},           {"layer", p.garment.layer},
+                    {"material", p.material},   {"stiffness", p.stiffness},       {"friction", p.friction}};
   WriteFileAtomic(dir / "placed.json", doc.dump(2) + "\n");
 }
 

@@ -17,8 +17,8 @@
 namespace drape::folding {
 
 struct PlacedGarment {
-  Garment garment;   // flat pattern (rest shape), anchors, layers
-  Points3 lying;     // #V×3, world frame of the table it lies on
+  Garment garment;       // flat pattern (rest shape), anchors, layers
+  Points3 lying;         // #V×3, world frame of the table it lies on
   std::string material;  // material preset name
   double stiffness = 0;  // Bullet link kLST of the fit
   double friction = 0;   // Coulomb μ on the table

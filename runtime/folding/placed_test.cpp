@@ -33,11 +33,11 @@ TEST(PlaceOnTable, TurnsALaidPatternBackUprightOntoTheTable) {
     // On another table, elsewhere, turned: back to what LayFlat gives on this one.
     const Points3 lying = LayFlat(g.mesh, high, Vec2(0.3, -0.2), yaw);
     EXPECT_LT((PlaceOnTable(lying, g.mesh, table) - upright).cwiseAbs().maxCoeff(), 1e-9) << yaw;
-    EXPECT_LT((PlaceOnTable(lying, g.mesh, table, Vec2(0.02, 0.01), 0.07) -
-               LayFlat(g.mesh, table, Vec2(0.02, 0.01), 0.07))
-                  .cwiseAbs()
-                  .maxCoeff(),
-              1e-9)
+    EXPECT_LT(
+        (PlaceOnTable(lying, g.mesh, table, Vec2(0.02, 0.01), 0.07) - LayFlat(g.mesh, table, Vec2(0.02, 0.01), 0.07))
+            .cwiseAbs()
+            .maxCoeff(),
+        1e-9)
         << yaw;
   }
   EXPECT_THROW(PlaceOnTable(upright.topRows(10), g.mesh, table), Error);

@@ -28,8 +28,8 @@ class Reader {
   [[noreturn]] void Fail(const YAML::Node& n, const std::string& path, const std::string& what) const {
     const YAML::Mark m = n.Mark();
     std::ostringstream os;
-    os << label_ << ":" << (m.is_null() ? 0 : m.line + 1) << ":" << (m.is_null() ? 0 : m.column + 1) << ": "
-       << path << ": " << what;
+    os << label_ << ":" << (m.is_null() ? 0 : m.line + 1) << ":" << (m.is_null() ? 0 : m.column + 1) << ": " << path
+       << ": " << what;
     throw Error(os.str());
   }
 
@@ -148,8 +148,9 @@ FoldingPlan ParsePlan(const std::string& text, const std::string& file_label) {
     const std::string p = "categories[" + std::to_string(i) + "]";
     const std::string c = rd.Name(cats[i], p);
     if (KeyPointNames(c).empty())
-      rd.Fail(cats[i], p, "no key point detector for category '" + c +
-                              "' (known: towel, pants, shorts, long_sleeve_shirt, tshirt)");
+      rd.Fail(
+          cats[i], p,
+          "no key point detector for category '" + c + "' (known: towel, pants, shorts, long_sleeve_shirt, tshirt)");
     plan.categories.push_back(c);
   }
   const std::set<std::string> names = CommonKeyPoints(plan.categories);
@@ -163,7 +164,8 @@ FoldingPlan ParsePlan(const std::string& text, const std::string& file_label) {
     PlanStep step;
     step.line = rd.Line(s);
     step.name = rd.Name(s["name"], p + ".name");
-    if (!step_names.insert(step.name).second) rd.Fail(s["name"], p + ".name", "step name '" + step.name + "' given twice");
+    if (!step_names.insert(step.name).second)
+      rd.Fail(s["name"], p + ".name", "step name '" + step.name + "' given twice");
     const YAML::Node fl = s["fold_line"];
     if (!fl.IsSequence() || fl.size() != 2) rd.Fail(fl, p + ".fold_line", "expected a list of two points");
     step.line_from = ParsePoint(rd, fl[0], p + ".fold_line[0]", names);

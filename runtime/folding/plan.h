@@ -30,7 +30,7 @@ struct PlanPoint {
 
 struct PlanStep {
   std::string name;
-  PlanPoint line_from, line_to;  // the fold line through two points
+  PlanPoint line_from, line_to;   // the fold line through two points
   std::vector<PlanPoint> grasps;  // one per arm (1 or 2); arm 0 = the robot's left
   int line = 0;
 };

@@ -63,11 +63,11 @@ TEST(Plan, ErrorsNameFileLineAndKey) {
   const std::string head = "plan: t\ncategories: [towel]\nsteps:\n  - name: a\n";
   EXPECT_EQ(ErrorOf(head + "    fold_line: [top_left, top_right]\n    grasp: [bottom_left]\n    speed: 2\n"),
             "bad.yaml:7:5: steps[0].speed: unknown key; known keys here: name, fold_line, grasp");
-  EXPECT_EQ(ErrorOf(head + "    fold_line: [top_left, top_rihgt]\n    grasp: [bottom_left]\n")
-                .substr(0, 62),
+  EXPECT_EQ(ErrorOf(head + "    fold_line: [top_left, top_rihgt]\n    grasp: [bottom_left]\n").substr(0, 62),
             "bad.yaml:5:27: steps[0].fold_line[1]: unknown key point 'top_r");
-  EXPECT_EQ(ErrorOf(head + "    fold_line: [top_left, {between: [top_left, top_right], t: 3}]\n    grasp: [bottom_left]\n"),
-            "bad.yaml:5:63: steps[0].fold_line[1].t: out of range: 3 (allowed [-1, 2])");
+  EXPECT_EQ(
+      ErrorOf(head + "    fold_line: [top_left, {between: [top_left, top_right], t: 3}]\n    grasp: [bottom_left]\n"),
+      "bad.yaml:5:63: steps[0].fold_line[1].t: out of range: 3 (allowed [-1, 2])");
   EXPECT_EQ(ErrorOf(head + "    fold_line: [top_left]\n    grasp: [bottom_left]\n"),
             "bad.yaml:5:16: steps[0].fold_line: expected a list of two points");
   EXPECT_EQ(ErrorOf(head + "    fold_line: [top_left, top_right]\n    grasp: [bottom_left, top_left, center]\n"),
@@ -75,7 +75,8 @@ TEST(Plan, ErrorsNameFileLineAndKey) {
   EXPECT_EQ(ErrorOf(head + "    fold_line: [top_left, top_right]\n"), "bad.yaml:4:5: steps[0]: missing key 'grasp'");
   EXPECT_EQ(ErrorOf("plan: t\ncategories: [sock]\nsteps: []\n").substr(0, 44),
             "bad.yaml:2:14: categories[0]: no key point d");
-  EXPECT_EQ(ErrorOf("plan: t\ncategories: [towel]\nsteps: [\n"), "bad.yaml:4:1: YAML syntax error: end of sequence flow not found");
+  EXPECT_EQ(ErrorOf("plan: t\ncategories: [towel]\nsteps: [\n"),
+            "bad.yaml:4:1: YAML syntax error: end of sequence flow not found");
   // A key point the category lacks: pants have no collar.
   EXPECT_NE(ErrorOf("plan: t\ncategories: [pants]\nsteps:\n  - name: a\n    fold_line: [crotch, collar]\n"
                     "    grasp: [crotch]\n")

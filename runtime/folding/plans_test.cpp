@@ -61,10 +61,11 @@ TEST(ShippedPlans, LastStepsIdealShapeLiesOnTheClothThatDidNotMove) {
     const FoldingPlan plan = LoadPlan(file.path());
     const Folded f = FoldIdeally(plan);
     const double on_base = SilhouetteInside(f.folded, f.base, kTolerance, kMpp);
-    std::printf("%s: %.1f %% of the folded silhouette within 2 cm of the unmoved cloth (all within %.1f cm; "
-                "%.1f %% inside the flat garment's silhouette)\n",
-                plan.name.c_str(), 100 * on_base, 100 * SilhouetteReach(f.folded, f.base, 1.0, kMpp),
-                100 * SilhouetteInside(f.folded, f.flat, 0.0, kMpp));
+    std::printf(
+        "%s: %.1f %% of the folded silhouette within 2 cm of the unmoved cloth (all within %.1f cm; "
+        "%.1f %% inside the flat garment's silhouette)\n",
+        plan.name.c_str(), 100 * on_base, 100 * SilhouetteReach(f.folded, f.base, 1.0, kMpp),
+        100 * SilhouetteInside(f.folded, f.flat, 0.0, kMpp));
     const bool trousers = plan.name == "pants" || plan.name == "shorts";
     EXPECT_GE(on_base, trousers ? kInsideTrousers : kInside) << plan.name;
     ++plans;
@@ -96,7 +97,7 @@ steps:
       - {between: [hem_center, left_hem], t: 0.5}
       - {between: [hem_center, right_hem], t: 0.5}
 )",
-                                   "old_shirt.yaml");
+                                     "old_shirt.yaml");
   const Folded f = FoldIdeally(plan);
   EXPECT_LT(SilhouetteInside(f.folded, f.base, kTolerance, kMpp), 0.8);
   EXPECT_GT(SilhouetteReach(f.folded, f.base, 1.0, kMpp), 0.25);

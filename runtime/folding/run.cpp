@@ -84,9 +84,8 @@ std::string StepWhere(const FoldingPlan& plan, const PlanStep& ps) {
 
 }  // namespace
 
-PlanRun RunPlan(const FoldScene& scene, const Points3& laid, const std::string& category,
-                const FoldingPlan& plan, const PlanRunOptions& o,
-                const std::vector<std::vector<RelativeTrajectory>>* replay) {
+PlanRun RunPlan(const FoldScene& scene, const Points3& laid, const std::string& category, const FoldingPlan& plan,
+                const PlanRunOptions& o, const std::vector<std::vector<RelativeTrajectory>>* replay) {
   PlanRun run;
   RunPlan(run, scene, laid, category, plan, o, replay);
   return run;

@@ -36,7 +36,7 @@ struct PlanRunOptions {
   OptimiseOptions optimise;
   KeyPointOptions key_points;
   double camera_metres_per_pixel = 0.003;
-  double thickness = 0.004;  // m, ideal fold's lift (the cloth world's collision thickness)
+  double thickness = 0.004;                            // m, ideal fold's lift (the cloth world's collision thickness)
   SettleOptions flat_settle = {0.002, 0.2, 0.3, 3.0};  // the garment laid on the table
   // Told each step as it finishes (a long optimisation reports as it goes); optional.
   std::function<void(const StepRecord&)> on_step;
@@ -45,10 +45,10 @@ struct PlanRunOptions {
 
 struct StepRecord {
   std::string name;
-  FoldLine line;                     // world x, z
-  std::vector<std::string> grasps;   // what the plan names, per arm
+  FoldLine line;                    // world x, z
+  std::vector<std::string> grasps;  // what the plan names, per arm
   StepSetup setup;
-  StepOptimum result;                // replays: initial = optimised = the replayed paths
+  StepOptimum result;                        // replays: initial = optimised = the replayed paths
   std::vector<RelativeTrajectory> relative;  // of result.optimised
 };
 
@@ -57,9 +57,9 @@ struct PlanRun {
   std::map<std::string, Vec2> key_points;  // world x, z
   TopDownCamera camera;
   std::vector<StepRecord> steps;
-  Points3 final;                           // after the last step
-  TriMesh ideal;                           // the ideal folds chained from `flat`
-  double final_dissimilarity = 0;          // D(ideal, final), m
+  Points3 final;                   // after the last step
+  TriMesh ideal;                   // the ideal folds chained from `flat`
+  double final_dissimilarity = 0;  // D(ideal, final), m
 };
 
 // What a plan asks of a garment, before any simulation: per step the fold line (world
@@ -81,9 +81,8 @@ std::vector<PlannedStep> PlanSteps(const TriMesh& flat, const std::map<std::stri
 // Optimises every step (replay == nullptr) or replays the given relative trajectories
 // (one vector per step, one per arm). Throws drape::Error for a plan that does not fit
 // the garment, NumericalError when a simulation fails.
-PlanRun RunPlan(const FoldScene& scene, const Points3& laid, const std::string& category,
-                const FoldingPlan& plan, const PlanRunOptions& options,
-                const std::vector<std::vector<RelativeTrajectory>>* replay = nullptr);
+PlanRun RunPlan(const FoldScene& scene, const Points3& laid, const std::string& category, const FoldingPlan& plan,
+                const PlanRunOptions& options, const std::vector<std::vector<RelativeTrajectory>>* replay = nullptr);
 // The same, filling `run` as it goes (the settled flat garment, its camera and key
 // points, each finished step), so a caller that catches a failure keeps what was done.
 void RunPlan(PlanRun& run, const FoldScene& scene, const Points3& laid, const std::string& category,

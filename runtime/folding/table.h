@@ -5,19 +5,18 @@
 #pragma once
 
 #include <map>
-#include <string>
-
 #include <opencv2/core.hpp>
+#include <string>
 
 #include "common/mesh.h"
 
 namespace drape::folding {
 
 struct TableOptions {
-  double top = 0.0;                // m, height of the table top (world y)
+  double top = 0.0;                   // m, height of the table top (world y)
   double half_x = 1.0, half_z = 1.0;  // m, half sizes of the top
-  double thickness = 0.05;         // m
-  double clearance = 0.002;        // m, gap between the table and the back layer when laid
+  double thickness = 0.05;            // m
+  double clearance = 0.002;           // m, gap between the table and the back layer when laid
   void Validate() const;
 };
 

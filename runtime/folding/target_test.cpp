@@ -16,9 +16,9 @@ namespace {
 
 TEST(IdealFold, MirrorsTheGraspedSideOnTopOfTheStack) {
   Points3 cur(3, 3);
-  cur << 0.3, 0.002, 0.1,   // folded side (x > 0.1)
-      -0.2, 0.012, 0.0,     // other side, the highest point
-      0.15, 0.012, -0.2;    // folded side
+  cur << 0.3, 0.002, 0.1,  // folded side (x > 0.1)
+      -0.2, 0.012, 0.0,    // other side, the highest point
+      0.15, 0.012, -0.2;   // folded side
   const IdealFold fold(FoldLine{Vec2(0.1, 0), Vec2(0, 1)}, Vec2(0.5, 0), cur, 0.004);
   EXPECT_NEAR(fold.axis_height(), 0.014, 1e-15);
   EXPECT_TRUE(fold.Apply(cur.row(0).transpose()).isApprox(Vec3(-0.1, 0.026, 0.1)));

@@ -23,7 +23,7 @@ struct GripperPose {
   Vec3 position = Vec3::Zero();
   Vec3 approach = -Vec3::UnitY();  // fingers point down
   Vec3 closing = Vec3::UnitX();
-  double wrist = 0;                // radians about the vertical through the jaws (turning a held garment)
+  double wrist = 0;  // radians about the vertical through the jaws (turning a held garment)
 };
 
 // A time-parameterised path: poses at times (s, from the start of the move).

@@ -36,8 +36,8 @@ bool InJaws(const Vec3& q, const Vec3& half) { return (q.cwiseAbs().array() <= h
 struct Pinch {
   int face = -1;
   Vec3 bary = Vec3::Zero();
-  int vertex = -1;          // the face's vertex nearest the pinch (Hang's anchor vertex)
-  Vec3 rest = Vec3::Zero(); // the point on the flat garment (m)
+  int vertex = -1;           // the face's vertex nearest the pinch (Hang's anchor vertex)
+  Vec3 rest = Vec3::Zero();  // the point on the flat garment (m)
   // What the jaws hold of the mesh: its nodes inside the jaw box, and of every face with
   // a sample inside it the vertex nearest the jaw centre (a coarse mesh may have no
   // node between the jaws). The let-go fall and the placing hold exactly these.
@@ -48,20 +48,28 @@ struct Pinch {
 
 const char* GraspOutcomeName(GraspOutcome o) {
   switch (o) {
-    case GraspOutcome::kMiss: return "miss";
-    case GraspOutcome::kOneLayer: return "one_layer";
-    case GraspOutcome::kBothLayers: return "both_layers";
-    case GraspOutcome::kLost: return "lost";
+    case GraspOutcome::kMiss:
+      return "miss";
+    case GraspOutcome::kOneLayer:
+      return "one_layer";
+    case GraspOutcome::kBothLayers:
+      return "both_layers";
+    case GraspOutcome::kLost:
+      return "lost";
   }
   return "?";
 }
 
 const char* ClothStateName(ClothState s) {
   switch (s) {
-    case ClothState::kOnTable: return "on_table";
-    case ClothState::kHanging: return "hanging";
-    case ClothState::kHeldByTwo: return "held_by_two";
-    case ClothState::kLost: return "lost";
+    case ClothState::kOnTable:
+      return "on_table";
+    case ClothState::kHanging:
+      return "hanging";
+    case ClothState::kHeldByTwo:
+      return "held_by_two";
+    case ClothState::kLost:
+      return "lost";
   }
   return "?";
 }
@@ -196,8 +204,9 @@ struct SimWorld::Impl {
                               DeriveSeed(seed, "hang/" + std::to_string(hangs)));
     sim_seconds += Since(t0);
     ++hangs;
-    if (!r.ok) throw NumericalError("cloth simulation: hanging from the " + std::string(k ? "right" : "left") +
-                                    " gripper did not come to rest (" + r.failure + ")");
+    if (!r.ok)
+      throw NumericalError("cloth simulation: hanging from the " + std::string(k ? "right" : "left") +
+                           " gripper did not come to rest (" + r.failure + ")");
     const Eigen::Matrix3d R = Yaw(a.pose.wrist);
     mesh.F = r.mesh.F;
     mesh.V.resize(r.mesh.NumVertices(), 3);
@@ -328,7 +337,8 @@ double SimArm::Move(const Path& path) {
   a.pose = path.back().pose;
   if (!a.holds) return path.back().time;
   if (w_->state == ClothState::kOnTable) {
-    if (w_->arms[1 - k_].holds) throw Error("sim: lifting a garment from the table with both grippers is not simulated");
+    if (w_->arms[1 - k_].holds)
+      throw Error("sim: lifting a garment from the table with both grippers is not simulated");
     w_->Rehang(k_);  // picked up: it hangs from this gripper
   } else if (w_->state == ClothState::kHanging && w_->hang_from == k_) {
     const Eigen::Matrix3d R = Yaw(a.pose.wrist - before.wrist);
@@ -741,8 +751,8 @@ SimWorld::SimWorld(Garment garment, Material material, MaterialFit fit, const Si
   w.mesh.V.resize(g.NumVertices(), 3);
   for (int i = 0; i < g.NumVertices(); ++i) {
     const Vec3 q = g.V.row(i).transpose() - c;
-    w.mesh.V.row(i) = Vec3(top.x() + q.x(), w.o.table.max().y() + 0.001 + (g.V(i, 2) - b.min().z()), top.z() - q.y())
-                          .transpose();
+    w.mesh.V.row(i) =
+        Vec3(top.x() + q.x(), w.o.table.max().y() + 0.001 + (g.V(i, 2) - b.min().z()), top.z() - q.y()).transpose();
   }
   for (int k = 0; k < 2; ++k) {
     w.arms[k].pose.position = Vec3(k == 0 ? 0.4 : -0.4, 1.3, 0.3);

@@ -40,7 +40,7 @@
 namespace drape::hardware {
 
 struct SimOptions {
-  HangOptions hang;            // the cloth model (use the release's recipe simulation settings)
+  HangOptions hang;  // the cloth model (use the release's recipe simulation settings)
   // The let-go falls' and the placings' cloth worlds take these instead of hang's (the
   // pick-up hang stays the database's hang): edges a step leaves further beyond the
   // strain bound than it found them merge into impact zones (collision.h
@@ -87,10 +87,10 @@ struct SimOptions {
 // settles. Placed means: no crossing during the motion (the cloth core's verdict), the
 // database hang's verdict on the lying garment, and every node on the table.
 struct PlaceFlatOptions {
-  double spread = 0.9;         // of the pinched points' distance on the flat pattern
-  double lift_time = 1.0;      // s to lift clear of the table and spread, and again to carry above its near edge
-  double lay_time = 2.0;       // s to lower and carry across the table
-  double settle_cap = 3.0;     // s of settling at most after opening
+  double spread = 0.9;      // of the pinched points' distance on the flat pattern
+  double lift_time = 1.0;   // s to lift clear of the table and spread, and again to carry above its near edge
+  double lay_time = 2.0;    // s to lower and carry across the table
+  double settle_cap = 3.0;  // s of settling at most after opening
   // Pads of the cloth world's grippers, m: at least this, and 1.5 mesh edges so that a
   // coarse mesh still has nodes between them.
   double min_pad = 0.03;
@@ -126,7 +126,7 @@ class SimWorld {
   SimWorld(const SimWorld&) = delete;
   SimWorld& operator=(const SimWorld&) = delete;
 
-  Arm& arm(int i);              // 0 and 1
+  Arm& arm(int i);  // 0 and 1
   DepthCamera& camera();
   RangeSensor& ir(int arm);
   Table& table();
@@ -143,7 +143,7 @@ class SimWorld {
   ClothState state() const;
   const TriMesh& mesh() const;  // current cloth, world frame
   const Garment& garment() const;
-  int HeldVertex(int arm) const;  // pinched node of the garment, -1 if none
+  int HeldVertex(int arm) const;              // pinched node of the garment, -1 if none
   std::vector<int> HeldNodes(int arm) const;  // nodes the arm's jaws hold (sorted; empty if none)
   std::optional<Vec2> HeldUv(int arm) const;  // pinched point on the flat pattern (m)
   // What a gripper closing at `pose` on the cloth as it is now would take (as

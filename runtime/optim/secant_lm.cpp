@@ -61,7 +61,8 @@ void SecantLmOptions::Validate() const {
   if (!(tau > 0)) throw Error("SecantLmOptions.tau must be > 0");
   if (!(gradient_tolerance >= 0)) throw Error("SecantLmOptions.gradient_tolerance must be >= 0");
   if (!(step_tolerance >= 0)) throw Error("SecantLmOptions.step_tolerance must be >= 0");
-  if (!(relative_decrease >= 0 && relative_decrease < 1)) throw Error("SecantLmOptions.relative_decrease must be in [0, 1)");
+  if (!(relative_decrease >= 0 && relative_decrease < 1))
+    throw Error("SecantLmOptions.relative_decrease must be in [0, 1)");
   if (stall_iterations < 1) throw Error("SecantLmOptions.stall_iterations must be >= 1");
   if (!(finite_difference_step >= 0 && std::isfinite(finite_difference_step)))
     throw Error("SecantLmOptions.finite_difference_step must be >= 0 and finite");
@@ -174,8 +175,7 @@ double SecantLmRun::TryStep(const Eigen::VectorXd& h, bool shortened) {
   const double F_new = r_new.allFinite() ? 0.5 * r_new.squaredNorm() : HUGE_VAL;
   // Predicted decrease L(0) − L(h) = ½ hᵀ(μh − g) for the damped step itself; a step
   // shortened to max_step: −gᵀh − ½‖Bh‖² (the same model, evaluated directly).
-  const double predicted =
-      shortened ? -g_.dot(h) - 0.5 * (B_ * h).squaredNorm() : 0.5 * h.dot(mu_ * h - g_);
+  const double predicted = shortened ? -g_.dot(h) - 0.5 * (B_ * h).squaredNorm() : 0.5 * h.dot(mu_ * h - g_);
   const double rho = predicted > 0 ? (F_ - F_new) / predicted : -1;
   // The secant information along h is valid whether or not the step is taken.
   if (o_.secant && r_new.allFinite()) {

@@ -44,9 +44,9 @@ class LeastSquaresProblem {
 
 struct SecantLmOptions {
   int max_iterations = 60;
-  bool secant = true;       // false: a fresh Jacobian every iteration (plain LM)
-  int refresh_every = 5;    // fresh Jacobian after this many secant updates
-  double tau = 1e-4;        // μ0 = τ · max diag(JᵀJ)
+  bool secant = true;                 // false: a fresh Jacobian every iteration (plain LM)
+  int refresh_every = 5;              // fresh Jacobian after this many secant updates
+  double tau = 1e-4;                  // μ0 = τ · max diag(JᵀJ)
   double gradient_tolerance = 1e-14;  // stop when ‖Bᵀr‖∞ ≤ this
   double step_tolerance = 1e-9;       // stop when ‖h‖ ≤ this·(‖x‖ + this)
   double relative_decrease = 1e-4;    // ... or when `stall_iterations` accepted steps in a
@@ -77,9 +77,9 @@ struct SecantLmReport {
   double final_mu = 0;
   std::string termination;
   int residual_evaluations = 0;  // calls of Residuals (initial, steps, difference columns)
-  std::vector<double> cost;  // after every iteration
+  std::vector<double> cost;      // after every iteration
   double jacobian_seconds = 0, solve_seconds = 0, residual_seconds = 0;  // timing only
-  double product_seconds = 0, factor_seconds = 0;  // parts of solve_seconds
+  double product_seconds = 0, factor_seconds = 0;                        // parts of solve_seconds
 };
 
 // Minimises from x (updated in place). Throws drape::NumericalError if the residuals

@@ -1,13 +1,14 @@
 // The secant Levenberg–Marquardt on analytic problems: with analytic Jacobians
 // (registration's use) and with forward differences only (folding's use: one scalar
 // cost C(x), minimised as C², δ = 0.1 as in the paper).
+#include "runtime/optim/secant_lm.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdio>
 
 #include "common/error.h"
-#include "runtime/optim/secant_lm.h"
 
 namespace drape::optim {
 namespace {

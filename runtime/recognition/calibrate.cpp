@@ -631,7 +631,8 @@ Weights LoadWeights(const fs::path& path, const std::string& expected_digest) {
       const size_t off = info.at("offset").get<size_t>();
       const size_t count = info.at("count").get<size_t>();
       if (static_cast<int>(count) != bits || off + count * sizeof(double) > bin.size()) {
-        throw Error(json_path.string() + ": category '" + cat + "' weights do not fit the feature shape or weights.bin");
+        throw Error(json_path.string() + ": category '" + cat +
+                    "' weights do not fit the feature shape or weights.bin");
       }
       std::vector<double> v(count);
       std::memcpy(v.data(), bin.data() + off, count * sizeof(double));

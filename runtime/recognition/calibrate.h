@@ -39,31 +39,31 @@ const char* WeightTyingName(WeightTying t);
 WeightTying ParseWeightTying(const std::string& name);  // "bit" | "annulus" | "layer"
 
 struct CalibrateOptions {
-  double c = 10;              // RankSVM penalty C (paper: 10). dlib scales it by 1/#pairs.
+  double c = 10;                                 // RankSVM penalty C (paper: 10). dlib scales it by 1/#pairs.
   Regularizer regularizer = Regularizer::kZero;  // the paper's; `drape calibrate` defaults to kUniform
   WeightTying tying = WeightTying::kBit;         // the paper's
-  double epsilon = 0.001;     // OCA stopping tolerance on the ranking accuracy
-  int max_iterations = 10000; // OCA iterations cap
-  bool nonnegative = true;    // w >= 0, so w^T(x ⊕ q) stays a (weighted Hamming) distance
-  WeightFrame frame = WeightFrame::kDatabase;  // which frame w indexes (see matcher.h)
-  bool height_gates = true;   // choose height gates (recognizer.h); false: none, as the paper
-  bool gate_train_queries = true;  // also select them on train entries vs the other instances
+  double epsilon = 0.001;                        // OCA stopping tolerance on the ranking accuracy
+  int max_iterations = 10000;                    // OCA iterations cap
+  bool nonnegative = true;                       // w >= 0, so w^T(x ⊕ q) stays a (weighted Hamming) distance
+  WeightFrame frame = WeightFrame::kDatabase;    // which frame w indexes (see matcher.h)
+  bool height_gates = true;                      // choose height gates (recognizer.h); false: none, as the paper
+  bool gate_train_queries = true;                // also select them on train entries vs the other instances
   void Validate() const;
 };
 
 struct CategoryCalibration {
   std::string category;
-  int queries = 0;               // calibration queries of this category used
-  int skipped = 0;               // queries without a relevant or a nonrelevant database entry
-  long long pairs = 0;           // relevant × nonrelevant pairs (the constraints of Eq. learn)
-  double accuracy_before = 0;    // fraction of pairs ordered right with w = 1 (plain Hamming)
-  double accuracy_after = 0;     // … with the learned w
-  double map_after = 0;          // mean average precision with the learned w (dlib)
+  int queries = 0;                      // calibration queries of this category used
+  int skipped = 0;                      // queries without a relevant or a nonrelevant database entry
+  long long pairs = 0;                  // relevant × nonrelevant pairs (the constraints of Eq. learn)
+  double accuracy_before = 0;           // fraction of pairs ordered right with w = 1 (plain Hamming)
+  double accuracy_after = 0;            // … with the learned w
+  double map_after = 0;                 // mean average precision with the learned w (dlib)
   int top1_before = 0, top1_after = 0;  // calibration queries whose NN has the right anchor
-  double nonzero_fraction = 0;   // share of weights > 1e-9
-  int clipped = 0;               // weights (of 4096) the uniform prior left < 0, set to 0
-  double mean_abs_departure = 0;  // mean |w_b − 1| over the bits
-  double seconds = 0;            // timing only
+  double nonzero_fraction = 0;          // share of weights > 1e-9
+  int clipped = 0;                      // weights (of 4096) the uniform prior left < 0, set to 0
+  double mean_abs_departure = 0;        // mean |w_b − 1| over the bits
+  double seconds = 0;                   // timing only
 };
 
 // How the height gates were chosen: for each candidate τ (0 = no gate), how many
@@ -73,8 +73,8 @@ struct CategoryCalibration {
 struct GateSelection {
   std::vector<double> taus;
   std::vector<int> category_right, pose_right;
-  int queries = 0;             // selection queries with a known height
-  int without_height = 0;      // left out: no height known
+  int queries = 0;         // selection queries with a known height
+  int without_height = 0;  // left out: no height known
   HeightGates chosen;
 };
 

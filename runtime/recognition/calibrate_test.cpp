@@ -68,8 +68,8 @@ TEST(RecognitionCalibrate, LearnedWeightsIgnoreNoiseBitsAndCutTheError) {
   for (int a = 0; a < NoisyCategory::kAnchors; ++a) {
     const std::string an = "anchor" + std::to_string(a);
     for (int inst = 1; inst <= 2; ++inst) {
-      train.push_back(Labelled("t" + an + std::to_string(inst), an, "shirt-" + std::to_string(inst),
-                               cat.Sample(rng, a, 4)));
+      train.push_back(
+          Labelled("t" + an + std::to_string(inst), an, "shirt-" + std::to_string(inst), cat.Sample(rng, a, 4)));
     }
     for (int j = 0; j < 10; ++j) {
       calib.push_back(Labelled("c" + an + std::to_string(j), an, "shirt-c", cat.Sample(rng, a, 8)));

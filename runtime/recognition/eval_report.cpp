@@ -1,12 +1,11 @@
 // The report of `drape eval`: report.json, report.md (the paper's tables, the
 // registration table, the ladder) and the plots (accuracy.png, confusion_<category>.png).
 // Evaluate (evaluate.cpp) scores and aggregates; this file only presents its result.
+#include <algorithm>
+#include <cstdio>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
-
-#include <algorithm>
-#include <cstdio>
 #include <sstream>
 
 #include "common/error.h"
@@ -97,16 +96,18 @@ std::string RegistrationMarkdown(const Json& t) {
   auto row = [&](const Json& g, bool bold) {
     const std::string b = bold ? "**" : "";
     md << "| " << b << g.value("garment", "") << b << " | " << g.value("pairs", 0) << " | " << d(g["s_to_t_rigid"])
-       << " | " << d(g["t_to_s_rigid"]) << " | " << d(g["s_to_t_nonrigid"]) << " | " << d(g["t_to_s_nonrigid"])
-       << " | " << Num(g["anchor_error_cm"]["rigid"], "%.1f") << " / " << Num(g["anchor_error_cm"]["nonrigid"], "%.1f")
-       << " | " << Num(g["anchor_error_cm"].value("rigid_median", Json()), "%.1f") << " / "
-       << Num(g["anchor_error_cm"].value("nonrigid_median", Json()), "%.1f") << " | " << Num(g["timing"]["seconds_per_registration"], "%.2f") << " |\n";
+       << " | " << d(g["t_to_s_rigid"]) << " | " << d(g["s_to_t_nonrigid"]) << " | " << d(g["t_to_s_nonrigid"]) << " | "
+       << Num(g["anchor_error_cm"]["rigid"], "%.1f") << " / " << Num(g["anchor_error_cm"]["nonrigid"], "%.1f") << " | "
+       << Num(g["anchor_error_cm"].value("rigid_median", Json()), "%.1f") << " / "
+       << Num(g["anchor_error_cm"].value("nonrigid_median", Json()), "%.1f") << " | "
+       << Num(g["timing"]["seconds_per_registration"], "%.2f") << " |\n";
   };
   for (const Json& g : t.value("garments", Json::array())) row(g, false);
   if (t.contains("average")) row(t["average"], true);
   if (t.contains("paper")) {
     const Json& p = t["paper"];
-    md << "\nPaper (real Kinect data):\n\n| garment | S→T (R) | T→S (R) | S→T (R+N) | T→S (R+N) |\n|---|---|---|---|---|\n";
+    md << "\nPaper (real Kinect data):\n\n| garment | S→T (R) | T→S (R) | S→T (R+N) | T→S (R+N) "
+          "|\n|---|---|---|---|---|\n";
     std::vector<Json> rows(p["rows"].begin(), p["rows"].end());
     rows.push_back(p["average"]);
     for (const Json& g : rows) {
@@ -118,8 +119,8 @@ std::string RegistrationMarkdown(const Json& t) {
     const Json& tm = t["average"]["timing"];
     md << "\nTime per registration (mean, s): grid " << Num(tm["grid_seconds"]) << ", ICP " << Num(tm["icp_seconds"])
        << ", non-rigid " << Num(tm["nonrigid_seconds"]) << ", total " << Num(tm["seconds_per_registration"])
-       << "; whole table " << Num(t["timing"]["wall_seconds"], "%.1f") << " s wall on " << t["timing"].value("threads", 0)
-       << " threads.\n";
+       << "; whole table " << Num(t["timing"]["wall_seconds"], "%.1f") << " s wall on "
+       << t["timing"].value("threads", 0) << " threads.\n";
   }
   int recognised = 0, first = 0, offsets = 0;
   std::vector<double> from_grasp;
@@ -325,12 +326,13 @@ std::string ReportMarkdown(const Json& r) {
      << "| category | fusion | feature | matching | total | paper (i7 3.0 GHz) |\n|---|---|---|---|---|---|\n";
   for (const Json& c : rows) {
     const Json& t = c["seconds_per_query"];
-    md << "| " << c["category"].get<std::string>() << " | " << Num(t["fusion"]) << " | " << Num(t["feature"])
-       << " | " << Num(t["matching"], "%.6f") << " | " << Num(t["total"]) << " | "
+    md << "| " << c["category"].get<std::string>() << " | " << Num(t["fusion"]) << " | " << Num(t["feature"]) << " | "
+       << Num(t["matching"], "%.6f") << " | " << Num(t["total"]) << " | "
        << (c["paper"].is_null() ? std::string("—") : Num(c["paper"]["seconds"], "%.2f")) << " |\n";
   }
   if (r.contains("ladder") && r["ladder"].is_object()) md << "\n" << LadderMarkdown(r["ladder"]);
-  if (r.contains("registration") && r["registration"].is_object()) md << "\n" << RegistrationMarkdown(r["registration"]);
+  if (r.contains("registration") && r["registration"].is_object())
+    md << "\n" << RegistrationMarkdown(r["registration"]);
   if (!r["warnings"].empty()) {
     md << "\n## Warnings\n\n";
     for (const auto& w : r["warnings"]) md << "- " << w.get<std::string>() << "\n";
@@ -373,8 +375,8 @@ void WriteAccuracyPlot(const Json& r, const fs::path& path) {
       cv::putText(img, buf, {x0 + 4, top + plot_h - h - 4}, cv::FONT_HERSHEY_SIMPLEX, 0.4, {0, 0, 0}, 1, cv::LINE_AA);
     }
     cv::putText(img, rows[i]["category"].get<std::string>().substr(0, 18),
-                {left + group * static_cast<int>(i) + 10, top + plot_h + 20}, cv::FONT_HERSHEY_SIMPLEX, 0.45,
-                {0, 0, 0}, 1, cv::LINE_AA);
+                {left + group * static_cast<int>(i) + 10, top + plot_h + 20}, cv::FONT_HERSHEY_SIMPLEX, 0.45, {0, 0, 0},
+                1, cv::LINE_AA);
   }
   for (int b = 0; b < 3; ++b) {
     const int x = left + 140 * b;
@@ -395,15 +397,15 @@ void WriteConfusionPlot(const std::string& cat, const EvalResult::Confusion& c, 
   cv::Mat img(height, width, CV_8UC3, cv::Scalar(255, 255, 255));
   cv::putText(img, cat + " (" + c.metric + " distance, both instances)", {10, 22}, cv::FONT_HERSHEY_SIMPLEX, 0.55,
               {0, 0, 0}, 1, cv::LINE_AA);
-  cv::putText(img, "rows: true anchor, columns: predicted", {10, 44}, cv::FONT_HERSHEY_SIMPLEX, 0.45,
-              {80, 80, 80}, 1, cv::LINE_AA);
+  cv::putText(img, "rows: true anchor, columns: predicted", {10, 44}, cv::FONT_HERSHEY_SIMPLEX, 0.45, {80, 80, 80}, 1,
+              cv::LINE_AA);
   for (int i = 0; i < n; ++i) {
     int row_total = 0;
     for (int v : c.counts[i]) row_total += v;
     cv::putText(img, std::to_string(i) + " " + c.labels[i].substr(0, 20), {5, top + cell * i + cell / 2 + 5},
                 cv::FONT_HERSHEY_SIMPLEX, 0.4, {0, 0, 0}, 1, cv::LINE_AA);
-    cv::putText(img, std::to_string(i), {left + cell * i + cell / 3, top - 8}, cv::FONT_HERSHEY_SIMPLEX, 0.4,
-                {0, 0, 0}, 1, cv::LINE_AA);
+    cv::putText(img, std::to_string(i), {left + cell * i + cell / 3, top - 8}, cv::FONT_HERSHEY_SIMPLEX, 0.4, {0, 0, 0},
+                1, cv::LINE_AA);
     for (int j = 0; j < n; ++j) {
       const double f = row_total ? double(c.counts[i][j]) / row_total : 0.0;
       // White → dark blue with the row-normalised share; the diagonal outlined.
@@ -453,8 +455,8 @@ void WriteReport(const EvalResult& result, const Json& header, const fs::path& d
     if (v.is_object() || v.is_array() || v.is_null()) continue;  // tables below / report.json
     md << "- **" << k << "**: " << (v.is_string() ? v.get<std::string>() : v.dump()) << "\n";
   }
-  md << "- **queries**: " << result.report["queries"] << ", database entries: "
-     << result.report["database"]["entries"] << " (kernel " << result.report["database"]["kernel"].get<std::string>()
+  md << "- **queries**: " << result.report["queries"] << ", database entries: " << result.report["database"]["entries"]
+     << " (kernel " << result.report["database"]["kernel"].get<std::string>()
      << ")\n\nEvery number below comes from this run (report.json has each query).\n\n";
   md << ReportMarkdown(result.report);
   if (header.contains("calibration") && header["calibration"].is_object()) {
@@ -470,8 +472,8 @@ void WriteReport(const EvalResult& result, const Json& header, const fs::path& d
       std::snprintf(buf, sizeof buf, "| %s | %d | %d | %lld | %.3f → %.3f | %d → %d | %.1f %% |\n",
                     c.value("category", "").c_str(), c.value("queries", 0), c.value("skipped", 0),
                     c.value("pairs", 0LL), c.value("ranking_accuracy_unweighted", 0.0),
-                    c.value("ranking_accuracy_learned", 0.0), c.value("top1_unweighted", 0),
-                    c.value("top1_learned", 0), 100 * c.value("nonzero_weight_fraction", 0.0));
+                    c.value("ranking_accuracy_learned", 0.0), c.value("top1_unweighted", 0), c.value("top1_learned", 0),
+                    100 * c.value("nonzero_weight_fraction", 0.0));
       md << buf;
     }
     for (const auto& w : cal["stats"].value("warnings", Json::array())) md << "- " << w.get<std::string>() << "\n";
@@ -486,8 +488,8 @@ void WriteReport(const EvalResult& result, const Json& header, const fs::path& d
   }
   for (const auto& f : result.report.value("ladder_figures", Json::array())) {
     md << "Ladder, " << f.value("split", "") << ", " << f.value("category", "") << ": query " << f.value("query", "")
-       << " | matched " << f.value("matched", "") << " | true " << f.value("truth", "") << "\n\n![" << f.value("file", "")
-       << "](" << f.value("file", "") << ")\n\n";
+       << " | matched " << f.value("matched", "") << " | true " << f.value("truth", "") << "\n\n!["
+       << f.value("file", "") << "](" << f.value("file", "") << ")\n\n";
   }
   if (result.report.contains("registration")) {
     for (const auto& f : result.report["registration"].value("figures", Json::array())) {

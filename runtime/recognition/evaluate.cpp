@@ -81,15 +81,18 @@ const char* kMetrics[] = {"unweighted", "learned"};
 // The paper's Table (real Kinect data), by our category names.
 Json PaperRow(const std::string& category) {
   if (category == "long_sleeve_shirt" || category == "shirt") {
-    return Json{{"garment", "Long-Sleeve Shirts"}, {"instance1", 0.631}, {"instance2", 0.684},
-                {"both", 0.737}, {"seconds", 0.30}};
+    return Json{{"garment", "Long-Sleeve Shirts"},
+                {"instance1", 0.631},
+                {"instance2", 0.684},
+                {"both", 0.737},
+                {"seconds", 0.30}};
   }
   if (category == "pants") {
     return Json{{"garment", "Pants"}, {"instance1", 0.75}, {"instance2", 0.75}, {"both", 0.75}, {"seconds", 0.20}};
   }
   if (category == "shorts") {
-    return Json{{"garment", "Shorts"}, {"instance1", 0.625}, {"instance2", nullptr}, {"both", 0.625},
-                {"seconds", 0.22}};
+    return Json{
+        {"garment", "Shorts"}, {"instance1", 0.625}, {"instance2", nullptr}, {"both", 0.625}, {"seconds", 0.22}};
   }
   return nullptr;
 }
@@ -126,7 +129,7 @@ struct Mean {
 
 struct CategoryAcc {
   int queries = 0;
-  int absent = 0;  // queries whose category is not in the database
+  int absent = 0;                       // queries whose category is not in the database
   std::map<std::string, Counter> pose;  // "subset/metric"
   Counter category, top_u, top_l, e2e_u, e2e_l;
   Counter twin_u, twin_l;  // both instances, the anchor or its mirror twin
@@ -140,8 +143,8 @@ struct CategoryAcc {
 // End-to-end recognition (category by unweighted NN, pose by the learned w), timed: this
 // is what one query costs at run time. Leaves the query's matches in `matches`.
 Recognition ScoreEndToEnd(const Recognizer& rec, const Database& db, const EvalQuery& eq, const PreparedQuery& pq,
-                          bool have_weights, int top_k, std::vector<Match>& matches, CategoryAcc& ca,
-                          CategoryAcc& all, Json& rec_json) {
+                          bool have_weights, int top_k, std::vector<Match>& matches, CategoryAcc& ca, CategoryAcc& all,
+                          Json& rec_json) {
   const EntryLabel& ql = eq.query.label;
   RecognizeOptions e2e;
   e2e.top_k = top_k;
@@ -161,7 +164,8 @@ Recognition ScoreEndToEnd(const Recognizer& rec, const Database& db, const EvalQ
     ca.e2e_l.Add(cat_ok && r_e2e.anchor == ql.anchor), all.e2e_l.Add(cat_ok && r_e2e.anchor == ql.anchor);
   }
   rec_json["predicted_category"] = r_e2e.category;
-  rec_json["end_to_end"] = {{"unweighted", r_e2e_u.anchor}, {"learned", r_e2e.anchor}, {"learned_used_weights", r_e2e.weighted}};
+  rec_json["end_to_end"] = {
+      {"unweighted", r_e2e_u.anchor}, {"learned", r_e2e.anchor}, {"learned_used_weights", r_e2e.weighted}};
   return r_e2e;
 }
 
@@ -221,7 +225,7 @@ Json ScoreKnownCategory(const Recognizer& rec, const Database& db, const AnchorU
       }
       const std::string key = s + "/" + m;
       ca.pose[key].Add(ok), all.pose[key].Add(ok);
-      Json rj{{"anchor", r.anchor}, {"entry", r.best.id}, {"distance", r.best.distance},
+      Json rj{{"anchor", r.anchor},          {"entry", r.best.id},    {"distance", r.best.distance},
               {"rotation", r.best.rotation}, {"score", r.best.score}, {"correct", ok}};
       if (s == "both") {
         const std::vector<std::string> twins = SymmetryTwins(ql.anchor);
@@ -248,8 +252,7 @@ Json ScoreKnownCategory(const Recognizer& rec, const Database& db, const AnchorU
 }
 
 // Confusion matrices (both instances; learned if the category has weights).
-void FillConfusion(const Database& db, const std::vector<EvalQuery>& queries, const Json& per_query,
-                   EvalResult& out) {
+void FillConfusion(const Database& db, const std::vector<EvalQuery>& queries, const Json& per_query, EvalResult& out) {
   for (auto& [cat, conf] : out.confusion) {
     std::set<std::string> labels;
     for (int i : db.EntriesOf(cat)) labels.insert(db.label(i).anchor);
@@ -266,7 +269,8 @@ void FillConfusion(const Database& db, const std::vector<EvalQuery>& queries, co
     const std::string key = "both/" + conf.metric;
     for (const auto& pq : per_query) {
       if (pq["category"] != cat || !pq.contains("category_known") || !pq["category_known"].contains(key)) continue;
-      ++conf.counts[index(pq["anchor"].get<std::string>())][index(pq["category_known"][key]["anchor"].get<std::string>())];
+      ++conf.counts[index(pq["anchor"].get<std::string>())]
+                   [index(pq["category_known"][key]["anchor"].get<std::string>())];
     }
   }
 }

@@ -20,9 +20,9 @@ TEST(RecognitionHeightGates, GateIsABoundOnTheLogRatioAndUnknownHeightsPass) {
   EXPECT_TRUE(PassesHeightGate(1.0, 1.2, std::log(1.2) + 1e-12));
   EXPECT_FALSE(PassesHeightGate(1.0, 1.2, std::log(1.2) - 1e-9));
   EXPECT_FALSE(PassesHeightGate(1.2, 1.0, std::log(1.2) - 1e-9));  // symmetric
-  EXPECT_TRUE(PassesHeightGate(1.0, 3.0, 0));                        // 0 = no gate
-  EXPECT_TRUE(PassesHeightGate(0, 3.0, 0.1));                        // query height unknown
-  EXPECT_TRUE(PassesHeightGate(1.0, 0, 0.1));                        // entry height unknown
+  EXPECT_TRUE(PassesHeightGate(1.0, 3.0, 0));                      // 0 = no gate
+  EXPECT_TRUE(PassesHeightGate(0, 3.0, 0.1));                      // query height unknown
+  EXPECT_TRUE(PassesHeightGate(1.0, 0, 0.1));                      // entry height unknown
 }
 
 // Shorts and pants with the same shape bits (Algorithm 1 scales the height away) but

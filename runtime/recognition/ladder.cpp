@@ -1,12 +1,11 @@
 #include "runtime/recognition/ladder.h"
 
-#include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
-
 #include <algorithm>
 #include <cstdio>
 #include <map>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <set>
 #include <sstream>
 
@@ -29,7 +28,8 @@ std::string Describe(const SplitSpec& s) {
   if (p.turn) d << ", turned";
   if (p.grasp_offset > 0) d << ", grasp offset " << p.grasp_offset * 100 << " cm";
   if (p.gripper_pose_noise > 0) d << ", gripper noise " << p.gripper_pose_noise << "°";
-  if (p.size_scale_min != 1 || p.size_scale_max != 1) d << ", size ×[" << p.size_scale_min << ", " << p.size_scale_max << "]";
+  if (p.size_scale_min != 1 || p.size_scale_max != 1)
+    d << ", size ×[" << p.size_scale_min << ", " << p.size_scale_max << "]";
   if (p.material_jitter > 0) d << ", material jitter " << p.material_jitter * 100 << " %";
   return d.str();
 }
@@ -91,7 +91,8 @@ Json LadderTable(const std::vector<LadderResult>& results) {
            {"pose_unweighted", both["unweighted"]},
            {"pose_learned", both["learned"]},
            {"category_accuracy", c["category_accuracy"]},
-           {"pose_learned_twin_credited", c.value("pose_accuracy_twin_credited", Json::object()).value("learned", Json())},
+           {"pose_learned_twin_credited",
+            c.value("pose_accuracy_twin_credited", Json::object()).value("learned", Json())},
            {"pose_unweighted_twin_credited",
             c.value("pose_accuracy_twin_credited", Json::object()).value("unweighted", Json())},
            {"grasp_error_cm_unweighted", c["grasp_error_cm"]["unweighted_mean"]}});
@@ -108,7 +109,8 @@ std::string LadderMarkdown(const Json& table) {
         "for the towel also top/bottom) count as right — indistinguishable in principle where front and back "
         "are alike (towel, skirt), told apart by the front/back difference of shirts and trousers.\n";
   for (const auto& [cat, rows] : table.items()) {
-    md << "\n### " << cat << "\n\n| rung | queries | differs from the database entry by | pose (unweighted) | "
+    md << "\n### " << cat
+       << "\n\n| rung | queries | differs from the database entry by | pose (unweighted) | "
           "pose (learned) | twin credited (u / l) | category | grasp error cm (u) |\n"
           "|---|---|---|---|---|---|---|---|\n";
     for (const Json& r : rows) {
@@ -128,8 +130,7 @@ std::string LadderMarkdown(const Json& table) {
 namespace {
 
 // The three meshes side by side at one scale, captions above.
-void DrawTriptych(const std::vector<TriMesh>& meshes, const std::vector<std::string>& captions,
-                  const fs::path& path) {
+void DrawTriptych(const std::vector<TriMesh>& meshes, const std::vector<std::string>& captions, const fs::path& path) {
   const int pw = 260, ph = 340, top = 40;
   Eigen::Vector2d lo(1e9, 1e9), hi(-1e9, -1e9);
   for (const auto& m : meshes) {
@@ -149,8 +150,8 @@ void DrawTriptych(const std::vector<TriMesh>& meshes, const std::vector<std::str
     std::istringstream lines(captions[i]);
     std::string line;
     for (int k = 0; std::getline(lines, line) && k < 2; ++k)
-      cv::putText(img, line.substr(0, 40), {int(i) * pw + 4, 16 + 16 * k}, cv::FONT_HERSHEY_SIMPLEX, 0.4,
-                  {0, 0, 0}, 1, cv::LINE_AA);
+      cv::putText(img, line.substr(0, 40), {int(i) * pw + 4, 16 + 16 * k}, cv::FONT_HERSHEY_SIMPLEX, 0.4, {0, 0, 0}, 1,
+                  cv::LINE_AA);
   }
   std::vector<uchar> png;
   cv::imencode(".png", img, png);
@@ -176,12 +177,14 @@ Json WriteWorstConfusions(const Release& release, const Database& db, const std:
       auto conf = lr.eval.confusion.find(cat);
       if (conf == lr.eval.confusion.end()) continue;
       const std::string key = "both/" + conf->second.metric;
-      if (q["category_known"].contains(key) && !q["category_known"][key]["correct"].get<bool>()) wrong[cat].push_back(&q);
+      if (q["category_known"].contains(key) && !q["category_known"][key]["correct"].get<bool>())
+        wrong[cat].push_back(&q);
     }
     for (auto& [cat, qs] : wrong) {
       const std::string key = "both/" + lr.eval.confusion.at(cat).metric;
       std::stable_sort(qs.begin(), qs.end(), [&](const Json* a, const Json* b) {
-        return (*a)["category_known"][key]["distance"].get<double>() < (*b)["category_known"][key]["distance"].get<double>();
+        return (*a)["category_known"][key]["distance"].get<double>() <
+               (*b)["category_known"][key]["distance"].get<double>();
       });
       for (int k = 0; k < std::min<int>(per_category, qs.size()); ++k) {
         const Json& q = *qs[k];
@@ -199,7 +202,8 @@ Json WriteWorstConfusions(const Release& release, const Database& db, const std:
         std::vector<TriMesh> meshes;
         std::vector<std::string> captions = {
             "query " + q["anchor"].get<std::string>() + "\n" + q["id"].get<std::string>(),
-            "matched " + m["anchor"].get<std::string>() + " (d " + std::to_string(m["distance"].get<int>()) + ")\n" + matched,
+            "matched " + m["anchor"].get<std::string>() + " (d " + std::to_string(m["distance"].get<int>()) + ")\n" +
+                matched,
             "true " + q["anchor"].get<std::string>() + "\n" + truth};
         for (const std::string& id : {q["id"].get<std::string>(), matched, truth}) {
           try {
@@ -210,8 +214,13 @@ Json WriteWorstConfusions(const Release& release, const Database& db, const std:
         }
         const std::string name = "ladder_" + Safe(lr.rung.split) + "_" + Safe(cat) + "_" + std::to_string(k) + ".png";
         DrawTriptych(meshes, captions, dir / name);
-        out.push_back({{"file", name}, {"split", lr.rung.split}, {"category", cat}, {"query", q["id"]},
-                       {"matched", matched}, {"truth", truth}, {"metric", key}});
+        out.push_back({{"file", name},
+                       {"split", lr.rung.split},
+                       {"category", cat},
+                       {"query", q["id"]},
+                       {"matched", matched},
+                       {"truth", truth},
+                       {"metric", key}});
       }
     }
   }

@@ -1,8 +1,8 @@
 #include "runtime/recognition/matcher.h"
 
 #include <bit>
-#include <ctime>
 #include <climits>
+#include <ctime>
 #include <sstream>
 
 #include "common/error.h"
@@ -14,8 +14,7 @@
 
 namespace drape::recognition {
 
-double WeightedDistanceReference(const Code& x, int k, const Code& q, const std::vector<double>& w,
-                                 bool query_frame) {
+double WeightedDistanceReference(const Code& x, int k, const Code& q, const std::vector<double>& w, bool query_frame) {
   DRAPE_CHECK(x.SameShape(q), "feature shapes differ");
   DRAPE_CHECK(static_cast<int>(w.size()) == x.NumBits(), "weight vector size");
   const Code a = query_frame ? Rotate(x, k) : x;
@@ -37,10 +36,14 @@ WeightFrame ParseWeightFrame(const std::string& name) {
 
 const char* KernelName(Kernel k) {
   switch (k) {
-    case Kernel::kAuto: return "auto";
-    case Kernel::kGeneric: return "generic";
-    case Kernel::kPopcnt: return "popcnt";
-    case Kernel::kAvx512: return "avx512-vpopcntdq";
+    case Kernel::kAuto:
+      return "auto";
+    case Kernel::kGeneric:
+      return "generic";
+    case Kernel::kPopcnt:
+      return "popcnt";
+    case Kernel::kAvx512:
+      return "avx512-vpopcntdq";
   }
   return "?";
 }
@@ -82,8 +85,7 @@ PreparedQuery::PreparedQuery(const Code& q) : q_(q) {
   }
 }
 
-PreparedWeights::PreparedWeights(const std::vector<double>& w, int layers, int rings, int sectors,
-                                 WeightFrame frame)
+PreparedWeights::PreparedWeights(const std::vector<double>& w, int layers, int rings, int sectors, WeightFrame frame)
     : w_(w), bits_(layers * rings * sectors), frame_(frame) {
   DRAPE_CHECK(static_cast<int>(w.size()) == bits_, "weight vector size");
   if (frame == WeightFrame::kDatabase) {
@@ -105,7 +107,8 @@ Matcher::Matcher(int layers, int rings, int sectors, Kernel kernel)
 }
 
 void Matcher::set_kernel(Kernel k) {
-  if (!KernelAvailable(k)) throw Error(std::string("matching kernel '") + KernelName(k) + "' is not supported by this CPU");
+  if (!KernelAvailable(k))
+    throw Error(std::string("matching kernel '") + KernelName(k) + "' is not supported by this CPU");
   kernel_ = ResolveKernel(k);
 }
 
@@ -142,7 +145,7 @@ void MatchGeneric(const uint64_t* data, int n, int pw, int sectors, const Prepar
 
 #ifdef DRAPE_X86
 __attribute__((target("popcnt"))) void MatchPopcnt(const uint64_t* data, int n, int pw, int sectors,
-                                                    const PreparedQuery& q, Match* out) {
+                                                   const PreparedQuery& q, Match* out) {
   for (int i = 0; i < n; ++i) {
     const uint64_t* x = data + size_t(i) * pw;
     Match best{INT_MAX, 0};
@@ -163,9 +166,8 @@ __attribute__((target("popcnt"))) void MatchPopcnt(const uint64_t* data, int n, 
   }
 }
 
-__attribute__((target("avx512f,avx512vpopcntdq"))) void MatchAvx512(const uint64_t* data, int n, int pw,
-                                                                    int sectors, const PreparedQuery& q,
-                                                                    Match* out) {
+__attribute__((target("avx512f,avx512vpopcntdq"))) void MatchAvx512(const uint64_t* data, int n, int pw, int sectors,
+                                                                    const PreparedQuery& q, Match* out) {
   for (int i = 0; i < n; ++i) {
     const uint64_t* x = data + size_t(i) * pw;
     Match best{INT_MAX, 0};
@@ -191,8 +193,8 @@ void Matcher::MatchAll(const PreparedQuery& q, std::vector<Match>* out) const {
   const Code& c = q.code();
   if (c.layers != layers_ || c.rings != rings_ || c.sectors != sectors_) {
     std::ostringstream os;
-    os << "query feature shape " << c.layers << "x" << c.rings << "x" << c.sectors
-       << " differs from the database's " << layers_ << "x" << rings_ << "x" << sectors_;
+    os << "query feature shape " << c.layers << "x" << c.rings << "x" << c.sectors << " differs from the database's "
+       << layers_ << "x" << rings_ << "x" << sectors_;
     throw Error(os.str());
   }
   DRAPE_CHECK(q.padded_words() == padded_words_, "padding");
@@ -228,8 +230,7 @@ double Matcher::Weighted(int i, const PreparedQuery& q, int k, const PreparedWei
   return sum;
 }
 
-void Matcher::XorVector(int i, const PreparedQuery& q, int k, WeightFrame frame,
-                        std::vector<double>* out) const {
+void Matcher::XorVector(int i, const PreparedQuery& q, int k, WeightFrame frame, std::vector<double>* out) const {
   const int bits = layers_ * rings_ * sectors_;
   out->assign(bits, 0.0);
   const uint64_t* x = row(i);

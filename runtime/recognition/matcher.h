@@ -24,8 +24,7 @@ using drape::Match;  // {min_k |R_k x ⊕ q|_1, the smallest k attaining it}
 // Weighted distance of Eq. bestmatch at rotation k, computed bit by bit: in the query
 // frame w^T (R_k x ⊕ q) (the paper's literal form), in the database frame
 // w^T (x ⊕ R_{-k} q) (see WeightFrame).
-double WeightedDistanceReference(const Code& x, int k, const Code& q, const std::vector<double>& w,
-                                 bool query_frame);
+double WeightedDistanceReference(const Code& x, int k, const Code& q, const std::vector<double>& w, bool query_frame);
 
 // Which XOR-popcount kernel the fast matcher uses.
 enum class Kernel {

@@ -38,8 +38,8 @@ TEST(RecognitionMatcher, RotationComposesAndPermutes) {
 // kernel this CPU has, several shapes (Φ = 3, 7, 10, 16, 64; bit counts not multiples
 // of 64), and queries that are rotated + noisy copies of a database entry.
 TEST(RecognitionMatcher, FastEqualsReferenceAllRotations) {
-  const std::vector<std::tuple<int, int, int>> shapes = {
-      {16, 16, 16}, {4, 5, 10}, {3, 3, 7}, {2, 1, 64}, {1, 1, 3}, {5, 3, 16}};
+  const std::vector<std::tuple<int, int, int>> shapes = {{16, 16, 16}, {4, 5, 10}, {3, 3, 7},
+                                                         {2, 1, 64},   {1, 1, 3},  {5, 3, 16}};
   for (auto [l, r, s] : shapes) {
     Rng rng(DeriveSeed(7, std::to_string(l * 10000 + r * 100 + s)));
     std::vector<Code> db;
@@ -214,8 +214,7 @@ TEST(RecognitionRecognizer, EmptyDatabaseAndAbsentCategoryAreClearErrors) {
     rec.Recognize(protos[0], o);
     FAIL();
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("'long_sleeve_shirt' is not in the database"), std::string::npos)
-        << e.what();
+    EXPECT_NE(std::string(e.what()).find("'long_sleeve_shirt' is not in the database"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("pants, shorts"), std::string::npos) << e.what();
   }
   o.category = "pants";

@@ -26,7 +26,8 @@ struct BuildOptions {
 BuildOptions OptionsOf(const Release& release) {
   BuildOptions o;
   const std::string text = release.dataset().value("recipe", Json::object()).value("text", "");
-  if (text.empty()) throw Error(release.dir().string() + "/dataset.json: no recipe text to take fusion/feature options from");
+  if (text.empty())
+    throw Error(release.dir().string() + "/dataset.json: no recipe text to take fusion/feature options from");
   try {
     const Recipe r = ParseRecipe(text, (release.dir() / "dataset.json").string() + " (recipe)", release.dir(),
                                  release.SourceFiles().empty() ? nullptr : &release.SourceFiles());
@@ -41,7 +42,8 @@ BuildOptions OptionsOf(const Release& release) {
     if (it == r.sensing.end()) it = r.sensing.find("sensed");
     if (it == r.sensing.end() && !r.sensing.empty()) it = r.sensing.begin();
     if (it != r.sensing.end()) o.sensed_sweep = it->second.sweep;
-    o.source = "recipe in dataset.json (sensing '" + (it == r.sensing.end() ? std::string("default") : it->first) + "')";
+    o.source =
+        "recipe in dataset.json (sensing '" + (it == r.sensing.end() ? std::string("default") : it->first) + "')";
   } catch (const Error& e) {
     throw Error(std::string("cannot take the fusion/feature options from the release's recipe: ") + e.what());
   }
@@ -60,9 +62,11 @@ PipelineResult FuseAndExtract(const Sweep& sweep, const BuildOptions& o, uint64_
   const Tsdf& tsdf = *fused.tsdf;
   const Points3 surface = tsdf.SurfacePoints();
   r.timing.fusion_seconds = Since(t0);
-  if (surface.rows() == 0) throw Error("fusion: the fused surface is empty (is the garment inside the segmentation box?)");
+  if (surface.rows() == 0)
+    throw Error("fusion: the fused surface is empty (is the garment inside the segmentation box?)");
   t0 = Clock::now();
-  const Feature f = ExtractFeature(surface, [&tsdf](const Vec3& p) { return tsdf.Sdf(p); }, o.feature);
+  const Feature f = ExtractFeature(
+      surface, [&tsdf](const Vec3& p) { return tsdf.Sdf(p); }, o.feature);
   r.timing.feature_seconds = Since(t0);
   r.code.layers = f.layers;
   r.code.rings = f.rings;
@@ -78,7 +82,6 @@ PipelineResult FuseAndExtract(const Sweep& sweep, const BuildOptions& o, uint64_
 }
 
 }  // namespace
-
 
 PipelineResult FeatureFromSweep(const Release& release, const fs::path& dir, uint64_t seed) {
   if (!fs::exists(dir / "cameras.json")) {

@@ -110,7 +110,7 @@ void BM_BarePopcountLimit(benchmark::State& state) {
   for (auto _ : state) {
 #if defined(__x86_64__)
     benchmark::DoNotOptimize(k == Kernel::kAvx512 ? BareAvx512(a.data(), b.data(), kWords)
-                                                   : BarePopcnt(a.data(), b.data(), kWords));
+                                                  : BarePopcnt(a.data(), b.data(), kWords));
 #endif
     benchmark::ClobberMemory();
   }
@@ -274,7 +274,8 @@ Feature QueryFeature(const std::vector<DepthFrame>& frames, const Intrinsics& K,
     points = tsdf.ExtractMesh().V;
     lap("mesh");
   }
-  const Feature f = ExtractFeature(points, [&tsdf](const Vec3& p) { return tsdf.Sdf(p); }, FeatureOptions());
+  const Feature f = ExtractFeature(
+      points, [&tsdf](const Vec3& p) { return tsdf.Sdf(p); }, FeatureOptions());
   lap("feature");
   return f;
 }

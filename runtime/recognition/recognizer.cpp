@@ -97,11 +97,11 @@ int NearestUnweighted(const std::vector<int>& pool, const std::vector<Match>& ma
 
 Recognizer::Recognizer(const Database& db, const Weights* weights) : db_(db) {
   if (!weights) return;
-  if (!db.empty() && (weights->layers != db.layers() || weights->rings != db.rings() ||
-                      weights->sectors != db.sectors())) {
+  if (!db.empty() &&
+      (weights->layers != db.layers() || weights->rings != db.rings() || weights->sectors != db.sectors())) {
     std::ostringstream os;
-    os << "weights are for features of shape " << weights->layers << "x" << weights->rings << "x"
-       << weights->sectors << ", the database has " << db.layers() << "x" << db.rings() << "x" << db.sectors();
+    os << "weights are for features of shape " << weights->layers << "x" << weights->rings << "x" << weights->sectors
+       << ", the database has " << db.layers() << "x" << db.rings() << "x" << db.sectors();
     throw Error(os.str());
   }
   for (const auto& [cat, w] : weights->per_category) {
@@ -173,8 +173,8 @@ Recognition Recognizer::Rank(const PreparedQuery& q, const std::vector<Match>& m
   r.gates = GatesFor(options);
   if (!options.category.empty()) {
     if (!db_.HasCategory(options.category)) {
-      throw Error("recognize: category '" + options.category + "' is not in the database (it has: " +
-                  JoinNames(db_.categories()) + ")");
+      throw Error("recognize: category '" + options.category +
+                  "' is not in the database (it has: " + JoinNames(db_.categories()) + ")");
     }
     r.category = options.category;
     r.category_source = "given";
@@ -227,9 +227,8 @@ Recognition Recognizer::Rank(const PreparedQuery& q, const std::vector<Match>& m
 
 Json ToJson(const Recognition& r) {
   auto cand = [](const Candidate& c) {
-    return Json{{"entry", c.id},       {"category", c.category}, {"instance", c.instance},
-                {"anchor", c.anchor},  {"distance", c.distance}, {"rotation", c.rotation},
-                {"score", c.score}};
+    return Json{{"entry", c.id},          {"category", c.category}, {"instance", c.instance}, {"anchor", c.anchor},
+                {"distance", c.distance}, {"rotation", c.rotation}, {"score", c.score}};
   };
   Json top = Json::array();
   for (const auto& c : r.top) top.push_back(cand(c));

@@ -35,16 +35,16 @@ namespace drape::recognition {
 
 // What the database knows about one of its features.
 struct EntryLabel {
-  std::string id;        // release entry id
-  std::string split;     // "train" for the database
-  std::string category;  // garment category, e.g. "pants"
-  std::string instance;  // garment instance, e.g. "pants-M-s1"
-  std::string anchor;    // anchor label the garment hangs from, e.g. "waist_left"
-  std::string material;  // material name (informative)
-  int anchor_vertex = -1;             // vertex of the anchor in the entry's meshes, -1 unknown
-  std::optional<Vec2> anchor_uv;      // anchor on the flat pattern (metres), if known
-  std::optional<Vec3> anchor_hung;    // anchor vertex on the hung mesh (object frame, metres)
-  double height = 0;                  // hung height: the reconstruction's y extent (m), 0 unknown
+  std::string id;                   // release entry id
+  std::string split;                // "train" for the database
+  std::string category;             // garment category, e.g. "pants"
+  std::string instance;             // garment instance, e.g. "pants-M-s1"
+  std::string anchor;               // anchor label the garment hangs from, e.g. "waist_left"
+  std::string material;             // material name (informative)
+  int anchor_vertex = -1;           // vertex of the anchor in the entry's meshes, -1 unknown
+  std::optional<Vec2> anchor_uv;    // anchor on the flat pattern (metres), if known
+  std::optional<Vec3> anchor_hung;  // anchor vertex on the hung mesh (object frame, metres)
+  double height = 0;                // hung height: the reconstruction's y extent (m), 0 unknown
 };
 
 struct LabelledCode {
@@ -112,44 +112,44 @@ struct Weights {
 };
 
 struct RecognizeOptions {
-  int top_k = 5;             // distinct (category, anchor) labels listed
-  int top_entries = 0;       // database entries listed in Recognition::entries (0 = none)
-  std::string category;      // known category ("" = predict by unweighted NN)
+  int top_k = 5;                       // distinct (category, anchor) labels listed
+  int top_entries = 0;                 // database entries listed in Recognition::entries (0 = none)
+  std::string category;                // known category ("" = predict by unweighted NN)
   std::vector<std::string> instances;  // restrict the pose search to these database garment
                                        // instances (empty = all)
-  bool weighted = true;      // use the category's learned w when there is one
-  double query_height = 0;   // hung height of the query (m); 0 = unknown: no height gates
-  bool height_gates = true;  // apply the weights' height gates (false: Algorithm 1 alone, as the paper)
-  std::optional<HeightGates> gates;  // these gates instead of the weights' (calibration's search)
+  bool weighted = true;                // use the category's learned w when there is one
+  double query_height = 0;             // hung height of the query (m); 0 = unknown: no height gates
+  bool height_gates = true;            // apply the weights' height gates (false: Algorithm 1 alone, as the paper)
+  std::optional<HeightGates> gates;    // these gates instead of the weights' (calibration's search)
   void Validate() const;
 };
 
 struct Candidate {
-  int entry = -1;             // database index
+  int entry = -1;  // database index
   std::string id, category, instance, anchor;
-  int distance = 0;           // Eq. match, bits
-  int rotation = 0;           // best k (R_k x ≈ q)
-  double score = 0;           // what was ranked: weighted distance, or distance if unweighted
+  int distance = 0;  // Eq. match, bits
+  int rotation = 0;  // best k (R_k x ≈ q)
+  double score = 0;  // what was ranked: weighted distance, or distance if unweighted
 };
 
 struct Recognition {
-  std::string category;             // predicted (or given) category
+  std::string category;  // predicted (or given) category
   std::string
       category_source;  // "given" | "unweighted_nn" | "registration" (drape recognize --category-fit, category_fit.h)
-  std::string anchor;               // predicted anchor label
-  Candidate best;                   // the matched database entry
-  std::vector<Candidate> top;       // best entry of each of the top_k distinct anchors, best first
+  std::string anchor;   // predicted anchor label
+  Candidate best;       // the matched database entry
+  std::vector<Candidate> top;  // best entry of each of the top_k distinct anchors, best first
   // The top_entries entries of the category (any anchor; the instance restriction kept,
   // the pose height gate not applied), best first by the same score: the registration
   // candidates (runtime/unfolding/candidates.h) are checked by their fit instead.
   std::vector<Candidate> entries;
-  bool weighted = false;            // whether a learned w ranked the pose
-  double query_height = 0;          // as given (m)
-  HeightGates gates;                // the gates applied (0: none)
-  int category_pool = 0;            // entries the category was chosen from
-  int pose_pool = 0;                // entries the pose was chosen from
-  int compared = 0;                 // database entries compared (× Φ rotations each)
-  double match_seconds = 0;         // timing only
+  bool weighted = false;     // whether a learned w ranked the pose
+  double query_height = 0;   // as given (m)
+  HeightGates gates;         // the gates applied (0: none)
+  int category_pool = 0;     // entries the category was chosen from
+  int pose_pool = 0;         // entries the pose was chosen from
+  int compared = 0;          // database entries compared (× Φ rotations each)
+  double match_seconds = 0;  // timing only
 };
 
 class Recognizer {
@@ -163,8 +163,7 @@ class Recognizer {
   Recognition Recognize(const Code& query, const RecognizeOptions& options) const;
   // Same with the query already prepared and Eq. match already run against every
   // entry (lets evaluation rank one query several ways for the price of one match).
-  Recognition Rank(const PreparedQuery& q, const std::vector<Match>& matches,
-                   const RecognizeOptions& options) const;
+  Recognition Rank(const PreparedQuery& q, const std::vector<Match>& matches, const RecognizeOptions& options) const;
 
   bool HasWeights(const std::string& category) const { return weights_.count(category) > 0; }
   // The height gates Rank applies with these options.

@@ -34,15 +34,14 @@ namespace {
 // S→T R+N, T→S R+N, metres.
 Json PaperTable() {
   auto row = [](const char* name, double a, double b, double c, double d) {
-    return Json{{"garment", name}, {"s_to_t_rigid", a}, {"t_to_s_rigid", b}, {"s_to_t_nonrigid", c},
-                {"t_to_s_nonrigid", d}};
+    return Json{
+        {"garment", name}, {"s_to_t_rigid", a}, {"t_to_s_rigid", b}, {"s_to_t_nonrigid", c}, {"t_to_s_nonrigid", d}};
   };
-  return Json{{"rows",
-               Json::array({row("Long-Sleeve T-Shirt 1", 0.0251, 0.0188, 0.0073, 0.0129),
-                            row("Long-Sleeve T-Shirt 2", 0.0171, 0.0218, 0.0151, 0.0213),
-                            row("Long Pants 1", 0.0099, 0.0652, 0.0060, 0.0648),
-                            row("Long Pants 2", 0.0164, 0.0221, 0.0044, 0.0172),
-                            row("Shorts", 0.0238, 0.0149, 0.0081, 0.0092)})},
+  return Json{{"rows", Json::array({row("Long-Sleeve T-Shirt 1", 0.0251, 0.0188, 0.0073, 0.0129),
+                                    row("Long-Sleeve T-Shirt 2", 0.0171, 0.0218, 0.0151, 0.0213),
+                                    row("Long Pants 1", 0.0099, 0.0652, 0.0060, 0.0648),
+                                    row("Long Pants 2", 0.0164, 0.0221, 0.0044, 0.0172),
+                                    row("Shorts", 0.0238, 0.0149, 0.0081, 0.0092)})},
               {"average", row("Average", 0.0185, 0.0256, 0.0070, 0.0250)}};
 }
 
@@ -198,8 +197,8 @@ std::vector<Pair> ChoosePairs(const Release& release, const Database& db, const 
 
 // One registration: database entry's hang.ply onto the test entry's recon.ply, with the
 // anchor's truth when the test entry has it; the figure's meshes when asked for.
-PairOutcome RegisterPair(const Release& release, const Pair& p, const EntryLabel& d,
-                         const reg::RegistrationOptions& ro, bool wants_figure) {
+PairOutcome RegisterPair(const Release& release, const Pair& p, const EntryLabel& d, const reg::RegistrationOptions& ro,
+                         bool wants_figure) {
   PairOutcome o;
   try {
     const auto t0 = Clock::now();
@@ -286,8 +285,9 @@ Json OptionsJson(const reg::RegistrationOptions& ro, int max_pairs_per_category)
               {"refined_fit", ro.refined_fit},
               {"lm_max_iterations", ro.lm.max_iterations},
               {"max_pairs_per_category", max_pairs_per_category},
-              {"meshes", "source = database entry's hang.ply, target = test entry's recon.ply, full resolution "
-                         "(no decimation)"}};
+              {"meshes",
+               "source = database entry's hang.ply, target = test entry's recon.ply, full resolution "
+               "(no decimation)"}};
 }
 
 }  // namespace
@@ -341,8 +341,9 @@ RegistrationEvalResult EvaluateRegistration(const Release& release, const Databa
   for (const auto& [name, s] : by_garment) garments.push_back(s.ToJson(name));
   for (const auto& [name, s] : by_category) categories.push_back(s.ToJson(name));
   result.table = Json{{"split", split},
-                      {"protocol", "pose known: source = train entry of the true category and anchor (the entry "
-                                   "recognition matched when right, else the first instance by name)"},
+                      {"protocol",
+                       "pose known: source = train entry of the true category and anchor (the entry "
+                       "recognition matched when right, else the first instance by name)"},
                       {"pairs", pj},
                       {"garments", garments},
                       {"categories", categories},
@@ -352,8 +353,10 @@ RegistrationEvalResult EvaluateRegistration(const Release& release, const Databa
                       {"limited_out", limited},
                       {"options", OptionsJson(ro, options.max_pairs_per_category)},
                       {"paper", PaperTable()},
-                      {"timing", {{"wall_seconds", Since(t_all)}, {"read_seconds", read_seconds},
-                                  {"threads", options.threads <= 0 ? HardwareThreads() : options.threads}}}};
+                      {"timing",
+                       {{"wall_seconds", Since(t_all)},
+                        {"read_seconds", read_seconds},
+                        {"threads", options.threads <= 0 ? HardwareThreads() : options.threads}}}};
   return result;
 }
 
@@ -364,9 +367,7 @@ namespace {
 // so they compare.
 constexpr int kPanelW = 320, kPanelH = 400, kTitleH = 28;
 
-cv::Point Px(const cv::Point2d& p) {
-  return {static_cast<int>(std::lround(p.x)), static_cast<int>(std::lround(p.y))};
-}
+cv::Point Px(const cv::Point2d& p) { return {static_cast<int>(std::lround(p.x)), static_cast<int>(std::lround(p.y))}; }
 
 void DrawMesh(cv::Mat& img, const TriMesh& mesh, const OrthoView& view, const cv::Scalar& base) {
   if (mesh.NumFaces() > 0) DrawShadedMesh(img, mesh, view, base);
@@ -418,7 +419,8 @@ std::string RenderRegistrationFigure(const RegistrationFigure& f) {
   cv::Mat out(row.rows + 2 * kTitleH, row.cols, CV_8UC3, cv::Scalar(255, 255, 255));
   row.copyTo(out(cv::Rect(0, kTitleH, row.cols, row.rows)));
   cv::putText(out, f.caption, {8, 20}, cv::FONT_HERSHEY_SIMPLEX, 0.5, {0, 0, 0}, 1, cv::LINE_AA);
-  cv::putText(out, "orthographic, object frame seen from +z; green cross = true anchor, red circle = transferred anchor",
+  cv::putText(out,
+              "orthographic, object frame seen from +z; green cross = true anchor, red circle = transferred anchor",
               {8, row.rows + kTitleH + 20}, cv::FONT_HERSHEY_SIMPLEX, 0.45, {60, 60, 60}, 1, cv::LINE_AA);
   std::vector<unsigned char> png;
   if (!cv::imencode(".png", out, png)) throw Error("registration figure: PNG encoding failed");
@@ -429,7 +431,8 @@ std::vector<std::string> WriteRegistrationFigures(const RegistrationEvalResult& 
   std::vector<std::string> names;
   for (const RegistrationFigure& f : result.figures) {
     std::string safe;
-    for (char ch : f.category) safe += (std::isalnum(static_cast<unsigned char>(ch)) || ch == '-' || ch == '_') ? ch : '_';
+    for (char ch : f.category)
+      safe += (std::isalnum(static_cast<unsigned char>(ch)) || ch == '-' || ch == '_') ? ch : '_';
     const std::string name = "registration_" + safe + ".png";
     WriteFileAtomic(dir / name, RenderRegistrationFigure(f));
     names.push_back(name);

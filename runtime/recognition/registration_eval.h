@@ -25,9 +25,9 @@ namespace drape::recognition {
 
 struct RegistrationEvalOptions {
   registration::RegistrationOptions registration;  // grid threads are forced to 1 per pair
-  int max_pairs_per_category = 0;  // 0 = every test entry; else the first N by id per category
-  int threads = 0;                 // pairs run in parallel (<= 0: all cores); results do not depend on it
-  void Validate() const;           // throws drape::Error naming the bad field
+  int max_pairs_per_category = 0;                  // 0 = every test entry; else the first N by id per category
+  int threads = 0;        // pairs run in parallel (<= 0: all cores); results do not depend on it
+  void Validate() const;  // throws drape::Error naming the bad field
 };
 
 // One category's figure: source, target, R, R+N (object frame), anchors marked.
@@ -58,6 +58,7 @@ RegistrationEvalResult EvaluateRegistration(const Release& release, const Databa
 std::string RenderRegistrationFigure(const RegistrationFigure& figure);
 
 // Renders every figure into DIR/registration_<category>.png; returns the file names.
-std::vector<std::string> WriteRegistrationFigures(const RegistrationEvalResult& result, const std::filesystem::path& dir);
+std::vector<std::string> WriteRegistrationFigures(const RegistrationEvalResult& result,
+                                                  const std::filesystem::path& dir);
 
 }  // namespace drape::recognition

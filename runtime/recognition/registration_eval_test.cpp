@@ -123,8 +123,8 @@ TEST(RegistrationEval, RigidCopiesRegisterToZeroErrorAndTheReportHasTheTable) {
 
   // Same numbers on 2 threads, and a recognised entry is used when recognition was right.
   o.threads = 2;
-  const Json per_query = Json::array({Json{{"id", "e1"},
-                                           {"category_known", {{"both/unweighted", {{"entry", "e0"}, {"correct", true}}}}}}});
+  const Json per_query = Json::array(
+      {Json{{"id", "e1"}, {"category_known", {{"both/unweighted", {{"entry", "e0"}, {"correct", true}}}}}}});
   const RegistrationEvalResult r2 = EvaluateRegistration(rel, db, per_query, "test", o);
   for (size_t i = 0; i < 2; ++i) {
     for (const char* k : {"s_to_t_rigid", "t_to_s_rigid", "s_to_t_nonrigid", "t_to_s_nonrigid"}) {

@@ -100,7 +100,8 @@ std::vector<LabelledCode> LoadSplit(const Release& release, const std::string& s
 Database LoadDatabase(const Release& release, LoadReport* report, Kernel kernel) {
   std::vector<LabelledCode> train = LoadSplit(release, "train", report);
   if (train.empty()) {
-    throw Error(release.dir().string() + ": the release has no usable train entries, so the recognition "
+    throw Error(release.dir().string() +
+                ": the release has no usable train entries, so the recognition "
                 "database is empty");
   }
   for (auto& lc : train) {

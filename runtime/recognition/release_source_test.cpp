@@ -22,8 +22,9 @@ namespace fs = std::filesystem;
 
 // Binary PLY with 3 float vertices, vertex i at (i, -i, 0.5 i) / 10.
 std::string TinyPly() {
-  std::string s = "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
-                  "property float z\nelement face 0\nproperty list uchar int vertex_indices\nend_header\n";
+  std::string s =
+      "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+      "property float z\nelement face 0\nproperty list uchar int vertex_indices\nend_header\n";
   for (int i = 0; i < 3; ++i) {
     const float v[3] = {i / 10.0f, -i / 10.0f, 0.05f * i};
     s.append(reinterpret_cast<const char*>(v), sizeof v);

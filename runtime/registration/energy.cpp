@@ -57,10 +57,9 @@ double CornerAngle(const Vec3& a, const Vec3& b, const Vec3& c, Eigen::Matrix<do
   return theta;
 }
 
-double HingeAngle(const Vec3& x0, const Vec3& x1, const Vec3& x2, const Vec3& x3,
-                  Eigen::Matrix<double, 12, 1>* grad) {
+double HingeAngle(const Vec3& x0, const Vec3& x1, const Vec3& x2, const Vec3& x3, Eigen::Matrix<double, 12, 1>* grad) {
   const Vec3 e = x1 - x0;
-  const Vec3 NA = e.cross(x2 - x0);        // face A = (x0, x1, x2)
+  const Vec3 NA = e.cross(x2 - x0);          // face A = (x0, x1, x2)
   const Vec3 NB = (x0 - x1).cross(x3 - x1);  // face B = (x1, x0, x3)
   const double le = e.norm(), nA = NA.norm(), nB = NB.norm();
   if (le < 1e-300 || nA < kTiny || nB < kTiny) {
@@ -166,9 +165,9 @@ void RegistrationEnergy::Residuals(const Eigen::VectorXd& x, Eigen::VectorXd& r)
   for (size_t e = 0; e < hinges_.size(); ++e) {
     const Hinge& h = hinges_[e];
     r[5 * num_faces_ + e] =
-        h.weight > 0 ? h.weight * (HingeAngle(X(x, h.v[0]), X(x, h.v[1]), X(x, h.v[2]), X(x, h.v[3]), nullptr) -
-                                   h.rest_angle)
-                     : 0;
+        h.weight > 0
+            ? h.weight * (HingeAngle(X(x, h.v[0]), X(x, h.v[1]), X(x, h.v[2]), X(x, h.v[3]), nullptr) - h.rest_angle)
+            : 0;
   }
 }
 

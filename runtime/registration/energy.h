@@ -63,7 +63,7 @@ class RegistrationEnergy {
 
  private:
   struct Hinge {
-    int v[4];  // edge x0→x1 as in face A; x2 opposite in face A, x3 opposite in face B
+    int v[4];                   // edge x0→x1 as in face A; x2 opposite in face A, x3 opposite in face B
     double rest_angle, weight;  // weight = √(α‖ē‖/h̄)
   };
   Faces F_;

@@ -89,8 +89,8 @@ TEST_F(EnergyTest, JacobianMatchesFiniteDifferencesPerTerm) {
   const double area = JacobianError(e, x, e.area_begin(), e.angle_begin());
   const double angle = JacobianError(e, x, e.angle_begin(), e.hinge_begin());
   const double hinge = JacobianError(e, x, e.hinge_begin(), e.NumResiduals());
-  std::printf("relative Jacobian error vs FD: fit %.1e area %.1e angle %.1e hinge %.1e (%d faces, %d hinges)\n",
-              fit, area, angle, hinge, nf, e.NumHinges());
+  std::printf("relative Jacobian error vs FD: fit %.1e area %.1e angle %.1e hinge %.1e (%d faces, %d hinges)\n", fit,
+              area, angle, hinge, nf, e.NumHinges());
   EXPECT_LT(fit, 1e-6);
   EXPECT_LT(area, 1e-6);
   EXPECT_LT(angle, 1e-6);
@@ -113,7 +113,8 @@ TEST(EnergyPrimitives, HingeAngleSignAndGradient) {
       Vec3 q[4] = {p[0], p[1], p[2], p[3]}, r[4] = {p[0], p[1], p[2], p[3]};
       q[v][d] += 1e-7;
       r[v][d] -= 1e-7;
-      const double fd = (HingeAngle(q[0], q[1], q[2], q[3], nullptr) - HingeAngle(r[0], r[1], r[2], r[3], nullptr)) / 2e-7;
+      const double fd =
+          (HingeAngle(q[0], q[1], q[2], q[3], nullptr) - HingeAngle(r[0], r[1], r[2], r[3], nullptr)) / 2e-7;
       EXPECT_NEAR(g[3 * v + d], fd, 1e-6) << "vertex " << v << " coord " << d;
     }
 }

@@ -15,7 +15,8 @@ namespace drape::registration {
 
 void GridOptions::Validate() const {
   if (cells < 2 || cells > 4096) throw Error("GridOptions.cells must be in [2, 4096], got " + std::to_string(cells));
-  if (!(padding >= 0 && padding <= 10)) throw Error("GridOptions.padding must be in [0, 10], got " + FormatNumber(padding));
+  if (!(padding >= 0 && padding <= 10))
+    throw Error("GridOptions.padding must be in [0, 10], got " + FormatNumber(padding));
   if (!(band >= 1 && band <= 16)) throw Error("GridOptions.band must be in [1, 16] cells, got " + FormatNumber(band));
   if (max_passes < 1) throw Error("GridOptions.max_passes must be >= 1, got " + std::to_string(max_passes));
   if (max_nodes < 8) throw Error("GridOptions.max_nodes must be >= 8");
@@ -38,8 +39,8 @@ ClosestPointGrid::ClosestPointGrid(const TriMesh& target, const GridOptions& opt
   nz_ = static_cast<int>(std::ceil(span.z() / h_)) + 1;
   const int64_t n = int64_t(nx_) * ny_ * nz_;
   if (n > options.max_nodes)
-    throw Error("closest-point grid: " + std::to_string(n) + " nodes exceed GridOptions.max_nodes = " +
-                std::to_string(options.max_nodes));
+    throw Error("closest-point grid: " + std::to_string(n) +
+                " nodes exceed GridOptions.max_nodes = " + std::to_string(options.max_nodes));
   stats_.nx = nx_, stats_.ny = ny_, stats_.nz = nz_, stats_.spacing = h_;
   nodes_.assign(n, Cell{{0, 0, 0}, std::numeric_limits<float>::infinity(), -1});
 
@@ -145,9 +146,7 @@ int64_t ClosestPointGrid::SweepOrder(int order) {
   return updates;
 }
 
-Vec3 ClosestPointGrid::NodePosition(int i, int j, int k) const {
-  return origin_ + h_ * Vec3(i, j, k);
-}
+Vec3 ClosestPointGrid::NodePosition(int i, int j, int k) const { return origin_ + h_ * Vec3(i, j, k); }
 
 ClosestPoint ClosestPointGrid::Node(int i, int j, int k) const {
   const Cell& c = nodes_[Index(i, j, k)];

@@ -15,21 +15,21 @@
 namespace drape::registration {
 
 struct GridOptions {
-  int cells = 64;          // grid cells along the longest side of the padded box
-  double padding = 0.1;    // box padding on every side, as a fraction of the longest side
-  double band = 1.5;       // narrow band half-width (in cells) where values are exact
-  int max_passes = 2;      // rounds of the 8 sweeps (stops early when nothing changes)
+  int cells = 64;                 // grid cells along the longest side of the padded box
+  double padding = 0.1;           // box padding on every side, as a fraction of the longest side
+  double band = 1.5;              // narrow band half-width (in cells) where values are exact
+  int max_passes = 2;             // rounds of the 8 sweeps (stops early when nothing changes)
   int64_t max_nodes = 6'000'000;  // refuse larger grids (memory: 20 bytes per node)
-  int threads = 0;         // narrow-band threads (<= 0: all cores); results do not depend on it
-  void Validate() const;   // throws drape::Error naming the bad field
+  int threads = 0;                // narrow-band threads (<= 0: all cores); results do not depend on it
+  void Validate() const;          // throws drape::Error naming the bad field
 };
 
 struct GridStats {
   int nx = 0, ny = 0, nz = 0;
-  double spacing = 0;        // h, metres
-  int64_t band_nodes = 0;    // nodes given an exact value by the narrow band
-  int passes = 0;            // sweep rounds run (8 orderings each)
-  int64_t sweep_updates = 0; // node improvements made by sweeping
+  double spacing = 0;                          // h, metres
+  int64_t band_nodes = 0;                      // nodes given an exact value by the narrow band
+  int passes = 0;                              // sweep rounds run (8 orderings each)
+  int64_t sweep_updates = 0;                   // node improvements made by sweeping
   double band_seconds = 0, sweep_seconds = 0;  // timing only
 };
 

@@ -1,22 +1,23 @@
 // The closest-point grid against brute-force exact closest points.
+#include "runtime/registration/grid.h"
+
 #include <gtest/gtest.h>
 
 #include <cstdio>
 
 #include "common/error.h"
 #include "common/rng.h"
-#include "runtime/registration/grid.h"
 #include "runtime/registration/test_meshes.h"
 
 namespace drape::registration {
 namespace {
 
 struct Errors {
-  double node_max = 0;      // stored node distance − exact, over all nodes (/h)
-  double band_max = 0;      // same, nodes within 1 cell of the surface (/h)
+  double node_max = 0;                       // stored node distance − exact, over all nodes (/h)
+  double band_max = 0;                       // same, nodes within 1 cell of the surface (/h)
   double query_max = 0, query_mean = 0;      // Query − exact (/h)
   double refined_max = 0, refined_mean = 0;  // QueryRefined − exact (/h)
-  double near_query_max = 0;  // Query − exact for points within 2h of the surface (/h)
+  double near_query_max = 0;                 // Query − exact for points within 2h of the surface (/h)
 };
 
 Errors Measure(const TriMesh& mesh, const GridOptions& opt, int samples, uint64_t seed) {
@@ -53,10 +54,11 @@ Errors Measure(const TriMesh& mesh, const GridOptions& opt, int samples, uint64_
     e.refined_mean += r / samples;
     if (d < 2 * h) e.near_query_max = std::max(e.near_query_max, q), ++near;
   }
-  std::printf("grid %dx%dx%d h=%.4f band=%lld passes=%d updates=%lld: node max %.2e h, band %.2e h, "
-              "query max %.3f h mean %.3f h (near surface max %.3f h over %d), refined max %.3f h mean %.4f h\n",
-              s.nx, s.ny, s.nz, h, (long long)s.band_nodes, s.passes, (long long)s.sweep_updates, e.node_max,
-              e.band_max, e.query_max, e.query_mean, e.near_query_max, near, e.refined_max, e.refined_mean);
+  std::printf(
+      "grid %dx%dx%d h=%.4f band=%lld passes=%d updates=%lld: node max %.2e h, band %.2e h, "
+      "query max %.3f h mean %.3f h (near surface max %.3f h over %d), refined max %.3f h mean %.4f h\n",
+      s.nx, s.ny, s.nz, h, (long long)s.band_nodes, s.passes, (long long)s.sweep_updates, e.node_max, e.band_max,
+      e.query_max, e.query_mean, e.near_query_max, near, e.refined_max, e.refined_mean);
   return e;
 }
 

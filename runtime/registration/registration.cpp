@@ -169,8 +169,8 @@ double SymmetricFit(const TriMesh& registered, const TriMesh& target, const Exac
 }
 
 RegistrationEvaluation RegisterAndEvaluate(const TriMesh& source, const TriMesh& target,
-                                           const std::vector<AnchorPair>& anchors,
-                                           const RegistrationOptions& options, RegistrationResult* result) {
+                                           const std::vector<AnchorPair>& anchors, const RegistrationOptions& options,
+                                           RegistrationResult* result) {
   RegistrationEvaluation ev;
   const auto t0 = Clock::now();
   RegistrationResult res = Register(source, target, options);
@@ -208,26 +208,40 @@ Json Directed(const DirectedDistance& d) {
 
 Json ToJson(const RegistrationReport& r) {
   Json j;
-  j["source"] = Json{{"centre", V3(r.source_frame.centre)}, {"size", r.source_frame.size}, {"area", r.source_frame.area}};
-  j["target"] = Json{{"centre", V3(r.target_frame.centre)}, {"size", r.target_frame.size}, {"area", r.target_frame.area}};
+  j["source"] =
+      Json{{"centre", V3(r.source_frame.centre)}, {"size", r.source_frame.size}, {"area", r.source_frame.area}};
+  j["target"] =
+      Json{{"centre", V3(r.target_frame.centre)}, {"size", r.target_frame.size}, {"area", r.target_frame.area}};
   Json m = Json::array();
   const Eigen::Matrix4d M = r.rigid.Matrix();
   for (int i = 0; i < 4; ++i) m.push_back(Json::array({M(i, 0), M(i, 1), M(i, 2), M(i, 3)}));
   j["scale"] = r.scaling.scale;
   j["rigid_transform"] = m;
-  j["grid"] = Json{{"dims", Json::array({r.grid.nx, r.grid.ny, r.grid.nz})}, {"spacing", r.grid.spacing},
-                   {"band_nodes", r.grid.band_nodes}, {"passes", r.grid.passes}, {"sweep_updates", r.grid.sweep_updates}};
-  j["icp"] = Json{{"iterations", r.icp.iterations}, {"converged", r.icp.converged}, {"rms_before", r.icp.rms_before},
+  j["grid"] = Json{{"dims", Json::array({r.grid.nx, r.grid.ny, r.grid.nz})},
+                   {"spacing", r.grid.spacing},
+                   {"band_nodes", r.grid.band_nodes},
+                   {"passes", r.grid.passes},
+                   {"sweep_updates", r.grid.sweep_updates}};
+  j["icp"] = Json{{"iterations", r.icp.iterations},
+                  {"converged", r.icp.converged},
+                  {"rms_before", r.icp.rms_before},
                   {"rms_after", r.icp.rms_after}};
-  j["lm"] = Json{{"iterations", r.lm.iterations}, {"accepted", r.lm.accepted}, {"rejected", r.lm.rejected},
-                 {"fresh_jacobians", r.lm.fresh_jacobians}, {"secant_updates", r.lm.secant_updates},
-                 {"initial_cost", r.lm.initial_cost}, {"final_cost", r.lm.final_cost}, {"termination", r.lm.termination}};
+  j["lm"] = Json{{"iterations", r.lm.iterations},
+                 {"accepted", r.lm.accepted},
+                 {"rejected", r.lm.rejected},
+                 {"fresh_jacobians", r.lm.fresh_jacobians},
+                 {"secant_updates", r.lm.secant_updates},
+                 {"initial_cost", r.lm.initial_cost},
+                 {"final_cost", r.lm.final_cost},
+                 {"termination", r.lm.termination}};
   j["energy_before"] = Terms(r.energy_before);
   j["energy_after"] = Terms(r.energy_after);
   j["hinges"] = r.hinges;
   j["warnings"] = r.warnings;
-  j["timing"] = Json{{"grid_seconds", r.grid_seconds}, {"icp_seconds", r.icp_seconds},
-                     {"nonrigid_seconds", r.nonrigid_seconds}, {"total_seconds", r.total_seconds}};
+  j["timing"] = Json{{"grid_seconds", r.grid_seconds},
+                     {"icp_seconds", r.icp_seconds},
+                     {"nonrigid_seconds", r.nonrigid_seconds},
+                     {"total_seconds", r.total_seconds}};
   return j;
 }
 

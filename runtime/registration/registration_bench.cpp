@@ -38,8 +38,8 @@ Similarity Motion(double angle_deg, const Vec3& axis, const Vec3& t) {
 std::vector<Pair> MakePairs() {
   std::vector<Pair> p;
   {
-    Pair a{"tube 1.2k→2.3k v, 15°", testing::FlatTube(40, 30, 0.5, 0.7, 0.08), testing::FlatTube(56, 41, 0.5, 0.7, 0.08),
-           Motion(15, Vec3(0.2, 1, 0.3), Vec3(0.03, -0.02, 0.05))};
+    Pair a{"tube 1.2k→2.3k v, 15°", testing::FlatTube(40, 30, 0.5, 0.7, 0.08),
+           testing::FlatTube(56, 41, 0.5, 0.7, 0.08), Motion(15, Vec3(0.2, 1, 0.3), Vec3(0.03, -0.02, 0.05))};
     p.push_back(a);
   }
   {
@@ -48,8 +48,8 @@ std::vector<Pair> MakePairs() {
     p.push_back(a);
   }
   {
-    Pair a{"tube 4.8k→4.8k v, 25°", testing::FlatTube(80, 60, 0.5, 0.7, 0.08), testing::FlatTube(80, 60, 0.5, 0.7, 0.08),
-           Motion(25, Vec3(0.1, 1, 0.1), Vec3(0.05, 0.0, 0.02))};
+    Pair a{"tube 4.8k→4.8k v, 25°", testing::FlatTube(80, 60, 0.5, 0.7, 0.08),
+           testing::FlatTube(80, 60, 0.5, 0.7, 0.08), Motion(25, Vec3(0.1, 1, 0.1), Vec3(0.05, 0.0, 0.02))};
     p.push_back(a);
   }
   for (Pair& q : p) q.target.V = q.truth.Apply(q.target.V);
@@ -96,7 +96,8 @@ void IcpComparison() {
       double vr, st;
       Errors(p, V, tq, &vr, &st);
       std::printf("%-30s %-22s %8.3f %8.3f %5d %12.2e %12.2e\n", p.name.c_str(),
-                  refined ? "ours (refined query)" : "ours (paper 8-point)", build, rep.seconds, rep.iterations, vr, st);
+                  refined ? "ours (refined query)" : "ours (paper 8-point)", build, rep.seconds, rep.iterations, vr,
+                  st);
     }
     if (o3d) {
       WriteXyz(p.source.V, dir / "src.xyz");
@@ -153,10 +154,11 @@ void GridQueries() {
     for (const Vec3& p : q) sink += grid.QueryRefined(p).distance;
     const double tr = Since(t0) / n;
     const GridStats& s = grid.stats();
-    std::printf("grid %3d cells (%dx%dx%d, h=%.4f m): build %.3f s (band %.3f, sweep %.3f, %d passes); "
-                "paper query %.0f ns, refined %.0f ns   [%g]\n",
-                cells, s.nx, s.ny, s.nz, s.spacing, build, s.band_seconds, s.sweep_seconds, s.passes, tq * 1e9,
-                tr * 1e9, sink > 0 ? 0.0 : 1.0);
+    std::printf(
+        "grid %3d cells (%dx%dx%d, h=%.4f m): build %.3f s (band %.3f, sweep %.3f, %d passes); "
+        "paper query %.0f ns, refined %.0f ns   [%g]\n",
+        cells, s.nx, s.ny, s.nz, s.spacing, build, s.band_seconds, s.sweep_seconds, s.passes, tq * 1e9, tr * 1e9,
+        sink > 0 ? 0.0 : 1.0);
   }
   auto t0 = Clock::now();
   const ExactClosestPoint exact(target);
@@ -181,12 +183,12 @@ void NonRigid() {
     o.lm.refresh_every = mode == 1 ? 5 : 10;
     const RegistrationEvaluation ev = RegisterAndEvaluate(tube, target, {}, o);
     const RegistrationReport& r = ev.report;
-    std::printf("%-22s S->T R %.5f R+N %.5f  T->S R+N %.5f | %2d it (%2d rejected) %2d fresh J, %2d secant | "
-                "non-rigid %.2f s (factor %.2f, J %.2f, r %.2f)\n",
-                mode == 0 ? "plain LM" : (mode == 1 ? "secant, refresh 5" : "secant, refresh 10"),
-                ev.s_to_t_rigid.mean, ev.s_to_t_nonrigid.mean, ev.t_to_s_nonrigid.mean, r.lm.iterations,
-                r.lm.rejected, r.lm.fresh_jacobians, r.lm.secant_updates, r.nonrigid_seconds, r.lm.factor_seconds,
-                r.lm.jacobian_seconds, r.lm.residual_seconds);
+    std::printf(
+        "%-22s S->T R %.5f R+N %.5f  T->S R+N %.5f | %2d it (%2d rejected) %2d fresh J, %2d secant | "
+        "non-rigid %.2f s (factor %.2f, J %.2f, r %.2f)\n",
+        mode == 0 ? "plain LM" : (mode == 1 ? "secant, refresh 5" : "secant, refresh 10"), ev.s_to_t_rigid.mean,
+        ev.s_to_t_nonrigid.mean, ev.t_to_s_nonrigid.mean, r.lm.iterations, r.lm.rejected, r.lm.fresh_jacobians,
+        r.lm.secant_updates, r.nonrigid_seconds, r.lm.factor_seconds, r.lm.jacobian_seconds, r.lm.residual_seconds);
   }
 }
 }  // namespace

@@ -1,11 +1,12 @@
 // End-to-end: non-rigid registration of a mesh to a known smooth deformation of itself,
 // the error metric against brute force, anchor transfer.
+#include "runtime/registration/registration.h"
+
 #include <gtest/gtest.h>
 
 #include <cstdio>
 
 #include "common/error.h"
-#include "runtime/registration/registration.h"
 #include "runtime/registration/test_meshes.h"
 
 namespace drape::registration {
@@ -19,15 +20,18 @@ struct Case {
 
 void PrintEval(const char* name, const RegistrationEvaluation& ev) {
   const RegistrationReport& r = ev.report;
-  std::printf("%s: S→T R %.5f R+N %.5f | T→S R %.5f R+N %.5f | E_fit %.3e → %.3e, area %.2e angle %.2e hinge %.2e | "
-              "LM %d it (%d acc, %d rej, %d fresh, %d secant) %s | %.2f s (grid %.2f icp %.2f nonrigid %.2f)\n",
-              name, ev.s_to_t_rigid.mean, ev.s_to_t_nonrigid.mean, ev.t_to_s_rigid.mean, ev.t_to_s_nonrigid.mean,
-              r.energy_before.fit, r.energy_after.fit, r.energy_after.area, r.energy_after.angle, r.energy_after.hinge,
-              r.lm.iterations, r.lm.accepted, r.lm.rejected, r.lm.fresh_jacobians, r.lm.secant_updates,
-              r.lm.termination.c_str(), ev.seconds, r.grid_seconds, r.icp_seconds, r.nonrigid_seconds);
-  std::printf("  grid %dx%dx%d band %.2f s sweep %.2f s (%d passes); LM jacobian %.2f s solve %.2f s (product %.2f factor %.2f) residual %.2f s\n",
-              r.grid.nx, r.grid.ny, r.grid.nz, r.grid.band_seconds, r.grid.sweep_seconds, r.grid.passes,
-              r.lm.jacobian_seconds, r.lm.solve_seconds, r.lm.product_seconds, r.lm.factor_seconds, r.lm.residual_seconds);
+  std::printf(
+      "%s: S→T R %.5f R+N %.5f | T→S R %.5f R+N %.5f | E_fit %.3e → %.3e, area %.2e angle %.2e hinge %.2e | "
+      "LM %d it (%d acc, %d rej, %d fresh, %d secant) %s | %.2f s (grid %.2f icp %.2f nonrigid %.2f)\n",
+      name, ev.s_to_t_rigid.mean, ev.s_to_t_nonrigid.mean, ev.t_to_s_rigid.mean, ev.t_to_s_nonrigid.mean,
+      r.energy_before.fit, r.energy_after.fit, r.energy_after.area, r.energy_after.angle, r.energy_after.hinge,
+      r.lm.iterations, r.lm.accepted, r.lm.rejected, r.lm.fresh_jacobians, r.lm.secant_updates,
+      r.lm.termination.c_str(), ev.seconds, r.grid_seconds, r.icp_seconds, r.nonrigid_seconds);
+  std::printf(
+      "  grid %dx%dx%d band %.2f s sweep %.2f s (%d passes); LM jacobian %.2f s solve %.2f s (product %.2f factor "
+      "%.2f) residual %.2f s\n",
+      r.grid.nx, r.grid.ny, r.grid.nz, r.grid.band_seconds, r.grid.sweep_seconds, r.grid.passes, r.lm.jacobian_seconds,
+      r.lm.solve_seconds, r.lm.product_seconds, r.lm.factor_seconds, r.lm.residual_seconds);
 }
 
 TEST(Registration, SmoothDeformationOfItself) {

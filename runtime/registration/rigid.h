@@ -38,7 +38,7 @@ struct IcpOptions {
   int max_iterations = 100;
   double angle_tolerance = 1e-5;        // radians per iteration: converged below both
   double translation_tolerance = 1e-5;  // metres per iteration
-  bool refined_query = true;  // exact distance to the ≤8 stored triangles; false: the paper's 8-point query
+  bool refined_query = true;            // exact distance to the ≤8 stored triangles; false: the paper's 8-point query
   void Validate() const;
 };
 

@@ -50,9 +50,11 @@ void RecoverSimilarity(const TriMesh& target, double angle, bool refined, double
   const RegistrationResult r = Register(source, target, o);
   const double size = AreaWeightedFrame(target).size;
   const double err = (r.rigid.V - target.V).rowwise().norm().maxCoeff();
-  std::printf("similarity recovery (%s query): scale %.6f (want %.6f), max vertex error %.2e m = %.2e·l, ICP %d it, rms %.2e → %.2e\n",
-              refined ? "refined" : "paper 8-point", r.report.scaling.scale, 1 / T.scale, err, err / size, r.report.icp.iterations, r.report.icp.rms_before,
-              r.report.icp.rms_after);
+  std::printf(
+      "similarity recovery (%s query): scale %.6f (want %.6f), max vertex error %.2e m = %.2e·l, ICP %d it, rms %.2e → "
+      "%.2e\n",
+      refined ? "refined" : "paper 8-point", r.report.scaling.scale, 1 / T.scale, err, err / size,
+      r.report.icp.iterations, r.report.icp.rms_before, r.report.icp.rms_after);
   EXPECT_NEAR(r.report.scaling.scale, 1 / T.scale, 1e-9);
   EXPECT_TRUE(r.report.icp.converged);
   EXPECT_LT(err, tol_rel * size);
@@ -61,7 +63,9 @@ void RecoverSimilarity(const TriMesh& target, double angle, bool refined, double
 }
 
 TEST(Icp, RecoversSimilarityOfATube) { RecoverSimilarity(testing::FlatTube(40, 30, 0.5, 0.7, 0.06), 0.35, true, 1e-4); }
-TEST(Icp, RecoversSimilarityOfAWavySheet) { RecoverSimilarity(testing::WavySheet(30, 25, 0.6, 0.5, 0.1), 0.35, true, 1e-4); }
+TEST(Icp, RecoversSimilarityOfAWavySheet) {
+  RecoverSimilarity(testing::WavySheet(30, 25, 0.6, 0.5, 0.1), 0.35, true, 1e-4);
+}
 // The paper's 8-point query quantises the correspondences to the grid: ICP stops within
 // a fraction of a cell (h ≈ 0.02 l here).
 TEST(Icp, PaperQueryRecoversSimilarityToAFractionOfACell) {

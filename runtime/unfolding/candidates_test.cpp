@@ -45,8 +45,8 @@ TEST(RegistrationCandidates, RecognitionsAnswerFirstThenItsRankedEntries) {
   EXPECT_EQ(one[0].entry, 0);
   const auto three = RegistrationCandidates(r, false, "", 3);
   ASSERT_EQ(three.size(), 3u);
-  EXPECT_EQ(three[1].instance, "i1");                          // the other database instance
-  EXPECT_EQ(three[2].anchor, "right_leg_inner");               // the twin
+  EXPECT_EQ(three[1].instance, "i1");                              // the other database instance
+  EXPECT_EQ(three[2].anchor, "right_leg_inner");                   // the twin
   EXPECT_EQ(RegistrationCandidates(r, false, "", 10).size(), 5u);  // fewer ranked than k
   EXPECT_THROW(RegistrationCandidates(r, false, "", 0), Error);
 }

@@ -19,8 +19,8 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr int kW = 400, kH = 480;
-const cv::Scalar kWhite(255, 255, 255), kBlack(0, 0, 0), kRed(40, 40, 220), kGreen(40, 170, 40),
-    kBlue(200, 90, 30), kGrey(190, 190, 190);
+const cv::Scalar kWhite(255, 255, 255), kBlack(0, 0, 0), kRed(40, 40, 220), kGreen(40, 170, 40), kBlue(200, 90, 30),
+    kGrey(190, 190, 190);
 
 // A view fitting the x–y extent of `pts` into a kW × kH panel (margins for the title).
 OrthoView Fit(const std::vector<Vec3>& pts) {

@@ -16,7 +16,7 @@ namespace drape::unfolding {
 
 // Writes pickup.png, step_<k>.png (k = 1, 2, …) and final.png into dir; returns the
 // file names written. Deterministic pixels.
-std::vector<std::string> WriteTrialFigures(const TrialResult& trial, const Garment& test_garment,
-                                           double sensing_height, const std::filesystem::path& dir);
+std::vector<std::string> WriteTrialFigures(const TrialResult& trial, const Garment& test_garment, double sensing_height,
+                                           const std::filesystem::path& dir);
 
 }  // namespace drape::unfolding

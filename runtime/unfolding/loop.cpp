@@ -139,7 +139,8 @@ struct ReleaseModel::Impl {
 ReleaseModel::ReleaseModel(const fs::path& dir, const fs::path& weights_path) : impl_(std::make_unique<Impl>(dir)) {
   Impl& m = *impl_;
   const std::string text = m.release.dataset().value("recipe", Json::object()).value("text", "");
-  if (text.empty()) throw Error(dir.string() + "/dataset.json: no recipe text (needed for the test garments and sensing)");
+  if (text.empty())
+    throw Error(dir.string() + "/dataset.json: no recipe text (needed for the test garments and sensing)");
   m.recipe = ParseRecipe(text, (dir / "dataset.json").string() + " (recipe)", dir);
   rec::LoadReport lr;
   m.db = rec::LoadDatabase(m.release, &lr);
@@ -252,7 +253,7 @@ const ReleaseModel::TestGarment& ReleaseModel::TestInstance(const std::string& c
 // ------------------------------------------------------------------ the loop
 
 Json StageTimes::ToJson() const {
-  return {{"simulation", simulation}, {"sensing", sensing},           {"fusion", fusion},
+  return {{"simulation", simulation},   {"sensing", sensing},           {"fusion", fusion},
           {"recognition", recognition}, {"registration", registration}, {"refinement", refinement}};
 }
 
@@ -305,9 +306,9 @@ struct TrialRun {
   TrialResult& res;
   const std::function<void(const std::string&)>& progress;
   int holder = 0;
-  std::string trial_category;  // decided by the first recognition (see SenseAndRecognise)
-  CategoryDecision decision;   // from every hang (LoopOptions::category_evidence)
-  std::string aimed;           // anchor the holding gripper was sent to ("" before a regrasp)
+  std::string trial_category;     // decided by the first recognition (see SenseAndRecognise)
+  CategoryDecision decision;      // from every hang (LoopOptions::category_evidence)
+  std::string aimed;              // anchor the holding gripper was sent to ("" before a regrasp)
   bool holder_regrasped = false;  // the holder took its point by an aimed regrasp (not the first grasp)
   // LoopOptions::category_refit: each hang's category-by-registration scores, in order.
   std::vector<std::map<std::string, double>> fit_scores;
@@ -369,7 +370,8 @@ struct TrialRun {
       return false;
     }
     const Tsdf& tsdf = *fused.tsdf;
-    const Feature f = ExtractFeature(fused.mesh.V, [&tsdf](const Vec3& p) { return tsdf.Sdf(p); }, recipe.feature);
+    const Feature f = ExtractFeature(
+        fused.mesh.V, [&tsdf](const Vec3& p) { return tsdf.Sdf(p); }, recipe.feature);
     res.times.fusion += Since(t0);
     s.recon = fused.mesh;
     const rec::Code& code = f;
@@ -958,7 +960,8 @@ TrialResult RunTrial(const ReleaseModel& model, const std::string& category, con
   options.Validate();
   const auto t_start = Clock::now();
   if (DesiredPairsFor(category).empty())
-    throw Error("unfold: category '" + category + "' has no desired anchor pair (long_sleeve_shirt, pants, shorts, towel have)");
+    throw Error("unfold: category '" + category +
+                "' has no desired anchor pair (long_sleeve_shirt, pants, shorts, towel have)");
   if (!model.database().HasCategory(category))
     throw Error("unfold: the release's database has no '" + category + "' garments");
   const auto& tg = model.TestInstance(category);

@@ -180,8 +180,8 @@ struct LoopOptions {
   HangingEndOptions hanging;
   hardware::CaptureOptions capture;  // frames per turn (paper ~550 both ways)
   int fusion_threads = 0;            // TSDF fusion threads (<= 0: all cores); no effect on results
-  double standoff = 0.12;       // m: the IR scan runs this far before the predicted point
-  double grasp_depth = 0.01;    // m: jaws go this far past the surface reading
+  double standoff = 0.12;            // m: the IR scan runs this far before the predicted point
+  double grasp_depth = 0.01;         // m: jaws go this far past the surface reading
   // The IR scan's beam crosses the predicted point, so it reads the cloth at the jaws'
   // height (IrScanPlan::at_jaw_line); false: the jaw centre crosses it and the beam reads
   // the cloth 3 cm above (as first built).
@@ -203,7 +203,7 @@ struct LoopOptions {
   // Evaluation only: unfolded when each gripper pinches within this distance (m, on the
   // flat pattern) of the desired pair's anchors.
   double success_distance = 0.06;
-  bool place_flat = true;       // lay the garment on the table when f ≥ ξ (cloth core)
+  bool place_flat = true;  // lay the garment on the table when f ≥ ξ (cloth core)
   hardware::PlaceFlatOptions place;
   void Validate() const;  // throws drape::Error naming the bad field
 };
@@ -262,7 +262,7 @@ struct Step {
   std::string held_true_anchor;
   // Sensing and recognition.
   int frames = 0;
-  TriMesh recon;                // object frame of the holder
+  TriMesh recon;  // object frame of the holder
   // Truth (evaluation only): the cloth as it hangs while sensed, in the same object frame
   // (vertices as the test garment's), and the holder's pose then.
   TriMesh cloth;
@@ -313,17 +313,17 @@ struct Step {
   bool kept_right = false;  // truth: the kept candidate's anchor is the held true anchor
   int true_rank = -1;       // truth: first candidate whose anchor is the held true anchor
   // Registration of the kept candidate.
-  TriMesh registered;           // the database mesh after R (+N), object frame
+  TriMesh registered;               // the database mesh after R (+N), object frame
   std::vector<double> point_score;  // per registered vertex: ScoreTable::PointScore of its uv
   double icp_rms = 0;
   // Plan.
   std::string current_anchor, next_anchor;
-  double f = 0;                 // f(current, next)
+  double f = 0;                   // f(current, next)
   Vec3 predicted = Vec3::Zero();  // world
   // Refinement.
   std::vector<double> ir_ranges;
   RefineResult refine;
-  Vec3 grasp = Vec3::Zero();    // world, where the free gripper closed
+  Vec3 grasp = Vec3::Zero();  // world, where the free gripper closed
   // Hem edge (LoopOptions::hem_edge): whether the point's registered database mesh has the
   // target at the lower edge of its cloth (AnchorAtLowerEdge; recorded with the option off
   // too), the vertical scan's readings (top to bottom) and what FindLowerEdge made of them.
@@ -397,19 +397,19 @@ struct TrialResult {
   double sensing_height = 0;  // m: where the holding gripper turned the garment
   Vec2 first_grasp_uv = Vec2::Zero();
   std::vector<Step> steps;
-  int regrasps = 0;              // regrasp attempts made
+  int regrasps = 0;                  // regrasp attempts made
   bool recognition_success = false;  // first recognition right
-  bool regrasp_success = false;  // every regrasp attempt pinched cloth
-  bool converged = false;        // f ≥ ξ reached
-  bool unfolded = false;         // truth: both grippers within success_distance of a desired pair
+  bool regrasp_success = false;      // every regrasp attempt pinched cloth
+  bool converged = false;            // f ≥ ξ reached
+  bool unfolded = false;             // truth: both grippers within success_distance of a desired pair
   double final_f = 0;
-  std::vector<Vec2> final_uv;    // truth: pinched points at the end
+  std::vector<Vec2> final_uv;  // truth: pinched points at the end
   // Truth: how far the two pinched points are from a desired pair (DesiredPairDistance,
   // m on the pattern); -1 unless both grippers hold. Unfolded = converged and ≤ success_distance.
   double final_pair_distance = -1;
-  std::string failure;           // why the trial ended early ("" if it ran to the end)
+  std::string failure;  // why the trial ended early ("" if it ran to the end)
   std::string final_state;
-  TriMesh final_mesh;            // world frame (laid on the table when placed)
+  TriMesh final_mesh;  // world frame (laid on the table when placed)
   // Placing flat (cloth core) once f ≥ ξ: coverage = top-down silhouette area of the
   // garment as it lies / that of the garment laid out flat (the metric of current
   // cloth-unfolding work); -1 when not placed.
@@ -420,18 +420,18 @@ struct TrialResult {
   // Cloth simulations run (pick-up hangs and let-go falls), let-go falls that re-hung
   // from the flat garment, and falls stopped by the time or CCD test cap still moving (sim.h).
   int hangs = 0, fallbacks = 0, unsettled = 0;
-  int retries = 0;  // falls and placings run again at half the time step after blowing up
+  int retries = 0;                         // falls and placings run again at half the time step after blowing up
   hardware::SimWorld::FallCost fall_cost;  // the let-go falls' steps and collision fail-safe rounds
   StageTimes times;
   double seconds = 0;
-  Json ToJson() const;           // the trace (no meshes)
+  Json ToJson() const;  // the trace (no meshes)
 };
 
 // Runs one trial on a fresh simulated world of the category's test garment. The first
 // grasp is a random point of the garment (seeded). `progress` (optional) is told each
 // step. Numerical failures of the simulation end the trial with `failure` set.
-TrialResult RunTrial(const ReleaseModel& model, const std::string& category, const LoopOptions& options,
-                     uint64_t seed, const std::function<void(const std::string&)>& progress = {});
+TrialResult RunTrial(const ReleaseModel& model, const std::string& category, const LoopOptions& options, uint64_t seed,
+                     const std::function<void(const std::string&)>& progress = {});
 
 // Top-down silhouette area of `lying` (world mesh on a table) over that of `garment`
 // laid out flat, both rasterised at `metres_per_pixel`.

@@ -33,8 +33,8 @@ ScoreTable::ScoreTable(std::vector<AnchorPoint> anchors, std::vector<DesiredPair
   for (const DesiredPair& d : desired_) {
     const int a = IndexOf(d.first), b = IndexOf(d.second);
     if (a < 0 || b < 0) {
-      throw Error("objective: the garment has no anchor '" + (a < 0 ? d.first : d.second) +
-                  "' of its desired pair (" + d.first + ", " + d.second + ")");
+      throw Error("objective: the garment has no anchor '" + (a < 0 ? d.first : d.second) + "' of its desired pair (" +
+                  d.first + ", " + d.second + ")");
     }
     desired_uv_.emplace_back(anchors_[a].uv, anchors_[b].uv);
   }

@@ -56,8 +56,7 @@ struct AnchorPoint {
 class ScoreTable {
  public:
   // Throws drape::Error if a desired label is not among `anchors` or there is no pair.
-  ScoreTable(std::vector<AnchorPoint> anchors, std::vector<DesiredPair> desired,
-             const ObjectiveOptions& options);
+  ScoreTable(std::vector<AnchorPoint> anchors, std::vector<DesiredPair> desired, const ObjectiveOptions& options);
 
   int size() const { return static_cast<int>(anchors_.size()); }
   const AnchorPoint& anchor(int i) const { return anchors_[i]; }
@@ -71,8 +70,8 @@ class ScoreTable {
   double PointScore(const Vec2& x) const;
 
   struct Next {
-    int anchor = -1;     // best next grasp (index), -1 if none allowed
-    double f = 0;        // f(current, next)
+    int anchor = -1;  // best next grasp (index), -1 if none allowed
+    double f = 0;     // f(current, next)
   };
   // argmax_j f(current, j) over anchors at least min_separation from `current`.
   Next BestNext(int current) const;

@@ -69,8 +69,10 @@ TEST(Objective, BestNextMovesTowardsTheDesiredPair) {
 }
 
 TEST(Objective, TowelTakesAnyTwoAdjacentCorners) {
-  std::vector<AnchorPoint> a = {{"top_left", Vec2(-0.15, 0.5)},   {"top_right", Vec2(0.15, 0.5)},
-                                {"bottom_left", Vec2(-0.15, 0)},  {"bottom_right", Vec2(0.15, 0)},
+  std::vector<AnchorPoint> a = {{"top_left", Vec2(-0.15, 0.5)},
+                                {"top_right", Vec2(0.15, 0.5)},
+                                {"bottom_left", Vec2(-0.15, 0)},
+                                {"bottom_right", Vec2(0.15, 0)},
                                 {"center", Vec2(0, 0.25)}};
   ScoreTable t(a, DesiredPairsFor("towel"), {});
   EXPECT_DOUBLE_EQ(t(t.IndexOf("top_left"), t.IndexOf("bottom_left")), 1.0);

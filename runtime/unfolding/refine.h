@@ -32,9 +32,9 @@
 namespace drape::unfolding {
 
 struct RefineOptions {
-  double sigma_samples = 10;     // σ of g'' in samples (paper: 10)
-  double sample_spacing = 0.004; // m between IR readings along the scan
-  int half_width_samples = 25;   // scan from −25 to +25 samples: ±10 cm around the prediction
+  double sigma_samples = 10;      // σ of g'' in samples (paper: 10)
+  double sample_spacing = 0.004;  // m between IR readings along the scan
+  int half_width_samples = 25;    // scan from −25 to +25 samples: ±10 cm around the prediction
   // The grasp moves at most this many samples from the scan's centre (10: ±4 cm, half the
   // gripper's 8 cm opening); must be in 0..half_width_samples.
   int search_half_width_samples = 10;
@@ -43,7 +43,7 @@ struct RefineOptions {
   // cloth between them: a beam that passes a sleeve's edge and reads the body 16 cm behind
   // must not send them there (LoopOptions::hanging_end). Must be in 0..half_width_samples.
   int depth_half_width_samples = 0;
-  void Validate() const;         // throws drape::Error naming the bad field
+  void Validate() const;  // throws drape::Error naming the bad field
 };
 
 // g''(x) sampled at x = −radius … radius (2·radius + 1 values), radius = ⌈4σ⌉.

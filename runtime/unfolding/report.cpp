@@ -71,12 +71,18 @@ Json ReportJson(const std::vector<TableRow>& rows) {
   }
   Json paper = Json::array();
   for (const PaperRow& p : kPaper)
-    paper.push_back({{"garment", p.garment}, {"trials", 10}, {"successful_recognition", p.recognised},
-                     {"successful_regrasping", p.regrasped}, {"successful_unfolding", p.unfolded},
+    paper.push_back({{"garment", p.garment},
+                     {"trials", 10},
+                     {"successful_recognition", p.recognised},
+                     {"successful_regrasping", p.regrasped},
+                     {"successful_unfolding", p.unfolded},
                      {"avg_regrasps_success_only", p.regrasps}});
   out["paper"] = {{"rows", paper},
-                  {"average", {{"successful_recognition", 8.3}, {"successful_regrasping", 8.7},
-                               {"successful_unfolding", 8.0}, {"avg_regrasps_success_only", 1.6}}}};
+                  {"average",
+                   {{"successful_recognition", 8.3},
+                    {"successful_regrasping", 8.7},
+                    {"successful_unfolding", 8.0},
+                    {"avg_regrasps_success_only", 1.6}}}};
   return out;
 }
 

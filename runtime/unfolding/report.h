@@ -24,10 +24,10 @@ struct TableRow {
   // Trials that reached f ≥ ξ with both grippers within kUnfoldedWithin[i] of a desired
   // pair: the success criterion's sensitivity to its distance (the paper's was judged by eye).
   std::array<int, 4> unfolded_within{};
-  int placed = 0;                  // trials laid on the table
-  double coverage = 0;             // mean coverage over placed trials (0 if none)
-  double seconds = 0;              // mean wall seconds per trial
-  StageTimes times;                // summed
+  int placed = 0;       // trials laid on the table
+  double coverage = 0;  // mean coverage over placed trials (0 if none)
+  double seconds = 0;   // mean wall seconds per trial
+  StageTimes times;     // summed
 };
 
 TableRow Summarise(const std::string& category, const std::string& variant, const std::vector<TrialResult>& trials);

@@ -37,7 +37,9 @@ int main(int argc, char** argv) {
     const double staged = s.simulation + s.sensing + s.fusion + s.recognition + s.registration + s.refinement;
     std::printf("unfold trial: %s, %d regrasps, %d sense/plan steps, %s, %d frames per turn\n", category.c_str(),
                 t.regrasps, int(t.steps.size()), t.unfolded ? "unfolded" : "not unfolded", o.capture.frames);
-    auto row = [&](const char* name, double v) { std::printf("  %-13s %8.2f s  %5.1f %%\n", name, v, 100 * v / t.seconds); };
+    auto row = [&](const char* name, double v) {
+      std::printf("  %-13s %8.2f s  %5.1f %%\n", name, v, 100 * v / t.seconds);
+    };
     row("simulation", s.simulation);
     row("sensing", s.sensing);
     row("fusion", s.fusion);
