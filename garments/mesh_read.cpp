@@ -148,14 +148,28 @@ class PlyReader {
   double Read(int size, bool is_float, bool is_signed) {
     if (f_ == PlyFormat::kAscii) return ReadAscii(is_float && size == 4);
     if (b_.size() - pos_ < static_cast<size_t>(size)) Truncated();
-    unsigned char buf[8];
-    std::memcpy(buf, b_.data() + pos_, size);
+    const auto* p = reinterpret_cast<const unsigned char*>(b_.data() + pos_);
     pos_ += size;
-    if ((f_ == PlyFormat::kBig) == (std::endian::native == std::endian::little)) std::reverse(buf, buf + size);
-    return Decode(buf, size, is_float, is_signed);
+    return At(p, size, is_float, is_signed, swap());
   }
   size_t Remaining() const { return b_.size() - pos_; }
   bool ascii() const { return f_ == PlyFormat::kAscii; }
+  // Binary bodies: the next n bytes (checked), for the fixed-layout fast paths below.
+  const unsigned char* Take(size_t n) {
+    if (Remaining() < n) Truncated();
+    const auto* p = reinterpret_cast<const unsigned char*>(b_.data() + pos_);
+    pos_ += n;
+    return p;
+  }
+  unsigned char Peek() const { return static_cast<unsigned char>(b_[pos_]); }  // needs Remaining() > 0
+  bool swap() const { return (f_ == PlyFormat::kBig) == (std::endian::native == std::endian::little); }
+  // One binary value at p (in file byte order).
+  static double At(const unsigned char* p, int size, bool is_float, bool is_signed, bool swap) {
+    if (!swap) return Decode(p, size, is_float, is_signed);
+    unsigned char buf[8];
+    std::reverse_copy(p, p + size, buf);
+    return Decode(buf, size, is_float, is_signed);
+  }
   [[noreturn]] void Truncated() const { throw Error(where_ + ": PLY data ends early (truncated file?)"); }
 
  private:
@@ -220,11 +234,13 @@ int PropIndex(const PlyElement& e, std::initializer_list<const char*> names) {
   return -1;
 }
 
-// A list length, as a non-negative count that the remaining data could hold.
-size_t ListLength(PlyReader& r, const PlyProperty& p, const std::string& at) {
+// A list length, as a non-negative count that the remaining data could hold. `at()`
+// names the element (built only for the message: this runs once per face).
+template <class At>
+size_t ListLength(PlyReader& r, const PlyProperty& p, const At& at) {
   const double n = r.Read(p.count_size, false, p.count_signed);
   if (!(n >= 0) || n != std::floor(n) || n > static_cast<double>(r.Remaining()))
-    throw Error(at + ": list length " + FormatNumber(n) + " is not possible here");  // may be nan or 1e300
+    throw Error(at() + ": list length " + FormatNumber(n) + " is not possible here");  // may be nan or 1e300
   return static_cast<size_t>(n);
 }
 
@@ -237,11 +253,31 @@ void ReadPlyVertices(PlyReader& r, const PlyElement& e, MeshData& m, const std::
   std::vector<double> val(e.props.size());
   m.V.reserve(e.count);
   if (has_uv) m.uv.reserve(e.count);
+  const bool any_list = std::any_of(e.props.begin(), e.props.end(), [](const PlyProperty& p) { return p.is_list; });
+  if (!r.ascii() && !any_list) {
+    // Fixed-size binary records (every file drape writes): one bounds check for the
+    // element, then each property read at its offset in the record.
+    size_t stride = 0;
+    std::vector<size_t> offset(e.props.size());
+    for (size_t k = 0; k < e.props.size(); ++k) offset[k] = stride, stride += e.props[k].type;
+    const unsigned char* base = r.Take(e.count * stride);
+    const bool swap = r.swap();
+    auto get = [&](const unsigned char* rec, int k) {
+      const PlyProperty& p = e.props[k];
+      return PlyReader::At(rec + offset[k], p.type, p.is_float, p.is_signed, swap);
+    };
+    for (uint64_t i = 0; i < e.count; ++i) {
+      const unsigned char* rec = base + i * stride;
+      m.V.emplace_back(get(rec, x), get(rec, y), get(rec, z));
+      if (has_uv) m.uv.emplace_back(get(rec, u), get(rec, v));
+    }
+    return;
+  }
   for (uint64_t i = 0; i < e.count; ++i) {
     for (size_t k = 0; k < e.props.size(); ++k) {
       const PlyProperty& p = e.props[k];
       if (p.is_list) {
-        const size_t n = ListLength(r, p, where + ": vertex " + std::to_string(i));
+        const size_t n = ListLength(r, p, [&] { return where + ": vertex " + std::to_string(i); });
         for (size_t j = 0; j < n; ++j) r.Read(p.type, p.is_float, p.is_signed);
       } else {
         val[k] = r.Read(p.type, p.is_float, p.is_signed);
@@ -260,8 +296,24 @@ void ReadPlyFaces(PlyReader& r, const PlyElement& e, MeshData& m, const std::str
   if (list < 0) throw Error(where + ": PLY face element needs a vertex_indices list property");
   m.F.reserve(e.count);
   std::vector<int> poly;
+  const PlyProperty& lp = e.props[list];
+  const bool tri_fast = e.props.size() == 1 && !r.ascii() && lp.count_size == 1 && !lp.is_float && lp.type == 4;
+  const bool swap = r.swap();
   for (uint64_t i = 0; i < e.count; ++i) {
-    const std::string at = where + ": face " + std::to_string(i);
+    const auto at = [&] { return where + ": face " + std::to_string(i); };
+    if (tri_fast && r.Remaining() >= 13 && r.Peek() == 3) {
+      // The binary triangle drape writes (uchar 3, three 4-byte indices), read in place.
+      const unsigned char* q = r.Take(13) + 1;
+      std::array<int, 3> f;
+      for (int k = 0; k < 3; ++k) {
+        const double idx = PlyReader::At(q + 4 * k, 4, false, e.props[list].is_signed, swap);
+        if (!(idx >= 0 && idx < 2147483647.0))
+          throw Error(at() + ": vertex index " + FormatNumber(idx) + " is not a valid index");
+        f[k] = static_cast<int>(idx);
+      }
+      m.F.push_back(f);
+      continue;
+    }
     for (size_t k = 0; k < e.props.size(); ++k) {
       const PlyProperty& p = e.props[k];
       if (!p.is_list) {
@@ -277,10 +329,10 @@ void ReadPlyFaces(PlyReader& r, const PlyElement& e, MeshData& m, const std::str
       for (size_t j = 0; j < n; ++j) {
         const double idx = r.Read(p.type, p.is_float, p.is_signed);
         if (!(idx >= 0 && idx < 2147483647.0) || idx != std::floor(idx))
-          throw Error(at + ": vertex index " + FormatNumber(idx) + " is not a valid index");
+          throw Error(at() + ": vertex index " + FormatNumber(idx) + " is not a valid index");
         poly.push_back(static_cast<int>(idx));
       }
-      if (n < 3) throw Error(at + ": has " + std::to_string(n) + " vertex indices (a face needs at least 3)");
+      if (n < 3) throw Error(at() + ": has " + std::to_string(n) + " vertex indices (a face needs at least 3)");
       for (size_t j = 1; j + 1 < n; ++j) m.F.push_back({poly[0], poly[j], poly[j + 1]});
     }
   }
@@ -331,7 +383,8 @@ MeshData ParsePly(std::string_view bytes, const std::string& where) {
     } else {
       for (uint64_t i = 0; i < e.count; ++i)
         for (const PlyProperty& p : e.props) {
-          const size_t n = p.is_list ? ListLength(r, p, where + ": " + e.name + " " + std::to_string(i)) : 1;
+          const size_t n =
+              p.is_list ? ListLength(r, p, [&] { return where + ": " + e.name + " " + std::to_string(i); }) : 1;
           for (size_t j = 0; j < n; ++j) r.Read(p.type, p.is_float, p.is_signed);
         }
     }
@@ -530,8 +583,36 @@ void CheckMeshData(const MeshData& m, const std::string& where) {
                     " (the file has " + std::to_string(m.V.size()) + " vertices)");
 }
 
+namespace {
+
+// True when two vertices share a position (== on each coordinate, so -0 and 0 agree):
+// one pass through an open-addressing table of the positions' bit patterns, so a mesh
+// without repeats (every mesh drape writes) costs O(n) instead of a sort.
+bool AnyRepeatedPosition(const std::vector<Vec3>& V) {
+  size_t cap = 16;
+  while (cap < 2 * V.size()) cap *= 2;
+  std::vector<int> slot(cap, -1);
+  auto bits = [](double x) { return std::bit_cast<uint64_t>(x + 0.0); };  // -0 + 0 = +0
+  for (size_t i = 0; i < V.size(); ++i) {
+    uint64_t h = bits(V[i].x()) * 0x9e3779b97f4a7c15ull;
+    h = (h ^ bits(V[i].y())) * 0xff51afd7ed558ccdull;
+    h = (h ^ bits(V[i].z())) * 0xc4ceb9fe1a85ec53ull;
+    for (size_t k = (h ^ (h >> 29)) & (cap - 1);; k = (k + 1) & (cap - 1)) {
+      if (slot[k] < 0) {
+        slot[k] = static_cast<int>(i);
+        break;
+      }
+      if (V[slot[k]] == V[i]) return true;
+    }
+  }
+  return false;
+}
+
+}  // namespace
+
 void JoinIdenticalPositions(MeshData& m) {
   const size_t n = m.V.size();
+  if (!AnyRepeatedPosition(m.V)) return;
   std::vector<int> order(n);
   std::iota(order.begin(), order.end(), 0);
   auto less = [&](int a, int b) {

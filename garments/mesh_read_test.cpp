@@ -11,6 +11,7 @@
 
 #include "common/error.h"
 #include "common/files.h"
+#include "common/format.h"
 #include "common/testing.h"
 #include "garments/io.h"
 #include "garments/templates.h"
@@ -279,6 +280,53 @@ TEST(MeshRead, JoinKeepsFirstOccurrencesInOrder) {
   m.uv.push_back(Vec2(9, 9));
   JoinIdenticalPositions(m);
   EXPECT_TRUE(m.uv.empty());  // a seam: uv dropped
+  // -0 and 0 are one position (==), though their bits differ.
+  m.V = {Vec3(0, -0.0, 1), Vec3(2, 0, 0), Vec3(0, 0, 1)};
+  m.F = {{0, 1, 2}};
+  JoinIdenticalPositions(m);
+  ASSERT_EQ(m.V.size(), 2u);
+  EXPECT_EQ(m.F[0], (std::array<int, 3>{0, 1, 0}));
+  // No repeats among many distinct positions (the hash's probe chains): untouched.
+  m.V.clear();
+  for (int i = 0; i < 5000; ++i) m.V.emplace_back(i % 7, (i / 7) % 11, i / 77);
+  m.F = {{4999, 0, 1}};
+  const MeshData before = m;
+  JoinIdenticalPositions(m);
+  EXPECT_EQ(m.V, before.V);
+  EXPECT_EQ(m.F, before.F);
+}
+
+// The binary fast paths (fixed-size vertex records, triangles read in place) give what
+// the ASCII reader gives for the same values: extra vertex properties, uint indices,
+// a quad between triangles (back to the general path mid-element).
+TEST(MeshRead, BinaryFastPathsMatchTheAsciiReader) {
+  const std::string head =
+      "element vertex 5\nproperty double x\nproperty uchar red\nproperty float y\nproperty float z\n"
+      "element face 3\nproperty list uchar uint vertex_indices\nend_header\n";
+  const double xyz[5][3] = {{0.1, 0, 0}, {1, 0.25, 0}, {1, 1, -0.5}, {0, 1, 2}, {0.5, 0.5, 0.5}};
+  const std::vector<std::vector<uint32_t>> faces = {{0, 1, 2}, {0, 2, 3, 4}, {4, 3, 1}};
+  std::string bin = "ply\nformat binary_little_endian 1.0\n" + head, ascii = "ply\nformat ascii 1.0\n" + head;
+  auto put = [&](const auto& v) { bin.append(reinterpret_cast<const char*>(&v), sizeof v); };
+  for (const auto& p : xyz) {
+    put(p[0]), put(uint8_t{7}), put(float(p[1])), put(float(p[2]));
+    ascii += FormatNumber(p[0]) + " 7 " + FormatNumber(p[1]) + " " + FormatNumber(p[2]) + "\n";
+  }
+  for (const auto& f : faces) {
+    put(uint8_t(f.size()));
+    ascii += std::to_string(f.size());
+    for (uint32_t i : f) put(i), ascii += " " + std::to_string(i);
+    ascii += "\n";
+  }
+  const MeshData a = ParsePly(bin, "b.ply"), b = ParsePly(ascii, "a.ply");
+  EXPECT_EQ(a.V, b.V);
+  EXPECT_EQ(a.F, b.F);
+  ASSERT_EQ(a.F.size(), 4u);
+  EXPECT_EQ(a.F[3], (std::array<int, 3>{4, 3, 1}));
+  // An index beyond int's range and a truncated triangle are errors naming the face.
+  std::string big = bin;
+  big[big.size() - 1] = '\x80';  // the last index's high byte
+  EXPECT_CONTAINS(ErrorOf([&] { ParsePly(big, "b.ply"); }), "b.ply: face 2: vertex index");
+  EXPECT_CONTAINS(ErrorOf([&] { ParsePly(bin.substr(0, bin.size() - 2), "b.ply"); }), "ends early");
 }
 
 }  // namespace

@@ -42,6 +42,14 @@ py::array_t<int32_t> ToArray(const Faces& F) {
   return a;
 }
 
+// A row-major (n, 3) Eigen matrix as a numpy array of another element type.
+template <class To, class Matrix>
+py::array_t<To> Cast(const Matrix& M) {
+  py::array_t<To> a({static_cast<py::ssize_t>(M.rows()), py::ssize_t(3)});
+  std::copy(M.data(), M.data() + M.size(), a.mutable_data());
+  return a;
+}
+
 py::tuple MeshTuple(const TriMesh& m) { return py::make_tuple(ToArray(m.V), ToArray(m.F)); }
 
 TriMesh MeshFromArrays(const DoubleArray& V, const IndexArray& F, const std::string& what) {
@@ -224,8 +232,20 @@ PYBIND11_MODULE(_drape, m) {
       .def("dir", [](const Release& r) { return r.dir(); });
 
   m.def(
-      "read_mesh", [](const fs::path& p) { return MeshTuple(ReadMesh(p)); }, py::arg("path"),
-      "(V float64 (n, 3), F int32 (m, 3)) of any mesh file assimp reads");
+      "read_mesh",
+      [](const fs::path& p, const std::string& vertex_dtype, const std::string& face_dtype) {
+        if (vertex_dtype != "float64" && vertex_dtype != "float32")
+          throw Error("read_mesh: vertex_dtype must be float64 or float32, not '" + vertex_dtype + "'");
+        if (face_dtype != "int32" && face_dtype != "int64")
+          throw Error("read_mesh: face_dtype must be int32 or int64, not '" + face_dtype + "'");
+        const TriMesh mesh = ReadMesh(p);
+        // Converted here, in one copy, to what the caller keeps (torch wants float32 and int64).
+        py::object V = vertex_dtype == "float32" ? py::object(Cast<float>(mesh.V)) : py::object(ToArray(mesh.V));
+        py::object F = face_dtype == "int64" ? py::object(Cast<int64_t>(mesh.F)) : py::object(ToArray(mesh.F));
+        return py::make_tuple(V, F);
+      },
+      py::arg("path"), py::arg("vertex_dtype") = "float64", py::arg("face_dtype") = "int32",
+      "(V (n, 3), F (m, 3)) of any mesh file drape or assimp reads; float64 and int32 unless asked otherwise");
   m.def("encode_ply", [](const DoubleArray& V, const IndexArray& F) {
     return py::bytes(EncodeMesh(MeshFromArrays(V, F, "mesh"), "ply"));
   });

@@ -61,11 +61,14 @@ class Entry:
     def hang_mesh(self, open3d: bool = False):
         """The stationary hung mesh (object frame: gripper at the origin, y up, metres):
         (V float64 (n, 3), F int32 (m, 3)), or an open3d.geometry.TriangleMesh."""
-        return _mesh(_drape.read_mesh(_ensure(self, "hang.ply")), open3d)
+        return _mesh(self._read_mesh("hang.ply"), open3d)
 
     def recon_mesh(self, open3d: bool = False):
         """The mesh fused from the depth sweep (TSDF, marching cubes), object frame."""
-        return _mesh(_drape.read_mesh(_ensure(self, "recon.ply")), open3d)
+        return _mesh(self._read_mesh("recon.ply"), open3d)
+
+    def _read_mesh(self, name: str, vertex_dtype: str = "float64", face_dtype: str = "int32"):
+        return _drape.read_mesh(_ensure(self, name), vertex_dtype, face_dtype)
 
     def feature(self):
         """The binary cylindrical feature: numpy bool (layers, rings, sectors)."""

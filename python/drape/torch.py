@@ -66,9 +66,8 @@ class GarmentDataset(torch.utils.data.Dataset):
             if f == "feature":
                 item["feature"] = torch.from_numpy(e.feature())
             elif f in ("hang_mesh", "recon_mesh"):
-                V, F = e.hang_mesh() if f == "hang_mesh" else e.recon_mesh()
-                item[f] = {"vertices": torch.from_numpy(V.astype(np.float32)),
-                           "faces": torch.from_numpy(F.astype(np.int64))}
+                V, F = e._read_mesh("hang.ply" if f == "hang_mesh" else "recon.ply", "float32", "int64")
+                item[f] = {"vertices": torch.from_numpy(V), "faces": torch.from_numpy(F)}
             elif f == "sdf":
                 s = e.sdf()
                 item["sdf"] = torch.from_numpy(s["sdf"])

@@ -85,6 +85,14 @@ def test_mesh_vertex_counts(release, release_dir):
         assert len(m.vertices) == R.shape[0] and len(m.triangles) == G.shape[0]
     e = release.entries()[0]
     assert 0 <= e.anchor_vertex < e.hang_mesh()[0].shape[0]
+    # The types a caller keeps, converted in C++ (drape.torch asks for float32 / int64).
+    V, F = e.hang_mesh()
+    V32, F64 = drape._drape.read_mesh(e.path("hang.ply"), "float32", "int64")
+    assert V32.dtype == np.float32 and F64.dtype == np.int64
+    np.testing.assert_array_equal(V32, V.astype(np.float32))
+    np.testing.assert_array_equal(F64, F)
+    with pytest.raises(drape.DrapeError, match="vertex_dtype must be float64 or float32, not 'float16'"):
+        drape._drape.read_mesh(e.path("hang.ply"), "float16")
 
 
 def test_sdf_volume(release):

@@ -19,7 +19,11 @@ def test_item_layout(release):
     assert it["feature"].dtype == torch.bool and torch.equal(it["feature"], torch.from_numpy(e.feature()))
     V, F = e.hang_mesh()
     assert it["hang_mesh"]["vertices"].dtype == torch.float32 and it["hang_mesh"]["vertices"].shape == V.shape
+    assert torch.equal(it["hang_mesh"]["vertices"], torch.from_numpy(V.astype(np.float32)))
     assert torch.equal(it["hang_mesh"]["faces"], torch.from_numpy(F.astype(np.int64)))
+    R, G = e.recon_mesh()
+    assert torch.equal(it["recon_mesh"]["vertices"], torch.from_numpy(R.astype(np.float32)))
+    assert torch.equal(it["recon_mesh"]["faces"], torch.from_numpy(G.astype(np.int64)))
     assert it["sdf"].ndim == 3 and it["sdf_index_to_object"].shape == (4, 4)
     assert it["preview"].dtype == torch.uint8
     t = GarmentDataset(release, "test", fields=("sweep",))[0]
