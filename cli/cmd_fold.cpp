@@ -16,6 +16,7 @@
 #include "common/files.h"
 #include "common/format.h"
 #include "common/json.h"
+#include "common/version.h"
 #include "garments/io.h"
 #include "garments/templates.h"
 #include "generator/hang/hang.h"
@@ -537,7 +538,8 @@ int Run(const std::vector<std::string>& argv) {
               {"delta", ro.optimise.lm.finite_difference_step},
               {"vertices", setup.garment.mesh.NumVertices()},
               {"final_dissimilarity", run.final_dissimilarity},
-              {"steps", steps}};
+              {"steps", steps},
+              {"provenance", RunProvenance()}};
 
   // The solution-space fans (paper Fig. "solution_space") for one step.
   const std::string fan = args.Get("--fan", std::to_string(plan.steps.size()));

@@ -11,6 +11,7 @@
 #include "common/error.h"
 #include "common/format.h"
 #include "common/timing.h"
+#include "common/version.h"
 #include "garments/io.h"
 #include "generator/release/release.h"
 #include "runtime/recognition/calibrate.h"
@@ -682,7 +683,8 @@ int RunEval(const std::vector<std::string>& argv) {
               {"weights", wpath.empty() ? Json("none (unweighted only)") : Json(wpath.string())},
               {"calibration", have_w ? Json{{"options", w.options}, {"stats", w.stats}} : Json(nullptr)},
               {"database_load_seconds", load_s},
-              {"load_warnings", warnings}};
+              {"load_warnings", warnings},
+              {"provenance", RunProvenance()}};
   if (!a.Flag("--no-registration")) {
     RegistrationEvalOptions ro;
     ro.max_pairs_per_category = static_cast<int>(a.GetInt("--registration-pairs").value_or(0));

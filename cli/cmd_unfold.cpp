@@ -16,6 +16,7 @@
 #include "common/files.h"
 #include "common/parallel.h"
 #include "common/rng.h"
+#include "common/version.h"
 #include "garments/io.h"
 #include "garments/templates.h"
 #include "runtime/folding/placed.h"
@@ -469,6 +470,7 @@ int RunUnfold(const std::vector<std::string>& argv) {
     rj["digest"] = model.release().digest();
     rj["weights"] = wpath.empty() ? Json(nullptr) : Json(wpath.string());
     rj["options"] = OptionsJson(lo, trials, only, seed);
+    rj["provenance"] = RunProvenance();
     WriteFileAtomic(*out / "report.json", rj.dump(2) + "\n");
     WriteFileAtomic(*out / "report.md", "# Unfolding\n\n" + md);
     std::cout << "report: " << (*out / "report.md").string() << "\n";

@@ -14,6 +14,7 @@
 #include <sstream>
 #include <thread>
 
+#include "common/cpu_time.h"
 #include "common/error.h"
 #include "common/parallel.h"
 #include "common/rng.h"
@@ -416,6 +417,7 @@ void LogStageSeconds(std::ostream& log, const std::map<std::string, double>& sta
 void FinishBuild(ReleaseWriter& writer, BuildReport& report, ProgressMode mode, std::ostream& log) {
   report.interrupted = !report.aborted && report.already_done + report.built < report.shard_jobs;
   writer.SetBuildInfo("stage_seconds", Json(report.stage_seconds));
+  writer.SetBuildInfo("provenance", RunProvenance());
   if (mode != ProgressMode::kQuiet) LogStageSeconds(log, report.stage_seconds);
   if (report.aborted || report.interrupted) return;
   const auto summary = writer.Finalize();
@@ -601,6 +603,8 @@ BuildReport RunBuild(const Recipe& recipe, const BuildOptions& options) {
   jobs_thread.join();
 
   writer->SetBuildInfo("threads", threads);
+  // This process's CPU over the run (all its threads): what the build cost on a shared machine.
+  writer->SetBuildInfo("cpu_seconds", ProcessCpuSeconds());
   FinishBuild(*writer, report, mode, log);
   report.wall_seconds = Since(t0);
   return report;
