@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # tools/results.py on real reports: the quickstart release (fixture quickstart), its eval
 # report (fixture quickstart_eval) and unfolding run (fixture quickstart_unfold), and a
-# small fold run made here (towel at 10 cm, the initial trajectories, one trial: a few
-# seconds); then the table's tests (tools/results_test.py).
+# small fold run made here (towel at 8 cm, the initial trajectories, one trial: about
+# a CPU-minute); then the table's tests (tools/results_test.py).
 source "$(dirname "$0")/e2e_lib.sh"
 export RESULTS_RELEASE="$WORK/../quickstart_reference/quickstart"
 export RESULTS_EVAL="$WORK/../quickstart_runtime/report"
@@ -12,7 +12,7 @@ for d in "$RESULTS_RELEASE" "$RESULTS_EVAL" "$RESULTS_UNFOLD"; do
   [ -d "$d" ] || fail "the fixtures did not make $d"
 done
 rm -rf "$RESULTS_FOLD"
-"$DRAPE" fold towel --plan "$SRC/runtime/folding/plans/towel.yaml" --edge 0.1 --no-optimise --trials 1 \
+"$DRAPE" fold towel --plan "$SRC/runtime/folding/plans/towel.yaml" --edge 0.08 --no-optimise --trials 1 \
   --fan none -o "$RESULTS_FOLD" > "$WORK/fold.log" || fail "fold: $(tail -n 5 "$WORK/fold.log")"
 python=/usr/bin/python3
 [ -x "$python" ] || python=python3
