@@ -40,7 +40,7 @@ PACKAGES=(
   zlib1g-dev          # gzip of the gallery's 3D mesh scripts
   clang-14            # sanitizer build and fuzz targets (./setup.sh sanitize, fuzz/run.sh)
   libfuzzer-14-dev    # libFuzzer for clang-14 (fuzz/)
-  slurm-wlm           # tests/slurm.sh: a one-node Slurm (opt-in: DRAPE_SLURM_TEST=1)
+  slurm-wlm           # tests/slurm.sh: a one-node Slurm (runs as root; DRAPE_SLURM_TEST=0 skips it)
   munge               # Slurm's authentication, for tests/slurm.sh
   clang-format        # ./setup.sh format: changed lines follow .clang-format
 )
