@@ -56,73 +56,21 @@ const char* kUsage =
     "  --frames N        Kinect frames per turn, 360 deg one way and back (default 550, the paper's)\n"
     "  --max-regrasps K  give up after K regrasps (default 4)\n"
     "  --jobs N          trials run side by side on N threads (default 1; same results for any N)\n"
-    "  --category-known  tell recognition the category\n"
-    "  --category-once   decide the category at the first step and keep it for the trial\n"
-    "                    (default: by registration at every hang, the fits summed over the hangs\n"
-    "                    deciding, docs/unfolding.md \"The category at every hang\")\n"
+    "  --category-known  tell recognition the category (default: by registration at every hang,\n"
+    "                    the fits summed over the hangs deciding)\n"
     "  --refit-absent P  at every hang, a category left out of the hang's registration counts\n"
     "                    the hang's worst score + P (default 0.5)\n"
-    "  --category-evidence  decide it from every hang: each adds each category's Eq. match\n"
-    "                    distance over the nearest's, within the height gate and without it;\n"
-    "                    the pose is recognised within the category with the least sum, and\n"
-    "                    a change re-plans with its desired pairs (off: it takes shorts for\n"
-    "                    pants, docs/unfolding.md)\n"
-    "  --no-category-fit the category by recognition's nearest neighbour (default:\n"
-    "                    by registration, docs/recognition.md \"The category by registration\";\n"
-    "                    off with --category-known or --category-evidence)\n"
-    "  --first-hang-weight W  weight of the random first grasp's hang in that evidence (default 1;\n"
-    "                    a hang after an aimed regrasp weighs 1)\n"
-    "  --gated-out-excess E  the least excess (fraction of the feature's bits) of a category that\n"
-    "                    the height gate leaves out at a hang (default 0.01)\n"
-    "  --category-gate T the height gate of that evidence, |ln(h / h_entry)| <= T (default -1:\n"
-    "                    the weights' category gate, recognition's; 0 = none)\n"
-    "  --category-ungated W  that evidence adds W x each category's excess without the gate\n"
-    "                    (default 1; 0 = within the gate only)\n"
-    "  --plan-prior K    after a regrasp keep the anchor it aimed at (or its twin) when recognition\n"
-    "                    ranks it among its top K (default 3; 0 = recognise afresh, as the paper)\n"
-    "  --no-trust-aimed  keep the aimed anchor only within recognition's top K (default: after a\n"
-    "                    regrasp that pinched cloth the anchor it aimed at, or its twin, is kept\n"
-    "                    whatever recognition ranks)\n"
-    "  --first-holder-stops  the paper's rule: stop at f >= xi on any holder (default: not on\n"
-    "                    the random first grasp; at f >= xi there the regrasp goes ahead and\n"
-    "                    the first gripper lets go)\n"
+    "  --plan-prior K    after a regrasp keep the anchor it aimed at (or its twin) as recognition's\n"
+    "                    top-K anchor when it ranks it there, else as that anchor's best entry\n"
+    "                    (default 3)\n"
     "  --candidates K    register recognition's top K database entries (its answer first; after a\n"
     "                    kept plan prior only that anchor's or its twin's) and predict from the\n"
-    "                    best fit: symmetric mean surface distance to the reconstruction\n"
-    "                    (default 5; 1 = recognition's answer alone)\n"
-    "  --candidate-fit F the fit after the 'rigid' registration or after the 'final' one used\n"
-    "                    (R + N unless --rigid; default rigid)\n"
-    "  --candidate-fit-radius R  the fit over the cloth within R metres of each candidate's\n"
-    "                    registered target anchor only (default 0: the whole garment)\n"
-    "  --candidate-point P  where the regrasp goes: 'fit' (default: the kept candidate's own\n"
-    "                    point) or 'consensus' (the kept candidate's plan, the point of the\n"
-    "                    candidate aiming at its target or the twin with the most others\n"
-    "                    within 3 cm, ties by fit) or 'outlier' (the kept candidate's point\n"
-    "                    unless the medoid of at least two others aiming at its target or the\n"
-    "                    twin lies more than 4 cm from it, then the medoid's)\n"
-    "  --unobserved-margin M  an anchor registered more than M metres outside the fusion's\n"
-    "                    segmentation region is predicted at its rigid registration, not mapped\n"
-    "                    onto the reconstruction (e.g. 0.02; default -1: always mapped, the paper's rule)\n"
-    "  --no-lowest-point regrasp at the registered anchor always, as the paper (default: when\n"
-    "                    the database hang has the target as its lowest point, at the\n"
-    "                    reconstruction's lowest point, 2 cm above it)\n"
+    "                    best fit after rigid registration: symmetric mean surface distance to\n"
+    "                    the reconstruction (default 5; 1 = recognition's answer alone)\n"
     "  --lowest-near R   when the target is not the database hang's lowest point but the\n"
     "                    lowest within R metres of it, regrasp at the reconstruction's lowest\n"
     "                    point within R of the registered target, 2 cm above it (default 0.06; 0: off)\n"
-    "  --no-hanging-end  regrasp an elbow at its registered point, as the paper (default: at the\n"
-    "                    reconstruction's lowest point near the registered cuff, raised by the\n"
-    "                    pattern's elbow-to-cuff distance, when the database hang has the cuff below)\n"
     "  --no-ir           ablation: grasp the registered point without IR refinement\n"
-    "  --ir-above-jaws   the IR scan as first built: the jaw centre crosses the prediction and\n"
-    "                    the beam (3 cm above the jaws) reads the cloth above it (default: the\n"
-    "                    beam crosses the prediction, at the jaws' height)\n"
-    "  --hem-edge        when the registered database hang has the target at the lower edge of\n"
-    "                    its cloth (a hem corner: leg ends), also scan vertically through the\n"
-    "                    refined point and close 1 cm above the lowest reading of the surface\n"
-    "                    found at or below it (off by default; not with --ir-above-jaws or --no-ir)\n"
-    "  --hem-corner      with --hem-edge, once the hem is found: scan along it at the jaws' height\n"
-    "                    and close 2 cm in from its end on the side the registered hang has\n"
-    "                    its cloth away from (off by default)\n"
     "  --rigid           ablation: rigid-only registration\n"
     "  --unweighted      ablation: unweighted recognition (Eq. match)\n"
     "  --ablations       also run the three ablations (4x the trials)\n"
@@ -259,33 +207,12 @@ TableRow RunTrials(const ReleaseModel& model, const Variant& v, const std::strin
   return Summarise(c, v.name, results);
 }
 
-// --candidates, --candidate-fit, --candidate-point into `lo`.
-void CandidateOptions(const Args& a, LoopOptions& lo) {
-  lo.candidates = static_cast<int>(a.GetInt("--candidates").value_or(lo.candidates));
-  if (lo.candidates < 1 || lo.candidates > 10) throw Error("--candidates: must be in 1..10");
-  if (const auto fit = a.Get("--candidate-fit")) {
-    if (*fit != "rigid" && *fit != "final")
-      throw Error("--candidate-fit: must be 'rigid' or 'final' (got '" + *fit + "')");
-    lo.fit_after_rigid = *fit == "rigid";
-  }
-  if (const auto r = a.GetDouble("--candidate-fit-radius")) {
-    if (!(*r >= 0 && *r <= 1)) throw Error("--candidate-fit-radius: must be in [0, 1] m");
-    lo.fit_radius = *r;
-  }
-  if (const auto point = a.Get("--candidate-point")) {
-    if (*point != "consensus" && *point != "fit" && *point != "outlier")
-      throw Error("--candidate-point: must be 'consensus', 'outlier' or 'fit' (got '" + *point + "')");
-    lo.consensus_radius = *point == "consensus" ? kConsensusRadius : 0;
-    lo.outlier_radius = *point == "outlier" ? kOutlierRadius : 0;
-  }
-}
-
-// --plan-prior, --no-trust-aimed, --first-holder-stops.
-void PlanPriorOptions(const Args& a, LoopOptions& lo) {
+// --plan-prior, --candidates.
+void PlanOptions(const Args& a, LoopOptions& lo) {
   lo.plan_prior_top_k = static_cast<int>(a.GetInt("--plan-prior").value_or(lo.plan_prior_top_k));
   if (lo.plan_prior_top_k < 0 || lo.plan_prior_top_k > 5) throw Error("--plan-prior: must be in 0..5");
-  if (a.Flag("--no-trust-aimed")) lo.trust_aimed = false;
-  lo.verify_first_holder = !a.Flag("--first-holder-stops");
+  lo.candidates = static_cast<int>(a.GetInt("--candidates").value_or(lo.candidates));
+  if (lo.candidates < 1 || lo.candidates > 10) throw Error("--candidates: must be in 1..10");
 }
 
 // --only K,K,...: 0-based trial indices, each in 1..trials as given; empty: all.
@@ -311,25 +238,6 @@ std::vector<int> OnlyTrials(const Args& a, int trials) {
   return ks;
 }
 
-// The category from every hang (--category-evidence and its parameters).
-void CategoryOptions(const Args& a, LoopOptions& lo) {
-  if (a.Flag("--category-once") && a.Flag("--category-evidence"))
-    throw Error("--category-once and --category-evidence: give one");
-  lo.category_evidence = a.Flag("--category-evidence");
-  lo.category_fit = !a.Flag("--no-category-fit") && !lo.category_evidence && !a.Flag("--category-known");
-  lo.category_refit = lo.category_fit && !a.Flag("--category-once");
-  lo.refit_absent_penalty = a.GetDouble("--refit-absent").value_or(lo.refit_absent_penalty);
-  if (!(lo.refit_absent_penalty >= 0)) throw Error("--refit-absent: must be >= 0");
-  lo.first_hang_weight = a.GetDouble("--first-hang-weight").value_or(lo.first_hang_weight);
-  if (!(lo.first_hang_weight >= 0)) throw Error("--first-hang-weight: must be >= 0");
-  lo.gated_out_excess = a.GetDouble("--gated-out-excess").value_or(lo.gated_out_excess);
-  if (!(lo.gated_out_excess >= 0)) throw Error("--gated-out-excess: must be >= 0");
-  lo.category_gate = a.GetDouble("--category-gate").value_or(lo.category_gate);
-  if (!(lo.category_gate < 3)) throw Error("--category-gate: must be below 3");
-  lo.category_ungated_weight = a.GetDouble("--category-ungated").value_or(lo.category_ungated_weight);
-  if (!(lo.category_ungated_weight >= 0)) throw Error("--category-ungated: must be >= 0");
-}
-
 // The loop's options as report.json records them.
 Json OptionsJson(const LoopOptions& lo, int trials, const std::vector<int>& only, uint64_t seed) {
   Json only_j = Json::array();
@@ -346,60 +254,19 @@ Json OptionsJson(const LoopOptions& lo, int trials, const std::vector<int>& only
           {"ir_sample_spacing_m", lo.refine.sample_spacing},
           {"ir_search_half_width_m", lo.refine.search_half_width_samples * lo.refine.sample_spacing},
           {"plan_prior_top_k", lo.plan_prior_top_k},
-          {"trust_aimed", lo.trust_aimed},
-          {"verify_first_holder", lo.verify_first_holder},
-          {"category_evidence", lo.category_evidence},
-          {"category_fit", lo.category_fit},
-          {"category_refit", lo.category_refit},
+          {"category_known", lo.category_known},
           {"refit_absent_penalty", lo.refit_absent_penalty},
-          {"first_hang_weight", lo.first_hang_weight},
-          {"gated_out_excess", lo.gated_out_excess},
-          {"category_gate", lo.category_gate},
-          {"category_ungated_weight", lo.category_ungated_weight},
           {"candidates", lo.candidates},
-          {"candidate_fit", lo.fit_after_rigid ? "rigid" : "final"},
-          {"candidate_point", lo.consensus_radius > 0 ? "consensus"
-                              : lo.outlier_radius > 0 ? "outlier"
-                                                      : "fit"},
-          {"outlier_radius_m", lo.outlier_radius},
-          {"consensus_radius_m", lo.consensus_radius},
-          {"ir_at_jaw_line", lo.ir_at_jaw_line},
-          {"hem_edge", lo.hem_edge},
-          {"hem_corner", lo.hem_corner},
-          {"candidate_fit_radius_m", lo.fit_radius},
-          {"lowest_point", lo.lowest_point},
           {"lowest_near_radius_m", lo.lowest.near_radius},
-          {"hanging_end", lo.hanging_end},
           {"place_flat", lo.place_flat}};
 }
 
 // drape unfold's flags and its options with a value.
-const std::vector<std::string> kUnfoldFlags = {"--no-ir",          "--ir-above-jaws",      "--rigid",
-                                               "--unweighted",     "--ablations",          "--no-figures",
-                                               "--no-place",       "--dump-meshes",        "--category-known",
-                                               "--category-once",  "--category-evidence",  "--no-category-fit",
-                                               "--no-trust-aimed", "--first-holder-stops", "--hem-edge",
-                                               "--hem-corner",     "--no-lowest-point",    "--no-hanging-end"};
-const std::vector<std::string> kUnfoldValues = {"--category",
-                                                "--trials",
-                                                "--only",
-                                                "--seed",
-                                                "-o",
-                                                "--weights",
-                                                "--frames",
-                                                "--max-regrasps",
-                                                "--jobs",
-                                                "--plan-prior",
-                                                "--candidates",
-                                                "--candidate-fit",
-                                                "--candidate-fit-radius",
-                                                "--candidate-point",
-                                                "--unobserved-margin",
-                                                "--first-hang-weight",
-                                                "--refit-absent",
-                                                "--gated-out-excess",
-                                                "--category-gate",
-                                                "--category-ungated",
+const std::vector<std::string> kUnfoldFlags = {"--no-ir",      "--rigid",    "--unweighted",  "--ablations",
+                                               "--no-figures", "--no-place", "--dump-meshes", "--category-known"};
+const std::vector<std::string> kUnfoldValues = {"--category",   "--trials",     "--only",       "--seed",
+                                                "-o",           "--weights",    "--frames",     "--max-regrasps",
+                                                "--jobs",       "--plan-prior", "--candidates", "--refit-absent",
                                                 "--lowest-near"};
 
 // The loop's options from the command line.
@@ -408,20 +275,12 @@ LoopOptions LoopOptionsFrom(const Args& a) {
   lo.capture.frames = static_cast<int>(a.GetInt("--frames").value_or(550));
   lo.max_regrasps = static_cast<int>(a.GetInt("--max-regrasps").value_or(4));
   lo.category_known = a.Flag("--category-known");
-  CategoryOptions(a, lo);
-  lo.ir_at_jaw_line = !a.Flag("--ir-above-jaws");
-  lo.hem_edge = a.Flag("--hem-edge");
-  lo.lowest_point = !a.Flag("--no-lowest-point");
+  lo.refit_absent_penalty = a.GetDouble("--refit-absent").value_or(lo.refit_absent_penalty);
+  if (!(lo.refit_absent_penalty >= 0)) throw Error("--refit-absent: must be >= 0");
   lo.lowest.near_radius = a.GetDouble("--lowest-near").value_or(lo.lowest.near_radius);
   if (!(lo.lowest.near_radius >= 0 && lo.lowest.near_radius < 0.5)) throw Error("--lowest-near: must be in [0, 0.5) m");
-  lo.hanging_end = !a.Flag("--no-hanging-end");
-  lo.hem_corner = a.Flag("--hem-corner");
-  if (lo.hem_corner && !lo.hem_edge) throw Error("--hem-corner: needs --hem-edge");
   lo.place_flat = !a.Flag("--no-place");
-  PlanPriorOptions(a, lo);
-  CandidateOptions(a, lo);
-  lo.unobserved_margin = a.GetDouble("--unobserved-margin").value_or(lo.unobserved_margin);
-  if (!(lo.unobserved_margin < 0.5)) throw Error("--unobserved-margin: must be below 0.5 m");
+  PlanOptions(a, lo);
   return lo;
 }
 

@@ -41,15 +41,6 @@ std::vector<rec::Candidate> RegistrationCandidates(const rec::Recognition& r, bo
   return out;
 }
 
-double LocalFit(const TriMesh& registered, const TriMesh& recon, const ExactClosestPoint& onto_recon,
-                const Vec3& centre, double radius) {
-  const registration::DirectedDistance s = registration::MeasureDirectedNear(registered, onto_recon, centre, radius);
-  if (s.samples == 0) return -1;
-  const ExactClosestPoint onto_registered(registered);
-  const registration::DirectedDistance t = registration::MeasureDirectedNear(recon, onto_registered, centre, radius);
-  return t.samples == 0 ? s.mean : 0.5 * (s.mean + t.mean);
-}
-
 CandidateRegistration RegisterCandidate(const TriMesh& source, const TriMesh& recon,
                                         const ExactClosestPoint& onto_recon, bool nonrigid) {
   CandidateRegistration c;
@@ -65,25 +56,6 @@ CandidateRegistration RegisterCandidate(const TriMesh& source, const TriMesh& re
   c.fit_rigid = SymmetricFit(c.reg.rigid, recon, onto_recon);
   c.fit_final = o.nonrigid ? SymmetricFit(c.reg.nonrigid, recon, onto_recon) : c.fit_rigid;
   return c;
-}
-
-double OutsideRegion(const Vec3& p, const Eigen::AlignedBox3d& box, double radius) {
-  const double box_out = box.exteriorDistance(p);
-  const double radial = std::hypot(p.x(), p.z());
-  const double radial_out = radius > 0 ? std::max(0.0, radial - radius) : 0.0;
-  return std::max(box_out, radial_out);
-}
-
-AnchorPrediction PredictAnchor(const Vec3& rigid, const Vec3& registered, const ExactClosestPoint& onto_recon,
-                               const Eigen::AlignedBox3d& box, double radius, double margin) {
-  AnchorPrediction out;
-  if (margin >= 0 && OutsideRegion(rigid, box, radius) > margin) {
-    out.point = rigid;
-    out.unobserved = true;
-  } else {
-    out.point = onto_recon.Query(registered).point;
-  }
-  return out;
 }
 
 void LowestPointOptions::Validate() const {
@@ -150,51 +122,6 @@ int KeepCandidate(const std::vector<double>& fits) {
     if (best < 0 || fits[i] < fits[best]) best = i;
   }
   return best;
-}
-
-int ConsensusCandidate(const std::vector<CandidatePrediction>& c, int kept, double radius, std::vector<int>* votes) {
-  const int n = static_cast<int>(c.size());
-  if (votes) votes->assign(n, -1);
-  if (kept < 0 || kept >= n || !c[kept].usable) return -1;
-  std::vector<std::string> targets = rec::SymmetryTwins(c[kept].target);
-  targets.push_back(c[kept].target);
-  std::vector<int> pool;
-  for (int i = 0; i < n; ++i)
-    if (c[i].usable && std::find(targets.begin(), targets.end(), c[i].target) != targets.end()) pool.push_back(i);
-  std::vector<int> count(n, -1);
-  for (const int i : pool) {
-    count[i] = 0;
-    for (const int j : pool)
-      if (j != i && (c[i].point - c[j].point).norm() < radius) ++count[i];
-  }
-  if (votes) *votes = count;
-  if (!(radius > 0)) return kept;
-  int best = -1;
-  for (const int i : pool) {
-    if (best < 0 || count[i] > count[best] || (count[i] == count[best] && c[i].fit < c[best].fit)) best = i;
-  }
-  return best;
-}
-
-int OutlierCandidate(const std::vector<CandidatePrediction>& c, int kept, double radius) {
-  const int n = static_cast<int>(c.size());
-  if (kept < 0 || kept >= n || !c[kept].usable) return -1;
-  if (!(radius > 0)) return kept;
-  std::vector<std::string> targets = rec::SymmetryTwins(c[kept].target);
-  targets.push_back(c[kept].target);
-  std::vector<int> others;
-  for (int i = 0; i < n; ++i)
-    if (i != kept && c[i].usable && std::find(targets.begin(), targets.end(), c[i].target) != targets.end())
-      others.push_back(i);
-  if (others.size() < 2) return kept;
-  int medoid = -1;
-  double best = 0;
-  for (const int i : others) {
-    double sum = 0;
-    for (const int j : others) sum += (c[i].point - c[j].point).norm();
-    if (medoid < 0 || sum < best) medoid = i, best = sum;
-  }
-  return (c[medoid].point - c[kept].point).norm() > radius ? medoid : kept;
 }
 
 }  // namespace drape::unfolding

@@ -35,56 +35,18 @@ std::vector<recognition::Candidate> RegistrationCandidates(const recognition::Re
 // SymmetricFit (the symmetric mean of the paper's two directed errors), metres.
 using registration::SymmetricFit;
 
-// The fit around the point a candidate predicts (`--candidate-fit-radius`): SymmetricFit
-// over the patches of either mesh whose barycentre lies within `radius` of `centre` (the
-// registered target anchor). The whole-garment fit is dominated by the cloth near the
-// gripper, where every candidate fits; its differences are millimetres while the
-// candidates' predictions differ by centimetres. When the reconstruction has no patch
-// there (the target lies outside the segmentation region) the registered side alone.
-// Metres; -1 when the registered mesh has no patch there either.
-double LocalFit(const TriMesh& registered, const TriMesh& recon, const ExactClosestPoint& onto_recon,
-                const Vec3& centre, double radius);
-
-// How far `p` lies outside the segmentation region the reconstruction was fused in (a box
-// and, when radius > 0, a vertical cylinder of that radius about the turning y axis; both
-// in the object frame, generator/fusion/fusion.h FusionOptions): 0 inside, else the
-// distance to the box or the radial excess, whichever is larger. Metres.
-double OutsideRegion(const Vec3& p, const Eigen::AlignedBox3d& box, double radius);
-
-// The regrasp point of a registered anchor (object frame). The paper maps the registered
-// anchor onto the reconstruction (its closest surface point). The reconstruction holds
-// only what lies in the segmentation region, though: a garment hanging lower than its
-// floor (pants held by a leg end: the other leg end 1.50-1.62 m below the gripper, the
-// region ends at 1.45 m) is cut there, and the closest point of the cut surface is
-// its lower edge, 8-15 cm above the anchor (docs/unfolding.md, "Where the last regrasp's
-// error comes from"). The non-rigid step pulls the database mesh onto the same edge.
-// So when the rigidly registered anchor `rigid` lies more than `margin` outside the region
-// the point is `rigid` itself (the reconstruction has no surface there to map onto);
-// otherwise `registered` (after R or R + N) mapped onto the reconstruction. margin < 0:
-// always mapped (the paper's rule).
-struct AnchorPrediction {
-  Vec3 point = Vec3::Zero();
-  bool unobserved = false;  // the anchor lies outside the region: `rigid` used, unmapped
-};
-AnchorPrediction PredictAnchor(const Vec3& rigid, const Vec3& registered, const ExactClosestPoint& onto_recon,
-                               const Eigen::AlignedBox3d& box, double radius, double margin);
-
-// The lowest point (LoopOptions::lowest_point, on by default; Osawa et al. and
-// Cusumano-Towner et al., whom the paper cites, regrasp a hanging garment at its lowest
-// point). A garment hangs with one place lowest, and where the database hang has the
-// target there (a trouser leg's end below a held leg end or knee), the
-// reconstruction's lowest point is observed directly,
+// The lowest point (LoopOptions::lowest; Osawa et al. and Cusumano-Towner et al., whom
+// the paper cites, regrasp a hanging garment at its lowest point). A garment hangs with
+// one place lowest, and where the database hang has the target there (a trouser leg's end
+// below a held leg end or knee), the reconstruction's lowest point is observed directly,
 // while the registered anchor carries the difference between the database's hang and
-// this one (3-9 cm median on the paper release, docs/unfolding.md).
+// this one (docs/unfolding.md, "The lowest point"). The IR scan then gives the depth along
+// the approach only, the grasp stays at the scan's centre: the point was observed, and
+// the LoG search for a fold would move it sideways, off the corner.
 struct LowestPointOptions {
   double tolerance = 0.03;     // m: the anchor is the hang's lowest when at most this above its lowest vertex
   double floor_margin = 0.02;  // m: a lowest point this near the region's floor is the cut, not the garment's
   double lift = 0.02;          // m: the point goes this far above the lowest (the jaws are 2 cm tall)
-  // The IR scan then gives the depth along the approach only, the grasp stays at the scan's
-  // centre: the point was observed, and the LoG search for a fold moved it 2.4-4.0 cm
-  // sideways in 7 of 17 pants steps, off the corner (docs/unfolding.md, "The lowest
-  // point"). false: the LoG search as for a registered point.
-  bool centre_only = true;
   // m: the lowest point near the target. When the hang's target (or its twin) is not its
   // lowest point but the lowest of the hang within this distance of itself (horizontally;
   // a leg's hem corner beside a lower waist), the regrasp point is the reconstruction's
@@ -106,23 +68,19 @@ bool AnchorIsLowest(const TriMesh& hang, int v, double tolerance,
 std::optional<Vec3> LowestPoint(const TriMesh& recon, double floor_y, const LowestPointOptions& o,
                                 const std::optional<Vec3>& around = std::nullopt);
 
-// The hanging end (LoopOptions::hanging_end, on by default). A long-sleeve shirt's elbow is
-// never a hang's lowest point, but the forearm below it hangs straight down to the cuff
-// whenever the sleeve is free: on the true cloth of paper 2.3.0 (18 shirt regrasps) the
-// elbow lay 0.24-0.27 m straight above its cuff in every one, while the registered elbow
-// carried 3-35 cm of the database-versus-trial hang difference (docs/unfolding.md, "The
-// hanging end"). The cuff is observed as the reconstruction's lowest point near where the
-// registration puts it, and the elbow is placed the pattern's elbow-to-cuff distance above.
+// The hanging end (LoopOptions::hanging). A long-sleeve shirt's elbow is never a hang's
+// lowest point, but the forearm below it hangs straight down to the cuff whenever the
+// sleeve is free, while the registered elbow carries the database-versus-trial hang
+// difference (docs/unfolding.md, "The hanging end"). The cuff is observed as the
+// reconstruction's lowest point near where the registration puts it, and the elbow is
+// placed the pattern's elbow-to-cuff distance above. As with the lowest point, the IR scan
+// gives the depth only.
 struct HangingEndOptions {
   double radius = 0.10;        // m: horizontal search radius around the registered end
   double floor_margin = 0.02;  // m: as LowestPointOptions::floor_margin
   // The database hang must have the end at least this fraction of the pattern distance
   // below the anchor (its forearm hangs down too); otherwise the rule does not apply.
   double min_drop = 0.5;
-  // As LowestPointOptions::centre_only: the IR scan gives the depth only. The LoG search
-  // moved observed elbows off the sleeve (mapped 3.3 cm median from the elbow, refined
-  // worse in 11 of 18 steps on paper 2.3.0, docs/unfolding.md, "The hanging end").
-  bool centre_only = true;
   // The depth from the nearest IR reading within this distance (m) across the scan of its
   // centre (RefineOptions::depth_half_width_samples): the point lies on a sleeve's side,
   // and a centre beam that passed the sleeve read the body behind it 16-18 cm deeper in 3
@@ -154,36 +112,5 @@ CandidateRegistration RegisterCandidate(const TriMesh& source, const TriMesh& re
 // < 0 or not finite are skipped (a candidate that could not be registered or planned).
 // -1 if none is usable.
 int KeepCandidate(const std::vector<double>& fits);
-
-// What the choice of the regrasp point needs of each candidate.
-struct CandidatePrediction {
-  bool usable = false;        // registered and planned
-  std::string target;         // its next anchor
-  Vec3 point = Vec3::Zero();  // its prediction (any common frame)
-  double fit = -1;            // the fit that selects (m)
-};
-
-// The candidate whose prediction the regrasp goes to (docs/unfolding.md, "The regrasp
-// point by consensus"). The kept candidate (KeepCandidate) decides the plan: the held
-// anchor, f and the target. Its point is taken from the usable candidates that aim at
-// that target or a symmetry twin of it (a twin's registration maps onto the real other
-// side, so twins predict the same physical point): the one with the most others of them
-// within `radius` of its prediction, ties by the smaller fit, then the earlier. Wrong
-// entries registered onto the same hang scatter, entries that fit the garment's real
-// shape agree; the fit alone differs between them by millimetres. radius <= 0: the kept
-// candidate itself. `votes` (optional) gets each candidate's count (-1 when it is not in
-// the pool). Returns -1 when `kept` is not a usable candidate.
-int ConsensusCandidate(const std::vector<CandidatePrediction>& c, int kept, double radius,
-                       std::vector<int>* votes = nullptr);
-
-// The candidate whose prediction the regrasp goes to by outlier rejection (`--candidate-point
-// outlier`; docs/unfolding.md, "Where the grasps land"): the kept candidate's own point
-// unless at least two other usable candidates aim at its target or a twin and their
-// medoid (the one with the least summed distance to the others of them; ties: the
-// earlier) lies more than `radius` from it; then that medoid. The kept registration is the
-// best rigid fit by millimetres among hangs that are alike, and when its point is off the
-// others mostly agree elsewhere (on paper 2.3.0 pants: kept 7.6-9.0 cm off, two or three
-// others 1.5-2.9). Returns -1 when `kept` is not a usable candidate; radius <= 0: kept.
-int OutlierCandidate(const std::vector<CandidatePrediction>& c, int kept, double radius);
 
 }  // namespace drape::unfolding

@@ -90,52 +90,6 @@ TEST(KeepCandidate, SmallestUsableFitEarlierOnTies) {
   EXPECT_EQ(KeepCandidate({}), -1);
 }
 
-CandidatePrediction P(const std::string& target, const Vec3& p, double fit, bool usable = true) {
-  CandidatePrediction c;
-  c.usable = usable, c.target = target, c.point = p, c.fit = fit;
-  return c;
-}
-
-// Three wrong entries agree on the leg end within 2 cm (one aims at its twin: the same
-// physical point); the best-fitting candidate predicts 12 cm away, alone. Its plan is kept,
-// the point is the consensus (the agreeing one that fits best).
-TEST(ConsensusCandidate, AConsensusOutvotesABetterFittingOutlier) {
-  const std::vector<CandidatePrediction> c = {
-      P("left_leg_outer", Vec3(0.12, 0.0, 0.0), 0.015), P("left_leg_outer", Vec3(0.0, 0.0, 0.0), 0.024),
-      P("right_leg_outer", Vec3(0.01, 0.01, 0.0), 0.022), P("left_leg_outer", Vec3(0.0, 0.015, 0.005), 0.026)};
-  std::vector<int> votes;
-  EXPECT_EQ(ConsensusCandidate(c, 0, 0.03, &votes), 2);
-  EXPECT_EQ(votes, (std::vector<int>{0, 2, 2, 2}));
-  EXPECT_EQ(ConsensusCandidate(c, 0, 0.0), 0);    // radius 0: the fit rule, the kept one's point
-  EXPECT_EQ(ConsensusCandidate(c, 0, 0.005), 0);  // nobody within 5 mm: ties by fit
-}
-
-// Candidates aiming at another target do not vote, however close their points; unusable
-// ones neither.
-TEST(ConsensusCandidate, OnlyTheKeptTargetOrItsTwinVotes) {
-  const std::vector<CandidatePrediction> c = {
-      P("left_elbow", Vec3(0.0, 0.0, 0.0), 0.012), P("hem_center", Vec3(0.3, 0.0, 0.0), 0.020),
-      P("collar", Vec3(0.3, 0.01, 0.0), 0.021), P("right_elbow", Vec3(0.3, 0.0, 0.01), 0.030, false),
-      P("right_elbow", Vec3(0.02, 0.0, 0.0), 0.025)};
-  std::vector<int> votes;
-  EXPECT_EQ(ConsensusCandidate(c, 0, 0.03, &votes), 0);  // 1 vote each: ties by fit
-  EXPECT_EQ(votes, (std::vector<int>{1, -1, -1, -1, 1}));
-  EXPECT_EQ(ConsensusCandidate(c, 3, 0.03), -1);  // the kept one must be usable
-  EXPECT_EQ(ConsensusCandidate(c, 7, 0.03), -1);
-  EXPECT_EQ(ConsensusCandidate({}, 0, 0.03), -1);
-}
-
-// Equal votes and equal fits: the earlier (recognition's better rank).
-TEST(ConsensusCandidate, TiesByFitThenRank) {
-  const std::vector<CandidatePrediction> c = {P("crotch", Vec3(0.0, 0.0, 0.0), 0.02),
-                                              P("crotch", Vec3(0.5, 0.0, 0.0), 0.02),
-                                              P("crotch", Vec3(0.0, 0.5, 0.0), 0.01)};
-  EXPECT_EQ(ConsensusCandidate(c, 0, 0.03), 2);
-  const std::vector<CandidatePrediction> same = {P("crotch", Vec3(0.0, 0.0, 0.0), 0.02),
-                                                 P("crotch", Vec3(0.5, 0.0, 0.0), 0.02)};
-  EXPECT_EQ(ConsensusCandidate(same, 1, 0.03), 0);
-}
-
 // The hand-made case: the reconstruction is a hanging tube, slightly deformed;
 // recognition ranks a wide, short tube first (another anchor's hang) and the right shape,
 // turned by a quarter turn and moved, second. Registered, the right one fits best and is
@@ -164,37 +118,6 @@ TEST(KeepCandidate, TheRightShapeRankedSecondFitsBest) {
       EXPECT_LE(b.fit_final, b.fit_rigid + 1e-9);
     }
   }
-}
-
-TEST(LocalFit, MeasuresOnlyTheClothAroundTheCentre) {
-  const TriMesh recon = rt::WavySheet(12, 10, 0.5, 0.4, 0.0);  // flat, z = 0, x in [0, 0.5]
-  const ExactClosestPoint onto(recon);
-  // A registration that fits the left of the sheet exactly and lies 3 cm off on the right.
-  TriMesh reg = recon;
-  for (int v = 0; v < reg.NumVertices(); ++v)
-    if (reg.V(v, 0) > 0.3) reg.V(v, 2) += 0.03;
-  // Around the right edge both meshes' patches are the parallel parts: 3 cm both ways.
-  EXPECT_NEAR(LocalFit(reg, recon, onto, Vec3(0.5, 0.2, 0.03), 0.1), 0.03, 1e-9);
-  // Around the left edge the meshes coincide.
-  EXPECT_NEAR(LocalFit(reg, recon, onto, Vec3(0.0, 0.2, 0.0), 0.1), 0.0, 1e-12);
-  // The whole garment's fit lies between: what a local difference looks like to it.
-  const double whole = SymmetricFit(reg, recon, onto);
-  EXPECT_GT(whole, 0.005);
-  EXPECT_LT(whole, 0.025);
-}
-
-TEST(LocalFit, RegisteredSideAloneWhereTheReconstructionHasNoCloth) {
-  const TriMesh recon = rt::WavySheet(12, 10, 0.5, 0.4, 0.0);
-  const ExactClosestPoint onto(recon);
-  TriMesh reg = recon;
-  reg.V.col(0).array() += 1.0;  // x in [1, 1.5]: nowhere near the reconstruction
-  // No reconstructed patch within 10 cm of the centre: the registered patches' distance
-  // to the reconstruction (x >= 0.9 m away) alone.
-  const double f = LocalFit(reg, recon, onto, Vec3(1.5, 0.2, 0.0), 0.1);
-  EXPECT_GT(f, 0.9);
-  EXPECT_LT(f, 1.0);
-  // Neither mesh has a patch there.
-  EXPECT_EQ(LocalFit(reg, recon, onto, Vec3(5, 5, 5), 0.1), -1.0);
 }
 
 TEST(LowestPoint, TheHangsLowestVertexAndTheReconstructionsLiftedAboveIt) {
@@ -305,77 +228,6 @@ TEST(HangingEnd, OptionsAreChecked) {
   o = {};
   o.min_drop = 1.5;
   EXPECT_THROW(o.Validate(), Error);
-}
-
-}  // namespace
-}  // namespace drape::unfolding
-
-namespace drape::unfolding {
-namespace {
-
-// A horizontal square (side 1 m) at height y, centred on the turning axis.
-TriMesh Square(double y) {
-  TriMesh m;
-  m.V.resize(4, 3);
-  m.V << -0.5, y, -0.5, 0.5, y, -0.5, 0.5, y, 0.5, -0.5, y, 0.5;
-  m.F.resize(2, 3);
-  m.F << 0, 1, 2, 0, 2, 3;
-  return m;
-}
-
-TEST(OutsideRegion, BoxDistanceOrRadialExcessWhicheverIsLarger) {
-  const Eigen::AlignedBox3d box(Vec3(-0.6, -1.45, -0.6), Vec3(0.6, -0.02, 0.6));
-  EXPECT_DOUBLE_EQ(OutsideRegion(Vec3(0.1, -1.0, 0.2), box, 0.55), 0);
-  EXPECT_NEAR(OutsideRegion(Vec3(0.1, -1.55, 0.2), box, 0.55), 0.10, 1e-12);  // below the floor face
-  EXPECT_NEAR(OutsideRegion(Vec3(0.0, -0.01, 0.0), box, 0.55), 0.01, 1e-12);  // above the top face
-  // Radial: 0.58 m from the axis is 3 cm past the cylinder but inside the box.
-  EXPECT_NEAR(OutsideRegion(Vec3(0.58, -1.0, 0.0), box, 0.55), 0.03, 1e-12);
-  EXPECT_DOUBLE_EQ(OutsideRegion(Vec3(0.58, -1.0, 0.0), box, 0), 0);  // no radial limit
-  // Corner below and outside: the box's exterior distance (Euclidean to the corner).
-  EXPECT_NEAR(OutsideRegion(Vec3(0.63, -1.49, 0.0), box, 0), 0.05, 1e-12);
-}
-
-TEST(PredictAnchor, MappedOntoTheReconstructionUnlessOutsideTheRegion) {
-  const Eigen::AlignedBox3d box(Vec3(-0.6, -1.45, -0.6), Vec3(0.6, -0.02, 0.6));
-  // The reconstruction is cut at the region's floor: its lowest surface at y = -1.46.
-  const TriMesh recon = Square(-1.46);
-  const ExactClosestPoint onto(recon);
-  // Inside the region: the registered point (not the rigid one) mapped onto the surface.
-  AnchorPrediction p = PredictAnchor(Vec3(0.1, -1.40, 0.1), Vec3(0.2, -1.30, 0.1), onto, box, 0.55, 0.02);
-  EXPECT_FALSE(p.unobserved);
-  EXPECT_NEAR((p.point - Vec3(0.2, -1.46, 0.1)).norm(), 0, 1e-12);
-  // 1.5 cm below the floor face: within the margin, still mapped.
-  p = PredictAnchor(Vec3(0.1, -1.465, 0.1), Vec3(0.2, -1.30, 0.1), onto, box, 0.55, 0.02);
-  EXPECT_FALSE(p.unobserved);
-  // 12 cm below it: the reconstruction has nothing there; the rigid point as it is.
-  p = PredictAnchor(Vec3(0.1, -1.57, 0.1), Vec3(0.2, -1.46, 0.1), onto, box, 0.55, 0.02);
-  EXPECT_TRUE(p.unobserved);
-  EXPECT_NEAR((p.point - Vec3(0.1, -1.57, 0.1)).norm(), 0, 1e-12);
-  // A negative margin maps every anchor (the paper's rule).
-  p = PredictAnchor(Vec3(0.1, -1.57, 0.1), Vec3(0.2, -1.50, 0.1), onto, box, 0.55, -1);
-  EXPECT_FALSE(p.unobserved);
-  EXPECT_NEAR((p.point - Vec3(0.2, -1.46, 0.1)).norm(), 0, 1e-12);
-}
-
-// The kept candidate 8 cm from three others that agree within 2 cm (one aims at the twin):
-// their medoid. Near them, or with fewer than two others aiming at its target, the kept one.
-TEST(OutlierCandidate, TheOthersMedoidReplacesAFarKeptPoint) {
-  std::vector<CandidatePrediction> c = {
-      P("left_leg_outer", Vec3(0.08, 0.0, 0.0), 0.015), P("left_leg_outer", Vec3(0.0, 0.02, 0.0), 0.024),
-      P("right_leg_outer", Vec3(0.0, 0.0, 0.0), 0.022), P("left_leg_outer", Vec3(0.0, -0.02, 0.0), 0.026),
-      P("crotch", Vec3(0.08, 0.0, 0.0), 0.020)};
-  EXPECT_EQ(OutlierCandidate(c, 0, 0.04), 2);   // the middle one: least summed distance
-  EXPECT_EQ(OutlierCandidate(c, 0, 0.085), 0);  // within the radius: kept
-  EXPECT_EQ(OutlierCandidate(c, 0, 0.0), 0);    // off
-  c[0].point = Vec3(0.03, 0.0, 0.0);
-  EXPECT_EQ(OutlierCandidate(c, 0, 0.04), 0);
-  // Only one other aims at the target (the crotch's plan does not count, nor an unusable one).
-  c[0].point = Vec3(0.08, 0.0, 0.0);
-  c[1].usable = false;
-  c[3].target = "crotch";
-  EXPECT_EQ(OutlierCandidate(c, 0, 0.04), 0);
-  EXPECT_EQ(OutlierCandidate(c, 1, 0.04), -1);  // the kept one must be usable
-  EXPECT_EQ(OutlierCandidate({}, 0, 0.04), -1);
 }
 
 }  // namespace

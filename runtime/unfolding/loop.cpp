@@ -33,8 +33,9 @@ Json J(const Vec2& v) { return Json::array({v.x(), v.y()}); }
 void LoopOptions::Validate() const {
   objective.Validate();
   refine.Validate();
-  edge.Validate();
   capture.Validate();
+  lowest.Validate();
+  hanging.Validate();
   if (max_regrasps < 1 || max_regrasps > 100) throw Error("unfold.max_regrasps: must be in 1..100");
   if (!(standoff > 0 && standoff < 0.4)) throw Error("unfold.standoff: must be in (0, 0.4) m");
   if (!(grasp_depth >= 0 && grasp_depth < 0.1)) throw Error("unfold.grasp_depth: must be in [0, 0.1) m");
@@ -43,21 +44,7 @@ void LoopOptions::Validate() const {
   if (!(success_distance > 0)) throw Error("unfold.success_distance: must be > 0 m");
   if (plan_prior_top_k < 0 || plan_prior_top_k > 5) throw Error("unfold.plan_prior_top_k: must be in 0..5");
   if (candidates < 1 || candidates > 10) throw Error("unfold.candidates: must be in 1..10");
-  if (!(fit_radius >= 0 && fit_radius <= 1)) throw Error("unfold.fit_radius: must be in [0, 1] m");
-  lowest.Validate();
-  hanging.Validate();
-  if (!(consensus_radius >= 0 && consensus_radius < 0.5)) throw Error("unfold.consensus_radius: must be in [0, 0.5) m");
-  if (!(outlier_radius >= 0 && outlier_radius < 0.5)) throw Error("unfold.outlier_radius: must be in [0, 0.5) m");
-  if (outlier_radius > 0 && consensus_radius > 0)
-    throw Error("unfold: the regrasp point is by consensus or by outlier rejection, not both");
-  if (!(unobserved_margin < 0.5)) throw Error("unfold.unobserved_margin: must be below 0.5 m");
-  if (!(first_hang_weight >= 0)) throw Error("unfold.first_hang_weight: must be >= 0");
-  if (!(gated_out_excess >= 0)) throw Error("unfold.gated_out_excess: must be >= 0");
   if (!(refit_absent_penalty >= 0)) throw Error("unfold.refit_absent_penalty: must be >= 0");
-  if (!(category_gate < 3)) throw Error("unfold.category_gate: must be below 3 (< 0: the weights' gate)");
-  if (!(category_ungated_weight >= 0)) throw Error("unfold.category_ungated_weight: must be >= 0");
-  if (category_fit && (category_known || category_evidence))
-    throw Error("unfold.category_fit: decides the first step's category; not with category_known or category_evidence");
 }
 
 double Coverage(const TriMesh& lying, const Garment& garment, double mpp) {
@@ -91,9 +78,7 @@ int PlanPriorRank(const rec::Recognition& r, const std::string& aimed, int top_k
   return FirstAimedOrTwin(r.top, static_cast<size_t>(std::max(top_k, 0)), aimed);
 }
 
-bool MayStop(const LoopOptions& o, double f, bool holder_regrasped) {
-  return f >= o.objective.xi && (holder_regrasped || !o.verify_first_holder);
-}
+bool MayStop(const LoopOptions& o, double f, bool holder_regrasped) { return f >= o.objective.xi && holder_regrasped; }
 
 int TrustedAimedEntry(const rec::Recognition& r, const std::string& aimed) {
   return FirstAimedOrTwin(r.entries, r.entries.size(), aimed);
@@ -307,10 +292,9 @@ struct TrialRun {
   const std::function<void(const std::string&)>& progress;
   int holder = 0;
   std::string trial_category;     // decided by the first recognition (see SenseAndRecognise)
-  CategoryDecision decision;      // from every hang (LoopOptions::category_evidence)
   std::string aimed;              // anchor the holding gripper was sent to ("" before a regrasp)
   bool holder_regrasped = false;  // the holder took its point by an aimed regrasp (not the first grasp)
-  // LoopOptions::category_refit: each hang's category-by-registration scores, in order.
+  // Each hang's category-by-registration scores, in order.
   std::vector<std::map<std::string, double>> fit_scores;
 
   void Say(const std::string& s) const {
@@ -382,40 +366,26 @@ struct TrialRun {
     ro.query_height = fused.mesh.V.col(1).maxCoeff() - fused.mesh.V.col(1).minCoeff();  // height gates
     ro.top_k = std::max(ro.top_k, o.plan_prior_top_k);
     // RegistrationCandidates filters them; TrustedAimedEntry looks beyond the top anchors.
-    if (o.candidates > 1 || o.trust_aimed) ro.top_entries = model.database().size();
-    // Eq. match against every entry once: the category evidence and the recognition
-    // (Recognizer::Recognize is the same Rank of the same matches).
+    ro.top_entries = model.database().size();
+    // Eq. match against every entry once, for the category by registration and the
+    // recognition (Recognizer::Recognize is the same Rank of the same matches).
     const rec::Recognizer& recognizer = model.recognizer(o.weighted);
     const rec::PreparedQuery q(code);
     std::vector<rec::Match> matches;
     model.database().matcher().MatchAll(q, &matches);
-    const double gate = o.category_gate < 0 ? recognizer.GatesFor(ro).category : o.category_gate;
-    s.category_evidence =
-        EvidenceOfHang(model.database(), matches, ro.query_height, gate, o.gated_out_excess, o.category_ungated_weight);
-    s.evidence_weight = holder_regrasped ? 1.0 : o.first_hang_weight;
-    const bool changed = decision.Add(s.category_evidence, s.evidence_weight);
-    s.category_totals = decision.totals();
-    // The garment in the gripper does not change between steps. Once decided (category
-    // off), the pose is recognised within the first step's category; with the evidence,
-    // within the category every hang so far decides (the first step's when none other).
+    // The garment in the gripper does not change between steps: the pose is recognised
+    // within the trial's category, which the hangs so far decide.
     const bool refit_changed = UpdateCategoryByFit(s, matches, recognizer, ro);
-    if (o.category_known)
-      ro.category = category;
-    else if (o.category_evidence)
-      ro.category = decision.decided();
-    else
-      ro.category = trial_category;
+    ro.category = o.category_known ? category : trial_category;
     s.recognition = recognizer.Rank(q, matches, ro);
-    if (!o.category_known && o.category_evidence) s.recognition.category_source = "evidence";
     if (!s.category_fit.is_null() && !ro.category.empty()) s.recognition.category_source = "registration";
     s.recognition.match_seconds = Since(t0);
     s.decided_category = s.recognition.category;
-    s.category_switched = !o.category_known && ((o.category_evidence && changed) || refit_changed);
+    s.category_switched = refit_changed;
     if (s.category_switched) {
       // The aimed anchor was planned on the other category's model: neither kept nor
       // registered as a candidate, and the holder was not placed by an aimed regrasp.
-      s.note = "category now " + s.decided_category + " (" + (refit_changed ? "the fits" : "the evidence") + " of " +
-               std::to_string(refit_changed ? fit_scores.size() : decision.hangs()) +
+      s.note = "category now " + s.decided_category + " (the fits of " + std::to_string(fit_scores.size()) +
                " hangs): recognition's anchor, not the one aimed at";
       holder_regrasped = false;
     }
@@ -429,20 +399,19 @@ struct TrialRun {
 
   // One hang tells neighbouring anchors apart poorly (a trouser leg's inner and outer
   // corner hang alike), while the arm knows where it was sent: the aimed anchor, or its
-  // twin, is kept when recognition ranks it among its top k; with trust_aimed always.
+  // twin, is kept, as recognition's top-k anchor when it ranks it among its top k, else
+  // as its best-scored entry.
   void ApplyPlanPrior(Step& s) const {
     s.aimed_anchor = aimed;
     if (s.category_switched) return;
     s.prior_rank = PlanPriorRank(s.recognition, aimed, o.plan_prior_top_k);
     if (s.prior_rank >= 0) {
       s.recognition.best = s.recognition.top[s.prior_rank];
-    } else if (o.trust_aimed) {
+    } else {
       const int e = TrustedAimedEntry(s.recognition, aimed);
       if (e < 0) return;
       s.prior_trusted = true;
       s.recognition.best = s.recognition.entries[e];
-    } else {
-      return;
     }
     s.recognition.anchor = s.recognition.best.anchor;
   }
@@ -481,9 +450,9 @@ struct TrialRun {
     }
   }
 
-  // LoopOptions::category_fit: the hang's category by registration ("" when no entry
-  // could be registered: recognition's nearest neighbour then decides). Its scores are
-  // kept for LoopOptions::category_refit.
+  // The hang's category by registration ("" when no entry could be registered:
+  // recognition's nearest neighbour then decides). Its scores are kept for the sum over
+  // the trial's hangs.
   std::string CategoryByFit(Step& s, const std::vector<rec::Match>& matches, const rec::Recognizer& recognizer,
                             const rec::RecognizeOptions& ro) {
     const rec::CategoryFit fit = rec::RecognitionCategoryByFit(
@@ -494,12 +463,12 @@ struct TrialRun {
     return fit.category;
   }
 
-  // LoopOptions::category_fit: the trial's category by registration at its first hang,
-  // and with category_refit at every hang, the least score summed over the hangs so far
-  // deciding (SummedFitCategory; ties keep it). Returns whether a refit changed it.
+  // The trial's category by registration at every hang, the least score summed over the
+  // hangs so far deciding (SummedFitCategory; ties keep it); none with category_known.
+  // Returns whether a later hang changed it.
   bool UpdateCategoryByFit(Step& s, const std::vector<rec::Match>& matches, const rec::Recognizer& recognizer,
                            const rec::RecognizeOptions& ro) {
-    if (!o.category_fit || !(trial_category.empty() || o.category_refit)) return false;
+    if (o.category_known) return false;
     const std::string fitted = CategoryByFit(s, matches, recognizer, ro);
     const std::string before = trial_category;
     if (before.empty()) {
@@ -516,11 +485,10 @@ struct TrialRun {
     return rec::TurnedToQuery(model.HungMesh(c.entry), c.rotation, db.sectors());
   }
 
-  // Candidate registration `reg`'s anchor vertex `v` as the regrasp point (object frame).
-  AnchorPrediction Predict(const CandidateRegistration& reg, int v, const ExactClosestPoint& onto) const {
-    const FusionOptions& f = model.recipe().fusion;
-    return PredictAnchor(reg.reg.rigid.V.row(v).transpose(), reg.final_mesh().V.row(v).transpose(), onto, f.box,
-                         f.radius, o.unobserved_margin);
+  // Candidate registration `reg`'s anchor vertex `v` as the regrasp point: mapped onto the
+  // reconstruction (its closest surface point; object frame).
+  static Vec3 Predict(const CandidateRegistration& reg, int v, const ExactClosestPoint& onto) {
+    return onto.Query(reg.final_mesh().V.row(v).transpose()).point;
   }
 
   // R + N for the kept candidate only (the others were registered rigidly: the rigid fit
@@ -535,9 +503,7 @@ struct TrialRun {
     t.fit_final = reg.fit_final;
     const int v = model.AnchorVertex(t.candidate.instance, t.next_anchor);
     DRAPE_CHECK(v >= 0 && v < reg.final_mesh().NumVertices(), "the kept candidate has no anchor vertex");
-    const AnchorPrediction p = Predict(reg, v, onto);
-    t.unobserved = p.unobserved;
-    t.predicted = to_world * p.point + origin;
+    t.predicted = to_world * Predict(reg, v, onto) + origin;
     t.seconds += Since(tc);
   }
 
@@ -557,22 +523,21 @@ struct TrialRun {
   }
 
   // The regrasp point from the reconstruction's lowest point (candidates.h LowestPoint): of
-  // the whole garment when the point candidate's registered hang (rigid) has the target or
+  // the whole garment when the kept candidate's registered hang (rigid) has the target or
   // its twin lowest, else the lowest near the registered target when the target or its
   // twin is the lowest near itself (the search is around the target either way: around a
   // registered twin it found waist corners on shorts held by the crotch).
   void PointFromLowest(Step& s, const CandidateRegistration& preg, int v, const Eigen::Matrix3d& to_world,
                        const Vec3& origin) const {
     const double floor = model.recipe().fusion.box.min().y();
-    s.lowest_target = TargetIsLowest(preg.reg.rigid, v, s.candidates[s.point]);
-    if (!o.lowest_point) return;
+    s.lowest_target = TargetIsLowest(preg.reg.rigid, v, s.candidates[s.kept]);
     std::optional<Vec3> p;
     if (s.lowest_target) {
       p = LowestPoint(s.recon, floor, o.lowest);
       if (!p)
         AddNote(s, "lowest point: the reconstruction's lowest point is the region's floor; registered point used");
     } else if (o.lowest.near_radius > 0) {
-      s.lowest_near = TargetIsLowest(preg.reg.rigid, v, s.candidates[s.point], o.lowest.near_radius);
+      s.lowest_near = TargetIsLowest(preg.reg.rigid, v, s.candidates[s.kept], o.lowest.near_radius);
       if (s.lowest_near) p = LowestPoint(s.recon, floor, o.lowest, Vec3(preg.final_mesh().V.row(v).transpose()));
       if (s.lowest_near && !p)
         AddNote(s, "lowest point near the target: none above the region's floor; registered point used");
@@ -601,7 +566,6 @@ struct TrialRun {
     if (rigid.V(v, 1) - rigid.V(e, 1) < o.hanging.min_drop * length) return;  // the end is not below
     s.hanging_end = end;
     s.hanging_length = length;
-    if (!o.hanging_end) return;
     const Vec3 around = reg.final_mesh().V.row(e).transpose();
     const auto low = LowestNear(s.recon, around, model.recipe().fusion.box.min().y(), o.hanging);
     if (!low) {
@@ -613,28 +577,17 @@ struct TrialRun {
     s.hanging_taken = true;
   }
 
-  // The regrasp point (candidates.h ConsensusCandidate): the consensus of the candidates
-  // aiming at the kept target or its twin; the ladder's first rungs from its registration.
-  void PointFromConsensus(Step& s, const std::vector<double>& fits, const std::vector<CandidateRegistration>& regs,
-                          const std::vector<int>& vertex, const Eigen::Matrix3d& to_world, const Vec3& origin) const {
-    std::vector<CandidatePrediction> preds(s.candidates.size());
-    for (size_t i = 0; i < s.candidates.size(); ++i)
-      preds[i] = {s.candidates[i].usable, s.candidates[i].next_anchor, s.candidates[i].predicted, fits[i]};
-    std::vector<int> votes;
-    s.point = ConsensusCandidate(preds, s.kept, o.consensus_radius, &votes);
-    DRAPE_CHECK(s.point >= 0, "the kept candidate is not usable");
-    for (size_t i = 0; i < s.candidates.size(); ++i) s.candidates[i].votes = votes[i];
-    if (o.outlier_radius > 0) s.point = OutlierCandidate(preds, s.kept, o.outlier_radius);
-    const CandidateRegistration& preg = regs[s.point];
-    const int v = vertex[s.point];
-    s.predicted = s.candidates[s.point].predicted;
+  // The regrasp point from the kept candidate's registration `preg` (its target at vertex
+  // `v`): the registered target mapped onto the reconstruction, or the reconstruction's
+  // lowest point, or the hanging end's; the ladder's first rungs.
+  void PointFromKept(Step& s, const CandidateRegistration& preg, int v, const Eigen::Matrix3d& to_world,
+                     const Vec3& origin) const {
+    s.predicted = s.candidates[s.kept].predicted;
     s.ladder.rigid = to_world * preg.reg.rigid.V.row(v).transpose() + origin;
     s.ladder.nonrigid = to_world * preg.final_mesh().V.row(v).transpose() + origin;
     // The turn is about the vertical: "below" is the same in the object frame.
-    s.edge_target = AnchorAtLowerEdge(preg.final_mesh(), v, o.edge);
     PointFromLowest(s, preg, v, to_world, origin);
-    if (!s.lowest_taken) PointFromHangingEnd(s, preg, s.candidates[s.point], to_world, origin);
-    if (o.hem_corner) s.point_mesh = preg.final_mesh(), s.point_vertex = v, s.point_to_world = to_world;
+    if (!s.lowest_taken) PointFromHangingEnd(s, preg, s.candidates[s.kept], to_world, origin);
   }
 
   // Registration of each candidate's database mesh (turned by its recognised rotation)
@@ -653,7 +606,7 @@ struct TrialRun {
     std::vector<double> fits(cands.size(), -1);
     std::string first_failure;
     // The rigid fit selects and the kept candidate's point is used: only it needs R + N.
-    const bool nonrigid_kept_only = o.nonrigid && o.fit_after_rigid && !(o.consensus_radius > 0) && cands.size() > 1;
+    const bool nonrigid_kept_only = o.nonrigid && cands.size() > 1;
     for (size_t i = 0; i < cands.size(); ++i) {
       const auto tc = Clock::now();
       Step::CandidateTrace t;
@@ -682,15 +635,8 @@ struct TrialRun {
       } else {
         vertex[i] = v;
         t.usable = true;
-        fits[i] = o.fit_after_rigid ? t.fit_rigid : t.fit_final;
-        if (o.fit_radius > 0) {
-          const TriMesh& m = o.fit_after_rigid ? regs[i].reg.rigid : regs[i].final_mesh();
-          t.fit_local = LocalFit(m, s.recon, onto, m.V.row(v).transpose(), o.fit_radius);
-          fits[i] = t.fit_local;
-        }
-        const AnchorPrediction p = Predict(regs[i], v, onto);
-        t.unobserved = p.unobserved;
-        t.predicted = to_world * p.point + hp.position;
+        fits[i] = t.fit_rigid;
+        t.predicted = to_world * Predict(regs[i], v, onto) + hp.position;
       }
       t.seconds = Since(tc);
       s.candidates.push_back(std::move(t));
@@ -714,7 +660,7 @@ struct TrialRun {
     s.icp_rms = k.icp_rms;
     if (!reg.note.empty()) s.note = reg.note;
     ColourByScore(s, pairs);
-    PointFromConsensus(s, fits, regs, vertex, to_world, hp.position);
+    PointFromKept(s, reg, vertex[s.kept], to_world, hp.position);
     return true;
   }
 
@@ -772,8 +718,6 @@ struct TrialRun {
     auto frame = [&](const Vec3& d) { return Vec3(d.dot(c), d.y(), d.dot(s.approach)); };
     L.mapped_offset = frame(s.predicted - target);
     L.refined_offset = frame(s.grasp - target);
-    L.lateral = s.lateral_grasp;
-    L.lateral_error = (s.lateral_grasp - target).norm();
     // What the jaws would take at the registered point without IR refinement.
     hw::GripperPose at;
     at.approach = s.approach;
@@ -785,16 +729,6 @@ struct TrialRun {
     if (p.uv) {
       L.no_ir_pinch_error = (p.pinch - target).norm();
       if (ta) L.no_ir_pattern_error = (*p.uv - ta->uv).norm();
-    }
-    // What the jaws would take after the horizontal scan alone (before the hem-edge step).
-    at.position = s.lateral_grasp;
-    const hw::GraspProbe pl = world.ProbeGrasp(at);
-    if (pl.uv && ta) L.lateral_pattern_error = (*pl.uv - ta->uv).norm();
-    if (s.edge.found) {  // after the hem-edge step, before the hem-corner step
-      L.edge_error = (s.edge_grasp - target).norm();
-      at.position = s.edge_grasp;
-      const hw::GraspProbe pe = world.ProbeGrasp(at);
-      if (pe.uv && ta) L.edge_pattern_error = (*pe.uv - ta->uv).norm();
     }
   }
 
@@ -813,37 +747,6 @@ struct TrialRun {
     s.ladder.pinch_error = (p.pinch - target).norm();
   }
 
-  // The vertical scan through the refined point (LoopOptions::hem_edge): the jaws go
-  // `inset` above the lowest reading of the surface the refined point lies on.
-  void HemEdge(Step& s, hw::Arm& arm, hw::RangeSensor& ir, const IrScanPlan& plan, hw::GripperPose& g) const {
-    const EdgeOptions& e = o.edge;
-    const double reference = s.refine.valid ? s.refine.range : o.standoff;
-    s.edge_ranges = ScanIr(arm, ir, g, e.above_samples + e.below_samples + 1, [&](int i) {
-      return plan.JawDuringScan(s.refine.offset, (e.above_samples - i) * e.sample_spacing);
-    });
-    s.edge = FindLowerEdge(s.edge_ranges, reference, e);
-    if (!s.edge.found) {
-      AddNote(s, "hem edge: no lower edge in the vertical scan");
-      return;
-    }
-    g.position = plan.Grasp(s.refine.offset, s.edge.up, s.edge.range);
-    s.edge_grasp = g.position;
-    if (!o.hem_corner || s.point_vertex < 0) return;
-    // The hem's corner: which end of the hem, from the registered mesh, then a scan along it.
-    s.corner_side = CornerSide(s.point_mesh, s.point_vertex, s.point_to_world.transpose() * plan.closing, e);
-    if (s.corner_side == 0) return;
-    const int half = o.refine.half_width_samples;
-    const double dx = o.refine.sample_spacing;
-    s.side_ranges = ScanIr(arm, ir, g, 2 * half + 1,
-                           [&](int i) { return plan.JawDuringScan(s.refine.offset + (i - half) * dx, s.edge.up); });
-    s.side = FindSideEdge(s.side_ranges, s.edge.range, s.corner_side, dx, e);
-    if (s.side.found) {
-      g.position = plan.Grasp(s.refine.offset + s.side.offset, s.edge.up, s.side.range);
-    } else {
-      AddNote(s, "hem corner: no end of the hem in the side scan");
-    }
-  }
-
   // IR scan across the predicted point with the free gripper; returns the grasp pose.
   hw::GripperPose Refine(Step& s, int free_arm) {
     const auto t0 = Clock::now();
@@ -857,7 +760,6 @@ struct TrialRun {
     g.approach = a;
     g.closing = c;
     g.position = s.predicted + a * o.grasp_depth;
-    s.lateral_grasp = g.position;
     if (o.ir_refinement) {
       hw::Arm& arm = world.arm(free_arm);
       hw::RangeSensor& ir = world.ir(free_arm);
@@ -868,14 +770,12 @@ struct TrialRun {
       plan.mount = ir.mount();
       plan.standoff = o.standoff;
       plan.grasp_depth = o.grasp_depth;
-      plan.at_jaw_line = o.ir_at_jaw_line;
       const int half = o.refine.half_width_samples;
       s.ir_ranges = ScanIr(arm, ir, g, 2 * half + 1,
                            [&](int i) { return plan.JawDuringScan((i - half) * o.refine.sample_spacing); });
       RefineOptions ro = o.refine;
-      if (s.lowest_taken && o.lowest.centre_only) ro.search_half_width_samples = 0;  // depth only
+      if (s.lowest_taken || s.hanging_taken) ro.search_half_width_samples = 0;  // an observed point: depth only
       if (s.hanging_taken) {
-        if (o.hanging.centre_only) ro.search_half_width_samples = 0;  // depth only
         ro.depth_half_width_samples =
             std::min(ro.half_width_samples, static_cast<int>(std::lround(o.hanging.depth_window / ro.sample_spacing)));
       }
@@ -885,8 +785,6 @@ struct TrialRun {
       } else {
         AddNote(s, "no IR reading in the whole scan: registered point used");
       }
-      s.lateral_grasp = g.position;
-      if (o.hem_edge && o.ir_at_jaw_line && s.edge_target) HemEdge(s, arm, ir, plan, g);
     }
     res.times.refinement += Since(t0);
     s.grasp = g.position;
@@ -933,7 +831,7 @@ struct TrialRun {
         res.steps.push_back(std::move(s));
         return;
       }
-      if (s.f >= o.objective.xi)  // held back by verify_first_holder
+      if (s.f >= o.objective.xi)  // held back: the holder is the random first grasp
         AddNote(s, "f >= xi on the first grasp, known from recognition alone: the holder lets go");
       // Not there yet: the old grasp lets go, the garment hangs from the new one.
       world.arm(holder).Open();
@@ -977,7 +875,7 @@ TrialResult RunTrial(const ReleaseModel& model, const std::string& category, con
   res.sensing_height = o.sensing_height;
   for (const Anchor& a : tg.garment.anchors) res.true_anchors.push_back({a.label, a.uv});
   hw::SimWorld world(tg.garment, tg.material, tg.fit, so, DeriveSeed(seed, "world"));
-  TrialRun run{model, o, category, seed, world, res, progress, 0, "", {}, "", false, {}};
+  TrialRun run{model, o, category, seed, world, res, progress, 0, "", "", false, {}};
   try {
     run.Run();
   } catch (const NumericalError& e) {
@@ -1032,12 +930,7 @@ Json LadderJson(const Step::Ladder& l) {
           {"refined_offset_m", J(l.refined_offset)},
           {"no_ir_outcome", l.no_ir_outcome},
           {"no_ir_pinch_error_m", l.no_ir_pinch_error},
-          {"no_ir_pattern_error_m", l.no_ir_pattern_error},
-          {"d0_lateral", J(l.lateral)},
-          {"d0_lateral_error_m", l.lateral_error},
-          {"d0_lateral_pattern_error_m", l.lateral_pattern_error},
-          {"d1_edge_error_m", l.edge_error},
-          {"d1_edge_pattern_error_m", l.edge_pattern_error}};
+          {"no_ir_pattern_error_m", l.no_ir_pattern_error}};
 }
 
 // The registration candidates of a step, the one kept and its truth, into its trace `j`.
@@ -1051,22 +944,18 @@ void AddCandidates(const Step& s, Json& j) {
                      {"rotation", c.rotation},
                      {"score", c.score},
                      {"usable", t.usable},
-                     {"unobserved", t.unobserved},
                      {"next_anchor", t.next_anchor},
                      {"f", t.f},
                      {"fit_rigid_m", t.fit_rigid},
                      {"fit_final_m", t.fit_final},
-                     {"fit_local_m", t.fit_local},
                      {"icp_rms", t.icp_rms},
                      {"predicted", J(t.predicted)},
                      {"note", t.note},
                      {"seconds", t.seconds},
-                     {"votes", t.votes},
                      {"truth", {{"right", t.right}, {"twin", t.twin}, {"predicted_error_m", t.predicted_error}}}});
   }
   j["candidates"] = std::move(cands);
   j["kept_candidate"] = s.kept;
-  j["point_candidate"] = s.point;
   j["truth"]["kept_right"] = s.kept_right;
   j["truth"]["true_rank"] = s.true_rank;
 }
@@ -1087,12 +976,7 @@ Json StepJson(const Step& s) {
          {"recognition", rec::ToJson(s.recognition)},
          {"recognised_right", s.recognised_right},
          {"category",
-          {{"evidence", s.category_evidence.ToJson()},
-           {"weight", s.evidence_weight},
-           {"totals", s.category_totals},
-           {"decided", s.decided_category},
-           {"switched", s.category_switched},
-           {"registration", s.category_fit}}},
+          {{"decided", s.decided_category}, {"switched", s.category_switched}, {"registration", s.category_fit}}},
          {"aimed_anchor", s.aimed_anchor},
          {"recognised_anchor", s.recognised_anchor},
          {"prior_rank", s.prior_rank},
@@ -1111,16 +995,6 @@ Json StepJson(const Step& s) {
          {"ir_fold_found", s.refine.fold_found},
          {"lowest_point", {{"target", s.lowest_target}, {"near", s.lowest_near}, {"taken", s.lowest_taken}}},
          {"hanging_end", {{"end", s.hanging_end}, {"taken", s.hanging_taken}, {"length_m", s.hanging_length}}},
-         {"edge",
-          {{"target", s.edge_target},
-           {"ranges", RangesJson(s.edge_ranges)},
-           {"found", s.edge.found},
-           {"up_m", s.edge.up},
-           {"range_m", s.edge.range},
-           {"corner_side", s.corner_side},
-           {"side_ranges", RangesJson(s.side_ranges)},
-           {"side_found", s.side.found},
-           {"side_offset_m", s.side.offset}}},
          {"regrasp",
           {{"outcome", hw::GraspOutcomeName(s.regrasp.outcome)},
            {"captured", s.regrasp.captured},

@@ -39,11 +39,6 @@
 
 namespace drape::unfolding {
 
-// The consensus radius of `--candidate-point consensus` (LoopOptions::consensus_radius), m.
-inline constexpr double kConsensusRadius = 0.03;
-// The radius of `--candidate-point outlier` (LoopOptions::outlier_radius), m.
-inline constexpr double kOutlierRadius = 0.04;
-
 struct LoopOptions {
   ObjectiveOptions objective;
   RefineOptions refine;
@@ -52,151 +47,37 @@ struct LoopOptions {
   bool nonrigid = true;         // ablation: false = rigid-only registration (R)
   bool weighted = true;         // ablation: false = unweighted recognition (Eq. match)
   bool category_known = false;  // true: recognition is told the category
-  // The category from every hang (category.h): each step's Eq. match against the whole
-  // database adds per-category evidence, and the pose is recognised within the category
-  // with the least accumulated evidence against it. When that decision changes, the step
-  // plans with the new category's desired pairs from recognition's own anchor: the aimed
-  // anchor was planned on the other category's model, so neither the plan prior nor
-  // trust_aimed keeps it, and the holder counts as not placed by an aimed regrasp
-  // (verify_first_holder). false (default): the category of the first step is kept for
-  // the trial. Off by default: on paper 2.3.0 it repaired the category of pants (5 of 10
-  // right at the stop -> 10 of 10 on seed 2, 6 -> 8 of 9 on seed 3; unfolded 3 and 2 of 10
-  // both ways) but took 1 of 10 shirts for pants, and along the shorts' trajectories of
-  // seed 1 it would take 8 of 10 for pants or shirts (their hangs pass the height gate
-  // of shorts entries only, and without the gate pants and shirts are nearer);
-  // docs/unfolding.md, "The category from every hang".
-  bool category_evidence = false;
-  // The first step's category by registration (recognition/category_fit.h, its default
-  // settings): each of the nearest categories' best entries registered onto the first
-  // hang's reconstruction, the best fit decides, and the trial keeps it as with the
-  // category decided once. Chosen on database-like hangs (paper 2.3.0 recognition:
-  // docs/recognition.md, "The category by registration"); in the loop (with the lowest
-  // point) it repaired the 5 first steps of 20 pants trials that took pants for a
-  // long-sleeve shirt, took 2 others for one and 1 of 10 shirts for pants (unfolded 37 -> 39
-  // of 60; docs/unfolding.md, "The lowest point"). Not with category_known or
-  // category_evidence (Validate); false: recognition's nearest neighbour.
-  bool category_fit = true;
-  // With category_fit: the category by registration again at every hang, the trial's
-  // category the one of the least score summed over the hangs (category.h
-  // SummedFitCategory); when it changes, the step plans from recognition's anchor in the
-  // new category, as with category_evidence. On paper 2.3.0 it gave the shirts the first
-  // hang had taken for pants back at the second (shirt 21 -> 27 of 30, pants 13 -> 13 of
-  // 20, shorts 8 -> 7 of 10; docs/unfolding.md, "The category at every hang").
-  // false: the first step's, kept for the trial. No effect without category_fit.
-  bool category_refit = true;
-  // With category_refit: what a category left out of a hang's registration (by the height
-  // gate, or as not among the two nearest categories) counts there beyond that hang's
-  // largest score (category.h SummedFitCategory); must be >= 0. With 0 a shorts trial
-  // whose first hang passed the height gate of shorts alone switched to a long-sleeve
-  // shirt at the second hang if a shirt fit it 18-29 % better (3 of 30 shorts trials,
-  // all lost); 0.5 (twice the median runner-up's excess, 0.25, over the 97 two-category
-  // hangs of those runs) kept all three shorts (unfolded) and changed no shirt's repair
-  // (docs/unfolding.md, "A category left out").
+  // Otherwise the category is decided by registration (recognition/category_fit.h) at
+  // every hang: each of the nearest categories' best entries registered onto the hang's
+  // reconstruction, and the trial's category the one of the least score summed over the
+  // hangs so far (category.h SummedFitCategory). A category left out of a hang's
+  // registration (by the height gate, or as not among the two nearest categories) counts
+  // that hang's largest score plus this penalty; must be >= 0.
   double refit_absent_penalty = 0.5;
-  // Weight of a hang from the random first grasp in that evidence (a hang after an aimed
-  // regrasp weighs 1); must be >= 0.
-  double first_hang_weight = 1;
-  // The least excess a category gated out at a hang by its height gets (category.h
-  // kGatedOutExcess; a fraction of the code's bits); must be >= 0.
-  double gated_out_excess = kGatedOutExcess;
-  // That evidence per hang (category.h): the excess within the height gate τ (< 0: the
-  // weights' category gate, the one recognition decides with; 0: none) plus
-  // `category_ungated_weight` × the excess without it. The loop's hangs (a random grasp,
-  // a fall from two grippers) hang at heights the database (hung from anchors) never
-  // shows, and the weights' gate (chosen on database-like hangs) leaves the garment's own
-  // entries out: on paper 2.3.0 the gated nearest category was right at 5 of 10 first
-  // pants hangs and 6 of 10 second, the ungated at 9 and 10; on long-sleeve shirts the
-  // gated 10 of 10 and 6 of 9, the ungated 6 of 10 and 7 of 9; summed over both hangs,
-  // both excesses were right on 10 of 10 pants and 9 of 10 shirts (docs/unfolding.md,
-  // "The category from every hang"). Weight must be >= 0.
-  double category_gate = -1;
-  double category_ungated_weight = 1;
-  // After a regrasp the held point is where the plan aimed: keep that anchor (or its
-  // symmetry twin) when recognition of the new hang ranks it among its top k anchors,
-  // else take recognition's answer. 0 = recognise every hang afresh, as the paper's
-  // Algorithm does. Must be in 0..5 (recognition lists 5).
+  // After a regrasp the held point is where the plan aimed: the aimed anchor (or its
+  // symmetry twin) is kept, as recognition's top-k anchor when it ranks it among its top
+  // k, else as the best-scored database entry of that anchor or its twin
+  // (TrustedAimedEntry). Must be in 0..5 (recognition lists 5).
   int plan_prior_top_k = 3;
-  // Trust the arm: after a regrasp that pinched cloth the holder is taken to hold the
-  // anchor it aimed at (or its twin) whatever recognition ranks, the best-scored database
-  // entry of that anchor or its twin standing for recognition's answer (TrustedAimedEntry).
-  // On the paper release 2.3.0 the aimed anchor or its twin was the held one in 18 of the
-  // 22 steps where recognition did not rank it among its top 3, the plan's anchor in 7;
-  // pants seed 1 unfolded 5/10 with it against 1/10, shorts 1/10 both (docs/unfolding.md,
-  // "Where the trials are lost, and trusting the arm"). false: within the top k only.
-  bool trust_aimed = true;
-  // Stop only on a holder an aimed regrasp placed: when the plan reaches f ≥ ξ while the
-  // garment still hangs from the random first grasp (its anchor known from recognition
-  // alone), the regrasp goes ahead but the first gripper lets go, and the next step plans
-  // from the aimed anchor. On paper 2.3.0 such first-grasp holders were within 6 cm of
-  // their leg end or elbow in 2 of 7 stops, regrasped ones in 22 of 43 (docs/unfolding.md).
-  // On by default since the lowest point places regrasped holders within 6 cm of their leg
-  // end in 75 of 77 regrasps: shorts 18 -> 22 of 30 unfolded, pants 14 of 20 both ways
-  // (docs/unfolding.md, "The lowest point"). false: the paper's rule, f ≥ ξ on any holder.
-  bool verify_first_holder = true;
   // Registration candidates (candidates.h): register recognition's top `candidates`
   // database entries (its answer first; after a kept plan prior only entries of that
-  // anchor or its twin) and predict from the one that fits the reconstruction best
-  // (SymmetricFit after the rigid registration when `fit_after_rigid`, else after the
-  // registration used, R + N by default). 1 = recognition's answer alone. Must be in 1..10.
-  // Defaults measured on the paper release (docs/unfolding.md): 5, the rigid fit.
+  // anchor or its twin) and predict from the one that fits the reconstruction best after
+  // the rigid registration (SymmetricFit). 1 = recognition's answer alone. Must be in 1..10.
   int candidates = 5;
-  bool fit_after_rigid = true;
-  // > 0: the fit that selects is LocalFit within this radius (m) of each candidate's
-  // registered target anchor instead of the whole garment's (candidates.h). 0: the whole
-  // garment (the default). Must be in [0, 1].
-  double fit_radius = 0;
-  // The regrasp point (candidates.h ConsensusCandidate): the kept candidate's plan, the
-  // point of the candidate aiming at its target (or the twin) with the most others within
-  // this radius (m; kConsensusRadius, chosen on seed-1 traces of the paper release,
-  // docs/unfolding.md). 0: the kept candidate's own point (the fit rule, as first built).
-  // Must be in [0, 0.5).
-  double consensus_radius = 0;
-  // The regrasp point by outlier rejection (candidates.h OutlierCandidate): the kept
-  // candidate's point unless the medoid of at least two others aiming at its target (or
-  // the twin) lies more than this (m) from it, then the medoid's (`--candidate-point
-  // outlier`: kOutlierRadius). 0: off (the default). Not with consensus_radius.
-  double outlier_radius = 0;
-  // The regrasp point (candidates.h PredictAnchor): an anchor whose rigid registration lies
-  // more than this (m) outside the fusion's segmentation region is predicted there, not
-  // mapped onto the reconstruction (which is cut at the region's floor). < 0: always
-  // mapped (the paper's rule, the default: on the paper release the rule helped R + N pants
-  // on seed 1 and hurt rigid-only pants on seeds 1 and 2, docs/unfolding.md). Must be < 0.5.
-  double unobserved_margin = -1;
   // The regrasp point (candidates.h LowestPoint): when the point's database hang has the
-  // target as its lowest point (AnchorIsLowest, rigid registration), the reconstruction's
-  // lowest point instead of the registered anchor, the IR scan giving the depth only
-  // (LowestPointOptions::centre_only). On paper 2.3.0 pants unfolded 8 -> 14 of 20, shorts
-  // 4 -> 18 of 30, the long-sleeve shirt unchanged (its elbows are never lowest; the same
-  // trial seeds, docs/unfolding.md, "The lowest point"). false: the registered anchor (the
-  // paper's rule).
-  bool lowest_point = true;
+  // target lowest (AnchorIsLowest, rigid registration), or the lowest near itself, the
+  // reconstruction's lowest point (near the registered target) instead of the registered
+  // anchor, the IR scan giving the depth only.
   LowestPointOptions lowest;
   // The regrasp point (candidates.h HangingEnd): when the target hangs straight above a
   // free end (an elbow above its cuff) and the point's database hang has that end below it,
   // the reconstruction's lowest point near the registered end, raised by the pattern's
-  // anchor-to-end distance, instead of the registered anchor (docs/unfolding.md, "The
-  // hanging end"). false: the registered anchor (the paper's rule).
-  bool hanging_end = true;
+  // anchor-to-end distance, instead of the registered anchor.
   HangingEndOptions hanging;
   hardware::CaptureOptions capture;  // frames per turn (paper ~550 both ways)
   int fusion_threads = 0;            // TSDF fusion threads (<= 0: all cores); no effect on results
   double standoff = 0.12;            // m: the IR scan runs this far before the predicted point
   double grasp_depth = 0.01;         // m: jaws go this far past the surface reading
-  // The IR scan's beam crosses the predicted point, so it reads the cloth at the jaws'
-  // height (IrScanPlan::at_jaw_line); false: the jaw centre crosses it and the beam reads
-  // the cloth 3 cm above (as first built).
-  bool ir_at_jaw_line = true;
-  // After the horizontal scan, when the registered database mesh has the target at the
-  // lower edge of the cloth around it (a hem's corner: the leg ends of pants and shorts),
-  // scan vertically through the refined point and close `edge.inset` above the lowest
-  // reading of that surface (refine.h FindLowerEdge; `--hem-edge`). Needs the IR scan at
-  // the jaw line.
-  bool hem_edge = false;
-  // With hem_edge, once the lower edge is found: a horizontal scan at the jaws' new height
-  // and the jaw centre `edge.side_inset` in from the hem's end on the side the registered
-  // mesh has its cloth away from (refine.h CornerSide, FindSideEdge; `--hem-corner`).
-  bool hem_corner = false;
-  EdgeOptions edge;
   // m: the holding gripper's height while the garment turns; 0: the release's rig, its
   // test sensing's camera.gripper_height (generator/sweep/sweep.h; 1.5 m by default).
   double sensing_height = 0;
@@ -271,19 +152,15 @@ struct Step {
   recognition::Recognition recognition;
   bool recognised_right = false;  // category right and anchor = the nearest true anchor
                                   // (of the anchor used, after the plan prior)
-  // The category (LoopOptions::category_evidence): this hang's evidence, the accumulated
-  // evidence E_c after it, the category the pose was recognised within and planned on,
-  // and whether that changed at this step.
-  HangEvidence category_evidence;
-  std::map<std::string, double> category_totals;
-  double evidence_weight = 0;
+  // The category the pose was recognised within and planned on, and whether it changed at
+  // this step.
   std::string decided_category;
   bool category_switched = false;
-  Json category_fit;  // LoopOptions::category_fit: the first step's decision (category_fit.h ToJson); null otherwise
-  std::string aimed_anchor;       // where the last regrasp aimed ("" at the first step)
+  Json category_fit;         // this hang's category by registration (category_fit.h ToJson); null with category_known
+  std::string aimed_anchor;  // where the last regrasp aimed ("" at the first step)
   std::string recognised_anchor;  // recognition's own answer, before the plan prior
   int prior_rank = -1;            // rank of the aimed anchor (or twin) kept; -1: not kept
-  bool prior_trusted = false;     // kept by LoopOptions::trust_aimed beyond the top k
+  bool prior_trusted = false;     // kept beyond recognition's top k (TrustedAimedEntry)
   bool holder_regrasped = false;  // the holder took its point by an aimed regrasp (not the first grasp)
   // Registration candidates (LoopOptions::candidates), in recognition's order, and the
   // one kept (index; its entry is then recognition.best and its anchor the current one).
@@ -292,24 +169,19 @@ struct Step {
     std::string next_anchor;  // the plan from this candidate's anchor
     double f = 0;
     double fit_rigid = -1, fit_final = -1;  // SymmetricFit (m) after R and after the registration used
-    double fit_local = -1;                  // LocalFit (m) of the mesh that selects; -1 when fit_radius is 0
     double icp_rms = 0;
     double seconds = 0;             // registration + fit (timing only)
     Vec3 predicted = Vec3::Zero();  // world: its next anchor mapped onto the reconstruction
     bool usable = false;            // registered and planned (its fit can be kept)
-    bool unobserved = false;        // its next anchor lies outside the segmentation region: rigid, unmapped
     std::string note;               // why it could not be used, or the non-rigid fallback
     // Truth, evaluation only: the candidate's anchor is the held one / a twin of it; the
     // distance of its prediction to its next anchor (or a twin, nearer) as the cloth hangs
     // (m, -1 when not planned).
     bool right = false, twin = false;
     double predicted_error = -1;
-    int votes = -1;  // others aiming at the kept target (or twin) within the radius; -1: not
-                     // in that pool
   };
   std::vector<CandidateTrace> candidates;
   int kept = -1;
-  int point = -1;           // the candidate whose prediction the regrasp goes to (== kept by the fit rule)
   bool kept_right = false;  // truth: the kept candidate's anchor is the held true anchor
   int true_rank = -1;       // truth: first candidate whose anchor is the held true anchor
   // Registration of the kept candidate.
@@ -324,30 +196,15 @@ struct Step {
   std::vector<double> ir_ranges;
   RefineResult refine;
   Vec3 grasp = Vec3::Zero();  // world, where the free gripper closed
-  // Hem edge (LoopOptions::hem_edge): whether the point's registered database mesh has the
-  // target at the lower edge of its cloth (AnchorAtLowerEdge; recorded with the option off
-  // too), the vertical scan's readings (top to bottom) and what FindLowerEdge made of them.
-  bool edge_target = false;
-  // LoopOptions::lowest_point: whether the point's database hang has the target lowest
-  // (recorded with the option off too), and whether the reconstruction's lowest point was
-  // taken for it.
+  // The lowest point (LoopOptions::lowest): whether the kept candidate's database hang has
+  // the target lowest, and whether the reconstruction's lowest point was taken for it.
   bool lowest_target = false, lowest_taken = false;
   bool lowest_near = false;  // the target is not the lowest but the lowest near it (LowestPointOptions::near_radius)
-  // LoopOptions::hanging_end: the end below the target ("" when it has none or the database
+  // The hanging end (LoopOptions::hanging): the end below the target ("" when it has none or the database
   // hang does not have it below), whether the point was taken from it, and the distance used.
   std::string hanging_end;
   bool hanging_taken = false;
   double hanging_length = 0;
-  std::vector<double> edge_ranges;
-  EdgeResult edge;
-  int corner_side = 0;  // CornerSide of the point's registration along the closing direction
-  std::vector<double> side_ranges;
-  SideResult side;
-  TriMesh point_mesh;  // the point candidate's registered mesh (object frame; not traced)
-  int point_vertex = -1;
-  Eigen::Matrix3d point_to_world = Eigen::Matrix3d::Identity();
-  Vec3 lateral_grasp = Vec3::Zero();  // the jaw centre after the horizontal scan alone
-  Vec3 edge_grasp = Vec3::Zero();     // the jaw centre after the hem-edge step (found only)
   Vec3 approach = Vec3::Zero();
   // Regrasp.
   hardware::GraspReport regrasp;
@@ -380,13 +237,6 @@ struct Step {
     // pinch to the target (world) and on the pattern.
     std::string no_ir_outcome;
     double no_ir_pinch_error = -1, no_ir_pattern_error = -1;
-    // (d0) the jaw centre after the horizontal scan alone, before the hem-edge step (= d
-    // without it), its distance to the target and, probed, the pinch's on the pattern.
-    Vec3 lateral = Vec3::Zero();
-    double lateral_error = -1, lateral_pattern_error = -1;
-    // (d1) with the hem-edge step, the jaw centre after it and before the hem-corner step
-    // (= d without that), its distance to the target and, probed, on the pattern.
-    double edge_error = -1, edge_pattern_error = -1;
   } ladder;
   std::string note;
 };
@@ -450,11 +300,12 @@ std::string NearestAnchor(const Garment& g, const Vec2& uv);
 int PlanPriorRank(const recognition::Recognition& r, const std::string& aimed, int top_k);
 
 // Whether the loop keeps both grippers (done) after a regrasp planned with f: f ≥ ξ, and
-// with LoopOptions::verify_first_holder the holder placed by an aimed regrasp.
+// the holder placed by an aimed regrasp (not the random first grasp, whose anchor is
+// known from recognition alone).
 bool MayStop(const LoopOptions& o, double f, bool holder_regrasped);
 
 // Index in `r.entries` (the category's entries, best first) of the first entry whose
-// anchor is `aimed` or a symmetry twin of it (LoopOptions::trust_aimed); -1 if none is,
+// anchor is `aimed` or a symmetry twin of it (the plan prior beyond the top k); -1 if none is,
 // or `aimed` is empty.
 int TrustedAimedEntry(const recognition::Recognition& r, const std::string& aimed);
 

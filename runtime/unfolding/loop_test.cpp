@@ -25,19 +25,6 @@ recognition::Recognition Ranked(const std::vector<std::string>& anchors) {
   return r;
 }
 
-TEST(LoopOptions, CategoryByRegistrationDecidesAloneOrNotAtAll) {
-  LoopOptions o;
-  o.category_fit = true;
-  EXPECT_NO_THROW(o.Validate());
-  o.category_evidence = true;
-  EXPECT_THROW(o.Validate(), Error);
-  o.category_evidence = false;
-  o.category_known = true;
-  EXPECT_THROW(o.Validate(), Error);
-  o.category_fit = false;
-  EXPECT_NO_THROW(o.Validate());
-}
-
 TEST(LoopOptions, ALeftOutCategorysPenaltyIsNotNegative) {
   LoopOptions o;
   EXPECT_EQ(o.refit_absent_penalty, 0.5);
@@ -82,16 +69,12 @@ TEST(PlanPrior, TrustedAimedEntryIsTheBestEntryOfTheAimedAnchorOrItsTwin) {
   EXPECT_EQ(TrustedAimedEntry(Ranked({"crotch"}), "crotch"), -1);  // no entries listed
 }
 
-TEST(Stop, AtXiAndWithVerificationOnlyOnARegraspedHolder) {
-  LoopOptions o;  // ξ = 0.5
-  o.verify_first_holder = false;
-  EXPECT_TRUE(MayStop(o, 1.0, false));  // the paper's rule: f ≥ ξ, whoever holds
-  EXPECT_TRUE(MayStop(o, 0.5, false));
-  EXPECT_FALSE(MayStop(o, 0.19, true));  // a leg's inner corner and the other leg end
-  o.verify_first_holder = true;
+TEST(Stop, AtXiOnlyOnARegraspedHolder) {
+  const LoopOptions o;                   // ξ = 0.5
   EXPECT_FALSE(MayStop(o, 1.0, false));  // the random first grasp, recognised as a leg end
   EXPECT_TRUE(MayStop(o, 1.0, true));
-  EXPECT_FALSE(MayStop(o, 0.19, true));
+  EXPECT_TRUE(MayStop(o, 0.5, true));
+  EXPECT_FALSE(MayStop(o, 0.19, true));  // a leg's inner corner and the other leg end
 }
 
 // Trouser leg ends 40 cm apart on the pattern, and a knee.

@@ -98,154 +98,15 @@ Vec3 IrScanPlan::JawDuringScan(double offset) const {
   const Vec3& a = approach;
   const Vec3& c = closing;
   Vec3 p = predicted - a * standoff + c * offset;
-  if (at_jaw_line) p -= c * mount.x() + a.cross(c) * mount.y();
+  p -= c * mount.x() + a.cross(c) * mount.y();
   return p;
 }
 
 Vec3 IrScanPlan::Grasp(const RefineResult& r) const {
   const Vec3& a = approach;
   const Vec3& c = closing;
-  // Grouped as the first build computed it (--ir-above-jaws: the same rounding).
   const Vec3 base = predicted - a * standoff;
   return base + c * r.offset + a * (r.range + mount.z() + grasp_depth);
-}
-
-}  // namespace drape::unfolding
-
-namespace drape::unfolding {
-
-Vec3 IrScanPlan::JawDuringScan(double offset, double up) const {
-  return JawDuringScan(offset) + approach.cross(closing) * up;
-}
-
-Vec3 IrScanPlan::Grasp(double offset, double up, double range) const {
-  const Vec3& a = approach;
-  const Vec3& c = closing;
-  const Vec3 base = predicted - a * standoff;
-  return base + c * offset + a.cross(c) * up + a * (range + mount.z() + grasp_depth);
-}
-
-void EdgeOptions::Validate() const {
-  if (!(sample_spacing > 0 && sample_spacing < 1)) throw Error("edge.sample_spacing: must be in (0, 1) m");
-  if (above_samples < 0 || above_samples > 100000) throw Error("edge.above_samples: must be in 0..100000");
-  if (below_samples < 1 || below_samples > 100000) throw Error("edge.below_samples: must be in 1..100000");
-  if (!(near > 0)) throw Error("edge.near: must be > 0 m");
-  if (!(jump > 0)) throw Error("edge.jump: must be > 0 m");
-  if (!(inset >= 0)) throw Error("edge.inset: must be >= 0 m");
-  if (!(radius > 0)) throw Error("edge.radius: must be > 0 m");
-  if (!(below_margin >= 0)) throw Error("edge.below_margin: must be >= 0 m");
-  if (!(below_fraction >= 0 && below_fraction <= 1)) throw Error("edge.below_fraction: must be in [0, 1]");
-  if (!(side_inset >= 0)) throw Error("edge.side_inset: must be >= 0 m");
-  if (!(side_radius > 0)) throw Error("edge.side_radius: must be > 0 m");
-  if (!(side_margin > 0)) throw Error("edge.side_margin: must be > 0 m");
-}
-
-namespace {
-// The contiguous surface samples of a scan through the sample nearest `centre` that reads
-// within `near` of `reference` (ties: the lower index); consecutive readings within `jump`.
-struct Run {
-  int start = -1, lo = -1, hi = -1;
-};
-Run SurfaceRun(const std::vector<double>& ranges, int centre, double reference, double near, double jump,
-               bool before = true) {
-  const int n = static_cast<int>(ranges.size());
-  auto ok = [&](int i) { return std::isfinite(ranges[i]) && ranges[i] > 0; };
-  auto surface = [&](int i) { return ok(i) && std::abs(ranges[i] - reference) <= near; };
-  auto joined = [&](int i, int j) { return ok(i) && ok(j) && std::abs(ranges[i] - ranges[j]) <= jump; };
-  Run r;
-  for (int d = 0; d < n && r.start < 0; ++d) {
-    if (before && centre - d >= 0 && surface(centre - d)) {
-      r.start = centre - d;
-    } else if (centre + d < n && surface(centre + d)) {
-      r.start = centre + d;
-    }
-  }
-  if (r.start < 0) return r;
-  r.lo = r.hi = r.start;
-  while (r.hi + 1 < n && joined(r.hi, r.hi + 1)) ++r.hi;
-  while (r.lo > 0 && joined(r.lo, r.lo - 1)) --r.lo;
-  return r;
-}
-}  // namespace
-
-EdgeResult FindLowerEdge(const std::vector<double>& ranges, double reference, const EdgeOptions& options) {
-  options.Validate();
-  const int n = static_cast<int>(ranges.size());
-  if (n != options.above_samples + options.below_samples + 1)
-    throw Error("edge: the vertical scan has " + std::to_string(n) + " readings, expected " +
-                std::to_string(options.above_samples + options.below_samples + 1));
-  // Top to bottom: the upper sample wins a tie for the nearest surface sample.
-  const int centre = options.above_samples;
-  const Run run = SurfaceRun(ranges, centre, reference, options.near, options.jump, options.look_above);
-  EdgeResult r;
-  r.start = run.start;
-  if (run.start < 0 || run.hi == n - 1) return r;  // no surface, or it goes on below the scan
-  r.found = true;
-  r.edge = run.hi;
-  r.grasp = std::max(run.lo, run.hi - static_cast<int>(std::lround(options.inset / options.sample_spacing)));
-  r.up = (centre - r.grasp) * options.sample_spacing;
-  r.range = ranges[r.grasp];
-  return r;
-}
-
-SideResult FindSideEdge(const std::vector<double>& ranges, double reference, int toward, double spacing,
-                        const EdgeOptions& options) {
-  options.Validate();
-  if (ranges.size() < 3 || ranges.size() % 2 == 0)
-    throw Error("edge: a side scan needs an odd number (>= 3) of readings");
-  if (toward != -1 && toward != 1) throw Error("edge: the side to look for must be -1 or +1");
-  if (!(spacing > 0)) throw Error("edge: the side scan's spacing must be > 0 m");
-  const int n = static_cast<int>(ranges.size()), centre = n / 2;
-  const Run run = SurfaceRun(ranges, centre, reference, options.near, options.jump);
-  SideResult r;
-  r.start = run.start;
-  if (run.start < 0) return r;
-  const int inset = static_cast<int>(std::lround(options.side_inset / spacing));
-  if (toward < 0) {
-    if (run.lo == 0) return r;  // the surface goes on past the scan
-    r.edge = run.lo;
-    r.grasp = std::min(run.hi, run.lo + inset);
-  } else {
-    if (run.hi == n - 1) return r;
-    r.edge = run.hi;
-    r.grasp = std::max(run.lo, run.hi - inset);
-  }
-  r.found = true;
-  r.offset = (r.grasp - centre) * spacing;
-  r.range = ranges[r.grasp];
-  return r;
-}
-
-int CornerSide(const TriMesh& mesh, int v, const Vec3& closing, const EdgeOptions& options) {
-  options.Validate();
-  DRAPE_CHECK(v >= 0 && v < mesh.NumVertices(), "anchor vertex out of range");
-  const Vec3 p = mesh.V.row(v);
-  double sum = 0;
-  int around = 0;
-  for (int i = 0; i < mesh.NumVertices(); ++i) {
-    const Vec3 q = mesh.V.row(i);
-    if (i == v || (q - p).norm() > options.side_radius) continue;
-    sum += (q - p).dot(closing);
-    ++around;
-  }
-  if (around == 0) return 0;
-  const double mean = sum / around;
-  return mean > options.side_margin ? -1 : mean < -options.side_margin ? 1 : 0;
-}
-
-bool AnchorAtLowerEdge(const TriMesh& mesh, int v, const EdgeOptions& options) {
-  options.Validate();
-  DRAPE_CHECK(v >= 0 && v < mesh.NumVertices(), "anchor vertex out of range");
-  const Vec3 p = mesh.V.row(v);
-  int around = 0, below = 0;
-  for (int i = 0; i < mesh.NumVertices(); ++i) {
-    if (i == v) continue;
-    const Vec3 q = mesh.V.row(i);
-    if ((q - p).norm() > options.radius) continue;
-    ++around;
-    if (q.y() < p.y() - options.below_margin) ++below;
-  }
-  return around > 0 && below <= options.below_fraction * around;
 }
 
 }  // namespace drape::unfolding
