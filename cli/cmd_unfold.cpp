@@ -163,9 +163,9 @@ void WriteTrialTrace(const TrialResult& t, const Variant& v, const std::string& 
     for (size_t i = 0; i < t.steps.size(); ++i) {
       const Step& s = t.steps[i];
       const std::string p = "step_" + std::to_string(i + 1) + "_";
-      if (s.recon.NumFaces() > 0) WriteMesh(s.recon, td / (p + "recon.ply"));
-      if (s.cloth.NumFaces() > 0) WriteMesh(s.cloth, td / (p + "cloth.ply"));
-      if (s.registered.NumFaces() > 0) WriteMesh(s.registered, td / (p + "registered.ply"));
+      if (s.observe.recon.NumFaces() > 0) WriteMesh(s.observe.recon, td / (p + "recon.ply"));
+      if (s.truth.cloth.NumFaces() > 0) WriteMesh(s.truth.cloth, td / (p + "cloth.ply"));
+      if (s.plan.registered.NumFaces() > 0) WriteMesh(s.plan.registered, td / (p + "registered.ply"));
     }
   }
   WriteFileAtomic(td / "trace.json", trace.dump(2) + "\n");
@@ -186,7 +186,7 @@ TableRow RunTrials(const ReleaseModel& model, const Variant& v, const std::strin
   ParallelFor(static_cast<int>(ks.size()), jobs, [&](int i) {
     const int k = ks[i];
     LoopOptions o = lo;
-    o.ir_refinement = v.ir, o.nonrigid = v.nonrigid, o.weighted = v.weighted;
+    o.regrasp.ir_refinement = v.ir, o.plan.nonrigid = v.nonrigid, o.recognise.weighted = v.weighted;
     const uint64_t ts = DeriveSeed(seed, c + "/trial/" + std::to_string(k));
     auto say = [&](const std::string& s) {
       std::lock_guard<std::mutex> lock(say_mu);
@@ -209,10 +209,11 @@ TableRow RunTrials(const ReleaseModel& model, const Variant& v, const std::strin
 
 // --plan-prior, --candidates.
 void PlanOptions(const Args& a, LoopOptions& lo) {
-  lo.plan_prior_top_k = static_cast<int>(a.GetInt("--plan-prior").value_or(lo.plan_prior_top_k));
-  if (lo.plan_prior_top_k < 0 || lo.plan_prior_top_k > 5) throw Error("--plan-prior: must be in 0..5");
-  lo.candidates = static_cast<int>(a.GetInt("--candidates").value_or(lo.candidates));
-  if (lo.candidates < 1 || lo.candidates > 10) throw Error("--candidates: must be in 1..10");
+  lo.recognise.plan_prior_top_k = static_cast<int>(a.GetInt("--plan-prior").value_or(lo.recognise.plan_prior_top_k));
+  if (lo.recognise.plan_prior_top_k < 0 || lo.recognise.plan_prior_top_k > 5)
+    throw Error("--plan-prior: must be in 0..5");
+  lo.plan.candidates = static_cast<int>(a.GetInt("--candidates").value_or(lo.plan.candidates));
+  if (lo.plan.candidates < 1 || lo.plan.candidates > 10) throw Error("--candidates: must be in 1..10");
 }
 
 // --only K,K,...: 0-based trial indices, each in 1..trials as given; empty: all.
@@ -245,19 +246,19 @@ Json OptionsJson(const LoopOptions& lo, int trials, const std::vector<int>& only
   return {{"trials", trials},
           {"only", only_j},
           {"seed", seed},
-          {"frames", lo.capture.frames},
+          {"frames", lo.observe.capture.frames},
           {"max_regrasps", lo.max_regrasps},
-          {"sigma_length_m", lo.objective.sigma_length},
-          {"xi", lo.objective.xi},
+          {"sigma_length_m", lo.plan.objective.sigma_length},
+          {"xi", lo.plan.objective.xi},
           {"success_distance_m", lo.success_distance},
-          {"log_sigma_samples", lo.refine.sigma_samples},
-          {"ir_sample_spacing_m", lo.refine.sample_spacing},
-          {"ir_search_half_width_m", lo.refine.search_half_width_samples * lo.refine.sample_spacing},
-          {"plan_prior_top_k", lo.plan_prior_top_k},
-          {"category_known", lo.category_known},
-          {"refit_absent_penalty", lo.refit_absent_penalty},
-          {"candidates", lo.candidates},
-          {"lowest_near_radius_m", lo.lowest.near_radius},
+          {"log_sigma_samples", lo.regrasp.refine.sigma_samples},
+          {"ir_sample_spacing_m", lo.regrasp.refine.sample_spacing},
+          {"ir_search_half_width_m", lo.regrasp.refine.search_half_width_samples * lo.regrasp.refine.sample_spacing},
+          {"plan_prior_top_k", lo.recognise.plan_prior_top_k},
+          {"category_known", lo.recognise.category_known},
+          {"refit_absent_penalty", lo.recognise.refit_absent_penalty},
+          {"candidates", lo.plan.candidates},
+          {"lowest_near_radius_m", lo.plan.lowest.near_radius},
           {"place_flat", lo.place_flat}};
 }
 
@@ -272,13 +273,14 @@ const std::vector<std::string> kUnfoldValues = {"--category",   "--trials",     
 // The loop's options from the command line.
 LoopOptions LoopOptionsFrom(const Args& a) {
   LoopOptions lo;
-  lo.capture.frames = static_cast<int>(a.GetInt("--frames").value_or(550));
+  lo.observe.capture.frames = static_cast<int>(a.GetInt("--frames").value_or(550));
   lo.max_regrasps = static_cast<int>(a.GetInt("--max-regrasps").value_or(4));
-  lo.category_known = a.Flag("--category-known");
-  lo.refit_absent_penalty = a.GetDouble("--refit-absent").value_or(lo.refit_absent_penalty);
-  if (!(lo.refit_absent_penalty >= 0)) throw Error("--refit-absent: must be >= 0");
-  lo.lowest.near_radius = a.GetDouble("--lowest-near").value_or(lo.lowest.near_radius);
-  if (!(lo.lowest.near_radius >= 0 && lo.lowest.near_radius < 0.5)) throw Error("--lowest-near: must be in [0, 0.5) m");
+  lo.recognise.category_known = a.Flag("--category-known");
+  lo.recognise.refit_absent_penalty = a.GetDouble("--refit-absent").value_or(lo.recognise.refit_absent_penalty);
+  if (!(lo.recognise.refit_absent_penalty >= 0)) throw Error("--refit-absent: must be >= 0");
+  lo.plan.lowest.near_radius = a.GetDouble("--lowest-near").value_or(lo.plan.lowest.near_radius);
+  if (!(lo.plan.lowest.near_radius >= 0 && lo.plan.lowest.near_radius < 0.5))
+    throw Error("--lowest-near: must be in [0, 0.5) m");
   lo.place_flat = !a.Flag("--no-place");
   PlanOptions(a, lo);
   return lo;
@@ -306,7 +308,7 @@ int RunUnfold(const std::vector<std::string>& argv) {
   LoopOptions lo = LoopOptionsFrom(a);
   const int jobs = static_cast<int>(a.GetInt("--jobs").value_or(1));
   if (jobs < 1) throw Error("--jobs: must be >= 1");
-  if (jobs > 1) lo.fusion_threads = 1;  // the trials share the cores instead
+  if (jobs > 1) lo.observe.fusion_threads = 1;  // the trials share the cores instead
   std::vector<Variant> variants;
   variants.push_back({"full", !a.Flag("--no-ir"), !a.Flag("--rigid"), !a.Flag("--unweighted")});
   if (a.Flag("--ablations")) {

@@ -113,11 +113,13 @@ std::vector<Mark> DesiredMarks(const Garment& g, const std::string& category) {
 cv::Mat IrPanel(const Step& s) {
   cv::Mat img(kH, kW, CV_8UC3, kWhite);
   Title(img, "IR scan: range (blue), height * g'' (red)");
-  if (s.ir_ranges.empty()) {
+  const std::vector<double>& ranges = s.regrasp.ir_ranges;
+  const RefineResult& refine = s.regrasp.refine;
+  if (ranges.empty()) {
     Title(img, "(no IR refinement)", 1);
     return img;
   }
-  const int n = static_cast<int>(s.ir_ranges.size());
+  const int n = static_cast<int>(ranges.size());
   auto plot = [&](const std::vector<double>& y, const cv::Scalar& c, int top, int bottom) {
     double lo = 1e9, hi = -1e9;
     for (double v : y)
@@ -131,12 +133,12 @@ cv::Mat IrPanel(const Step& s) {
     cv::polylines(img, pts, false, c, 2, cv::LINE_AA);
     return std::pair<double, double>(lo, hi);
   };
-  const auto [rlo, rhi] = plot(s.ir_ranges, kBlue, 60, 250);
-  plot(s.refine.response, kRed, 280, 450);
-  const int x = 20 + (kW - 40) * s.refine.best / std::max(1, n - 1);
+  const auto [rlo, rhi] = plot(ranges, kBlue, 60, 250);
+  plot(refine.response, kRed, 280, 450);
+  const int x = 20 + (kW - 40) * refine.best / std::max(1, n - 1);
   cv::line(img, cv::Point(x, 50), cv::Point(x, 460), kGreen, 1);
   char buf[128];
-  std::snprintf(buf, sizeof buf, "range %.3f..%.3f m; min at %+.1f cm", rlo, rhi, 100 * s.refine.offset);
+  std::snprintf(buf, sizeof buf, "range %.3f..%.3f m; min at %+.1f cm", rlo, rhi, 100 * refine.offset);
   Title(img, buf, 1);
   return img;
 }
@@ -147,6 +149,65 @@ void Save(const cv::Mat& img, const fs::path& path) {
   WriteFileAtomic(path, std::string(buf.begin(), buf.end()));
 }
 
+// One step: the reconstruction with the predicted and refined points, the kept
+// registration coloured by the objective, the IR signal and its LoG response.
+cv::Mat StepRow(const Step& s, double sensing_height) {
+  cv::Mat row(kH, 3 * kW, CV_8UC3, kWhite);
+  const TriMesh& recon = s.observe.recon;
+  if (recon.NumFaces() > 0) {
+    cv::Mat a = row(cv::Rect(0, 0, kW, kH));
+    std::vector<Vec3> pts = Points(recon);
+    const OrthoView v = Fit(pts);
+    DrawShadedMesh(a, recon, v, kGrey);
+    const Vec3 up(0, sensing_height, 0);  // world → holder frame (wrist at 0 after the turn)
+    if (!s.plan.current_anchor.empty()) {
+      Dot(a, v.Project(s.plan.predicted - up), kRed);
+      Dot(a, v.Project(s.regrasp.grasp - up), kGreen, 4);
+    }
+    Title(a, "reconstruction (" + std::to_string(s.observe.frames) + " frames)");
+    Title(a, "holding: " + s.truth.held_anchor + " (truth)", 1);
+    Title(a, "next: predicted (red), refined (green)", 2);
+    if (s.plan.registered.NumFaces() > 0) {
+      const recognition::Recognition& r = s.recognise.recognition;
+      cv::Mat b = row(cv::Rect(kW, 0, kW, kH));
+      DrawScored(b, s.plan.registered, s.plan.point_score, v);
+      Title(b, "matched " + r.best.id.substr(0, 40));
+      Title(b, "recognised: " + r.category + " / " + r.anchor, 1);
+      char buf[128];
+      std::snprintf(buf, sizeof buf, "next %s, f = %.3f", s.plan.next_anchor.c_str(), s.plan.f);
+      Title(b, buf, 2);
+    }
+  }
+  IrPanel(s).copyTo(row(cv::Rect(2 * kW, 0, kW, kH)));
+  return row;
+}
+
+// The end: the final grasps on the pattern beside the garment as it lies (placed) or hangs.
+cv::Mat FinalRow(const TrialResult& t, const Garment& g) {
+  cv::Mat fin(kH, 2 * kW, CV_8UC3, kWhite);
+  std::vector<Mark> fm = DesiredMarks(g, t.category);
+  for (const Vec2& u : t.final_uv) fm.push_back({u, kRed, ""});
+  PatternPanel(g, fm, std::string(t.unfolded ? "unfolded" : "not unfolded") + ": grasps (red), desired (green)")
+      .copyTo(fin(cv::Rect(0, 0, kW, kH)));
+  if (t.final_mesh.NumFaces() == 0) return fin;
+  cv::Mat b = fin(cv::Rect(kW, 0, kW, kH));
+  if (t.placed) {
+    // Seen from above as it lies on the table, fitted into the panel.
+    const cv::Mat top = folding::TopDownPicture(t.final_mesh, folding::FrameCamera(t.final_mesh.V, 0.003), kGrey);
+    const double s = std::min(double(kW) / top.cols, double(kH - 40) / top.rows);
+    cv::Mat scaled;
+    cv::resize(top, scaled, cv::Size(std::max(1, int(top.cols * s)), std::max(1, int(top.rows * s))), 0, 0,
+               cv::INTER_AREA);
+    scaled.copyTo(b(cv::Rect((kW - scaled.cols) / 2, 40, scaled.cols, scaled.rows)));
+    char buf[96];
+    std::snprintf(buf, sizeof buf, "laid on the table (top view), coverage %.2f", t.coverage);
+    Title(b, buf);
+  } else {
+    DrawShadedMesh(b, t.final_mesh, Fit(Points(t.final_mesh)), kGrey);
+    Title(b, "final state: " + t.final_state + (t.place_failure.empty() ? "" : " (" + t.place_failure + ")"));
+  }
+  return fin;
+}
 }  // namespace
 
 std::vector<std::string> WriteTrialFigures(const TrialResult& t, const Garment& g, double sensing_height,
@@ -158,60 +219,11 @@ std::vector<std::string> WriteTrialFigures(const TrialResult& t, const Garment& 
   Save(PatternPanel(g, marks, "pick-up point (red), desired pair (green)"), dir / "pickup.png");
   files.push_back("pickup.png");
   for (size_t k = 0; k < t.steps.size(); ++k) {
-    const Step& s = t.steps[k];
-    cv::Mat row(kH, 3 * kW, CV_8UC3, kWhite);
-    if (s.recon.NumFaces() > 0) {
-      cv::Mat a = row(cv::Rect(0, 0, kW, kH));
-      std::vector<Vec3> pts = Points(s.recon);
-      const OrthoView v = Fit(pts);
-      DrawShadedMesh(a, s.recon, v, kGrey);
-      const Vec3 up(0, sensing_height, 0);  // world → holder frame (wrist at 0 after the turn)
-      if (!s.current_anchor.empty()) {
-        Dot(a, v.Project(s.predicted - up), kRed);
-        Dot(a, v.Project(s.grasp - up), kGreen, 4);
-      }
-      Title(a, "reconstruction (" + std::to_string(s.frames) + " frames)");
-      Title(a, "holding: " + s.held_true_anchor + " (truth)", 1);
-      Title(a, "next: predicted (red), refined (green)", 2);
-      if (s.registered.NumFaces() > 0) {
-        cv::Mat b = row(cv::Rect(kW, 0, kW, kH));
-        DrawScored(b, s.registered, s.point_score, v);
-        Title(b, "matched " + s.recognition.best.id.substr(0, 40));
-        Title(b, "recognised: " + s.recognition.category + " / " + s.recognition.anchor, 1);
-        char buf[128];
-        std::snprintf(buf, sizeof buf, "next %s, f = %.3f", s.next_anchor.c_str(), s.f);
-        Title(b, buf, 2);
-      }
-    }
-    IrPanel(s).copyTo(row(cv::Rect(2 * kW, 0, kW, kH)));
     const std::string name = "step_" + std::to_string(k + 1) + ".png";
-    Save(row, dir / name);
+    Save(StepRow(t.steps[k], sensing_height), dir / name);
     files.push_back(name);
   }
-  cv::Mat fin(kH, 2 * kW, CV_8UC3, kWhite);
-  std::vector<Mark> fm = DesiredMarks(g, t.category);
-  for (const Vec2& u : t.final_uv) fm.push_back({u, kRed, ""});
-  PatternPanel(g, fm, std::string(t.unfolded ? "unfolded" : "not unfolded") + ": grasps (red), desired (green)")
-      .copyTo(fin(cv::Rect(0, 0, kW, kH)));
-  if (t.final_mesh.NumFaces() > 0) {
-    cv::Mat b = fin(cv::Rect(kW, 0, kW, kH));
-    if (t.placed) {
-      // Seen from above as it lies on the table, fitted into the panel.
-      const cv::Mat top = folding::TopDownPicture(t.final_mesh, folding::FrameCamera(t.final_mesh.V, 0.003), kGrey);
-      const double s = std::min(double(kW) / top.cols, double(kH - 40) / top.rows);
-      cv::Mat scaled;
-      cv::resize(top, scaled, cv::Size(std::max(1, int(top.cols * s)), std::max(1, int(top.rows * s))), 0, 0,
-                 cv::INTER_AREA);
-      scaled.copyTo(b(cv::Rect((kW - scaled.cols) / 2, 40, scaled.cols, scaled.rows)));
-      char buf[96];
-      std::snprintf(buf, sizeof buf, "laid on the table (top view), coverage %.2f", t.coverage);
-      Title(b, buf);
-    } else {
-      DrawShadedMesh(b, t.final_mesh, Fit(Points(t.final_mesh)), kGrey);
-      Title(b, "final state: " + t.final_state + (t.place_failure.empty() ? "" : " (" + t.place_failure + ")"));
-    }
-  }
-  Save(fin, dir / "final.png");
+  Save(FinalRow(t, g), dir / "final.png");
   files.push_back("final.png");
   return files;
 }

@@ -27,11 +27,39 @@ recognition::Recognition Ranked(const std::vector<std::string>& anchors) {
 
 TEST(LoopOptions, ALeftOutCategorysPenaltyIsNotNegative) {
   LoopOptions o;
-  EXPECT_EQ(o.refit_absent_penalty, 0.5);
-  o.refit_absent_penalty = 0;
+  EXPECT_EQ(o.recognise.refit_absent_penalty, 0.5);
+  o.recognise.refit_absent_penalty = 0;
   EXPECT_NO_THROW(o.Validate());
-  o.refit_absent_penalty = -0.1;
+  o.recognise.refit_absent_penalty = -0.1;
   EXPECT_THROW(o.Validate(), Error);
+}
+
+// Each phase's options are checked, the message naming the phase and the field.
+TEST(LoopOptions, EachPhaseNamesItsBadField) {
+  auto message = [](const LoopOptions& o) {
+    try {
+      o.Validate();
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_EQ(message(LoopOptions{}), "");
+  LoopOptions o;
+  o.observe.sensing_height = 0.2;
+  EXPECT_NE(message(o).find("unfold.observe.sensing_height"), std::string::npos) << message(o);
+  o = {};
+  o.recognise.plan_prior_top_k = 6;
+  EXPECT_NE(message(o).find("unfold.recognise.plan_prior_top_k"), std::string::npos) << message(o);
+  o = {};
+  o.plan.candidates = 0;
+  EXPECT_NE(message(o).find("unfold.plan.candidates"), std::string::npos) << message(o);
+  o = {};
+  o.regrasp.standoff = 0.5;
+  EXPECT_NE(message(o).find("unfold.regrasp.standoff"), std::string::npos) << message(o);
+  o = {};
+  o.max_regrasps = 0;
+  EXPECT_NE(message(o).find("unfold.max_regrasps"), std::string::npos) << message(o);
 }
 
 TEST(PlanPrior, KeepsTheAimedAnchorOrItsTwinWithinTheTopK) {
@@ -70,7 +98,7 @@ TEST(PlanPrior, TrustedAimedEntryIsTheBestEntryOfTheAimedAnchorOrItsTwin) {
 }
 
 TEST(Stop, AtXiOnlyOnARegraspedHolder) {
-  const LoopOptions o;                   // ξ = 0.5
+  const ObjectiveOptions o;              // ξ = 0.5
   EXPECT_FALSE(MayStop(o, 1.0, false));  // the random first grasp, recognised as a leg end
   EXPECT_TRUE(MayStop(o, 1.0, true));
   EXPECT_TRUE(MayStop(o, 0.5, true));

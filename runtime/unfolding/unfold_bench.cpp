@@ -29,14 +29,14 @@ int main(int argc, char** argv) {
       for (const std::string& c : model.TestCategories())
         if (category.empty() && !DesiredPairsFor(c).empty()) category = c;
     LoopOptions o;
-    o.capture.frames = argc > 3 ? std::atoi(argv[3]) : 550;
+    o.observe.capture.frames = argc > 3 ? std::atoi(argv[3]) : 550;
     const uint64_t seed = argc > 4 ? std::strtoull(argv[4], nullptr, 10) : 1;
     model.TestInstance(category);  // material fit outside the timing
     const TrialResult t = RunTrial(model, category, o, seed);
     const StageTimes& s = t.times;
     const double staged = s.simulation + s.sensing + s.fusion + s.recognition + s.registration + s.refinement;
     std::printf("unfold trial: %s, %d regrasps, %d sense/plan steps, %s, %d frames per turn\n", category.c_str(),
-                t.regrasps, int(t.steps.size()), t.unfolded ? "unfolded" : "not unfolded", o.capture.frames);
+                t.regrasps, int(t.steps.size()), t.unfolded ? "unfolded" : "not unfolded", o.observe.capture.frames);
     auto row = [&](const char* name, double v) {
       std::printf("  %-13s %8.2f s  %5.1f %%\n", name, v, 100 * v / t.seconds);
     };
