@@ -25,8 +25,8 @@ FoldScene MakeScene(const FoldSetup& s, double friction_scale, double stiffness_
 }
 
 Points3 LaidGarment(const FoldSetup& s, const Vec2& offset, double yaw) {
-  if (s.lying.rows() > 0) return PlaceOnTable(s.lying, s.garment.mesh, s.table, offset, yaw);
-  return LayFlat(s.garment.mesh, s.table, offset, yaw);
+  if (s.lying.rows() > 0) return tabletop::PlaceOnTable(s.lying, s.garment.mesh, s.table, offset, yaw);
+  return tabletop::LayFlat(s.garment.mesh, s.table, offset, yaw);
 }
 
 void TrialOptions::Validate() const {
@@ -41,8 +41,8 @@ void TrialOptions::Validate() const {
 double SilhouetteInside(const TriMesh& shape, const TriMesh& reference, double tolerance, double mpp) {
   Points3 both(shape.NumVertices() + reference.NumVertices(), 3);
   both << shape.V, reference.V;
-  const TopDownCamera cam = FrameCamera(both, mpp, tolerance + 0.02);
-  const cv::Mat a = TopDownMask(shape, cam), b = TopDownMask(reference, cam);
+  const tabletop::TopDownCamera cam = tabletop::FrameCamera(both, mpp, tolerance + 0.02);
+  const cv::Mat a = tabletop::TopDownMask(shape, cam), b = tabletop::TopDownMask(reference, cam);
   cv::Mat grown;
   const int r = static_cast<int>(std::ceil(tolerance / mpp));
   cv::dilate(b, grown, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * r + 1, 2 * r + 1)));
@@ -56,8 +56,8 @@ double SilhouetteReach(const TriMesh& shape, const TriMesh& reference, double fr
   if (!(fraction > 0 && fraction <= 1)) throw Error("SilhouetteReach: fraction must be in (0, 1]");
   Points3 both(shape.NumVertices() + reference.NumVertices(), 3);
   both << shape.V, reference.V;
-  const TopDownCamera cam = FrameCamera(both, mpp, 0.05);
-  const cv::Mat a = TopDownMask(shape, cam), b = TopDownMask(reference, cam);
+  const tabletop::TopDownCamera cam = tabletop::FrameCamera(both, mpp, 0.05);
+  const cv::Mat a = tabletop::TopDownMask(shape, cam), b = tabletop::TopDownMask(reference, cam);
   // Distance of every pixel to the nearest reference pixel (0 inside it).
   cv::Mat outside = b == 0, dist;
   cv::distanceTransform(outside, dist, cv::DIST_L2, cv::DIST_MASK_PRECISE);

@@ -23,14 +23,14 @@ struct FoldSetup {
   ClothMaterial material;  // simulation material
   ClothOptions cloth;      // solver options
   double friction = 0.4;   // Coulomb μ on the table
-  TableOptions table;
+  tabletop::TableOptions table;
   // How the garment lies when it does not start as its flat pattern (e.g. as `drape
   // unfold` placed it: placed.h), world frame of any table; empty = the pattern laid flat.
   Points3 lying;
 };
 
 // The garment on the setup's table, moved by `offset` (world x, z) and turned by `yaw`
-// (radians): `lying` moved onto it (PlaceOnTable), or the pattern laid flat (LayFlat).
+// (radians): `lying` moved onto it (tabletop::PlaceOnTable), or the pattern laid flat (tabletop::LayFlat).
 Points3 LaidGarment(const FoldSetup& setup, const Vec2& offset = Vec2::Zero(), double yaw = 0);
 
 // scales multiply friction, link stiffness (capped at 1) and density.

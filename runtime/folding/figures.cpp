@@ -30,9 +30,9 @@ cv::Mat Oblique(const Points3& x, const Faces& F, const Eigen::AlignedBox3d& box
 }
 
 // Outline of the mesh seen from above, drawn into img.
-void Outline(cv::Mat& img, const Points3& x, const Faces& F, const TopDownCamera& cam, const cv::Scalar& colour,
-             int width) {
-  const cv::Mat mask = TopDownMask(TriMesh{x, F}, cam);
+void Outline(cv::Mat& img, const Points3& x, const Faces& F, const tabletop::TopDownCamera& cam,
+             const cv::Scalar& colour, int width) {
+  const cv::Mat mask = tabletop::TopDownMask(TriMesh{x, F}, cam);
   std::vector<std::vector<cv::Point>> contours;
   cv::findContours(mask, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
   cv::drawContours(img, contours, -1, colour, width, cv::LINE_AA);
@@ -56,7 +56,7 @@ cv::Mat StepKeyFrames(const StepRecord& step, const Faces& F, int tile) {
   std::vector<cv::Mat> tiles;
   for (const Points3& f : s.frames) tiles.push_back(Oblique(f, F, box, tile));
   // Result (light blue) against target (black), from above.
-  TopDownCamera cam = FrameCamera(step.setup.start, 1.0, 0.05);
+  tabletop::TopDownCamera cam = tabletop::FrameCamera(step.setup.start, 1.0, 0.05);
   const double extent = std::max(cam.width, cam.height) * 1.0;
   cam.metres_per_pixel = extent / (tile - 10);
   cam.width = cam.height = tile;
@@ -75,8 +75,8 @@ cv::Mat StepKeyFrames(const StepRecord& step, const Faces& F, int tile) {
 
 cv::Mat FlatGarmentFigure(const PlanRun& run, const Faces& F, const std::string& caption) {
   if (run.flat.rows() == 0) throw Error("FlatGarmentFigure: the run has no settled flat garment");
-  const TopDownCamera& cam = run.camera;
-  cv::Mat img = TopDownPicture(TriMesh{run.flat, F}, cam, cv::Scalar(200, 140, 60));
+  const tabletop::TopDownCamera& cam = run.camera;
+  cv::Mat img = tabletop::TopDownPicture(TriMesh{run.flat, F}, cam, cv::Scalar(200, 140, 60));
   Outline(img, run.flat, F, cam, cv::Scalar(0, 0, 0), 1);
   for (const auto& [name, xz] : run.key_points) {
     const Vec2 f = cam.ToFrame(xz.x(), xz.y());
@@ -95,11 +95,11 @@ cv::Mat ResultFigure(const PlanRun& run, const Faces& F, double tolerance, const
   Points3 both(run.final.rows() + run.ideal.V.rows(), 3);
   both << run.final, run.ideal.V;
   const double mpp = 0.002;
-  const TopDownCamera cam = FrameCamera(both, mpp, tolerance + 0.03);
-  cv::Mat img = TopDownPicture(TriMesh{run.final, F}, cam, cv::Scalar(200, 140, 60));
+  const tabletop::TopDownCamera cam = tabletop::FrameCamera(both, mpp, tolerance + 0.03);
+  cv::Mat img = tabletop::TopDownPicture(TriMesh{run.final, F}, cam, cv::Scalar(200, 140, 60));
   cv::Mat grown;
   const int r = static_cast<int>(std::ceil(tolerance / mpp));
-  cv::dilate(TopDownMask(run.ideal, cam), grown,
+  cv::dilate(tabletop::TopDownMask(run.ideal, cam), grown,
              cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * r + 1, 2 * r + 1)));
   std::vector<std::vector<cv::Point>> contours;
   cv::findContours(grown, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);

@@ -9,7 +9,7 @@
 
 #include "generator/cloth/rectangle.h"
 #include "runtime/folding/dissimilarity.h"
-#include "runtime/folding/table.h"
+#include "runtime/tabletop/table.h"
 
 namespace drape::folding {
 namespace {
@@ -32,7 +32,7 @@ Small MakeSmall() {
   s.scene.table.pose.translation() = Vec3(0, -0.025, 0);
   s.scene.table.friction = 0.4;
   s.F = g.mesh.F;
-  const Points3 laid = LayFlat(g.mesh, TableOptions{});
+  const Points3 laid = tabletop::LayFlat(g.mesh, tabletop::TableOptions{});
   ClothWorld w(s.scene.model, laid);
   w.AddCollider(s.scene.table);
   w.Settle(SettleOptions{0.002, 0.2, 0.3, 3.0});

@@ -34,7 +34,8 @@ int main(int argc, char** argv) {
     setup.material.bending = 0.02;
     setup.friction = 0.409;
     const FoldScene scene = MakeScene(setup);
-    const Points3 flat = SettleFlat(scene, LayFlat(setup.garment.mesh, setup.table), SettleOptions{0.002, 0.2, 0.3, 3});
+    const Points3 flat =
+        SettleFlat(scene, tabletop::LayFlat(setup.garment.mesh, setup.table), SettleOptions{0.002, 0.2, 0.3, 3});
     const Vec3 lo = flat.colwise().minCoeff(), hi = flat.colwise().maxCoeff();
     // Bottom corners up onto the top half (the towel plan's first step).
     std::vector<int> grasps;

@@ -1,5 +1,5 @@
 // The garment as drape unfold leaves it: written and read back (from the trial folder,
-// its placed.json or its trace.json), and moved onto the folding table upright.
+// its placed.json or its trace.json).
 #include "runtime/folding/placed.h"
 
 #include <gtest/gtest.h>
@@ -11,7 +11,7 @@
 #include "common/error.h"
 #include "common/files.h"
 #include "garments/templates.h"
-#include "runtime/folding/table.h"
+#include "runtime/tabletop/table.h"
 
 namespace drape::folding {
 namespace {
@@ -21,37 +21,6 @@ Garment Shirt() {
   TemplateOptions o;
   o.edge_length = 0.05;
   return MakeGarment("long_sleeve_shirt", o);
-}
-
-TEST(PlaceOnTable, TurnsALaidPatternBackUprightOntoTheTable) {
-  const Garment g = Shirt();
-  TableOptions high;
-  high.top = 0.75;
-  const TableOptions table;
-  const Points3 upright = LayFlat(g.mesh, table);
-  for (double yaw : {0.0, 0.4, 2.5, M_PI, -1.2}) {
-    // On another table, elsewhere, turned: back to what LayFlat gives on this one.
-    const Points3 lying = LayFlat(g.mesh, high, Vec2(0.3, -0.2), yaw);
-    EXPECT_LT((PlaceOnTable(lying, g.mesh, table) - upright).cwiseAbs().maxCoeff(), 1e-9) << yaw;
-    EXPECT_LT(
-        (PlaceOnTable(lying, g.mesh, table, Vec2(0.02, 0.01), 0.07) - LayFlat(g.mesh, table, Vec2(0.02, 0.01), 0.07))
-            .cwiseAbs()
-            .maxCoeff(),
-        1e-9)
-        << yaw;
-  }
-  EXPECT_THROW(PlaceOnTable(upright.topRows(10), g.mesh, table), Error);
-}
-
-TEST(PlaceOnTable, KeepsTheShapeOfACrumpledGarment) {
-  const Garment g = Shirt();
-  Points3 lying = LayFlat(g.mesh, TableOptions{}, Vec2::Zero(), 0.8);
-  for (int i = 0; i < lying.rows(); ++i) lying(i, 1) += 0.05 * std::sin(7 * lying(i, 0)) + 0.05;
-  const Points3 placed = PlaceOnTable(lying, g.mesh, TableOptions{});
-  EXPECT_NEAR(placed.col(1).minCoeff(), TableOptions{}.clearance, 1e-12);
-  // A rigid motion: every distance to vertex 0 kept.
-  for (int i = 0; i < lying.rows(); ++i)
-    EXPECT_NEAR((placed.row(i) - placed.row(0)).norm(), (lying.row(i) - lying.row(0)).norm(), 1e-9);
 }
 
 class PlacedFiles : public ::testing::Test {
@@ -67,9 +36,9 @@ class PlacedFiles : public ::testing::Test {
 TEST_F(PlacedFiles, RoundTripFromTheTrialFolderItsPlacedJsonAndItsTrace) {
   PlacedGarment p;
   p.garment = Shirt();
-  TableOptions high;
+  tabletop::TableOptions high;
   high.top = 0.75;
-  p.lying = LayFlat(p.garment.mesh, high, Vec2(0.1, 0.2), 2.0);
+  p.lying = tabletop::LayFlat(p.garment.mesh, high, Vec2(0.1, 0.2), 2.0);
   p.material = "tshirt";
   p.stiffness = 0.21;
   p.friction = 0.45;
@@ -106,7 +75,7 @@ TEST_F(PlacedFiles, ATrialThatDidNotPlaceItsGarmentOrAMissingMeshIsAnError) {
   }
   PlacedGarment p;
   p.garment = Shirt();
-  p.lying = LayFlat(p.garment.mesh, TableOptions{});
+  p.lying = tabletop::LayFlat(p.garment.mesh, tabletop::TableOptions{});
   p.material = "tshirt";
   p.stiffness = 0.2;
   p.friction = 0.4;

@@ -12,7 +12,7 @@
 #include "runtime/folding/keypoints.h"
 #include "runtime/folding/plan.h"
 #include "runtime/folding/run.h"
-#include "runtime/folding/table.h"
+#include "runtime/tabletop/table.h"
 
 namespace drape::folding {
 namespace {
@@ -29,10 +29,11 @@ Folded FoldIdeally(const FoldingPlan& plan) {
   const std::string& category = plan.categories.at(0);
   const Garment g = MakeGarment(category, o);
   Folded r;
-  r.flat = TriMesh{LayFlat(g.mesh, TableOptions{}), g.mesh.F};
-  const TopDownCamera cam = FrameCamera(r.flat.V, 0.003);
+  r.flat = TriMesh{tabletop::LayFlat(g.mesh, tabletop::TableOptions{}), g.mesh.F};
+  const tabletop::TopDownCamera cam = tabletop::FrameCamera(r.flat.V, 0.003);
   std::map<std::string, Vec2> key_points;
-  for (const auto& [name, f] : DetectKeyPoints(TopDownMask(r.flat, cam), category)) key_points[name] = cam.ToWorldXZ(f);
+  for (const auto& [name, f] : DetectKeyPoints(tabletop::TopDownMask(r.flat, cam), category))
+    key_points[name] = cam.ToWorldXZ(f);
   r.folded = PlanSteps(r.flat, key_points, plan, 0.004).back().ideal;
   std::vector<int> kept;
   for (int f = 0; f < r.flat.NumFaces(); ++f) {

@@ -132,8 +132,8 @@ void RunPlan(PlanRun& run, const FoldScene& scene, const Points3& laid, const st
   const Faces& F = scene.model->rest.F;
   run = PlanRun{};
   run.flat = SettleFlat(scene, laid, o.flat_settle);
-  run.camera = FrameCamera(run.flat, o.camera_metres_per_pixel, 0.05);
-  const auto kp = DetectKeyPoints(TopDownMask(TriMesh{run.flat, F}, run.camera), category, o.key_points);
+  run.camera = tabletop::FrameCamera(run.flat, o.camera_metres_per_pixel, 0.05);
+  const auto kp = DetectKeyPoints(tabletop::TopDownMask(TriMesh{run.flat, F}, run.camera), category, o.key_points);
   for (const auto& [name, f] : kp) run.key_points[name] = run.camera.ToWorldXZ(f);
   const std::vector<PlannedStep> planned = PlanSteps(TriMesh{run.flat, F}, run.key_points, plan, o.thickness);
   Points3 cur = run.flat;

@@ -16,7 +16,7 @@
 #include "runtime/folding/fold.h"
 #include "runtime/folding/keypoints.h"
 #include "runtime/folding/plan.h"
-#include "runtime/folding/table.h"
+#include "runtime/tabletop/table.h"
 
 namespace drape::folding {
 
@@ -55,7 +55,7 @@ struct StepRecord {
 struct PlanRun {
   Points3 flat;                            // settled flat garment
   std::map<std::string, Vec2> key_points;  // world x, z
-  TopDownCamera camera;
+  tabletop::TopDownCamera camera;
   std::vector<StepRecord> steps;
   Points3 final;                   // after the last step
   TriMesh ideal;                   // the ideal folds chained from `flat`

@@ -9,7 +9,7 @@
 #include "garments/templates.h"
 #include "runtime/folding/dissimilarity.h"
 #include "runtime/folding/keypoints.h"
-#include "runtime/folding/table.h"
+#include "runtime/tabletop/table.h"
 
 namespace drape::folding {
 namespace {
@@ -40,7 +40,7 @@ TEST(IdealFold, TargetOfATowelFoldedInHalfAndTheDissimilarityOfTheFlatTowel) {
   TemplateOptions o;
   o.edge_length = 0.04;
   const Garment towel = MakeGarment("towel", o);
-  const TriMesh flat{LayFlat(towel.mesh, TableOptions{}), towel.mesh.F};
+  const TriMesh flat{tabletop::LayFlat(towel.mesh, tabletop::TableOptions{}), towel.mesh.F};
   const IdealFold fold(FoldLine{Vec2(0, 0), Vec2(1, 0)}, Vec2(0, 0.2), flat.V, 0.004);
   const TriMesh t = TargetShape(flat, fold);
   EXPECT_EQ(Dissimilarity(t, t), 0.0);
@@ -57,11 +57,11 @@ TEST(Camera, KeyPointsOfALaidTemplateAreWhereItsAnchorsAre) {
   o.edge_length = 0.03;
   for (const std::string name : {"towel", "pants", "long_sleeve_shirt"}) {
     const Garment g = MakeGarment(name, o);
-    const TableOptions table;
+    const tabletop::TableOptions table;
     const Vec2 offset(0.05, -0.03);
-    const TriMesh laid{LayFlat(g.mesh, table, offset), g.mesh.F};
-    const TopDownCamera cam = FrameCamera(laid.V, 0.003);
-    const auto k = DetectKeyPoints(TopDownMask(laid, cam), name);
+    const TriMesh laid{tabletop::LayFlat(g.mesh, table, offset), g.mesh.F};
+    const tabletop::TopDownCamera cam = tabletop::FrameCamera(laid.V, 0.003);
+    const auto k = DetectKeyPoints(tabletop::TopDownMask(laid, cam), name);
     for (const Anchor& a : g.anchors) {
       if (!k.count(a.label) || a.label.find("shoulder") != std::string::npos) continue;
       const Vec2 w = cam.ToWorldXZ(k.at(a.label));

@@ -9,7 +9,7 @@
 #include "common/error.h"
 #include "common/files.h"
 #include "garments/render.h"
-#include "runtime/folding/table.h"
+#include "runtime/tabletop/table.h"
 #include "runtime/unfolding/objective.h"
 
 namespace drape::unfolding {
@@ -193,7 +193,7 @@ cv::Mat FinalRow(const TrialResult& t, const Garment& g) {
   cv::Mat b = fin(cv::Rect(kW, 0, kW, kH));
   if (t.placed) {
     // Seen from above as it lies on the table, fitted into the panel.
-    const cv::Mat top = folding::TopDownPicture(t.final_mesh, folding::FrameCamera(t.final_mesh.V, 0.003), kGrey);
+    const cv::Mat top = tabletop::TopDownPicture(t.final_mesh, tabletop::FrameCamera(t.final_mesh.V, 0.003), kGrey);
     const double s = std::min(double(kW) / top.cols, double(kH - 40) / top.rows);
     cv::Mat scaled;
     cv::resize(top, scaled, cv::Size(std::max(1, int(top.cols * s)), std::max(1, int(top.rows * s))), 0, 0,

@@ -9,7 +9,7 @@
 #include "common/error.h"
 #include "common/rng.h"
 #include "common/timing.h"
-#include "runtime/folding/table.h"
+#include "runtime/tabletop/table.h"
 #include "runtime/unfolding/trial.h"
 
 namespace drape::unfolding {
@@ -33,9 +33,9 @@ Json StageTimes::ToJson() const {
 double Coverage(const TriMesh& lying, const Garment& garment, double mpp) {
   TriMesh flat;
   flat.F = garment.mesh.F;
-  flat.V = folding::LayFlat(garment.mesh, folding::TableOptions{});
+  flat.V = tabletop::LayFlat(garment.mesh, tabletop::TableOptions{});
   auto area = [mpp](const TriMesh& m) {
-    const cv::Mat mask = folding::TopDownMask(m, folding::FrameCamera(m.V, mpp));
+    const cv::Mat mask = tabletop::TopDownMask(m, tabletop::FrameCamera(m.V, mpp));
     return double(cv::countNonZero(mask));
   };
   const double a = area(flat);

@@ -10,7 +10,7 @@
 
 #include "common/mesh.h"
 
-namespace drape::folding {
+namespace drape::tabletop {
 
 struct TableOptions {
   double top = 0.0;                   // m, height of the table top (world y)
@@ -54,4 +54,4 @@ cv::Mat TopDownMask(const TriMesh& world_mesh, const TopDownCamera& camera);
 // A shaded picture (CV_8UC3, white background) of the cloth seen from above.
 cv::Mat TopDownPicture(const TriMesh& world_mesh, const TopDownCamera& camera, const cv::Scalar& colour);
 
-}  // namespace drape::folding
+}  // namespace drape::tabletop

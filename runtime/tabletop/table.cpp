@@ -1,11 +1,11 @@
-#include "runtime/folding/table.h"
+#include "runtime/tabletop/table.h"
 
 #include <cmath>
 
 #include "common/error.h"
 #include "garments/render.h"
 
-namespace drape::folding {
+namespace drape::tabletop {
 
 void TableOptions::Validate() const {
   if (!std::isfinite(top)) throw Error("TableOptions.top must be finite");
@@ -124,4 +124,4 @@ cv::Mat TopDownMask(const TriMesh& world_mesh, const TopDownCamera& camera) {
   return mask;
 }
 
-}  // namespace drape::folding
+}  // namespace drape::tabletop
