@@ -7,6 +7,7 @@
 #include <queue>
 
 #include "common/error.h"
+#include "common/field_error.h"
 #include "common/format.h"
 #include "common/rng.h"
 #include "common/timing.h"
@@ -75,8 +76,8 @@ const char* ClothStateName(ClothState s) {
 }
 
 void CaptureOptions::Validate() const {
-  if (frames < 1 || frames > 100000) throw Error("capture.frames: must be in 1..100000");
-  if (!(degrees > 0 && degrees <= 3600)) throw Error("capture.degrees: must be in (0, 3600]");
+  if (frames < 1 || frames > 100000) BadField(frames, "CaptureOptions.frames", "must be in 1..100000");
+  if (!(degrees > 0 && degrees <= 3600)) BadField(degrees, "CaptureOptions.degrees", "must be in (0, 3600]");
 }
 
 Path StraightPath(const GripperPose& from, const GripperPose& to, double speed, int steps) {
@@ -429,9 +430,11 @@ double SimIr::Read() {
 }
 
 void PlaceFlatOptions::Validate() const {
-  if (!(spread > 0 && spread <= 1.2)) throw Error("place_flat.spread: must be in (0, 1.2]");
-  if (!(lift_time > 0) || !(lay_time > 0) || !(settle_cap > 0)) throw Error("place_flat: times must be > 0 s");
-  if (!(min_pad > 0 && min_pad < 0.5)) throw Error("place_flat.min_pad: must be in (0, 0.5) m");
+  if (!(spread > 0 && spread <= 1.2)) BadField(spread, "PlaceFlatOptions.spread", "must be in (0, 1.2]");
+  if (!(lift_time > 0)) BadField(lift_time, "PlaceFlatOptions.lift_time", "must be > 0 s");
+  if (!(lay_time > 0)) BadField(lay_time, "PlaceFlatOptions.lay_time", "must be > 0 s");
+  if (!(settle_cap > 0)) BadField(settle_cap, "PlaceFlatOptions.settle_cap", "must be > 0 s");
+  if (!(min_pad > 0 && min_pad < 0.5)) BadField(min_pad, "PlaceFlatOptions.min_pad", "must be in (0, 0.5) m");
 }
 
 namespace {

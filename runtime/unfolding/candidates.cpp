@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "common/error.h"
+#include "common/field_error.h"
 #include "runtime/recognition/evaluate.h"
 
 namespace drape::unfolding {
@@ -59,10 +60,13 @@ CandidateRegistration RegisterCandidate(const TriMesh& source, const TriMesh& re
 }
 
 void LowestPointOptions::Validate() const {
-  if (!(tolerance >= 0 && tolerance < 0.5)) throw Error("lowest_point.tolerance: must be in [0, 0.5) m");
-  if (!(floor_margin >= 0 && floor_margin < 0.5)) throw Error("lowest_point.floor_margin: must be in [0, 0.5) m");
-  if (!(lift >= 0 && lift < 0.2)) throw Error("lowest_point.lift: must be in [0, 0.2) m");
-  if (!(near_radius >= 0 && near_radius < 0.5)) throw Error("lowest_point.near_radius: must be in [0, 0.5) m");
+  if (!(tolerance >= 0 && tolerance < 0.5))
+    BadField(tolerance, "LowestPointOptions.tolerance", "must be in [0, 0.5) m");
+  if (!(floor_margin >= 0 && floor_margin < 0.5))
+    BadField(floor_margin, "LowestPointOptions.floor_margin", "must be in [0, 0.5) m");
+  if (!(lift >= 0 && lift < 0.2)) BadField(lift, "LowestPointOptions.lift", "must be in [0, 0.2) m");
+  if (!(near_radius >= 0 && near_radius < 0.5))
+    BadField(near_radius, "LowestPointOptions.near_radius", "must be in [0, 0.5) m");
 }
 
 bool AnchorIsLowest(const TriMesh& hang, int v, double tolerance, double radius) {
@@ -99,10 +103,12 @@ std::optional<Vec3> LowestPoint(const TriMesh& recon, double floor_y, const Lowe
 }
 
 void HangingEndOptions::Validate() const {
-  if (!(radius > 0 && radius < 0.5)) throw Error("hanging_end.radius: must be in (0, 0.5) m");
-  if (!(floor_margin >= 0 && floor_margin < 0.5)) throw Error("hanging_end.floor_margin: must be in [0, 0.5) m");
-  if (!(min_drop >= 0 && min_drop <= 1)) throw Error("hanging_end.min_drop: must be in [0, 1]");
-  if (!(depth_window >= 0 && depth_window <= 0.1)) throw Error("hanging_end.depth_window: must be in [0, 0.1] m");
+  if (!(radius > 0 && radius < 0.5)) BadField(radius, "HangingEndOptions.radius", "must be in (0, 0.5) m");
+  if (!(floor_margin >= 0 && floor_margin < 0.5))
+    BadField(floor_margin, "HangingEndOptions.floor_margin", "must be in [0, 0.5) m");
+  if (!(min_drop >= 0 && min_drop <= 1)) BadField(min_drop, "HangingEndOptions.min_drop", "must be in [0, 1]");
+  if (!(depth_window >= 0 && depth_window <= 0.1))
+    BadField(depth_window, "HangingEndOptions.depth_window", "must be in [0, 0.1] m");
 }
 
 std::string HangingEnd(const std::string& anchor) {

@@ -7,6 +7,7 @@
 #include <limits>
 
 #include "common/error.h"
+#include "common/field_error.h"
 #include "common/rng.h"
 #include "common/timing.h"
 #include "runtime/tabletop/table.h"
@@ -21,8 +22,9 @@ void LoopOptions::Validate() const {
   recognise.Validate();
   plan.Validate();
   regrasp.Validate();
-  if (max_regrasps < 1 || max_regrasps > 100) throw Error("unfold.max_regrasps: must be in 1..100");
-  if (!(success_distance > 0)) throw Error("unfold.success_distance: must be > 0 m");
+  place.Validate();
+  if (max_regrasps < 1 || max_regrasps > 100) BadField(max_regrasps, "LoopOptions.max_regrasps", "must be in 1..100");
+  if (!(success_distance > 0)) BadField(success_distance, "LoopOptions.success_distance", "must be > 0 m");
 }
 
 Json StageTimes::ToJson() const {

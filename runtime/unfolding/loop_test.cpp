@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "common/error.h"
+#include "common/field_error.h"
 #include "runtime/unfolding/report.h"
 
 namespace drape::unfolding {
@@ -34,32 +35,47 @@ TEST(LoopOptions, ALeftOutCategorysPenaltyIsNotNegative) {
   EXPECT_THROW(o.Validate(), Error);
 }
 
-// Each phase's options are checked, the message naming the phase and the field.
+// Each phase's options are checked; the error names the struct and field and carries the
+// field's address (what an options file maps back to the key that set it).
 TEST(LoopOptions, EachPhaseNamesItsBadField) {
-  auto message = [](const LoopOptions& o) {
+  auto bad = [](const LoopOptions& o, const void* field, const std::string& name) {
     try {
       o.Validate();
-    } catch (const Error& e) {
-      return std::string(e.what());
+    } catch (const FieldError& e) {
+      EXPECT_EQ(e.field(), field) << e.what();
+      EXPECT_EQ(e.name(), name) << e.what();
+      return;
     }
-    return std::string();
+    ADD_FAILURE() << name << ": no FieldError";
   };
-  EXPECT_EQ(message(LoopOptions{}), "");
+  EXPECT_NO_THROW(LoopOptions{}.Validate());
   LoopOptions o;
   o.observe.sensing_height = 0.2;
-  EXPECT_NE(message(o).find("unfold.observe.sensing_height"), std::string::npos) << message(o);
+  bad(o, &o.observe.sensing_height, "ObserveOptions.sensing_height");
+  o = {};
+  o.observe.capture.frames = 0;
+  bad(o, &o.observe.capture.frames, "CaptureOptions.frames");
   o = {};
   o.recognise.plan_prior_top_k = 6;
-  EXPECT_NE(message(o).find("unfold.recognise.plan_prior_top_k"), std::string::npos) << message(o);
+  bad(o, &o.recognise.plan_prior_top_k, "RecogniseOptions.plan_prior_top_k");
   o = {};
   o.plan.candidates = 0;
-  EXPECT_NE(message(o).find("unfold.plan.candidates"), std::string::npos) << message(o);
+  bad(o, &o.plan.candidates, "PlanOptions.candidates");
+  o = {};
+  o.plan.lowest.near_radius = 0.5;
+  bad(o, &o.plan.lowest.near_radius, "LowestPointOptions.near_radius");
+  o = {};
+  o.plan.objective.xi = 0;
+  bad(o, &o.plan.objective.xi, "ObjectiveOptions.xi");
   o = {};
   o.regrasp.standoff = 0.5;
-  EXPECT_NE(message(o).find("unfold.regrasp.standoff"), std::string::npos) << message(o);
+  bad(o, &o.regrasp.standoff, "RegraspOptions.standoff");
   o = {};
   o.max_regrasps = 0;
-  EXPECT_NE(message(o).find("unfold.max_regrasps"), std::string::npos) << message(o);
+  bad(o, &o.max_regrasps, "LoopOptions.max_regrasps");
+  o = {};
+  o.place.spread = 2;
+  bad(o, &o.place.spread, "PlaceFlatOptions.spread");
 }
 
 TEST(PlanPrior, KeepsTheAimedAnchorOrItsTwinWithinTheTopK) {

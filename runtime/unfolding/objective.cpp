@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "common/error.h"
+#include "common/field_error.h"
 
 namespace drape::unfolding {
 
@@ -20,9 +21,11 @@ std::vector<DesiredPair> DesiredPairsFor(const std::string& category) {
 }
 
 void ObjectiveOptions::Validate() const {
-  if (!(sigma_length > 0 && sigma_length < 10)) throw Error("objective.sigma_length: must be in (0, 10) m");
-  if (!(xi > 0 && xi <= 1)) throw Error("objective.xi: must be in (0, 1]");
-  if (!(min_separation >= 0 && min_separation < 10)) throw Error("objective.min_separation: must be in [0, 10) m");
+  if (!(sigma_length > 0 && sigma_length < 10))
+    BadField(sigma_length, "ObjectiveOptions.sigma_length", "must be in (0, 10) m");
+  if (!(xi > 0 && xi <= 1)) BadField(xi, "ObjectiveOptions.xi", "must be in (0, 1]");
+  if (!(min_separation >= 0 && min_separation < 10))
+    BadField(min_separation, "ObjectiveOptions.min_separation", "must be in [0, 10) m");
 }
 
 ScoreTable::ScoreTable(std::vector<AnchorPoint> anchors, std::vector<DesiredPair> desired,

@@ -1,6 +1,7 @@
 // The observe phase (trial.h): the holder turns the garment in front of the Kinect, the
 // frames are fused into a TSDF and its surface, and Algorithm 1 gives the feature.
 #include "common/error.h"
+#include "common/field_error.h"
 #include "common/rng.h"
 #include "common/timing.h"
 #include "generator/fusion/fusion.h"
@@ -13,7 +14,7 @@ namespace hw = drape::hardware;
 void ObserveOptions::Validate() const {
   capture.Validate();
   if (!(sensing_height == 0 || (sensing_height > 0.5 && sensing_height < 3)))
-    throw Error("unfold.observe.sensing_height: must be 0 (the release's rig) or in (0.5, 3) m");
+    BadField(sensing_height, "ObserveOptions.sensing_height", "must be 0 (the release's rig) or in (0.5, 3) m");
 }
 
 bool Trial::Observe(Step& s, int iteration, Feature* code) {

@@ -7,6 +7,7 @@
 #include <limits>
 
 #include "common/error.h"
+#include "common/field_error.h"
 #include "common/timing.h"
 #include "runtime/recognition/category_fit.h"
 #include "runtime/recognition/evaluate.h"
@@ -21,7 +22,7 @@ void PlanOptions::Validate() const {
   objective.Validate();
   lowest.Validate();
   hanging.Validate();
-  if (candidates < 1 || candidates > 10) throw Error("unfold.plan.candidates: must be in 1..10");
+  if (candidates < 1 || candidates > 10) BadField(candidates, "PlanOptions.candidates", "must be in 1..10");
 }
 
 // The candidates' registrations, what the plan keeps of each, and the holder's frame.

@@ -4,6 +4,7 @@
 #include <algorithm>
 
 #include "common/error.h"
+#include "common/field_error.h"
 #include "common/timing.h"
 #include "runtime/recognition/category_fit.h"
 #include "runtime/recognition/evaluate.h"
@@ -15,8 +16,10 @@ namespace drape::unfolding {
 namespace rec = drape::recognition;
 
 void RecogniseOptions::Validate() const {
-  if (!(refit_absent_penalty >= 0)) throw Error("unfold.recognise.refit_absent_penalty: must be >= 0");
-  if (plan_prior_top_k < 0 || plan_prior_top_k > 5) throw Error("unfold.recognise.plan_prior_top_k: must be in 0..5");
+  if (!(refit_absent_penalty >= 0))
+    BadField(refit_absent_penalty, "RecogniseOptions.refit_absent_penalty", "must be >= 0");
+  if (plan_prior_top_k < 0 || plan_prior_top_k > 5)
+    BadField(plan_prior_top_k, "RecogniseOptions.plan_prior_top_k", "must be in 0..5");
 }
 
 namespace {

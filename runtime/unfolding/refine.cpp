@@ -4,18 +4,21 @@
 #include <cmath>
 
 #include "common/error.h"
+#include "common/field_error.h"
 
 namespace drape::unfolding {
 
 void RefineOptions::Validate() const {
-  if (!(sigma_samples >= 0.5 && sigma_samples <= 1000)) throw Error("refine.sigma_samples: must be in [0.5, 1000]");
-  if (!(sample_spacing > 0 && sample_spacing < 1)) throw Error("refine.sample_spacing: must be in (0, 1) m");
+  if (!(sigma_samples >= 0.5 && sigma_samples <= 1000))
+    BadField(sigma_samples, "RefineOptions.sigma_samples", "must be in [0.5, 1000]");
+  if (!(sample_spacing > 0 && sample_spacing < 1))
+    BadField(sample_spacing, "RefineOptions.sample_spacing", "must be in (0, 1) m");
   if (half_width_samples < 1 || half_width_samples > 100000)
-    throw Error("refine.half_width_samples: must be in 1..100000");
+    BadField(half_width_samples, "RefineOptions.half_width_samples", "must be in 1..100000");
   if (search_half_width_samples < 0 || search_half_width_samples > half_width_samples)
-    throw Error("refine.search_half_width_samples: must be in 0..half_width_samples");
+    BadField(search_half_width_samples, "RefineOptions.search_half_width_samples", "must be in 0..half_width_samples");
   if (depth_half_width_samples < 0 || depth_half_width_samples > half_width_samples)
-    throw Error("refine.depth_half_width_samples: must be in 0..half_width_samples");
+    BadField(depth_half_width_samples, "RefineOptions.depth_half_width_samples", "must be in 0..half_width_samples");
 }
 
 std::vector<double> LaplacianOfGaussian(double sigma) {

@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "common/error.h"
+#include "common/field_error.h"
 #include "common/timing.h"
 #include "runtime/unfolding/trial.h"
 
@@ -15,8 +16,9 @@ namespace hw = drape::hardware;
 
 void RegraspOptions::Validate() const {
   refine.Validate();
-  if (!(standoff > 0 && standoff < 0.4)) throw Error("unfold.regrasp.standoff: must be in (0, 0.4) m");
-  if (!(grasp_depth >= 0 && grasp_depth < 0.1)) throw Error("unfold.regrasp.grasp_depth: must be in [0, 0.1) m");
+  if (!(standoff > 0 && standoff < 0.4)) BadField(standoff, "RegraspOptions.standoff", "must be in (0, 0.4) m");
+  if (!(grasp_depth >= 0 && grasp_depth < 0.1))
+    BadField(grasp_depth, "RegraspOptions.grasp_depth", "must be in [0, 0.1) m");
 }
 
 bool MayStop(const ObjectiveOptions& o, double f, bool holder_regrasped) { return f >= o.xi && holder_regrasped; }
