@@ -63,6 +63,26 @@ Eigen::Isometry3d ObjectToWorld(const SweepOptions& o, double angle) {
   return T;
 }
 
+// Does the garment stay in view while it turns? Projects the nearest points of its
+// bounding cylinder's rims at 16 angles; true if one leaves the image.
+bool MayLeaveView(const Eigen::AlignedBox3d& b, const SweepOptions& options, const Intrinsics& K,
+                  const Eigen::Isometry3d& camera_to_world) {
+  for (int k = 0; k < 16; ++k) {
+    const Eigen::Isometry3d o2c = camera_to_world.inverse() * ObjectToWorld(options, 2 * M_PI * k / 16);
+    const double r = std::hypot(std::max(-b.min().x(), b.max().x()), std::max(-b.min().z(), b.max().z()));
+    // Nearest points of the bounding cylinder's bottom and top rims.
+    for (double y : {b.min().y(), b.max().y()}) {
+      for (double a = 0; a < 2 * M_PI; a += M_PI / 8) {
+        const Vec3 p = o2c * Vec3(r * std::cos(a), y, r * std::sin(a));
+        if (p.z() <= 0) return true;
+        const double u = K.fx * p.x() / p.z() + K.cx, v = K.fy * p.y() / p.z() + K.cy;
+        if (u < 0 || u > K.width - 1 || v < 0 || v > K.height - 1) return true;
+      }
+    }
+  }
+  return false;
+}
+
 Sweep SimulateSweep(const TriMesh& hung, const SweepOptions& options, uint64_t seed) {
   const auto start = Clock::now();
   SweepScene scene(hung, options);
@@ -114,30 +134,8 @@ Sweep SimulateSweep(const TriMesh& hung, const SweepOptions& options, uint64_t s
   st.garment_pixels_mean = garment / options.frames;
   st.valid_fraction_mean = valid / (npix * options.frames);
 
-  // Does the garment stay in view? Check the turned bounds' projection at a few angles.
   const Eigen::AlignedBox3d b = Bounds(hung);  // the garment only: the gripper may be cut
-  const Intrinsics& K = sweep.intrinsics;
-  bool out = false;
-  for (int k = 0; k < 16 && !out; ++k) {
-    const Eigen::Isometry3d o2c = camera_to_world.inverse() * ObjectToWorld(options, 2 * M_PI * k / 16);
-    const double r = std::hypot(std::max(-b.min().x(), b.max().x()), std::max(-b.min().z(), b.max().z()));
-    // Nearest points of the bounding cylinder's bottom and top rims.
-    for (double y : {b.min().y(), b.max().y()}) {
-      for (double a = 0; a < 2 * M_PI; a += M_PI / 8) {
-        const Vec3 p = o2c * Vec3(r * std::cos(a), y, r * std::sin(a));
-        if (p.z() <= 0) {
-          out = true;
-          break;
-        }
-        const double u = K.fx * p.x() / p.z() + K.cx, v = K.fy * p.y() / p.z() + K.cy;
-        if (u < 0 || u > K.width - 1 || v < 0 || v > K.height - 1) {
-          out = true;
-          break;
-        }
-      }
-    }
-  }
-  if (out) {
+  if (MayLeaveView(b, options, sweep.intrinsics, camera_to_world)) {
     std::ostringstream os;
     os << "garment may leave the camera view while turning (object-frame bounds y " << b.min().y() << ".."
        << b.max().y() << " m)";
