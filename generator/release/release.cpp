@@ -594,7 +594,7 @@ std::unique_ptr<ReleaseWriter> ReleaseWriter::Open(const fs::path& dir_in, const
   impl->meta = meta;
   impl->TakeLock();
   try {
-    return OpenLocked(impl, meta, resume, existed);
+    return OpenLocked(impl, meta, resume);
   } catch (...) {
     // Refused after locking: leave the folder as it was (minus our lock file).
     if (impl) impl->DropLock();
@@ -696,7 +696,7 @@ void StageEntry(const Entry& entry, const fs::path& staging) {
 }  // namespace
 
 std::unique_ptr<ReleaseWriter> ReleaseWriter::OpenLocked(std::unique_ptr<Impl>& impl, const ReleaseMeta& meta,
-                                                         bool resume, bool existed) {
+                                                         bool resume) {
   const fs::path dir = impl->dir;
   const auto& keys = meta.shard_keys.empty() ? meta.job_keys : meta.shard_keys;
   impl->expected.insert(keys.begin(), keys.end());

@@ -159,8 +159,7 @@ class ReleaseWriter {
  private:
   struct Impl;
   explicit ReleaseWriter(std::unique_ptr<Impl> impl);
-  static std::unique_ptr<ReleaseWriter> OpenLocked(std::unique_ptr<Impl>& impl, const ReleaseMeta& meta, bool resume,
-                                                   bool existed);
+  static std::unique_ptr<ReleaseWriter> OpenLocked(std::unique_ptr<Impl>& impl, const ReleaseMeta& meta, bool resume);
   std::unique_ptr<Impl> impl_;
 };
 
