@@ -3,9 +3,18 @@
 # both for the unit tests under sanitizers and for the fuzz targets.
 SAN_BUILD_DIR=${DRAPE_SAN_BUILD_DIR:-build-san}
 SAN_JOBS=${DRAPE_JOBS:-$(nproc)}
-# fuzz/ubsan_ignorelist.txt: UBSan checks skipped inside library headers (library bugs).
 SAN_FLAGS="-fsanitize=address,undefined,fuzzer-no-link -fno-sanitize-recover=undefined -fno-omit-frame-pointer -g1"
-SAN_FLAGS+=" -fsanitize-ignorelist=$PWD/fuzz/ubsan_ignorelist.txt"
+# fuzz/ubsan_ignorelist.txt: UBSan checks skipped inside library headers (library bugs).
+# Passed as a copy in the build folder named by its content, relative to it (where Ninja
+# runs the compiler): the flag is then the same in every checkout, so ccache finds one
+# checkout's objects from another (an absolute path missed every time), and any edit
+# of the list renames it (ccache 4.7 hashes the flag, not the file's content).
+san_ignorelist=ubsan_ignorelist.$(sha256sum fuzz/ubsan_ignorelist.txt | cut -c1-16).txt
+mkdir -p "$SAN_BUILD_DIR"
+# Copied once: the compiler lists it among each object's dependencies, so a newer
+# copy would rebuild everything.
+[ -f "$SAN_BUILD_DIR/$san_ignorelist" ] || cp fuzz/ubsan_ignorelist.txt "$SAN_BUILD_DIR/$san_ignorelist"
+SAN_FLAGS+=" -fsanitize-ignorelist=$san_ignorelist"
 export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1:detect_stack_use_after_return=0}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
 
