@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # drape's one entry point for a fresh Debian 12 machine (as root, or with sudo).
 #   ./setup.sh          install packages, build, and build the quickstart release
-#   ./setup.sh test     install packages, build, run the test suite, then the sanitizer
-#                       suite (./setup.sh sanitize below); what CI runs (.ci/run).
+#   ./setup.sh test     install packages, check the format (./setup.sh format below),
+#                       build, run the test suite, then the sanitizer suite
+#                       (./setup.sh sanitize below); what CI runs (.ci/run).
 #                       DRAPE_SANITIZE=0 skips the sanitizer suite (a quicker local run)
 #   ./setup.sh build    install packages and build only
 #   ./setup.sh bench    also install what the benchmarks compare against (Open3D), build
@@ -119,6 +120,14 @@ build() {
   install_python_path
 }
 
+# Every tracked C++ file follows .clang-format; fix with: git ls-files '*.cpp' '*.h' | xargs clang-format -i
+check_format() {
+  command -v clang-format >/dev/null ||
+    { echo "setup: format needs clang-format (apt-get install clang-format)" >&2; exit 2; }
+  git ls-files '*.c' '*.cc' '*.cpp' '*.h' '*.hpp' | xargs clang-format --dry-run --Werror
+  echo "setup: format: every C++ file follows .clang-format"
+}
+
 case "${1:-main}" in
   main)
     install_packages
@@ -132,6 +141,8 @@ case "${1:-main}" in
     ;;
   test)
     install_packages
+    # First, as it takes seconds: a file that does not follow .clang-format fails CI.
+    check_format
     build
     ctest --test-dir "$BUILD_DIR" --output-on-failure -j "$JOBS"
     # Then every unit-test program under ASan + UBSan and the fuzz targets (docs/testing.md).
@@ -152,11 +163,7 @@ case "${1:-main}" in
     DRAPE_FUZZ_CI_SECONDS=${DRAPE_FUZZ_SECONDS:-10} fuzz/ci.sh
     ;;
   format)
-    command -v clang-format >/dev/null ||
-      { echo "setup: format needs clang-format (apt-get install clang-format)" >&2; exit 2; }
-    # Every tracked C++ file follows .clang-format; fix with: git ls-files '*.cpp' '*.h' | xargs clang-format -i
-    git ls-files '*.c' '*.cc' '*.cpp' '*.h' '*.hpp' | xargs clang-format --dry-run --Werror
-    echo "setup: format: every C++ file follows .clang-format"
+    check_format
     ;;
   *)
     echo "usage: ./setup.sh [main|test|build|bench|sanitize|format]" >&2
