@@ -12,6 +12,8 @@
 #                       docs/testing.md), every fuzz corpus replayed, then every fuzz
 #                       target for DRAPE_FUZZ_SECONDS (default 10) each
 #   ./setup.sh format   check that every C++ file follows .clang-format
+#   ./setup.sh tidy     build, then clang-tidy (.clang-tidy's checks) on every source
+#                       that changed since its last clean run (tools/tidy.py)
 # Safe to run again: packages already present are skipped, the build is incremental.
 set -euo pipefail
 cd "$(dirname "$0")"
@@ -43,7 +45,9 @@ PACKAGES=(
   libfuzzer-14-dev    # libFuzzer for clang-14 (fuzz/)
   slurm-wlm           # tests/slurm.sh: a one-node Slurm (runs as root; DRAPE_SLURM_TEST=0 skips it)
   munge               # Slurm's authentication, for tests/slurm.sh
-  clang-format        # ./setup.sh format: changed lines follow .clang-format
+  clang-format        # ./setup.sh format: every C++ file follows .clang-format
+  clang-tidy          # ./setup.sh tidy: the checks of .clang-tidy (tools/tidy.py)
+  ccache              # a rebuild after a branch switch, and CI's second run, cost little
 )
 
 # What the benchmarks need beyond PACKAGES (registration_bench compares with Open3D's ICP;
@@ -165,8 +169,13 @@ case "${1:-main}" in
   format)
     check_format
     ;;
+  tidy)
+    install_packages
+    build
+    tools/tidy.py --build "$BUILD_DIR" -j "$JOBS"
+    ;;
   *)
-    echo "usage: ./setup.sh [main|test|build|bench|sanitize|format]" >&2
+    echo "usage: ./setup.sh [main|test|build|bench|sanitize|format|tidy]" >&2
     exit 2
     ;;
 esac
