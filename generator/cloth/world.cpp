@@ -29,6 +29,13 @@ void ClothMaterial::Validate() const {
   if (!(link_stiffness > 0 && link_stiffness <= 1)) Bad("cloth material", "link_stiffness", "must be in (0, 1]");
   if (!(bending > 0 && bending <= 1)) Bad("cloth material", "bending", "must be in (0, 1]");
   if (!std::isfinite(max_strain) || max_strain > 10) Bad("cloth material", "max_strain", "must be ≤ 10 (≤ 0: off)");
+  if (!(bending_rigidity >= 0 && bending_rigidity <= 1))
+    Bad("cloth material", "bending_rigidity", "must be in [0, 1] N·m (0: Bullet's bending links)");
+  if (!(bending_scale > 0 && bending_scale <= 100)) Bad("cloth material", "bending_scale", "must be in (0, 100]");
+  if (!(crease_yield >= 0 && std::isfinite(crease_yield)))
+    Bad("cloth material", "crease_yield", "must be ≥ 0 1/m (0: no creases)");
+  if (!(crease_weakening >= 0 && crease_weakening <= 1000))
+    Bad("cloth material", "crease_weakening", "must be in [0, 1000]");
 }
 
 void ClothOptions::Validate() const {
@@ -112,11 +119,30 @@ std::shared_ptr<const ClothModel> MakeClothModel(const TriMesh& rest, const std:
       if (rest.F(f, c) != a && rest.F(f, c) != b) return rest.F(f, c);
     return -1;
   };
+  const bool hinges = material.bending_rigidity > 0;
   for (const EdgeFaces& e : topo.edges) {
     m->stretch_links.push_back(e.edge);
-    if (e.faces[1] < 0) continue;
+    if (e.faces[1] < 0 || hinges) continue;
     const int c = opposite(e.faces[0], e.edge[0], e.edge[1]), d = opposite(e.faces[1], e.edge[0], e.edge[1]);
     if (c >= 0 && d >= 0 && c != d) m->bend_links.push_back({std::min(c, d), std::max(c, d)});
+  }
+  if (hinges) {
+    BendingOptions bo;
+    bo.rigidity = material.bending_rigidity;
+    bo.scale = material.bending_scale;
+    bo.yield_curvature = material.crease_yield;
+    bo.weakening = material.crease_weakening;
+    m->bending = MakeBendingModel(rest, layer, bo);
+    const double lambda = BendingFrequencySquared(m->bending, InitialBendingState(m->bending), rest.V, m->mass);
+    m->bending_frequency = std::sqrt(lambda);
+    // Symplectic Euler is stable below 2/√λ; half of that leaves room for triangles
+    // the motion squeezes (a hinge's stiffness grows as 1/height²).
+    m->substeps = std::max(1, static_cast<int>(std::ceil(options.time_step * m->bending_frequency - 1e-9)));
+    if (m->substeps > 64)
+      throw Error("cloth model: hinge bending needs " + std::to_string(m->substeps) +
+                  " Bullet steps per time step (more than 64): the mesh is too fine or the cloth too stiff for "
+                  "time_step " +
+                  FormatNumber(options.time_step) + " s");
   }
   return m;
 }
@@ -142,6 +168,7 @@ ClothWorld::ClothWorld(std::shared_ptr<const ClothModel> model, const Points3& s
     throw Error("cloth world: start positions must be finite, " + std::to_string(n) + "×3");
   x_ = start;
   v_ = Points3::Zero(n, 3);
+  bend_ = InitialBendingState(m.bending);
   holder_.assign(n, -1);
   const ClothOptions& o = m.options;
   kdp_ = o.damping;
@@ -172,7 +199,10 @@ ClothWorld::ClothWorld(std::shared_ptr<const ClothModel> model, const Points3& s
   for (const auto& e : m.bend_links) sb->appendLink(e[0], e[1], bend);
   for (int f = 0; f < m.rest.NumFaces(); ++f) sb->appendFace(m.rest.F(f, 0), m.rest.F(f, 1), m.rest.F(f, 2), stretch);
   sb->m_cfg.piterations = o.solver_iterations;
-  sb->m_cfg.kDP = btScalar(kdp_);
+  // The world damps the velocity once per time step itself (Step); Bullet's own damping
+  // would act again between sub-steps (with one Bullet step per time step its damped
+  // velocity is never read).
+  sb->m_cfg.kDP = btScalar(m.substeps > 1 ? 0.0 : kdp_);
   // Air drag on the faces (ClothOptions::drag_coefficient); kDG 0 leaves Bullet's
   // aerodynamics off altogether.
   sb->m_cfg.aeromodel = btSoftBody::eAeroModel::F_TwoSidedLiftDrag;
@@ -198,6 +228,12 @@ void ClothWorld::SyncBullet() {
     // Only on a change: setMass makes Bullet refresh its link constants.
     if ((nd.m_im == 0) != (holder_[i] >= 0)) sb->setMass(i, holder_[i] >= 0 ? btScalar(0) : btScalar(model_->mass[i]));
   }
+  // Air drag reads the face normals Bullet computed at its last step's end: with hinge
+  // bending take them from this state instead, so that a restored state (SetState) steps
+  // as it did the first time. (Bullet's bending links keep the normals of Bullet's own
+  // positions: the published releases were built that way; the presets move to hinges
+  // with a new release version.)
+  if (model_->options.drag_coefficient > 0 && !model_->bending.hinges.empty()) sb->updateNormals();
 }
 
 int ClothWorld::AddCollider(const BoxCollider& box) {
@@ -321,18 +357,18 @@ void ClothWorld::Perturb(const Points3& dx) {
   SyncBullet();
 }
 
-CollisionReport ClothWorld::Step() {
+// Bullet's part of a step: the held nodes' velocities that carry them to their place at
+// the step's end, then substeps Bullet steps (with the hinge force before each). x1 gets
+// Bullet's positions with the held nodes exactly in place; with sub-steps *vb gets
+// Bullet's velocities at the step's end.
+void ClothWorld::StepBullet(const std::vector<Eigen::Isometry3d>& pose1, Points3& x1, Points3* vb) {
   const ClothModel& m = *model_;
   const double dt = m.options.time_step;
-  const double t1 = time_ + dt;
   btSoftBody* sb = bullet_->body.get();
   const int n = static_cast<int>(x_.rows());
-  // Held nodes: their place at the end of the step (Bullet integrates x += v·dt for
-  // mass-0 nodes too, and its links leave them alone).
-  Points3 target(0, 3);
-  std::vector<Eigen::Isometry3d> pose1(grippers_.size());
+  // Held nodes: Bullet integrates x += v·dt for mass-0 nodes too, and its links leave
+  // them alone.
   for (size_t k = 0; k < grippers_.size(); ++k) {
-    pose1[k] = PoseAt(grippers_[k], t1);
     const Gripper& g = grippers_[k];
     for (size_t j = 0; j < g.held.size(); ++j) {
       const Vec3 p = pose1[k] * Vec3(g.local.row(j).transpose());
@@ -340,20 +376,46 @@ CollisionReport ClothWorld::Step() {
       sb->m_nodes[i].m_v = Bt((p.x() - x_(i, 0)) / dt, (p.y() - x_(i, 1)) / dt, (p.z() - x_(i, 2)) / dt);
     }
   }
-  const auto t0 = ThreadCpuSeconds();
-  bullet_->world.stepSimulation(btScalar(dt), 0, btScalar(dt));
-  timings_.bullet_seconds += (ThreadCpuSeconds() - t0);
-
-  Points3 x1(n, 3);
+  const double h = dt / m.substeps;
+  for (int s = 0; s < m.substeps; ++s) {
+    if (!m.bending.hinges.empty()) AddHingeForces();
+    const auto t0 = ThreadCpuSeconds();
+    bullet_->world.stepSimulation(btScalar(h), 0, btScalar(h));
+    timings_.bullet_seconds += (ThreadCpuSeconds() - t0);
+  }
+  x1.resize(n, 3);
   for (int i = 0; i < n; ++i) {
     const btVector3& p = sb->m_nodes[i].m_x;
     x1.row(i) << p.x(), p.y(), p.z();
+  }
+  if (vb) {
+    vb->resize(n, 3);
+    for (int i = 0; i < n; ++i) {
+      const btVector3& u = sb->m_nodes[i].m_v;
+      vb->row(i) << u.x(), u.y(), u.z();
+    }
   }
   for (size_t k = 0; k < grippers_.size(); ++k) {
     const Gripper& g = grippers_[k];
     for (size_t j = 0; j < g.held.size(); ++j)
       x1.row(g.held[j]) = (pose1[k] * Vec3(g.local.row(j).transpose())).transpose();
   }
+}
+
+CollisionReport ClothWorld::Step() {
+  const ClothModel& m = *model_;
+  const double dt = m.options.time_step;
+  const double t1 = time_ + dt;
+  const int n = static_cast<int>(x_.rows());
+  const int substeps = m.substeps;
+  std::vector<Eigen::Isometry3d> pose1(grippers_.size());
+  for (size_t k = 0; k < grippers_.size(); ++k) pose1[k] = PoseAt(grippers_[k], t1);
+  // With sub-steps the velocity at the step's end is Bullet's, not the mean over the
+  // step ((x1 − x0)/dt): a mode fast enough to need sub-steps turns within one step, and
+  // taking its mean velocity as the new one pumped energy into a curling strip.
+  Points3 x1, vb;
+  StepBullet(pose1, x1, substeps > 1 ? &vb : nullptr);
+  const Points3 xb = substeps > 1 ? x1 : Points3();
   CollisionReport rep;
   if (handler_) {
     Eigen::VectorXd im(n);
@@ -374,15 +436,39 @@ CollisionReport ClothWorld::Step() {
     timings_.strain_violation_steps += rep.strain_violations > 0;
     timings_.max_strain = std::max(timings_.max_strain, rep.max_strain);
   }
-  v_ = (x1 - x_) * ((1 - kdp_) / dt);
+  if (substeps > 1)
+    v_ = (vb + (x1 - xb) / dt) * (1 - kdp_);  // Bullet's velocity and the handler's correction
+  else
+    v_ = (x1 - x_) * ((1 - kdp_) / dt);
   for (int i = 0; i < n; ++i)
     if (holder_[i] >= 0) v_.row(i) = (x1.row(i) - x_.row(i)) / dt;
   x_ = std::move(x1);
   time_ = t1;
+  if (m.bending.plastic()) {
+    const auto tb = ThreadCpuSeconds();
+    UpdatePlasticity(m.bending, bend_, x_);
+    timings_.bending_seconds += ThreadCpuSeconds() - tb;
+  }
   for (size_t k = 0; k < grippers_.size(); ++k) grippers_[k].pose = pose1[k];
   ++timings_.steps;
   SyncBullet();
   return rep;
+}
+
+void ClothWorld::AddHingeForces() {
+  const auto t0 = ThreadCpuSeconds();
+  btSoftBody* sb = bullet_->body.get();
+  const int n = static_cast<int>(x_.rows());
+  Points3 x(n, 3);
+  for (int i = 0; i < n; ++i) {
+    const btVector3& p = sb->m_nodes[i].m_x;
+    x.row(i) << p.x(), p.y(), p.z();
+  }
+  force_.setZero(n, 3);
+  AddBendingForces(model_->bending, bend_, x, force_);
+  for (int i = 0; i < n; ++i)
+    if (holder_[i] < 0) sb->addForce(Bt(force_(i, 0), force_(i, 1), force_(i, 2)), i);
+  timings_.bending_seconds += ThreadCpuSeconds() - t0;
 }
 
 double ClothWorld::KineticEnergy() const {
@@ -398,20 +484,25 @@ std::string ClothWorld::Health() const {
   for (int i = 0; i < v_.rows(); ++i)
     if (holder_[i] < 0) vmax = std::max(vmax, v_.row(i).norm());
   if (vmax > model_->options.max_speed) return "blew up: node speed " + FormatFixed(vmax, 1) + " m/s";
-  const double cap = 50 * model_->total_mass * model_->options.gravity.norm() * std::max(model_->extent, 0.1);
+  // (Standard gravity when the world has none: a weightless cloth may still move.)
+  const double g = std::max(model_->options.gravity.norm(), 9.81);
+  const double cap = 50 * model_->total_mass * g * std::max(model_->extent, 0.1);
   const double ke = KineticEnergy();
   if (ke > cap) return "blew up: kinetic energy " + FormatNumber(ke) + " J";
   return "";
 }
 
-ClothState ClothWorld::State() const { return ClothState{x_, v_, time_}; }
+ClothState ClothWorld::State() const { return ClothState{x_, v_, time_, bend_}; }
 
 void ClothWorld::SetState(const ClothState& s) {
   if (s.x.rows() != x_.rows() || s.v.rows() != x_.rows() || !std::isfinite(s.time))
     throw Error("cloth world: SetState needs #V×3 positions and velocities of this model");
+  if (s.bending.rest_angle.size() != bend_.rest_angle.size() || s.bending.plastic.rows() != bend_.plastic.rows())
+    throw Error("cloth world: SetState needs the bending state of this model");
   x_ = s.x;
   v_ = s.v;
   time_ = s.time;
+  bend_ = s.bending;
   for (auto& g : grippers_) g.pose = PoseAt(g, time_);
   SyncBullet();
 }

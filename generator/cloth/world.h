@@ -14,10 +14,12 @@
 //   1. every closed gripper's pose is evaluated on its path at the step's end time, and
 //      the nodes it holds are carried there rigidly (Bullet mass 0: they are driven,
 //      Bullet's links pull on the free nodes only);
-//   2. Bullet steps the soft body: gravity, air drag (Bullet's face aerodynamics),
-//      structural links (kLST = link_stiffness), bending links across interior edges,
-//      kDP damping. Bullet's own collision is off
-//      (soft-soft and soft-rigid): the colliders are ours;
+//   2. Bullet steps the soft body (in ClothModel::substeps steps): gravity, air drag
+//      (Bullet's face aerodynamics), structural links (kLST = link_stiffness), and
+//      bending: the hinge force (bending.h, a force on the nodes before each Bullet
+//      step) or, without a bending rigidity, Bullet's bending links across interior
+//      edges. Bullet's own collision is off (soft-soft and soft-rigid): the colliders
+//      are ours;
 //   3. the collision handler corrects the proposed positions from the last
 //      intersection-free state: strain limiting (edges ≤ (1 + max_strain)·L0), VF and EE
 //      repulsion, box colliders with Coulomb friction, continuous collision detection
@@ -25,7 +27,11 @@
 //      ends with both no crossing and no edge beyond the bound, or reports which could
 //      not be met (CollisionReport::remaining_collisions / strain_violations);
 //   4. the corrected positions become the state (kept in double precision here;
-//      Bullet's float copy follows them), velocities = (x1 − x0)/dt·(1 − kDP).
+//      Bullet's float copy follows them), velocities = (x1 − x0)/dt·(1 − kDP) (with
+//      sub-steps: Bullet's velocity at the step's end plus the handler's correction
+//      over dt, times (1 − kDP));
+//   5. creases: the hinges' rest angles yield where the bending exceeds the material's
+//      yield curvature (bending.h UpdatePlasticity).
 // Deterministic: the same model, start state and calls give the same bytes on any
 // thread (nothing is shared between worlds; no clock or global random state is read).
 //
@@ -39,6 +45,7 @@
 #include <vector>
 
 #include "common/mesh.h"
+#include "generator/cloth/bending.h"
 #include "generator/cloth/collision.h"
 
 namespace drape {
@@ -50,6 +57,13 @@ struct ClothMaterial {
   double link_stiffness = 0.5;  // Bullet structural link kLST, (0, 1]
   double bending = 0.02;        // bending links' kLST relative to link_stiffness, (0, 1]
                                 // (see generator/hang/material.h for why this low)
+  // Hinge bending (bending.h): B in N·m of one layer; > 0 replaces Bullet's bending
+  // links (`bending` is then unused) by the dihedral-angle force with rest angles.
+  double bending_rigidity = 0;
+  double bending_scale = 1;  // the hinge energy's calibrated constant C (bending.h)
+  // Creases (bending.h's plasticity): yield curvature in 1/m (0: none) and weakening.
+  double crease_yield = 0;
+  double crease_weakening = 0;
   // Strain limit: edges are clamped to at most (1 + max_strain)·L0 after every step
   // (collision.h step 1). ≤ 0: off. Hang sets it to a multiple of the measured stretch.
   double max_strain = 0.06;
@@ -87,7 +101,14 @@ struct ClothModel {
   std::vector<int> layer;                         // per node: garment layer (0 front, 1 back), empty if unknown
   Eigen::VectorXd mass;                           // kg per node
   std::vector<std::array<int, 2>> stretch_links;  // mesh edges
-  std::vector<std::array<int, 2>> bend_links;     // vertices opposite each interior edge
+  std::vector<std::array<int, 2>> bend_links;     // vertices opposite each interior edge (Bullet's
+                                                  // bending links; empty with hinge bending)
+  BendingModel bending;                           // hinge bending (no hinges: Bullet's links)
+  // Bullet steps per time_step: hinge bending is an explicit force, stable for steps
+  // below 2/√λ (λ: BendingFrequencySquared of the rest mesh); each Bullet step is at
+  // most 1/√λ (half of that) long.
+  int substeps = 1;
+  double bending_frequency = 0;  // √λ, 1/s (0 without hinge bending)
   ClothMaterial material;
   ClothOptions options;
   double total_mass = 0;  // kg
@@ -101,9 +122,10 @@ std::shared_ptr<const ClothModel> MakeClothModel(const TriMesh& rest, const std:
 
 // The changing part of a simulation.
 struct ClothState {
-  Points3 x;        // #V×3 node positions, m
-  Points3 v;        // #V×3 node velocities, m/s
-  double time = 0;  // s since the world's start
+  Points3 x;             // #V×3 node positions, m
+  Points3 v;             // #V×3 node velocities, m/s
+  double time = 0;       // s since the world's start
+  BendingState bending;  // rest angles (creases change them)
 };
 
 // A parallel-jaw gripper (the paper's Baxter hand opens about 8 cm). Gripper frame:
@@ -144,6 +166,7 @@ struct GraspReport {
 struct ClothTimings {
   int steps = 0;
   double bullet_seconds = 0;       // inside Bullet's stepSimulation
+  double bending_seconds = 0;      // hinge forces and plasticity
   double broad_seconds = 0;        // collision handler: broad phase
   double strain_seconds = 0;       // ... strain limiting
   double proximity_seconds = 0;    // ... VF/EE repulsion
@@ -234,7 +257,7 @@ class ClothWorld {
   CollisionReport Step();
   // Steps until no node moved more than options.distance over options.window (after
   // options.min_time), or until a blow-up (NaN, speed > max_speed, kinetic energy above
-  // 50 × weight × extent), options.time_cap or options.ccd_test_cap. Deterministic.
+  // 50 × weight (at g ≥ 9.81 m/s²) × extent), options.time_cap or options.ccd_test_cap. Deterministic.
   SettleReport Settle(const SettleOptions& options);
   // "" when the state is finite, no node is faster than max_speed and the kinetic
   // energy is below the cap; otherwise why not.
@@ -249,6 +272,7 @@ class ClothWorld {
   void SetState(const ClothState& state);
   const ClothTimings& timings() const { return timings_; }
   double KineticEnergy() const;  // J
+  const BendingState& bending() const { return bend_; }
 
  private:
   struct Bullet;  // Bullet's world and soft body
@@ -261,7 +285,9 @@ class ClothWorld {
     Points3 local;          // held nodes in the gripper frame, row per held[k]
   };
   Eigen::Isometry3d PoseAt(const Gripper& g, double t) const;
-  void SyncBullet();  // Bullet's nodes ← x_, v_, masses ← holds
+  void SyncBullet();      // Bullet's nodes ← x_, v_, masses ← holds
+  void AddHingeForces();  // the hinge force at Bullet's node positions, onto its free nodes
+  void StepBullet(const std::vector<Eigen::Isometry3d>& pose1, Points3& x1, Points3* vb);
 
   std::shared_ptr<const ClothModel> model_;
   std::unique_ptr<Bullet> bullet_;
@@ -270,6 +296,8 @@ class ClothWorld {
   std::vector<Gripper> grippers_;
   std::vector<int> holder_;  // per node: gripper holding it, −1 free
   Points3 x_, v_;
+  BendingState bend_;
+  Points3 force_;  // scratch: hinge forces of a Bullet step
   double time_ = 0;
   double kdp_ = 0;
   ClothTimings timings_;
