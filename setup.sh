@@ -29,6 +29,7 @@ PACKAGES=(
   libopencv-dev
   libopenvdb-dev libboost-iostreams-dev
   libyaml-cpp-dev libsqlite3-dev libdlib-dev
+  libsundials-dev     # KINSOL: material fits (generator/hang/fit.cpp)
   libcgal-dev libgmp-dev libmpfr-dev
   libopenmpi-dev openmpi-bin
   libgtest-dev libgmock-dev libbenchmark-dev

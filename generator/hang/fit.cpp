@@ -1,15 +1,26 @@
 // FitMaterial: paper §"Parameter Adaptation" — find the simulation stiffness whose hung
-// shear_frac equals the measured stretch, and the friction coefficient at which a flat
-// garment starts to slide at the measured friction angle.
+// shear_frac equals the measured stretch (with hinge bending: jointly with the hinge
+// constant whose cantilever reproduces the bending length, by KINSOL), and the friction
+// coefficient at which a flat garment starts to slide at the measured friction angle.
 
+#include <kinsol/kinsol.h>
+#include <nvector/nvector_serial.h>
+#include <sundials/sundials_context.h>
+#include <sunlinsol/sunlinsol_dense.h>
+#include <sunmatrix/sunmatrix_dense.h>
+
+#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <exception>
+#include <functional>
 #include <numbers>
 
 #include "common/error.h"
 #include "common/format.h"
 #include "common/rng.h"
 #include "common/timing.h"
+#include "generator/hang/cantilever.h"
 #include "generator/hang/hang.h"
 
 namespace drape {
@@ -20,25 +31,42 @@ constexpr double kDeg = std::numbers::pi / 180;
 // Secant on (log k, log shear) with a kept bracket (Illinois): a settled state is only
 // stationary to settle_distance, so shear(k) carries ~1e-4 noise that a Newton step on
 // a difference quotient would amplify; a bracket cannot be lost to noise.
-void FitStiffness(const Material& material, const HangOptions& options, MaterialFit& fit) {
-  const double target = material.stretch_percent / 100;
-  const Garment strip = MakeRectangleGarment(options.fit_width, options.fit_height, options.fit_edge_length, false);
-  DRAPE_CHECK(strip.anchors.size() == 5 && strip.anchors[4].label == "top_centre", "reference strip end");
-  const Anchor& end = strip.anchors[4];
-  const uint64_t seed = DeriveSeed(0, "fit/" + material.name);
-  HangOptions o = options;
-  // The strip is the reference of the stretch itself: judge it by settling, not by the
-  // strain acceptance bounds (a trial stiffness far off the answer breaks them).
-  o.accept_strain_max = o.accept_strain_p99 = 1e9;
-  auto shear = [&](double k) {
+// The stretch reference: a strip hung from the middle of one end; its shear_frac at
+// link stiffness k with the hinge constant of `fit` (unused without hinge bending).
+struct StretchReference {
+  const Material& material;
+  HangOptions options;
+  Garment strip;
+  uint64_t seed;
+  StretchReference(const Material& m, const HangOptions& o)
+      : material(m),
+        options(o),
+        strip(MakeRectangleGarment(o.fit_width, o.fit_height, o.fit_edge_length, false)),
+        seed(DeriveSeed(0, "fit/" + m.name)) {
+    DRAPE_CHECK(strip.anchors.size() == 5 && strip.anchors[4].label == "top_centre", "reference strip end");
+    // The strip is the reference of the stretch itself: judge it by settling, not by the
+    // strain acceptance bounds (a trial stiffness far off the answer breaks them).
+    options.accept_strain_max = options.accept_strain_p99 = 1e9;
+  }
+  double operator()(double k, double bending_scale) const {
     MaterialFit trial;
     trial.stiffness = k;
-    const HangResult r = Hang(strip, end.vertex, Vec3::Zero(), material, trial, o, seed);
-    ++fit.iterations;
+    trial.bending_scale = bending_scale;
+    const Anchor& end = strip.anchors[4];
+    const HangResult r = Hang(strip, end.vertex, Vec3::Zero(), material, trial, options, seed);
     if (!r.ok)
       throw NumericalError("FitMaterial(" + material.name + "): reference hang failed at kLST " + FormatNumber(k) +
                            ": " + r.failure);
     return ShearFraction(r.mesh, strip.mesh.V, end.position);
+  }
+};
+
+void FitStiffness(const Material& material, const HangOptions& options, MaterialFit& fit) {
+  const double target = material.stretch_percent / 100;
+  const StretchReference reference(material, options);
+  auto shear = [&](double k) {
+    ++fit.iterations;
+    return reference(k, fit.bending_scale);
   };
   double k_hi = 1.0, s_hi = shear(k_hi);  // stiffest: least stretch
   double best_k = k_hi, best_s = s_hi;
@@ -87,6 +115,159 @@ void FitStiffness(const Material& material, const HangOptions& options, Material
   fit.stiffness = best_k;
   fit.reproduced_stretch_percent = 100 * best_s;
   fit.converged = std::abs(best_s - target) <= tol;
+}
+
+// KINSOL on F(u) = 0 for u = (ln kLST, ln C): F = (ln(stretch/target), ln(c/target c)),
+// each run a reference simulation. The Jacobian is a forward difference of step 0.05 in
+// each log, kept for up to 10 Newton steps (KINSOL's modified Newton): a settled state is
+// stationary only to the settle distance, so finer differences would measure that noise.
+struct JointFit {
+  std::function<Eigen::Vector2d(const Eigen::Vector2d&)> residual;
+  Eigen::Vector2d last_u = Eigen::Vector2d::Constant(std::nan("")), last_f;
+  int evaluations = 0;
+  std::exception_ptr error;
+  Eigen::Vector2d Eval(const Eigen::Vector2d& u) {
+    if (u == last_u) return last_f;
+    ++evaluations;
+    last_f = residual(u);
+    last_u = u;
+    return last_f;
+  }
+};
+
+int JointResidual(N_Vector u, N_Vector f, void* data) {
+  auto* j = static_cast<JointFit*>(data);
+  try {
+    const Eigen::Vector2d r = j->Eval(Eigen::Vector2d(NV_Ith_S(u, 0), NV_Ith_S(u, 1)));
+    NV_Ith_S(f, 0) = r[0];
+    NV_Ith_S(f, 1) = r[1];
+    return 0;
+  } catch (...) {
+    j->error = std::current_exception();
+    return -1;
+  }
+}
+
+int JointJacobian(N_Vector u, N_Vector fu, SUNMatrix J, void* data, N_Vector, N_Vector) {
+  auto* j = static_cast<JointFit*>(data);
+  constexpr double kStep = 0.05;
+  try {
+    const Eigen::Vector2d u0(NV_Ith_S(u, 0), NV_Ith_S(u, 1)), f0(NV_Ith_S(fu, 0), NV_Ith_S(fu, 1));
+    for (int c = 0; c < 2; ++c) {
+      Eigen::Vector2d up = u0;
+      // ln kLST ≤ 0: step the stiffness down at its cap.
+      const double h = (c == 0 && u0[0] + kStep > 0) ? -kStep : kStep;
+      up[c] += h;
+      const Eigen::Vector2d fp = j->Eval(up);
+      for (int r = 0; r < 2; ++r) SM_ELEMENT_D(J, r, c) = (fp[r] - f0[r]) / h;
+    }
+    return 0;
+  } catch (...) {
+    j->error = std::current_exception();
+    return -1;
+  }
+}
+
+// KINSOL's modified Newton (KIN_NONE: each step is the Newton step, capped at 2 in the
+// logs) from u0 until every |F_i| ≤ tol_i, ln kLST ≤ 0; *u gets the last iterate.
+// Returns KINSOL's flag (≥ 0: converged or stalled with a small step).
+int SolveJointFit(JointFit& j, const Eigen::Vector2d& u0, const Eigen::Vector2d& tol, int max_iterations,
+                  Eigen::Vector2d* u_out) {
+  SUNContext ctx = nullptr;
+  DRAPE_CHECK(SUNContext_Create(nullptr, &ctx) == 0, "SUNContext_Create");
+  N_Vector u = N_VNew_Serial(2, ctx), scale = N_VNew_Serial(2, ctx), fscale = N_VNew_Serial(2, ctx),
+           constraints = N_VNew_Serial(2, ctx);
+  SUNMatrix J = SUNDenseMatrix(2, 2, ctx);
+  SUNLinearSolver LS = SUNLinSol_Dense(u, J, ctx);
+  void* mem = KINCreate(ctx);
+  NV_Ith_S(u, 0) = u0[0];
+  NV_Ith_S(u, 1) = u0[1];
+  N_VConst(1.0, scale);
+  // Converged when both residuals are within tolerance: ‖fscale·F‖∞ ≤ 1.
+  NV_Ith_S(fscale, 0) = 1 / tol[0];
+  NV_Ith_S(fscale, 1) = 1 / tol[1];
+  NV_Ith_S(constraints, 0) = -1;  // ln kLST ≤ 0
+  NV_Ith_S(constraints, 1) = 0;
+  int flag = KINInit(mem, JointResidual, u);
+  flag = flag ? flag : KINSetUserData(mem, &j);
+  flag = flag ? flag : KINSetLinearSolver(mem, LS, J);
+  flag = flag ? flag : KINSetJacFn(mem, JointJacobian);
+  flag = flag ? flag : KINSetFuncNormTol(mem, 1.0);
+  flag = flag ? flag : KINSetScaledStepTol(mem, 1e-4);
+  flag = flag ? flag : KINSetMaxSetupCalls(mem, 10);
+  flag = flag ? flag : KINSetNumMaxIters(mem, max_iterations);
+  flag = flag ? flag : KINSetMaxNewtonStep(mem, 2.0);
+  flag = flag ? flag : KINSetConstraints(mem, constraints);
+  DRAPE_CHECK(flag == 0, "KINSOL set-up failed (" + std::to_string(flag) + ")");
+  const int status = KINSol(mem, u, KIN_NONE, scale, fscale);
+  *u_out = Eigen::Vector2d(NV_Ith_S(u, 0), NV_Ith_S(u, 1));
+  KINFree(&mem);
+  SUNLinSolFree(LS);
+  SUNMatDestroy(J);
+  for (N_Vector v : {u, scale, fscale, constraints}) N_VDestroy(v);
+  SUNContext_Free(&ctx);
+  return status;
+}
+
+// Fits kLST and the hinge constant together (a hanging strip barely bends and a
+// cantilever barely stretches, but each constant moves both a little).
+void FitStretchAndBending(const Material& material, const HangOptions& options, MaterialFit& fit) {
+  const double w = material.area_density * 9.81;
+  const double c_target = std::cbrt(material.bending_rigidity / w);
+  const double s_target = material.stretch_percent / 100;
+  fit.target_bending_length = c_target;
+  const StretchReference stretch(material, options);
+  CantileverOptions co;
+  co.edge_length = options.fit_edge_length;
+  auto bending_length = [&](double k, double C) {
+    MaterialFit trial;
+    trial.stiffness = k;
+    trial.bending_scale = C;
+    const CantileverResult r = RunCantilever(material, trial, options, co);
+    if (!r.failure.empty())
+      throw NumericalError("FitMaterial(" + material.name + "): cantilever failed at kLST " + FormatNumber(k) + ", C " +
+                           FormatNumber(C) + ": " + r.failure);
+    return r.bending_length;
+  };
+  // At the stiffest links a strip may still stretch more than the target (Bullet's
+  // floor at this resolution): then kLST stays 1 and only C is fitted.
+  bool fixed_k = false;
+  JointFit j;
+  j.residual = [&](const Eigen::Vector2d& u) {
+    const double k = fixed_k ? 1.0 : std::exp(u[0]), C = std::exp(u[1]);
+    return Eigen::Vector2d(fixed_k ? 0.0 : std::log(stretch(k, C) / s_target),
+                           std::log(bending_length(k, C) / c_target));
+  };
+  // Start: kLST 1 (its cap) and C = 1 (the continuum's hinge).
+  Eigen::Vector2d u0(0, 0);
+  const Eigen::Vector2d f0 = j.Eval(u0);
+  if (f0[0] > 0) {
+    fixed_k = true;
+    j.last_u.setConstant(std::nan(""));
+    fit.note = "target stretch below Bullet's minimum at this resolution/iterations (" +
+               FormatNumber(100 * s_target * std::exp(f0[0])) + " %); using kLST 1";
+  } else {
+    u0[0] = std::log(std::clamp(std::exp(f0[0]), 1e-3, 0.9));  // shear ∝ 1/k
+  }
+  const Eigen::Vector2d tol(std::log1p(options.fit_tolerance_percent / material.stretch_percent),
+                            std::log1p(options.fit_bending_tolerance));
+  Eigen::Vector2d u1;
+  const int status = SolveJointFit(j, u0, tol, options.fit_max_iterations, &u1);
+  if (j.error) std::rethrow_exception(j.error);
+  const Eigen::Vector2d f1 = j.Eval(u1);
+  fit.stiffness = fixed_k ? 1.0 : std::exp(u1[0]);
+  fit.bending_scale = std::exp(u1[1]);
+  fit.reproduced_stretch_percent = material.stretch_percent * std::exp(f1[0]);
+  if (fixed_k) fit.reproduced_stretch_percent = 100 * stretch(1.0, fit.bending_scale);
+  fit.reproduced_bending_length = c_target * std::exp(f1[1]);
+  fit.iterations = j.evaluations;
+  fit.converged = status >= 0 && std::abs(f1[1]) <= std::log1p(options.fit_bending_tolerance) &&
+                  (fixed_k || std::abs(fit.reproduced_stretch_percent - material.stretch_percent) <=
+                                  options.fit_tolerance_percent * (1 + 1e-9));
+  if (!fit.converged && status < 0) {
+    if (!fit.note.empty()) fit.note += "; ";
+    fit.note += "KINSOL stopped with flag " + std::to_string(status);
+  }
 }
 
 }  // namespace
@@ -148,7 +329,10 @@ MaterialFit FitMaterial(const Material& material, const HangOptions& options) {
   MaterialFit fit;
   fit.target_stretch_percent = material.stretch_percent;
   fit.target_friction_deg = material.friction_deg;
-  FitStiffness(material, options, fit);
+  if (material.bending_rigidity > 0)
+    FitStretchAndBending(material, options, fit);
+  else
+    FitStiffness(material, options, fit);
 
   // Friction: bisection on μ at the measured angle θ (the square stays with μ ≥ μ*,
   // slides below), bracket [½ tan θ, 2 tan θ]; then the angle it starts to slide at with

@@ -44,6 +44,8 @@ void HangOptions::Validate() const {
   if (!(fit_edge_length > 0.002 && fit_edge_length < 0.2))
     bad(fit_edge_length, "fit_edge_length", "must be in (0.002, 0.2) m");
   if (!(fit_tolerance_percent > 0)) bad(fit_tolerance_percent, "fit_tolerance_percent", "must be > 0");
+  if (!(fit_bending_tolerance > 0 && fit_bending_tolerance < 0.5))
+    bad(fit_bending_tolerance, "fit_bending_tolerance", "must be in (0, 0.5)");
   if (fit_max_iterations < 2) bad(fit_max_iterations, "fit_max_iterations", "must be >= 2");
   if (!(friction_size > 2 * fit_edge_length)) bad(friction_size, "friction_size", "must exceed two fit edge lengths");
   if (!(friction_time > 0)) bad(friction_time, "friction_time", "must be > 0 s");
@@ -237,6 +239,10 @@ ClothMaterial ClothMaterialFor(const Material& material, const MaterialFit& fit,
   cm.area_density = material.area_density;
   cm.link_stiffness = fit.stiffness;
   cm.bending = material.bending_stiffness;
+  cm.bending_rigidity = material.bending_rigidity;
+  cm.bending_scale = fit.bending_scale;
+  cm.crease_yield = material.crease_yield;
+  cm.crease_weakening = material.crease_weakening;
   cm.max_strain = o.strain_limit * material.stretch_percent / 100;
   return cm;
 }

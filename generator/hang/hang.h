@@ -88,6 +88,7 @@ struct HangOptions {
   double fit_width = 0.1, fit_height = 0.7;  // m
   double fit_edge_length = 0.025;            // m; use the garments' edge length
   double fit_tolerance_percent = 0.05;       // |reproduced − target| in stretch %
+  double fit_bending_tolerance = 0.01;       // |reproduced − target| / target bending length
   int fit_max_iterations = 12;
   // FitMaterial's friction reference: a flat single-layer square of this side on a
   // table tilted by the measured friction angle (paper: the angle at which the garment
@@ -102,12 +103,18 @@ struct HangOptions {
 
 // A material's measured stretch and friction turned into simulation parameters.
 struct MaterialFit {
-  double stiffness = 0.5;  // Bullet structural link kLST (0, 1]
+  double stiffness = 0.5;    // Bullet structural link kLST (0, 1]
+  double bending_scale = 1;  // hinge bending's constant C (generator/cloth/bending.h)
   double target_stretch_percent = 0;
   double reproduced_stretch_percent = 0;  // on the reference strip, with the strain limit
-  int iterations = 0;                     // reference hangs used (secant on kLST)
+  // With hinge bending: the bending length c = (B/w)^(1/3) measured and reproduced by
+  // the cantilever at fit_edge_length (cantilever.h), m.
+  double target_bending_length = 0;
+  double reproduced_bending_length = 0;
+  int iterations = 0;  // reference runs used (with hinge bending: KINSOL's evaluations of both references)
   bool converged = false;
   double friction = 0;             // Coulomb μ of the cloth on colliders (tables)
+  double cloth_friction = 0;       // Coulomb μ of the cloth on itself (layers, folds, stacks)
   double target_friction_deg = 0;  // measured: the tilt at which the garment starts to slide
   // Reproduced: the tilt at which the reference square starts to slide with `friction`
   // (midpoint of a bracket friction_tolerance_deg wide: stays below, slides above).

@@ -23,6 +23,12 @@ void Material::Validate() const {
     bad(area_density, "area_density", "must be in (0.01, 5] kg/m², got " + FormatNumber(area_density));
   if (!(bending_stiffness > 0 && bending_stiffness <= 1))
     bad(bending_stiffness, "bending_stiffness", "must be in (0, 1], got " + FormatNumber(bending_stiffness));
+  if (!(bending_rigidity >= 0 && bending_rigidity <= 0.01))
+    bad(bending_rigidity, "bending_rigidity", "must be in [0, 0.01] N·m, got " + FormatNumber(bending_rigidity));
+  if (!(crease_yield >= 0 && crease_yield <= 1e5))
+    bad(crease_yield, "crease_yield", "must be in [0, 1e5] 1/m (0: no creases), got " + FormatNumber(crease_yield));
+  if (!(crease_weakening >= 0 && crease_weakening <= 100))
+    bad(crease_weakening, "crease_weakening", "must be in [0, 100], got " + FormatNumber(crease_weakening));
 }
 
 const std::vector<Material>& MaterialPresets() {

@@ -29,6 +29,15 @@ struct Material {
   // (coverage 0.29 instead of > 0.7). The presets keep the fabrics' order
   // (jersey < towel < twill < denim).
   double bending_stiffness = 0.02;
+  // Bending rigidity B of one layer, N·m: moment per unit width per unit curvature (KES-FB
+  // reports gf·cm²/cm; 1 gf·cm²/cm = 98 µN·m). > 0: hinge bending
+  // (generator/cloth/bending.h) with this B replaces the relative bending links above.
+  double bending_rigidity = 0;
+  // Creases (Narain et al. 2013): the curvature (1/m) beyond which a fold's rest angle
+  // yields (0: never), and how much a yielded fold weakens (stiffness ÷ (1 + weakening ×
+  // damage)).
+  double crease_yield = 0;
+  double crease_weakening = 0;
 
   // Friction coefficient μ = tan(friction_deg).
   double FrictionCoefficient() const;
