@@ -1,0 +1,89 @@
+// The textile lab's tests on the cloth core, at their limits: a sheet meshed like the
+// garments; a stiff disc barely drapes and a limp one does; a sheet on a sheet stays on
+// a level plane and slides off a steep one; a fold creases only past the yield.
+#include "generator/hang/lab.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+#include "common/error.h"
+
+namespace drape {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+LabCloth Cloth(double B, double yield = 0) {
+  LabCloth c;
+  c.material.name = "lab";
+  c.material.area_density = 0.2;
+  c.material.bending_rigidity = B;
+  c.material.crease_yield = yield;
+  c.material.crease_weakening = yield > 0 ? 1 : 0;
+  c.fit.stiffness = 0.8;
+  c.fit.friction = c.fit.cloth_friction = std::tan(25 * kPi / 180);
+  return c;
+}
+
+TEST(Lab, MeshedSheetIsAFlatDiscMeshedAsTheGarments) {
+  std::vector<Vec2> circle;
+  for (int k = 0; k < 120; ++k)
+    circle.emplace_back(0.1 * std::cos(2 * kPi * k / 120), 0.1 * std::sin(2 * kPi * k / 120));
+  const TriMesh s = MeshedSheet(circle, 0.02);
+  EXPECT_NEAR(FaceAreas(s).sum(), kPi * 0.01, 0.002);
+  EXPECT_EQ(s.V.col(2).cwiseAbs().maxCoeff(), 0);
+  for (int f = 0; f < s.NumFaces(); ++f) {
+    const Vec3 a = s.V.row(s.F(f, 0)), b = s.V.row(s.F(f, 1)), c = s.V.row(s.F(f, 2));
+    EXPECT_GT((b - a).cross(c - a).z(), 0) << f;  // counter-clockwise seen from +z
+  }
+  EXPECT_EQ(ConnectedComponents(s), 1);
+}
+
+// The drape coefficient runs from 0 (hangs straight down) to 1 (stays flat).
+TEST(Lab, AStiffDiscBarelyDrapesAndALimpOneDoes) {
+  DrapeOptions o;
+  o.edge_length = 0.03;
+  o.seeds = {1};
+  o.settle_time = 4;
+  const DrapeResult stiff = RunDrape(Cloth(2e-3), o), limp = RunDrape(Cloth(2e-6), o);
+  ASSERT_EQ(stiff.runs.size(), 1u);
+  EXPECT_TRUE(stiff.runs[0].failure.empty()) << stiff.runs[0].failure;
+  EXPECT_GT(stiff.drape_coefficient, 0.85);
+  EXPECT_LT(limp.drape_coefficient, 0.6);
+  EXPECT_GE(limp.folds[0], 3);
+  DrapeOptions bad = o;
+  bad.disc_diameter = 0.4;
+  EXPECT_THROW(RunDrape(Cloth(2e-5), bad), Error);
+}
+
+TEST(Lab, ASheetOnASheetStaysLevelAndSlidesOffASteepIncline) {
+  InclineOptions o;
+  o.edge_length = 0.04;
+  o.time = 1;
+  o.angle_deg = 0;
+  const InclineResult level = RunIncline(Cloth(2e-5), o);
+  EXPECT_TRUE(level.failure.empty()) << level.failure;
+  EXPECT_LT(level.slide, 0.001);
+  o.angle_deg = 50;  // far above the friction angle (25°)
+  const InclineResult steep = RunIncline(Cloth(2e-5), o);
+  EXPECT_GT(steep.slide, 0.05);
+}
+
+// Folded 180° and pressed: without plasticity the strip springs back open; past its
+// yield curvature it keeps part of the fold.
+TEST(Lab, AFoldCreasesOnlyPastTheYield) {
+  CreaseOptions o;
+  o.edge_length = 0.025;
+  o.press_time = 0.1;
+  o.recovery_time = 2;
+  const CreaseResult elastic = RunCrease(Cloth(2e-5), o), creased = RunCrease(Cloth(2e-5, 30), o);
+  EXPECT_TRUE(elastic.failure.empty()) << elastic.failure;
+  EXPECT_EQ(elastic.rest_angle, 0);
+  EXPECT_GT(creased.rest_angle, 60);
+  EXPECT_GT(elastic.open_angle, creased.open_angle + 30);
+}
+
+}  // namespace
+}  // namespace drape
