@@ -113,8 +113,8 @@ struct MaterialFit {
   double reproduced_bending_length = 0;
   int iterations = 0;  // reference runs used (with hinge bending: KINSOL's evaluations of both references)
   bool converged = false;
-  double friction = 0;             // Coulomb μ of the cloth on colliders (tables)
-  double cloth_friction = 0;       // Coulomb μ of the cloth on itself (layers, folds, stacks)
+  double friction = 0;        // Coulomb μ of the cloth on colliders (tables)
+  double cloth_friction = 0;  // Coulomb μ of the cloth on itself: the lab's tests (lab.h) set it; FitMaterial leaves 0
   double target_friction_deg = 0;  // measured: the tilt at which the garment starts to slide
   // Reproduced: the tilt at which the reference square starts to slide with `friction`
   // (midpoint of a bracket friction_tolerance_deg wide: stays below, slides above).
