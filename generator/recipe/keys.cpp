@@ -207,41 +207,6 @@ const std::vector<OptionKey<Perturbation>>& PerturbationKeys() {
   return t;
 }
 
-namespace {
-
-std::string Format(const OptionRef& r) {
-  struct V {
-    std::string operator()(double* d) const {
-      char b[32];
-      std::snprintf(b, sizeof b, "%g", *d);
-      return b;
-    }
-    std::string operator()(int* i) const { return std::to_string(*i); }
-    std::string operator()(bool* b) const { return *b ? "true" : "false"; }
-    std::string operator()(std::string* s) const { return s->empty() ? "\"\"" : *s; }
-  };
-  return std::visit(V{}, r);
-}
-
-// `defaults`: the object the parser starts from (null: no defaults, e.g. materials).
-template <typename O>
-RecipeSectionDoc Doc(std::string name, const std::vector<OptionKey<O>>& table, O* defaults) {
-  RecipeSectionDoc s{std::move(name), {}};
-  for (const auto& k : table) {
-    // (ostringstream: GCC 12's -Wrestrict misfires on string concatenation here)
-    std::ostringstream def, doc;
-    if (k.ref && defaults)
-      def << '`' << Format(k.ref(*defaults)) << '`';
-    else
-      def << "—";
-    if (!k.scope.empty()) doc << '(' << k.scope << " only) ";
-    doc << k.doc;
-    s.keys.push_back({k.key, def.str(), k.unit, doc.str()});
-  }
-  return s;
-}
-
-}  // namespace
 }  // namespace recipe_keys
 
 std::vector<RecipeSectionDoc> RecipeKeyDocs() {
@@ -255,23 +220,18 @@ std::vector<RecipeSectionDoc> RecipeKeyDocs() {
   SplitSpec split;
   SplitSelector selector;
   Perturbation perturbation;
-  return {Doc("top level", TopKeys(), &recipe),
-          Doc("materials", MaterialKeys(), static_cast<Material*>(nullptr)),
-          Doc("garments", GarmentKeys(), &garment),
-          Doc("simulation", SimulationKeys(), &hang),
-          Doc("sensing", SensingKeys(), &sensing),
-          Doc("fusion", FusionKeys(), &fusion),
-          Doc("feature", FeatureKeys(), &feature),
-          Doc("splits", SplitKeys(), &split),
-          Doc("splits garments", SelectorKeys(), &selector),
-          Doc("perturbation", PerturbationKeys(), &perturbation)};
+  return {KeysDoc("top level", TopKeys(), &recipe),
+          KeysDoc("materials", MaterialKeys(), static_cast<Material*>(nullptr)),
+          KeysDoc("garments", GarmentKeys(), &garment),
+          KeysDoc("simulation", SimulationKeys(), &hang),
+          KeysDoc("sensing", SensingKeys(), &sensing),
+          KeysDoc("fusion", FusionKeys(), &fusion),
+          KeysDoc("feature", FeatureKeys(), &feature),
+          KeysDoc("splits", SplitKeys(), &split),
+          KeysDoc("splits garments", SelectorKeys(), &selector),
+          KeysDoc("perturbation", PerturbationKeys(), &perturbation)};
 }
 
-std::string RecipeKeysMarkdown(const RecipeSectionDoc& section) {
-  std::string md = "| key | default | unit | meaning |\n|---|---|---|---|\n";
-  for (const auto& k : section.keys)
-    md += "| `" + k.key + "` | " + k.default_value + " | " + k.unit + " | " + k.meaning + " |\n";
-  return md;
-}
+std::string RecipeKeysMarkdown(const RecipeSectionDoc& section) { return KeysMarkdown(section); }
 
 }  // namespace drape

@@ -12,32 +12,17 @@
 // into recipes/README.md.
 #pragma once
 
-#include <functional>
-#include <string>
-#include <variant>
 #include <vector>
 
+#include "common/yaml_keys.h"
 #include "generator/recipe/recipe.h"
 
 namespace drape::recipe_keys {
 
-// The field a scalar key sets.
-using OptionRef = std::variant<double*, int*, bool*, std::string*>;
-
-template <typename O>
-struct OptionKey {
-  std::string key;                   // "a.b" = key b of the sub-map a
-  std::function<OptionRef(O&)> ref;  // empty: parsed by hand in recipe.cpp (lists, names, files)
-  std::string unit;
-  std::string doc;
-  std::string scope = "";  // garments: "templates" or "imports" when it applies to one kind only
-};
-
-// A member, or a member of a member: Ref(&SensingSpec::sweep, &SweepOptions::frames).
-template <typename O, typename T, typename... M>
-std::function<OptionRef(O&)> Ref(T O::*first, M... rest) {
-  return [=](O& o) -> OptionRef { return &((o.*first).*....*rest); };
-}
+// The key-table vocabulary is common/yaml_keys.h's, shared with the --config options file.
+using drape::OptionKey;
+using drape::OptionRef;
+using drape::Ref;
 
 const std::vector<OptionKey<Recipe>>& TopKeys();
 const std::vector<OptionKey<Material>>& MaterialKeys();

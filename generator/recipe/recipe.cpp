@@ -16,27 +16,13 @@
 #include "common/field_error.h"
 #include "common/files.h"
 #include "common/yaml.h"
+#include "common/yaml_keys.h"
 #include "garments/io.h"
 #include "generator/recipe/keys.h"
 
 namespace fs = std::filesystem;
 
 namespace drape {
-
-int EditDistance(const std::string& a, const std::string& b) {
-  std::vector<int> row(b.size() + 1);
-  for (size_t j = 0; j <= b.size(); ++j) row[j] = static_cast<int>(j);
-  for (size_t i = 1; i <= a.size(); ++i) {
-    int diag = row[0];
-    row[0] = static_cast<int>(i);
-    for (size_t j = 1; j <= b.size(); ++j) {
-      const int up = row[j];
-      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (a[i - 1] == b[j - 1] ? 0 : 1)});
-      diag = up;
-    }
-  }
-  return row[b.size()];
-}
 
 const GarmentSpec* Recipe::FindGarment(const std::string& n) const {
   for (const auto& g : garments)
@@ -46,142 +32,17 @@ const GarmentSpec* Recipe::FindGarment(const std::string& n) const {
 
 namespace {
 
-// " (did you mean 'x'?)" when a candidate is close enough to be a plausible typo.
-std::string Suggest(const std::string& got, const std::vector<std::string>& known) {
-  std::string best;
-  int best_d = 1 << 30;
-  for (const auto& k : known) {
-    const int d = EditDistance(got, k);
-    if (d < best_d) best_d = d, best = k;
-  }
-  if (!best.empty() && best_d <= std::max<int>(2, static_cast<int>(got.size()) / 3))
-    return " (did you mean '" + best + "'?)";
-  return "";
-}
-
-std::string Join(const std::vector<std::string>& v) {
-  std::string s;
-  for (size_t i = 0; i < v.size(); ++i) s += (i ? ", " : "") + v[i];
-  return s;
-}
-
 const std::regex kNameRe("[A-Za-z0-9][A-Za-z0-9_-]*");
-
-// A field of an options struct and the recipe key that set it.
-struct SetField {
-  const void* field;
-  YAML::Node node;
-  std::string path;
-};
 
 // Parsing context: the file label and the recipe folder, plus helpers that build
 // located errors.
-class Parser {
+class Parser : public YamlKeyReader {
  public:
   Parser(const std::string& label, fs::path base, bool allow_outside,
          const std::map<std::string, fs::path>* files = nullptr)
-      : label_(label), base_(std::move(base)), allow_outside_(allow_outside), files_(files) {}
-
-  [[noreturn]] void Fail(const YAML::Mark& m, const std::string& path, const std::string& what) const {
-    std::ostringstream os;
-    os << label_ << ":" << (m.is_null() ? 0 : m.line + 1) << ":" << (m.is_null() ? 0 : m.column + 1) << ": " << path
-       << ": " << what;
-    throw Error(os.str());
-  }
-  [[noreturn]] void Fail(const YAML::Node& n, const std::string& path, const std::string& what) const {
-    Fail(n.Mark(), path, what);
-  }
+      : YamlKeyReader(label), base_(std::move(base)), allow_outside_(allow_outside), files_(files) {}
 
   static std::string Describe(const YAML::Node& n) { return DescribeYaml(n); }
-
-  void RequireMap(const YAML::Node& n, const std::string& path) const {
-    if (!n.IsMap()) Fail(n, path, "expected a mapping, got " + Describe(n));
-  }
-
-  // Every key of `n` must be in `known`; a misspelt one gets a suggestion.
-  void CheckKeys(const YAML::Node& n, const std::string& path, const std::vector<std::string>& known) const {
-    RequireMap(n, path);
-    std::set<std::string> seen;
-    for (auto it = n.begin(); it != n.end(); ++it) {
-      const YAML::Node k = it->first;  // a copy: it-> returns a proxy that dies with this statement
-      if (!k.IsScalar()) Fail(k, path, "keys must be plain names");
-      const std::string key = k.Scalar();
-      const std::string kp = path.empty() ? key : path + "." + key;
-      if (std::find(known.begin(), known.end(), key) == known.end())
-        Fail(k, kp, "unknown key" + Suggest(key, known) + "; known keys here: " + Join(known));
-      if (!seen.insert(key).second) Fail(k, kp, "key given twice");
-    }
-  }
-
-  static std::string Sub(const std::string& path, const std::string& key) {
-    return path.empty() ? key : path + "." + key;
-  }
-
-  // The key node itself (for its mark), or a null node.
-  static YAML::Node KeyNode(const YAML::Node& map, const std::string& key) {
-    for (auto it = map.begin(); it != map.end(); ++it)
-      if (it->first.Scalar() == key) return it->first;
-    return YAML::Node();
-  }
-
-  // Scalars. Only the type is checked here (a finite number, an integer that fits,
-  // true/false, a string); ranges are the Options structs' Validate().
-  std::optional<double> Double(const YAML::Node& map, const std::string& key, const std::string& path) const {
-    const YAML::Node n = map[key];
-    if (!n.IsDefined()) return std::nullopt;
-    return Number(n, Sub(path, key));
-  }
-  double Number(const YAML::Node& n, const std::string& p) const {
-    const std::optional<double> v = YamlNumber(n);
-    if (!v) Fail(n, p, "expected a number, got " + Describe(n));
-    if (!std::isfinite(*v)) Fail(n, p, "must be finite");
-    return *v;
-  }
-
-  void Read(const YAML::Node& map, const std::string& key, const std::string& path, double& out) const {
-    if (auto v = Double(map, key, path)) out = *v;
-  }
-  void Read(const YAML::Node& map, const std::string& key, const std::string& path, int& out) const {
-    const YAML::Node n = map[key];
-    if (!n.IsDefined()) return;
-    const std::string p = Sub(path, key);
-    if (!n.IsScalar()) Fail(n, p, "expected an integer, got " + Describe(n));
-    long long v;
-    try {
-      v = n.as<long long>();
-    } catch (const YAML::Exception&) {
-      Fail(n, p, "expected an integer, got " + Describe(n));
-    }
-    if (v < std::numeric_limits<int>::min() || v > std::numeric_limits<int>::max())
-      Fail(n, p, "out of range for an integer: " + n.Scalar());
-    out = static_cast<int>(v);
-  }
-  void Read(const YAML::Node& map, const std::string& key, const std::string& path, std::string& out) const {
-    if (auto v = String(map, key, path)) out = *v;
-  }
-  void Read(const YAML::Node& map, const std::string& key, const std::string& path, bool& out) const {
-    Bool(map, key, path, out);
-  }
-
-  void Bool(const YAML::Node& map, const std::string& key, const std::string& path, bool& out) const {
-    const YAML::Node n = map[key];
-    if (!n.IsDefined()) return;
-    const std::string p = Sub(path, key);
-    const std::string s = n.IsScalar() ? n.Scalar() : "";
-    if (s == "true")
-      out = true;
-    else if (s == "false")
-      out = false;
-    else
-      Fail(n, p, "expected true or false, got " + Describe(n));
-  }
-
-  std::optional<std::string> String(const YAML::Node& map, const std::string& key, const std::string& path) const {
-    const YAML::Node n = map[key];
-    if (!n.IsDefined()) return std::nullopt;
-    if (!n.IsScalar()) Fail(n, Sub(path, key), "expected a string, got " + Describe(n));
-    return n.Scalar();
-  }
 
   std::string Name(const YAML::Node& map, const std::string& key, const std::string& path) const {
     auto s = String(map, key, path);
@@ -241,62 +102,9 @@ class Parser {
     return canon;
   }
 
-  // Runs an options struct's Validate(). A FieldError for a field that a key of the
-  // recipe set is reported at that key; any other error at the section.
-  template <typename Options>
-  void Validate(const Options& o, const YAML::Node& section, const std::string& section_path,
-                const std::vector<SetField>& set) const {
-    try {
-      o.Validate();
-    } catch (const FieldError& e) {
-      for (const auto& f : set)
-        if (f.field == e.field()) Fail(f.node, f.path, e.reason());
-      Fail(section, section_path, e.what());
-    } catch (const Error& e) {
-      Fail(section, section_path, e.what());
-    }
-  }
-
-  // Checks `n`'s keys against `table`, reads the scalar keys present into `o` and
-  // returns where each field came from (for Validate).
-  template <typename O>
-  std::vector<SetField> Keys(const YAML::Node& n, const std::string& path,
-                             const std::vector<recipe_keys::OptionKey<O>>& table, O& o) const {
-    std::vector<std::string> here;                         // keys of this mapping, in table order
-    std::vector<std::pair<std::string, std::string>> sub;  // (sub-map, key) of "a.b" keys
-    for (const auto& k : table) {
-      const size_t dot = k.key.find('.');
-      const std::string head = k.key.substr(0, dot);
-      if (std::find(here.begin(), here.end(), head) == here.end()) here.push_back(head);
-      if (dot != std::string::npos) sub.emplace_back(head, k.key.substr(dot + 1));
-    }
-    CheckKeys(n, path, here);
-    for (const auto& head : here) {
-      std::vector<std::string> known;
-      for (const auto& [h, k] : sub)
-        if (h == head) known.push_back(k);
-      if (!known.empty() && n[head].IsDefined()) CheckKeys(n[head], Sub(path, head), known);
-    }
-    std::vector<SetField> set;
-    for (const auto& k : table) {
-      if (!k.ref) continue;
-      const size_t dot = k.key.find('.');
-      const YAML::Node map = dot == std::string::npos ? n : n[k.key.substr(0, dot)];
-      const std::string leaf = dot == std::string::npos ? k.key : k.key.substr(dot + 1);
-      const std::string map_path = dot == std::string::npos ? path : Sub(path, k.key.substr(0, dot));
-      if (!map.IsDefined() || !map[leaf].IsDefined()) continue;
-      const recipe_keys::OptionRef ref = k.ref(o);
-      std::visit([&](auto* field) { Read(map, leaf, map_path, *field); }, ref);
-      set.push_back({std::visit([](auto* field) -> const void* { return field; }, ref), map[leaf], Sub(path, k.key)});
-    }
-    return set;
-  }
-
-  const std::string& label() const { return label_; }
   const fs::path& base() const { return base_; }
 
  private:
-  std::string label_;
   fs::path base_;
   bool allow_outside_;
   const std::map<std::string, fs::path>* files_;  // path as written → file (a release's copy)
@@ -311,7 +119,7 @@ Material ParseMaterial(const Parser& P, const std::string& name, const YAML::Nod
       std::vector<std::string> names;
       for (const auto& pm : MaterialPresets()) names.push_back(pm.name);
       P.Fail(n["preset"], path + ".preset",
-             "unknown material preset '" + *preset + "'" + Suggest(*preset, names) + "; presets: " + Join(names));
+             "unknown material preset '" + *preset + "'" + Suggest(*preset, names) + "; presets: " + JoinNames(names));
     }
     m = *base;
   } else {
@@ -361,7 +169,7 @@ void ParseTemplateGarment(const Parser& P, const YAML::Node& n, const std::strin
   }
   if (!info)
     P.Fail(n["template"], path + ".template",
-           "unknown template '" + t + "'" + Suggest(t, names) + "; templates: " + Join(names));
+           "unknown template '" + t + "'" + Suggest(t, names) + "; templates: " + JoinNames(names));
   g.template_name = t;
   g.category = info->category;
   g.all_anchor_labels = info->anchor_labels;
@@ -428,7 +236,7 @@ void ParseGarmentMaterials(const Parser& P, const YAML::Node& n, const std::stri
     const std::string& m = g.materials[i];
     if (!r.materials.count(m))
       P.Fail(n["materials"][i], path + ".materials[" + std::to_string(i) + "]",
-             "unknown material '" + m + "'" + Suggest(m, known) + "; known: " + Join(known));
+             "unknown material '" + m + "'" + Suggest(m, known) + "; known: " + JoinNames(known));
     if (std::count(g.materials.begin(), g.materials.begin() + i, m))
       P.Fail(n["materials"][i], path + ".materials[" + std::to_string(i) + "]", "material listed twice");
   }
@@ -452,7 +260,7 @@ void ParseGarmentAnchors(const Parser& P, const YAML::Node& n, const std::string
                "anchor label '" + l + "' does not exist on " +
                    (g.template_name.empty() ? "'" + g.file.filename().string() + "'"
                                             : "template '" + g.template_name + "'") +
-                   Suggest(l, g.all_anchor_labels) + "; labels: " + Join(g.all_anchor_labels));
+                   Suggest(l, g.all_anchor_labels) + "; labels: " + JoinNames(g.all_anchor_labels));
       if (std::count(g.anchor_labels.begin(), g.anchor_labels.begin() + i, l)) P.Fail(a[i], ip, "label listed twice");
     }
   }
@@ -544,7 +352,7 @@ SplitSelector ParseSelector(const Parser& P, const YAML::Node& e, const std::str
     std::vector<std::string> gn;
     for (const auto& gg : r.garments) gn.push_back(gg.name);
     P.Fail(e["garment"], ep + ".garment",
-           "unknown garment '" + *gname + "'" + Suggest(*gname, gn) + "; garments: " + Join(gn));
+           "unknown garment '" + *gname + "'" + Suggest(*gname, gn) + "; garments: " + JoinNames(gn));
   }
   sel.garment = g->name;
   sel.instances = ParseInstances(P, e["instances"], ep + ".instances", g->instances);
@@ -555,7 +363,7 @@ SplitSelector ParseSelector(const Parser& P, const YAML::Node& e, const std::str
       if (std::find(g->materials.begin(), g->materials.end(), sel.materials[k]) == g->materials.end())
         P.Fail(e["materials"][k], ep + ".materials[" + std::to_string(k) + "]",
                "garment '" + g->name + "' has no material '" + sel.materials[k] + "'" +
-                   Suggest(sel.materials[k], g->materials) + "; its materials: " + Join(g->materials));
+                   Suggest(sel.materials[k], g->materials) + "; its materials: " + JoinNames(g->materials));
   }
   if (e["anchors"].IsDefined() && !(e["anchors"].IsScalar() && e["anchors"].Scalar() == "all")) {
     sel.anchors = P.Strings(e["anchors"], ep + ".anchors");
@@ -564,7 +372,7 @@ SplitSelector ParseSelector(const Parser& P, const YAML::Node& e, const std::str
       if (std::find(g->anchor_labels.begin(), g->anchor_labels.end(), sel.anchors[k]) == g->anchor_labels.end())
         P.Fail(e["anchors"][k], ep + ".anchors[" + std::to_string(k) + "]",
                "anchor label '" + sel.anchors[k] + "' is not among garment '" + g->name + "''s anchors" +
-                   Suggest(sel.anchors[k], g->anchor_labels) + "; its anchors: " + Join(g->anchor_labels));
+                   Suggest(sel.anchors[k], g->anchor_labels) + "; its anchors: " + JoinNames(g->anchor_labels));
   }
   const YAML::Node inode = e["instances"].IsDefined() ? e["instances"] : e;
   for (int inst : sel.instances) {

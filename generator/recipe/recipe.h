@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "common/option_keys.h"
 #include "garments/templates.h"
 #include "generator/feature/feature.h"
 #include "generator/fusion/fusion.h"
@@ -130,17 +131,9 @@ Recipe ParseRecipe(const std::string& text, const std::string& file_label, const
 // The recipe's keys for the documentation, from the parser's own tables
 // (generator/recipe/keys.cpp): recipes/README.md's key tables are exactly
 // RecipeKeysMarkdown of each section (keys_test.cpp checks).
-struct RecipeKeyDoc {
-  std::string key, default_value, unit, meaning;
-};
-struct RecipeSectionDoc {
-  std::string name;  // "simulation", "sensing", ...
-  std::vector<RecipeKeyDoc> keys;
-};
+using RecipeKeyDoc = OptionKeyDoc;
+using RecipeSectionDoc = OptionSectionDoc;  // name: "simulation", "sensing", ...
 std::vector<RecipeSectionDoc> RecipeKeyDocs();
 std::string RecipeKeysMarkdown(const RecipeSectionDoc& section);
-
-// Levenshtein edit distance, for "did you mean" suggestions.
-int EditDistance(const std::string& a, const std::string& b);
 
 }  // namespace drape

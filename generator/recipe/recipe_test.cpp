@@ -225,12 +225,5 @@ TEST(Recipe, StageCapsRejectValuesPastThemAtTheirKey) {
   }
 }
 
-TEST(Recipe, EditDistance) {
-  EXPECT_EQ(EditDistance("", ""), 0);
-  EXPECT_EQ(EditDistance("seed", "sede"), 2);
-  EXPECT_EQ(EditDistance("instnces", "instances"), 1);
-  EXPECT_EQ(EditDistance("kitten", "sitting"), 3);
-}
-
 }  // namespace
 }  // namespace drape
