@@ -13,6 +13,7 @@
 #include <sstream>
 
 #include "common/error.h"
+#include "common/field_error.h"
 #include "common/files.h"
 #include "common/format.h"
 #include "common/json.h"
@@ -79,8 +80,6 @@ std::unique_ptr<aiScene> MakeScene(const TriMesh& mesh, const Points2* uv) {
 }
 
 std::string Where(const fs::path& p) { return p.string(); }
-
-Json Vec(const Vec3& v) { return Json::array({v.x(), v.y(), v.z()}); }
 
 // Parses JSON, recording duplicate object keys (nlohmann would silently keep one).
 Json ParseJsonStrict(const std::string& text, const std::string& where) {
@@ -172,8 +171,9 @@ RawAnchor ParseAnchor(const std::string& label, const Json& v, const std::string
 
 void ImportOptions::Validate() const {
   if (!(unit_scale > 0 && unit_scale <= 1e6))
-    throw Error("unit_scale must be in (0, 1e6] m per file unit, got " + FormatNumber(unit_scale));
-  if (!(max_anchor_distance >= 0)) throw Error("max_anchor_distance must be >= 0");
+    BadField(unit_scale, "unit_scale", "must be in (0, 1e6] m per file unit, got " + FormatNumber(unit_scale));
+  if (!(max_anchor_distance >= 0))
+    BadField(max_anchor_distance, "max_anchor_distance", "must be >= 0, got " + FormatNumber(max_anchor_distance));
 }
 
 fs::path AnchorsPath(const fs::path& mesh_path) {
@@ -259,8 +259,8 @@ std::string EncodeAnchors(const Garment& g, const std::string& mesh_name) {
   for (const Anchor& a : g.anchors) {
     Json e;
     e["vertex"] = a.vertex;
-    e["position"] = Vec(a.position);
-    e["uv"] = Json::array({a.uv.x(), a.uv.y()});
+    e["position"] = PointJson(a.position);
+    e["uv"] = PointJson(a.uv);
     anchors[a.label] = e;
   }
   j["anchors"] = anchors;

@@ -182,7 +182,7 @@ TEST(Io, BadInputsNameFileAndElement) {
   bad.unit_scale = 0;
   EXPECT_CONTAINS(ErrorOf([&] { ImportGarment(dir / "sq.obj", {}, bad); }), "unit_scale");
   bad.unit_scale = 2e6;  // the cap the recipe had before ranges moved into Validate()
-  EXPECT_CONTAINS(ErrorOf([&] { ImportGarment(dir / "sq.obj", {}, bad); }), "unit_scale must be in (0, 1e6]");
+  EXPECT_CONTAINS(ErrorOf([&] { ImportGarment(dir / "sq.obj", {}, bad); }), "unit_scale: must be in (0, 1e6]");
 }
 
 TEST(Validate, InMemoryGarmentProblemsAreNamed) {

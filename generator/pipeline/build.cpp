@@ -149,7 +149,7 @@ void RecordJob(Json& rec, const Job& job, const GarmentSpec& g, const Garment& g
                          {"friction", fit.friction},
                          {"target_friction_deg", fit.target_friction_deg},
                          {"reproduced_friction_deg", fit.reproduced_friction_deg}};
-  rec["anchor"] = {{"label", anchor.label}, {"vertex", anchor.vertex}, {"uv", {anchor.uv.x(), anchor.uv.y()}}};
+  rec["anchor"] = {{"label", anchor.label}, {"vertex", anchor.vertex}, {"uv", PointJson(anchor.uv)}};
   rec["grasp_offset"] = {offset.x(), offset.y(), offset.z()};
   rec["seed"] = job.seed;
   if (job.turn != 0) rec["turn_radians"] = job.turn;

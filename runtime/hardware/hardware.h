@@ -3,10 +3,11 @@
 // an IR range sensor beside each gripper, a Kinect on the head, a table), and the
 // vocabulary they share. Simulated implementations are in sim.h.
 //
-// Frames and units: world frame, metres, seconds, y up (DESIGN.md). A gripper pose is
-// its jaw centre (the point between the fingertips where cloth is pinched), the
-// approach direction (unit, from the palm towards the fingertips) and the closing
-// direction (unit, perpendicular to approach: the fingers move along it).
+// Frames and units: world frame, metres, seconds, y up (docs/architecture.md,
+// "Conventions every stage follows"). A gripper pose is its jaw centre (the point
+// between the fingertips where cloth is pinched), the approach direction (unit, from the
+// palm towards the fingertips) and the closing direction (unit, perpendicular to
+// approach: the fingers move along it).
 #pragma once
 
 #include <Eigen/Geometry>

@@ -11,6 +11,7 @@
 #include <set>
 
 #include "common/error.h"
+#include "common/field_error.h"
 #include "common/files.h"
 #include "common/parallel.h"
 #include "common/timing.h"
@@ -25,7 +26,7 @@ namespace reg = drape::registration;
 
 void RegistrationEvalOptions::Validate() const {
   registration.Validate();
-  if (max_pairs_per_category < 0) throw Error("registration eval: max_pairs_per_category must be >= 0");
+  if (max_pairs_per_category < 0) BadField(max_pairs_per_category, "max_pairs_per_category", "must be >= 0 (0 = all)");
 }
 
 namespace {
@@ -127,8 +128,6 @@ struct Sum {
                   {"seconds_per_registration", mean(total, n)}}}};
   }
 };
-
-Json V3(const Vec3& v) { return Json::array({v.x(), v.y(), v.z()}); }
 
 // The source for a test entry: the train entry recognition matched (when it did), else
 // the true anchor's train entry of the first instance (by name) that has it; -1 if none.
@@ -264,7 +263,7 @@ Json PairJson(const Pair& p, const EntryLabel& d, const PairOutcome& o) {
   j["t_to_s_nonrigid"] = o.ev.t_to_s_nonrigid.mean;
   if (o.ev.anchors_with_truth > 0) {
     j["anchor_error_cm"] = {{"rigid", 100 * o.ev.anchor_error_rigid}, {"nonrigid", 100 * o.ev.anchor_error_nonrigid}};
-    j["anchor_truth"] = V3(o.truth);
+    j["anchor_truth"] = PointJson(o.truth);
     // Test entries are hung with a grasp offset, so their true anchor is not at the grip
     // (origin) while a database anchor (offset 0) is: a transfer to the grip is off by this much.
     j["anchor_truth_from_grasp_cm"] = 100 * o.truth.norm();

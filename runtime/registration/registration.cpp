@@ -197,7 +197,6 @@ RegistrationEvaluation RegisterAndEvaluate(const TriMesh& source, const TriMesh&
 }
 
 namespace {
-Json V3(const Vec3& v) { return Json::array({v.x(), v.y(), v.z()}); }
 Json Terms(const EnergyTerms& e) {
   return Json{{"fit", e.fit}, {"area", e.area}, {"angle", e.angle}, {"hinge", e.hinge}, {"total", e.total()}};
 }
@@ -209,9 +208,9 @@ Json Directed(const DirectedDistance& d) {
 Json ToJson(const RegistrationReport& r) {
   Json j;
   j["source"] =
-      Json{{"centre", V3(r.source_frame.centre)}, {"size", r.source_frame.size}, {"area", r.source_frame.area}};
+      Json{{"centre", PointJson(r.source_frame.centre)}, {"size", r.source_frame.size}, {"area", r.source_frame.area}};
   j["target"] =
-      Json{{"centre", V3(r.target_frame.centre)}, {"size", r.target_frame.size}, {"area", r.target_frame.area}};
+      Json{{"centre", PointJson(r.target_frame.centre)}, {"size", r.target_frame.size}, {"area", r.target_frame.area}};
   Json m = Json::array();
   const Eigen::Matrix4d M = r.rigid.Matrix();
   for (int i = 0; i < 4; ++i) m.push_back(Json::array({M(i, 0), M(i, 1), M(i, 2), M(i, 3)}));
@@ -253,7 +252,10 @@ Json ToJson(const RegistrationEvaluation& ev) {
   j["t_to_s_nonrigid"] = Directed(ev.t_to_s_nonrigid);
   Json a = Json::array();
   for (const AnchorTransfer& t : ev.anchors) {
-    Json e{{"label", t.label}, {"vertex", t.source_vertex}, {"rigid", V3(t.rigid)}, {"nonrigid", V3(t.nonrigid)}};
+    Json e{{"label", t.label},
+           {"vertex", t.source_vertex},
+           {"rigid", PointJson(t.rigid)},
+           {"nonrigid", PointJson(t.nonrigid)}};
     if (t.has_truth) e["error_rigid"] = t.error_rigid, e["error_nonrigid"] = t.error_nonrigid;
     a.push_back(e);
   }
