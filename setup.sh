@@ -33,6 +33,7 @@ PACKAGES=(
   libcgal-dev libgmp-dev libmpfr-dev
   libopenmpi-dev openmpi-bin
   libgtest-dev libgmock-dev libbenchmark-dev
+  libcli11-dev        # the drape command line (cli/)
   python3-numpy
   chromium            # headless check of a release's index.html gallery
   pybind11-dev        # the drape Python package (python/)

@@ -1,10 +1,11 @@
-// drape build RECIPE [-o DIR] [-j N] [--resume] [--shard K/N] [--keep-going]
+// drape build RECIPE [-o DIR] [-j N] [--resume] [--shard K/N] [--keep-going] [--quiet]
 #include <csignal>
 #include <iostream>
+#include <memory>
 #include <regex>
 
-#include "cli/args.h"
 #include "cli/command.h"
+#include "cli/options.h"
 #include "common/error.h"
 #include "generator/pipeline/build.h"
 #include "generator/pipeline/build_mpi.h"
@@ -22,16 +23,7 @@ extern "C" void OnSigint(int) {
   std::signal(SIGINT, SIG_DFL);
 }
 
-const char* kUsage = R"(Usage: drape build RECIPE [-o DIR] [-j N] [--resume] [--shard K/N] [--keep-going] [--quiet]
-
-Builds the release a recipe describes (recipes/README.md documents recipes).
-
-  -o DIR          output folder (default datasets/<name>/<version>/)
-  -j N            jobs run at once (default: all cores); entries are identical for any N
-  --resume        continue an interrupted build in DIR (a plain build resumes one too)
-  --shard K/N     build only jobs with index % N == K-1 (merge shards with drape merge)
-  --keep-going    turn unexpected per-job errors into failed entries instead of stopping
-  --quiet         no progress output
+const char* kFooter = R"(Builds the release a recipe describes (recipes/README.md documents recipes).
 
 Under mpirun (mpirun -np N drape build RECIPE -o DIR) rank 0 hands out jobs and writes
 the release while ranks 1..N-1 simulate, one job each at a time (-j is ignored); same
@@ -42,20 +34,31 @@ same command (or add --resume) to continue. Exit status: 0 all entries built, 1 
 input, 4 the release was built but some entries failed (listed), 5 stopped early
 (interrupted, or an unexpected job error without --keep-going).)";
 
+struct BuildArgs {
+  std::string recipe, output, shard;
+  int jobs = 0;
+  bool resume = false, keep_going = false, quiet = false;
+};
+
+// --shard K/N into its two numbers; "" when it reads, else what is wrong.
+std::string ParseShard(const std::string& s, int* k, int* n) {
+  std::smatch m;
+  if (!std::regex_match(s, m, std::regex("([0-9]{1,9})/([0-9]{1,9})")))
+    return "expected K/N (e.g. 2/8), got '" + s + "'";
+  *k = std::stoi(m[1]);
+  *n = std::stoi(m[2]);
+  if (*n < 1 || *k < 1 || *k > *n) return "'" + s + "': need 1 <= K <= N";
+  return "";
+}
+
 // Exit status of a build that did not throw (see kUsage).
 int ExitStatus(const BuildReport& r) {
   if (r.aborted || r.interrupted) return 5;
   return r.release_failed > 0 ? 4 : 0;
 }
 
-int Run(const std::vector<std::string>& argv) {
-  Args args(argv, {"--resume", "--keep-going", "--quiet"}, {"-o", "-j", "--shard"});
-  if (args.help()) {
-    std::cout << kUsage << "\n";
-    return 0;
-  }
-  args.RequirePositional(1, 1, "RECIPE");
-  const Recipe recipe = LoadRecipe(args.positional()[0]);
+int Run(const BuildArgs& args) {
+  const Recipe recipe = LoadRecipe(args.recipe);
   // Under mpirun every rank runs this command; rank 0 speaks for all of them.
   const bool mpi = MpiRequested();
   const bool speaker = !mpi || MpiLaunchRank() == 0;
@@ -63,23 +66,12 @@ int Run(const std::vector<std::string>& argv) {
     for (const auto& w : recipe.warnings) std::cerr << "drape build: warning: " << w << "\n";
 
   BuildOptions o;
-  if (auto out = args.Get("-o")) o.output = *out;
-  if (auto j = args.GetInt("-j")) {
-    if (*j < 1) throw Error("-j: must be >= 1");
-    o.threads = static_cast<int>(*j);
-  }
-  o.resume = args.Flag("--resume");
-  o.keep_going = args.Flag("--keep-going");
-  if (args.Flag("--quiet")) o.progress = ProgressMode::kQuiet;
-  if (auto s = args.Get("--shard")) {
-    std::smatch m;
-    if (!std::regex_match(*s, m, std::regex("([0-9]+)/([0-9]+)")))
-      throw Error("--shard: expected K/N (e.g. 2/8), got '" + *s + "'");
-    o.shard_index = std::stoi(m[1]);
-    o.shard_count = std::stoi(m[2]);
-    if (o.shard_count < 1 || o.shard_index < 1 || o.shard_index > o.shard_count)
-      throw Error("--shard " + *s + ": need 1 <= K <= N");
-  }
+  if (!args.output.empty()) o.output = args.output;
+  if (args.jobs > 0) o.threads = args.jobs;
+  o.resume = args.resume;
+  o.keep_going = args.keep_going;
+  if (args.quiet) o.progress = ProgressMode::kQuiet;
+  if (!args.shard.empty()) ParseShard(args.shard, &o.shard_index, &o.shard_count);
   o.stop = &g_stop;
   g_stop.store(false);
   auto previous = std::signal(SIGINT, OnSigint);
@@ -108,7 +100,7 @@ int Run(const std::vector<std::string>& argv) {
               << " failed:\n";
     for (const auto& [key, why] : r.failures) std::cerr << "  " << key << ": " << why << "\n";
   }
-  std::string again = "drape build " + args.positional()[0] + " -o " + r.output.string() + " --resume";
+  std::string again = "drape build " + args.recipe + " -o " + r.output.string() + " --resume";
   if (o.shard_count > 1) again += " --shard " + std::to_string(o.shard_index) + "/" + std::to_string(o.shard_count);
   if (r.aborted) {
     std::cerr << "drape build: stopped: " << r.error << "\n"
@@ -124,7 +116,28 @@ int Run(const std::vector<std::string>& argv) {
   return ExitStatus(r);
 }
 
-Register reg({"build", "build a release (database) from a recipe", kUsage, Run});
+Runner Setup(CLI::App& app) {
+  auto a = std::make_shared<BuildArgs>();
+  app.footer(kFooter);
+  app.add_option("RECIPE", a->recipe, "the recipe (YAML)")->required();
+  AddOutput(app, a->output, "output folder (default datasets/<name>/<version>/)");
+  AddJobs(app, a->jobs, "jobs run at once (default: all cores); entries are identical for any N");
+  app.add_flag("--resume", a->resume,
+               "continue an interrupted build in the output folder (a plain build resumes one too)");
+  app.add_option("--shard", a->shard, "build only jobs with index % N == K-1 (merge shards with drape merge)")
+      ->type_name("K/N")
+      ->check(CLI::Validator(
+          [](std::string& s) {
+            int k = 0, n = 0;
+            return ParseShard(s, &k, &n);
+          },
+          ""));
+  app.add_flag("--keep-going", a->keep_going, "turn unexpected per-job errors into failed entries instead of stopping");
+  app.add_flag("--quiet", a->quiet, "no progress output");
+  return [a] { return Run(*a); };
+}
+
+Register reg({"build", "build a release (database) from a recipe", Setup});
 
 // `drape verify --rebuild` rebuilds through this hook.
 struct InstallRebuilder {

@@ -2,10 +2,11 @@
 #include <cstdio>
 #include <iomanip>
 #include <iostream>
+#include <memory>
 #include <sstream>
 
-#include "cli/args.h"
 #include "cli/command.h"
+#include "cli/options.h"
 #include "common/error.h"
 #include "common/files.h"
 #include "garments/io.h"
@@ -18,56 +19,16 @@ namespace fs = std::filesystem;
 namespace drape::cli {
 namespace {
 
-const char* kUsage =
-    "Usage: drape garments list\n"
-    "       drape garments make TEMPLATE [options] -o OUT.ply|obj|glb|gltf|stl\n"
-    "       drape garments show FILE [--anchors FILE.anchors.json] [--preview OUT.png]\n"
-    "\n"
-    "Garment templates (procedural, with labelled anchors), imports and previews.\n"
-    "See `drape garments SUBCOMMAND --help`.\n";
+struct GarmentsArgs {
+  bool params = false;                   // list
+  std::string name, output, size = "M";  // make: TEMPLATE; show: FILE
+  std::vector<std::string> param;
+  TemplateOptions make;
+  std::string anchors, preview;  // show (and make's preview)
+  ImportOptions show;
+};
 
-const char* kListUsage =
-    "Usage: drape garments list [--params]\n"
-    "\n"
-    "Lists the garment templates with category, anchor count and openings.\n"
-    "  --params   also list each template's size parameters with their S/M/L presets\n";
-
-const char* kMakeUsage =
-    "Usage: drape garments make TEMPLATE [--size S|M|L] [--seed N] [--edge-length M]\n"
-    "                            [--layer-gap M] [--perturbation P] [--param NAME=VALUE ...]\n"
-    "                            -o OUT.ply|obj|glb|gltf|stl [--preview OUT.png]\n"
-    "\n"
-    "Builds a flat two-layer garment from a template and writes the mesh plus\n"
-    "OUT.anchors.json beside it.\n"
-    "  --size S|M|L        size preset (default M)\n"
-    "  --seed N            0 = preset proportions (default); other values perturb every\n"
-    "                      parameter by up to ±perturbation, deterministically\n"
-    "  --edge-length M     target mesh edge length in metres (default 0.025)\n"
-    "  --layer-gap M       distance between front and back layer (default 0.01)\n"
-    "  --perturbation P    relative perturbation for --seed (default 0.05)\n"
-    "  --param NAME=VALUE  set a size parameter exactly (metres; radians for angles);\n"
-    "                      repeatable; see `drape garments list --params`\n"
-    "  -o, --output PATH   mesh file to write (format from the extension)\n"
-    "  --preview PNG       also write a preview picture\n";
-
-const char* kShowUsage =
-    "Usage: drape garments show FILE [--anchors FILE.anchors.json] [--preview OUT.png]\n"
-    "                            [--unit-scale S] [--max-anchor-distance M]\n"
-    "\n"
-    "Imports a mesh (any format assimp reads) with its anchors, validates it and prints\n"
-    "vertex/face counts, size, area, mesh quality and anchors.\n"
-    "  --anchors PATH            anchors sidecar (default: FILE's NAME.anchors.json if present)\n"
-    "  --unit-scale S            multiply file coordinates by S (e.g. 0.01 for cm)\n"
-    "  --max-anchor-distance M   how far an anchor position may be from the surface (0.02)\n"
-    "  --preview PNG             write a preview picture\n";
-
-int List(const std::vector<std::string>& argv) {
-  Args args(argv, {"--params"}, {});
-  if (args.help()) {
-    std::cout << kListUsage;
-    return 0;
-  }
-  args.RequirePositional(0, 0, "no positional arguments");
+int List(const GarmentsArgs& args) {
   std::cout << std::left << std::setw(20) << "template" << std::setw(20) << "category" << std::setw(9) << "anchors"
             << "openings\n";
   for (const auto& t : Templates()) {
@@ -75,7 +36,7 @@ int List(const std::vector<std::string>& argv) {
     for (const auto& o : t.openings) openings += (openings.empty() ? "" : ", ") + o;
     std::cout << std::left << std::setw(20) << t.name << std::setw(20) << t.category << std::setw(9)
               << t.anchor_labels.size() << (openings.empty() ? "(none)" : openings) << "\n";
-    if (args.Flag("--params")) {
+    if (args.params) {
       std::cout << "    " << t.description << "\n";
       for (const auto& p : t.parameters) {
         std::ostringstream os;
@@ -114,40 +75,29 @@ void PrintGarment(const Garment& g, const MeshReport& r) {
   }
 }
 
-int Make(const std::vector<std::string>& argv) {
-  Args args(
-      argv, {},
-      {"--size", "--seed", "--edge-length", "--layer-gap", "--perturbation", "--param", "-o", "--output", "--preview"});
-  if (args.help()) {
-    std::cout << kMakeUsage;
-    return 0;
-  }
-  args.RequirePositional(1, 1, "one TEMPLATE (see drape garments list)");
-  TemplateOptions opt;
-  opt.size = args.Get("--size", opt.size);
-  if (auto s = args.GetSeed("--seed")) opt.seed = *s;
-  if (auto v = args.GetDouble("--edge-length")) opt.edge_length = *v;
-  if (auto v = args.GetDouble("--layer-gap")) opt.layer_gap = *v;
-  if (auto v = args.GetDouble("--perturbation")) opt.perturbation = *v;
-  for (const std::string& kv : args.GetAll("--param")) {
+int Make(const GarmentsArgs& args) {
+  TemplateOptions opt = args.make;
+  opt.size = args.size;
+  for (const std::string& kv : args.param) {
     const auto eq = kv.find('=');
-    if (eq == std::string::npos || eq == 0) throw Error("option --param: expected NAME=VALUE, got '" + kv + "'");
+    if (eq == std::string::npos || eq == 0) throw Error("--param: expected NAME=VALUE, got '" + kv + "'");
     const std::string value = kv.substr(eq + 1);
     char* end = nullptr;
     const double d = std::strtod(value.c_str(), &end);
-    if (value.empty() || *end != '\0') throw Error("option --param " + kv + ": '" + value + "' is not a number");
+    if (value.empty() || *end != '\0') throw Error("--param " + kv + ": '" + value + "' is not a number");
     opt.params[kv.substr(0, eq)] = d;
   }
-  auto out = args.Get("-o");
-  if (!out) out = args.Get("--output");
-  if (!out) throw Error("missing -o OUT.ply|obj|glb (see --help)");
+  ValidateOptions(
+      opt,
+      {{&opt.edge_length, "--edge-length"}, {&opt.layer_gap, "--layer-gap"}, {&opt.perturbation, "--perturbation"}});
+  const std::string& out = args.output;
   MeshStats stats;
-  const Garment g = MakeGarment(args.positional()[0], opt, &stats);
-  ExportGarment(g, *out);
-  std::cout << "wrote " << *out << " and " << AnchorsPath(*out).string() << "\n";
-  if (auto png = args.Get("--preview")) {
-    WriteFileAtomic(*png, RenderFlatPreview(g));
-    std::cout << "wrote " << *png << "\n";
+  const Garment g = MakeGarment(args.name, opt, &stats);
+  ExportGarment(g, out);
+  std::cout << "wrote " << out << " and " << AnchorsPath(out).string() << "\n";
+  if (!args.preview.empty()) {
+    WriteFileAtomic(args.preview, RenderFlatPreview(g));
+    std::cout << "wrote " << args.preview << "\n";
   }
   PrintGarment(g, InspectMesh(g.mesh));
   std::cout << std::setprecision(2) << "edge/target p05 " << stats.ratio_p05 << "  p95 " << stats.ratio_p95 << "  (min "
@@ -155,50 +105,66 @@ int Make(const std::vector<std::string>& argv) {
   return 0;
 }
 
-int Show(const std::vector<std::string>& argv) {
-  Args args(argv, {}, {"--anchors", "--preview", "--unit-scale", "--max-anchor-distance"});
-  if (args.help()) {
-    std::cout << kShowUsage;
-    return 0;
-  }
-  args.RequirePositional(1, 1, "one mesh FILE");
-  const fs::path mesh = args.positional()[0];
-  fs::path anchors;
-  if (auto a = args.Get("--anchors")) {
-    anchors = *a;
-  } else if (fs::exists(AnchorsPath(mesh))) {
-    anchors = AnchorsPath(mesh);
-  }
-  ImportOptions opt;
-  if (auto v = args.GetDouble("--unit-scale")) opt.unit_scale = *v;
-  if (auto v = args.GetDouble("--max-anchor-distance")) opt.max_anchor_distance = *v;
+int Show(const GarmentsArgs& args) {
+  const fs::path mesh = args.name;
+  fs::path anchors = args.anchors;
+  if (anchors.empty() && fs::exists(AnchorsPath(mesh))) anchors = AnchorsPath(mesh);
+  const ImportOptions& opt = args.show;
+  ValidateOptions(opt, {{&opt.unit_scale, "--unit-scale"}, {&opt.max_anchor_distance, "--max-anchor-distance"}});
   ImportReport report;
   const Garment g = ImportGarment(mesh, anchors, opt, &report);
   std::cout << "file       " << mesh.string() << "\n"
             << "anchors    " << (anchors.empty() ? std::string("(none)") : anchors.string()) << "\n";
   for (const auto& w : report.warnings) std::cout << "warning: " << w << "\n";
   PrintGarment(g, InspectMesh(g.mesh));
-  if (auto png = args.Get("--preview")) {
-    WriteFileAtomic(*png, RenderFlatPreview(g));
-    std::cout << "wrote " << *png << "\n";
+  if (!args.preview.empty()) {
+    WriteFileAtomic(args.preview, RenderFlatPreview(g));
+    std::cout << "wrote " << args.preview << "\n";
   }
   return 0;
 }
 
-int Run(const std::vector<std::string>& argv) {
-  if (argv.empty() || argv[0] == "--help" || argv[0] == "-h" || argv[0] == "help") {
-    std::cout << kUsage;
-    return argv.empty() ? 2 : 0;
-  }
-  const std::string sub = argv[0];
-  const std::vector<std::string> rest(argv.begin() + 1, argv.end());
-  if (sub == "list") return List(rest);
-  if (sub == "make") return Make(rest);
-  if (sub == "show") return Show(rest);
-  throw Error("unknown subcommand '" + sub + "' (expected list, make or show)");
+Runner Setup(CLI::App& app) {
+  auto a = std::make_shared<GarmentsArgs>();
+  app.require_subcommand(1);
+  CLI::App* list = app.add_subcommand("list", "list the templates with category, anchor count and openings");
+  list->add_flag("--params", a->params, "also each template's size parameters with their S/M/L presets");
+
+  CLI::App* make = app.add_subcommand("make", "build a flat two-layer garment from a template");
+  make->footer(
+      "Writes the mesh plus OUT.anchors.json beside it (format from the extension: ply, obj, glb, gltf, stl).");
+  make->add_option("TEMPLATE", a->name, "a template (drape garments list)")->required();
+  AddOutput(*make, a->output, "mesh file to write")->required();
+  make->add_option("--size", a->size, "size preset")->check(CLI::IsMember({"S", "M", "L"}))->capture_default_str();
+  AddSeed(*make, a->make.seed,
+          "0 = the preset's proportions; other values perturb every parameter by up to ±perturbation");
+  make->add_option("--edge-length", a->make.edge_length, "target mesh edge length (m)")->capture_default_str();
+  make->add_option("--layer-gap", a->make.layer_gap, "distance between front and back layer (m)")
+      ->capture_default_str();
+  make->add_option("--perturbation", a->make.perturbation, "relative perturbation for --seed")->capture_default_str();
+  make->add_option("--param", a->param, "set a size parameter exactly (m; radians for angles); repeatable")
+      ->type_name("NAME=VALUE");
+  make->add_option("--preview", a->preview, "also write a preview picture")->type_name("PNG");
+
+  CLI::App* show = app.add_subcommand("show", "import a mesh with its anchors, validate it and describe it");
+  show->add_option("FILE", a->name, "a mesh file (any format assimp reads)")->required();
+  show->add_option("--anchors", a->anchors, "anchors sidecar (default: FILE's NAME.anchors.json if present)")
+      ->type_name("PATH");
+  show->add_option("--unit-scale", a->show.unit_scale, "multiply file coordinates by S (e.g. 0.01 for cm)")
+      ->type_name("S")
+      ->capture_default_str();
+  show->add_option("--max-anchor-distance", a->show.max_anchor_distance,
+                   "how far an anchor position may be from the surface (m)")
+      ->capture_default_str();
+  show->add_option("--preview", a->preview, "write a preview picture")->type_name("PNG");
+  return [a, list, make] {
+    if (list->parsed()) return List(*a);
+    if (make->parsed()) return Make(*a);
+    return Show(*a);
+  };
 }
 
-Register reg({"garments", "garment templates, imports and previews (list, make, show)", kUsage, Run});
+Register reg({"garments", "garment templates, imports and previews (list, make, show)", Setup});
 
 }  // namespace
 }  // namespace drape::cli

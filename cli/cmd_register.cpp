@@ -3,9 +3,12 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <memory>
 
-#include "cli/args.h"
 #include "cli/command.h"
+#include "cli/config.h"
+#include "cli/options.h"
+#include "cli/sections.h"
 #include "common/error.h"
 #include "garments/io.h"
 #include "runtime/registration/registration.h"
@@ -15,45 +18,25 @@ namespace fs = std::filesystem;
 namespace drape::cli {
 namespace {
 
-const char* kUsage =
-    "Usage: drape register SOURCE TARGET [-o OUT.ply] [--rigid-only] [--anchors SRC.anchors.json]\n"
-    "                      [--json] [--no-scale] [--grid-cells N] [--kappa K] [--beta B]\n"
-    "                      [--alpha A] [--iterations N] [--paper-query]\n"
-    "\n"
+const char* kFooter =
     "Registers SOURCE (e.g. a database entry's hang.ply) onto TARGET (e.g. a recon.ply):\n"
     "scales SOURCE to TARGET's size, aligns it by ICP on a closest-point grid, then deforms\n"
     "it by minimising E_fit + kappa E_area + beta E_angle + alpha E_hinge (secant\n"
     "Levenberg-Marquardt). Prints the paper's registration errors (area-weighted mean\n"
     "distance, one sample per triangle, metres) source->target and target->source, for\n"
-    "rigid only (R) and rigid + non-rigid (R+N), and the transferred anchors.\n"
-    "  -o, --output PATH   write the registered source (R+N, or R with --rigid-only); with\n"
-    "                      anchors, also PATH's NAME.anchors.json with the moved anchors\n"
-    "  --rigid-only        skip the non-rigid step\n"
-    "  --anchors PATH      SOURCE's anchors sidecar (default: SOURCE's NAME.anchors.json if present)\n"
-    "  --json              print the full report as JSON\n"
-    "  --no-scale          skip the scaling step\n"
-    "  --grid-cells N      closest-point grid cells along the longest side (default 64)\n"
-    "  --kappa K, --beta B, --alpha A   energy weights (defaults 1e-4, 1e-4, 1e-8)\n"
-    "  --iterations N      maximum Levenberg-Marquardt iterations (default 60)\n"
-    "  --paper-query       use the paper's 8-point grid query for ICP and fitting\n";
+    "rigid only (R) and rigid + non-rigid (R+N), and the transferred anchors. The energy\n"
+    "weights, grid and solver settings are the options file's `registration` section.";
 
-registration::RegistrationOptions OptionsFrom(const Args& args) {
-  registration::RegistrationOptions opt;
-  opt.nonrigid = !args.Flag("--rigid-only");
-  opt.scale = !args.Flag("--no-scale");
-  if (args.Flag("--paper-query")) opt.icp.refined_query = false, opt.refined_fit = false;
-  if (auto v = args.GetInt("--grid-cells")) opt.grid.cells = static_cast<int>(*v);
-  if (auto v = args.GetDouble("--kappa")) opt.kappa = *v;
-  if (auto v = args.GetDouble("--beta")) opt.beta = *v;
-  if (auto v = args.GetDouble("--alpha")) opt.alpha = *v;
-  if (auto v = args.GetInt("--iterations")) opt.lm.max_iterations = static_cast<int>(*v);
-  opt.Validate();
-  return opt;
-}
+using registration::RegistrationOptions;
+
+struct RegisterArgs {
+  std::string source, target, output, anchors, config;
+  bool rigid_only = false, json = false;
+};
 
 // SOURCE with its anchors: the explicit sidecar, else SOURCE's own if there is one.
-Garment LoadSource(const Args& args, const fs::path& source_path) {
-  fs::path anchors_path = args.Get("--anchors", "");
+Garment LoadSource(const RegisterArgs& args, const fs::path& source_path) {
+  fs::path anchors_path = args.anchors;
   if (anchors_path.empty() && fs::exists(AnchorsPath(source_path))) anchors_path = AnchorsPath(source_path);
   Garment garment;
   if (!anchors_path.empty()) {
@@ -64,7 +47,7 @@ Garment LoadSource(const Args& args, const fs::path& source_path) {
   return garment;
 }
 
-void PrintRegistration(const registration::RegistrationEvaluation& ev, const registration::RegistrationOptions& opt,
+void PrintRegistration(const registration::RegistrationEvaluation& ev, const RegistrationOptions& opt,
                        const fs::path& source_path, const TriMesh& source, const fs::path& target_path,
                        const TriMesh& target, const std::string& out) {
   const registration::RegistrationReport& r = ev.report;
@@ -92,16 +75,12 @@ void PrintRegistration(const registration::RegistrationEvaluation& ev, const reg
               r.nonrigid_seconds, out.empty() ? "" : "; wrote ", out.c_str());
 }
 
-int Run(const std::vector<std::string>& argv) {
-  Args args(argv, {"--rigid-only", "--json", "--no-scale", "--paper-query"},
-            {"-o", "--output", "--anchors", "--grid-cells", "--kappa", "--beta", "--alpha", "--iterations"});
-  if (args.help()) {
-    std::cout << kUsage;
-    return 0;
-  }
-  args.RequirePositional(2, 2, "SOURCE and TARGET meshes");
-  const fs::path source_path = args.positional()[0], target_path = args.positional()[1];
-  const registration::RegistrationOptions opt = OptionsFrom(args);
+int Run(const RegisterArgs& args) {
+  const fs::path source_path = args.source, target_path = args.target;
+  RegistrationOptions opt;
+  kRegistrationSection.Read(OptionsFile::LoadIfGiven(args.config), opt);
+  opt.nonrigid = !args.rigid_only;
+  opt.Validate();
   const Garment garment = LoadSource(args, source_path);
   const TriMesh target = ReadMesh(target_path);
 
@@ -112,7 +91,7 @@ int Run(const std::vector<std::string>& argv) {
       registration::RegisterAndEvaluate(garment.mesh, target, pairs, opt, &result);
   const TriMesh& out_mesh = opt.nonrigid ? result.nonrigid : result.rigid;
 
-  const std::string out = args.Get("-o", args.Get("--output", ""));
+  const std::string& out = args.output;
   if (!out.empty()) {
     if (!garment.anchors.empty()) {
       Garment moved = garment;
@@ -124,7 +103,7 @@ int Run(const std::vector<std::string>& argv) {
     }
   }
 
-  if (args.Flag("--json")) {
+  if (args.json) {
     Json j = registration::ToJson(ev);
     j["source"] = source_path.string();
     j["target"] = target_path.string();
@@ -136,7 +115,23 @@ int Run(const std::vector<std::string>& argv) {
   return 0;
 }
 
-Register reg({"register", "register a mesh onto another (scale, ICP, non-rigid), transfer anchors", kUsage, Run});
+Runner Setup(CLI::App& app) {
+  auto a = std::make_shared<RegisterArgs>();
+  app.footer(kFooter);
+  app.add_option("SOURCE", a->source, "the mesh to move (with its NAME.anchors.json if present)")->required();
+  app.add_option("TARGET", a->target, "the mesh to register onto")->required();
+  AddOutput(app, a->output,
+            "write the registered source (R+N, or R with --rigid-only); with anchors, also its NAME.anchors.json "
+            "with the moved anchors");
+  app.add_flag("--rigid-only", a->rigid_only, "skip the non-rigid step");
+  app.add_option("--anchors", a->anchors, "SOURCE's anchors sidecar (default: SOURCE's NAME.anchors.json if present)")
+      ->type_name("PATH");
+  AddJson(app, a->json);
+  AddConfig(app, a->config);
+  return [a] { return Run(*a); };
+}
+
+Register reg({"register", "register a mesh onto another (scale, ICP, non-rigid), transfer anchors", Setup});
 
 }  // namespace
 }  // namespace drape::cli

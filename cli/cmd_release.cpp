@@ -4,10 +4,11 @@
 #include <cstdio>
 #include <iostream>
 #include <map>
+#include <memory>
 #include <sstream>
 
-#include "cli/args.h"
 #include "cli/command.h"
+#include "cli/options.h"
 #include "common/error.h"
 #include "generator/release/release.h"
 
@@ -159,16 +160,23 @@ void PrintInfo(const Release& r, const Json& out) {
     std::cout << "failed       " << f["id"].get<std::string>() << ": " << f["failure"].get<std::string>() << "\n";
 }
 
-int RunInfo(const std::vector<std::string>& argv) {
-  Args args(argv, {"--json"}, {});
-  if (args.help()) {
-    std::cout << "usage: drape info RELEASE [--json]\n";
-    return 0;
-  }
-  args.RequirePositional(1, 1, "RELEASE");
-  const Release r = Release::Open(args.positional()[0]);
+// The command lines of info, ls, verify and merge.
+struct ReleaseArgs {
+  std::string release;  // info, ls, verify
+  bool json = false;
+  std::string split, category, anchor;  // ls filters
+  bool failed = false;
+  std::string published, recipe;  // verify
+  bool rebuild = false, keep = false;
+  int jobs = 0;
+  std::vector<std::string> shards;  // merge
+  std::string output;
+};
+
+int RunInfo(const ReleaseArgs& args) {
+  const Release r = Release::Open(args.release);
   const Json out = InfoJson(r);
-  if (args.Flag("--json")) {
+  if (args.json) {
     std::cout << out.dump(2) << "\n";
     return 0;
   }
@@ -176,25 +184,17 @@ int RunInfo(const std::vector<std::string>& argv) {
   return 0;
 }
 
-int RunLs(const std::vector<std::string>& argv) {
-  Args args(argv, {"--json", "--failed"}, {"--split", "--category", "--anchor"});
-  if (args.help()) {
-    std::cout << "usage: drape ls RELEASE [--split S] [--category C] [--anchor A] [--failed] [--json]\n"
-                 "Lists the entries of a release, optionally filtered (anchor = anchor label).\n";
-    return 0;
-  }
-  args.RequirePositional(1, 1, "RELEASE");
-  const Release r = Release::Open(args.positional()[0]);
-  const auto split = args.Get("--split"), cat = args.Get("--category"), anchor = args.Get("--anchor");
+int RunLs(const ReleaseArgs& args) {
+  const Release r = Release::Open(args.release);
   std::vector<const Release::EntryInfo*> rows;
   for (const auto& e : r.entries()) {
-    if (split && e.split != *split) continue;
-    if (cat && CategoryOf(e) != *cat) continue;
-    if (anchor && AnchorOf(e) != *anchor) continue;
-    if (args.Flag("--failed") && !e.failed) continue;
+    if (!args.split.empty() && e.split != args.split) continue;
+    if (!args.category.empty() && CategoryOf(e) != args.category) continue;
+    if (!args.anchor.empty() && AnchorOf(e) != args.anchor) continue;
+    if (args.failed && !e.failed) continue;
     rows.push_back(&e);
   }
-  if (args.Flag("--json")) {
+  if (args.json) {
     Json out = Json::array();
     for (const auto* e : rows) {
       Json files = Json::array();
@@ -242,44 +242,29 @@ void PrintReport(const VerifyReport& rep) {
   for (const auto& p : rep.problems) std::cout << "error:   " << p << "\n";
 }
 
-int RunVerify(const std::vector<std::string>& argv) {
-  Args args(argv, {"--rebuild", "--keep", "--json"}, {"--published", "-j", "--recipe"});
-  if (args.help()) {
-    std::cout << "usage: drape verify RELEASE [--published REF_DIR] [--rebuild [-j N] [--recipe FILE] [--keep]]\n"
-                 "Checks every file against SHA256SUMS, looks for unlisted files, and recomputes the\n"
-                 "release digest from the entries; names each missing, extra or changed file.\n"
-                 "  --published REF_DIR  also compare with a published reference (the dataset.json and\n"
-                 "                       SHA256SUMS committed under datasets/NAME/VERSION/): digest and\n"
-                 "                       content files (entries/, catalog.sqlite)\n"
-                 "  --rebuild            rebuild the recipe into a temporary folder and compare entry by\n"
-                 "                       entry (-j threads; --recipe if the recipe refers to files; --keep\n"
-                 "                       keeps the rebuilt folder)\n"
-                 "Exit status 0 if everything matches, 1 otherwise.\n";
-    return 0;
-  }
-  args.RequirePositional(1, 1, "RELEASE");
-  const fs::path dir = args.positional()[0];
+int RunVerify(const ReleaseArgs& args) {
+  const fs::path dir = args.release;
   const VerifyReport rep = Verify(dir);
   bool ok = rep.ok();
   PrintReport(rep);
   if (rep.ok()) std::cout << "ok: " << rep.files_checked << " files, digest " << rep.actual_digest << "\n";
-  if (const auto ref = args.Get("--published")) {
-    const VerifyReport pub = CompareToPublished(dir, *ref);
+  if (!args.published.empty()) {
+    const VerifyReport pub = CompareToPublished(dir, args.published);
     for (const auto& p : pub.missing) std::cout << "published has, release lacks: " << p << "\n";
     for (const auto& p : pub.extra) std::cout << "release has, published lacks: " << p << "\n";
     for (const auto& p : pub.changed) std::cout << "differs from published: " << p << "\n";
     for (const auto& p : pub.problems) std::cout << "error:   " << p << "\n";
-    if (pub.ok()) std::cout << "ok: matches the published reference " << *ref << "\n";
+    if (pub.ok()) std::cout << "ok: matches the published reference " << args.published << "\n";
     ok = ok && pub.ok();
   }
-  if (args.Flag("--rebuild")) {
+  if (args.rebuild) {
     const Rebuilder& rebuild = GetRebuilder();
     if (!rebuild) throw Error("--rebuild: this drape binary has no rebuilder registered (needs the build library)");
     const Release original = Release::Open(dir);
     RebuildRequest req;
     req.release = dir;
-    req.recipe_path = args.Get("--recipe", "");
-    req.threads = static_cast<int>(args.GetInt("-j").value_or(0));
+    req.recipe_path = args.recipe;
+    req.threads = args.jobs;
     req.out = fs::temp_directory_path() / ("drape-rebuild-" + original.dataset().value("name", "x") + "-" +
                                            original.dataset().value("version", "x") + "-" + std::to_string(::getpid()));
     fs::remove_all(req.out);
@@ -297,7 +282,7 @@ int RunVerify(const std::vector<std::string>& argv) {
       std::cout << "error:   rebuild digest " << again.digest() << " vs release " << original.digest() << "\n";
       ok = false;
     }
-    if (args.Flag("--keep"))
+    if (args.keep)
       std::cout << "kept " << req.out.string() << "\n";
     else
       fs::remove_all(req.out);
@@ -305,31 +290,68 @@ int RunVerify(const std::vector<std::string>& argv) {
   return ok ? 0 : 1;
 }
 
-int RunMerge(const std::vector<std::string>& argv) {
-  Args args(argv, {}, {"-o", "--output"});
-  if (args.help()) {
-    std::cout << "usage: drape merge SHARD_DIR... -o RELEASE\n"
-                 "Merges the finished shards of `drape build --shard K/N` into one release. Checks\n"
-                 "that they come from the same recipe and code and cover every job exactly once.\n";
-    return 0;
-  }
-  args.RequirePositional(1, 100000, "SHARD_DIR...");
-  const auto out = args.Get("-o") ? args.Get("-o") : args.Get("--output");
-  if (!out) throw Error("merge: -o RELEASE is required");
-  std::vector<fs::path> shards(args.positional().begin(), args.positional().end());
-  const ReleaseWriter::Summary s = Merge(shards, *out);
-  std::cout << "merged " << shards.size() << " shards into " << *out << ": " << s.entries << " entries (" << s.failed
-            << " failed), " << Bytes(s.bytes) << ", digest " << s.digest << "\n";
+int RunMerge(const ReleaseArgs& args) {
+  const fs::path out = args.output;
+  std::vector<fs::path> shards(args.shards.begin(), args.shards.end());
+  const ReleaseWriter::Summary s = Merge(shards, out);
+  std::cout << "merged " << shards.size() << " shards into " << out.string() << ": " << s.entries << " entries ("
+            << s.failed << " failed), " << Bytes(s.bytes) << ", digest " << s.digest << "\n";
   return 0;
 }
 
-Register info_reg({"info", "summary of a release: counts, failures, sizes, build time", "drape info RELEASE [--json]",
-                   RunInfo});
-Register ls_reg({"ls", "list a release's entries (filter by split, category, anchor)",
-                 "drape ls RELEASE [--split S] [--category C] [--anchor A] [--json]", RunLs});
-Register verify_reg({"verify", "check a release's files and digest (and optionally rebuild it)",
-                     "drape verify RELEASE [--published REF] [--rebuild]", RunVerify});
-Register merge_reg({"merge", "merge shard builds into one release", "drape merge SHARD_DIR... -o RELEASE", RunMerge});
+Runner SetupInfo(CLI::App& app) {
+  auto a = std::make_shared<ReleaseArgs>();
+  app.add_option("RELEASE", a->release, "a release folder")->required();
+  AddJson(app, a->json);
+  return [a] { return RunInfo(*a); };
+}
+
+Runner SetupLs(CLI::App& app) {
+  auto a = std::make_shared<ReleaseArgs>();
+  app.add_option("RELEASE", a->release, "a release folder")->required();
+  app.add_option("--split", a->split, "only this split's entries");
+  app.add_option("--category", a->category, "only this category's entries");
+  app.add_option("--anchor", a->anchor, "only entries hung from this anchor (its label)");
+  app.add_flag("--failed", a->failed, "only failed entries");
+  AddJson(app, a->json);
+  return [a] { return RunLs(*a); };
+}
+
+Runner SetupVerify(CLI::App& app) {
+  auto a = std::make_shared<ReleaseArgs>();
+  app.footer(
+      "Checks every file against SHA256SUMS, looks for unlisted files, and recomputes the release digest from\n"
+      "the entries; names each missing, extra or changed file. Exit status 0 if everything matches, 1 otherwise.");
+  app.add_option("RELEASE", a->release, "a release folder")->required();
+  app.add_option("--published", a->published,
+                 "also compare with a published reference (the dataset.json and SHA256SUMS committed under "
+                 "datasets/NAME/VERSION/): digest and content files (entries/, catalog.sqlite)")
+      ->type_name("REF_DIR");
+  app.add_flag("--rebuild", a->rebuild, "rebuild the recipe into a temporary folder and compare entry by entry");
+  AddJobs(app, a->jobs, "with --rebuild: jobs run at once (default: all cores)");
+  app.add_option("--recipe", a->recipe, "with --rebuild: the recipe file, if it refers to files")->type_name("FILE");
+  app.add_flag("--keep", a->keep, "with --rebuild: keep the rebuilt folder");
+  return [a] {
+    if (!a->rebuild && (a->jobs || !a->recipe.empty() || a->keep))
+      throw Error("-j/--jobs, --recipe and --keep go with --rebuild");
+    return RunVerify(*a);
+  };
+}
+
+Runner SetupMerge(CLI::App& app) {
+  auto a = std::make_shared<ReleaseArgs>();
+  app.footer(
+      "Merges the finished shards of `drape build --shard K/N` into one release. Checks that they come from the\n"
+      "same recipe and code and cover every job exactly once.");
+  app.add_option("SHARD_DIR", a->shards, "the shards' release folders")->required();
+  AddOutput(app, a->output, "the merged release's folder")->required();
+  return [a] { return RunMerge(*a); };
+}
+
+Register info_reg({"info", "summary of a release: counts, failures, sizes, build time", SetupInfo});
+Register ls_reg({"ls", "list a release's entries (filter by split, category, anchor)", SetupLs});
+Register verify_reg({"verify", "check a release's files and digest (and optionally rebuild it)", SetupVerify});
+Register merge_reg({"merge", "merge shard builds into one release", SetupMerge});
 
 }  // namespace
 }  // namespace drape::cli

@@ -1,27 +1,42 @@
-// Subcommand registry for the `drape` binary: `drape NAME [args...]`.
+// Subcommand registry for the `drape` binary: `drape NAME [args...]`, parsed by CLI11.
 // A cmd_*.cpp file defines one or more commands with
-//   static drape::cli::Register reg({"name", "one-line summary", usage, Run});
+//   static drape::cli::Register reg({"name", "one-line summary", Setup});
+// where Setup declares the command's options on its CLI11 subcommand (cli/options.h has
+// the spellings every command shares) and returns what runs it once the line parsed.
 #pragma once
 
+#include <CLI/App.hpp>
 #include <functional>
 #include <string>
 #include <vector>
 
 namespace drape::cli {
 
+// Runs a parsed command; returns the exit status. Throws drape::Error for bad input
+// (printed as "drape NAME: message", exit status 1).
+using Runner = std::function<int()>;
+
 struct Command {
   std::string name;     // e.g. "garments", "build"
   std::string summary;  // one line for `drape --help`
-  std::string usage;    // full help text for `drape NAME --help`
-  // Receives the arguments after the command name. Returns the exit status.
-  // Throws drape::Error for bad input (printed as "drape NAME: message", exit 1).
+  // Declares the options on `app` (the command's subcommand), binding them to state the
+  // returned Runner reads.
+  std::function<Runner(CLI::App& app)> setup;
+};
+
+// A command still on the hand-written parser (cli/args.h) until it moves to CLI11: it
+// receives the arguments after its name and prints its own `usage` for --help.
+struct LegacyCommand {
+  std::string name, summary, usage;
   std::function<int(const std::vector<std::string>&)> run;
 };
 
 std::vector<Command>& Registry();
+std::vector<LegacyCommand>& LegacyRegistry();
 
 struct Register {
   explicit Register(Command c) { Registry().push_back(std::move(c)); }
+  explicit Register(LegacyCommand c) { LegacyRegistry().push_back(std::move(c)); }
 };
 
 }  // namespace drape::cli

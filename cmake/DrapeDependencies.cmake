@@ -18,6 +18,7 @@ find_package(yaml-cpp REQUIRED)                         # yaml-cpp
 find_package(SQLite3 REQUIRED)                          # SQLite::SQLite3
 find_package(dlib REQUIRED)                             # dlib::dlib
 find_package(SUNDIALS 6.4 REQUIRED)                     # SUNDIALS::kinsol, ::nvecserial, ::sunlinsoldense
+find_package(CLI11 2.1 CONFIG REQUIRED)                 # CLI11::CLI11 (the drape command line)
 if(DRAPE_WITH_MPI)
   find_package(MPI COMPONENTS CXX)                      # MPI::MPI_CXX
 endif()

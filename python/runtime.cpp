@@ -1,6 +1,6 @@
 // The runtime seen from Python: recognition against a release and registration, by the
-// same library calls `drape recognize` and `drape register` make (cli/cmd_recognize.cpp,
-// cli/cmd_register.cpp), so that the results are the CLI's.
+// same library calls `drape recognize` and `drape register` make (RecognizeReleaseQuery,
+// registration::RegisterAndEvaluate), so that the results are the CLI's.
 #include <pybind11/stl.h>
 #include <pybind11/stl/filesystem.h>
 
@@ -16,11 +16,10 @@
 #include "generator/release/release.h"
 #include "python/convert.h"
 #include "runtime/recognition/calibrate.h"
-#include "runtime/recognition/category_fit.h"
 #include "runtime/recognition/query_pipeline.h"
 #include "runtime/recognition/recognizer.h"
+#include "runtime/recognition/release_query.h"
 #include "runtime/recognition/release_source.h"
-#include "runtime/recognition/twin_fit.h"
 #include "runtime/registration/registration.h"
 
 namespace drape::python {
@@ -39,79 +38,41 @@ class Runtime {
  public:
   // weights: "" = the release's calibration/weights.json if present, "none" = unweighted,
   // else a weights.json path (as `drape recognize --weights`).
-  Runtime(const fs::path& dir, const std::string& weights) : rel_(Release::Open(dir)), db_(LoadDb(rel_)) {
-    if (weights == "none") return;
-    const fs::path p = weights.empty() ? DefaultWeightsDir(rel_) / "weights.json" : fs::path(weights);
-    if (weights.empty() && !fs::exists(p)) return;
-    weights_ = LoadWeights(p, rel_.digest());
-    weights_path_ = p;
+  Runtime(const fs::path& dir, const std::string& weights)
+      : rel_(Release::Open(dir)), db_(LoadDb(rel_)), weights_path_(ResolveWeightsPath(rel_, weights)) {
+    if (!weights_path_.empty()) weights_ = LoadWeights(weights_path_, rel_.digest());
   }
 
   // kind: "entry" (value = id), "sweep" (folder), "mesh" (file), "feature" (uses `code`).
-  // Returns JSON text: {"query", "result" (recognizer ToJson), "anchor_position", "weights"}.
+  // Returns JSON text: RecognizeReleaseQuery's, plus "weights" and "match_seconds".
   // category_fit: an entry query with a recon.ply and no category given takes its
-  // category by registration, as `drape recognize --entry` does by default. twin_fit: an
-  // entry query's anchor against its twin by the cue's fit (`drape recognize --twin-fit`).
+  // category by registration, as `drape recognize --entry` does by default.
   std::string Recognize(const std::string& kind, const std::string& value, const std::optional<BoolArray>& feature,
                         const std::string& category, const std::string& instance, int top_k, bool weighted,
-                        uint64_t seed, bool category_fit, bool twin_fit) const {
-    Code q;
-    Json query{{"kind", kind}};
-    if (kind == "entry") {
-      const Release::EntryInfo* e = rel_.Find(value);
-      if (!e) throw Error("recognize: release has no entry '" + value + "'");
-      if (e->failed) throw Error("recognize: entry " + value + " failed in the build (" + e->failure + ")");
-      q = LoadEntryCode(rel_, *e);
-      const EntryLabel l = LabelFromEntry(*e);
-      query.update({{"id", value},
-                    {"split", e->split},
-                    {"true_category", l.category},
-                    {"true_anchor", l.anchor},
-                    {"height", ReconHeight(rel_, *e)}});
-    } else if (kind == "sweep" || kind == "mesh") {
-      const PipelineResult pr =
-          kind == "sweep" ? FeatureFromSweep(rel_, value, seed) : FeatureFromMesh(rel_, value, seed);
-      q = pr.code;
-      query.update({{"path", value}, {"info", pr.info}, {"height", pr.height}});
-    } else if (kind == "feature") {
-      q = FeatureFromArray(*feature, "feature");
-    } else {
+                        uint64_t seed, bool category_fit) const {
+    ReleaseQuery q;
+    if (kind == "entry")
+      q.kind = ReleaseQuery::Kind::kEntry;
+    else if (kind == "sweep")
+      q.kind = ReleaseQuery::Kind::kSweep;
+    else if (kind == "mesh")
+      q.kind = ReleaseQuery::Kind::kMesh;
+    else if (kind == "feature")
+      q.kind = ReleaseQuery::Kind::kFeature, q.feature = FeatureFromArray(*feature, "feature");
+    else
       throw Error("recognize: unknown query kind '" + kind + "'");
-    }
-    RecognizeOptions o;
-    o.top_k = top_k;
-    o.category = category;
-    if (!instance.empty()) o.instances = {instance};
-    o.weighted = weighted;
-    o.query_height = query.value("height", 0.0);  // a bare feature has none: no height gates
-    o.Validate();
-    const Recognizer rec(db_, weights_ ? &*weights_ : nullptr);
-    Json fit = nullptr;
-    if (category_fit && kind == "entry" && o.category.empty() && fs::exists(rel_.EntryPath(value, "recon.ply"))) {
-      const CategoryFit f = EntryCategoryByFit(rel_, db_, rec, q, o, value, CategoryFitOptions{});
-      o.category = f.category;
-      fit = ToJson(f);
-    }
-    Recognition r = rec.Recognize(q, o);
-    if (!fit.is_null() && !o.category.empty()) r.category_source = "registration";
-    Json twin = nullptr;
-    if (twin_fit) {
-      if (kind != "entry") throw Error("recognize: twin_fit needs the query's reconstruction: only with entry=");
-      twin = ToJson(EntryTwinByFit(rel_, db_, q, o, value, TwinFitOptions{}, r));
-    }
-    const EntryLabel& bl = db_.label(r.best.entry);
-    const auto hung = HungVertex(rel_, bl.id, bl.anchor_vertex);
-    Json out{{"query", query},
-             {"result", ToJson(r)},
-             {"match_seconds", r.match_seconds},
-             {"weights", weights_ ? Json(weights_path_.string()) : Json(nullptr)},
-             {"anchor_position",
-              {{"entry", bl.id},
-               {"vertex", bl.anchor_vertex},
-               {"hung_object_frame", hung ? Json::array({(*hung)[0], (*hung)[1], (*hung)[2]}) : Json(nullptr)},
-               {"flat_uv", bl.anchor_uv ? Json::array({(*bl.anchor_uv)[0], (*bl.anchor_uv)[1]}) : Json(nullptr)}}}};
-    if (!fit.is_null()) out["category_fit"] = fit;
-    if (!twin.is_null()) out["twin_fit"] = twin;
+    q.value = value;
+    q.seed = seed;
+    ReleaseQueryOptions o;
+    o.recognize.top_k = top_k;
+    o.recognize.category = category;
+    if (!instance.empty()) o.recognize.instances = {instance};
+    o.recognize.weighted = weighted;
+    o.category_fit = category_fit;
+    const ReleaseQueryResult r = RecognizeReleaseQuery(rel_, db_, weights_ ? &*weights_ : nullptr, q, o);
+    Json out = r.ToJson(db_);
+    out["match_seconds"] = r.recognition.match_seconds;
+    out["weights"] = weights_ ? Json(weights_path_.string()) : Json(nullptr);
     return out.dump();
   }
 
@@ -129,8 +90,8 @@ class Runtime {
  private:
   Release rel_;
   Database db_;
-  std::optional<Weights> weights_;
   fs::path weights_path_;
+  std::optional<Weights> weights_;
 };
 
 // A garment file with its anchors sidecar, as `drape register` reads SOURCE.
@@ -176,8 +137,7 @@ void BindRuntime(py::module_& m) {
   py::class_<Runtime>(m, "Runtime")
       .def(py::init<const fs::path&, const std::string&>(), py::arg("release"), py::arg("weights") = "")
       .def("recognize", &Runtime::Recognize, py::arg("kind"), py::arg("value"), py::arg("feature"), py::arg("category"),
-           py::arg("instance"), py::arg("top_k"), py::arg("weighted"), py::arg("seed"), py::arg("category_fit"),
-           py::arg("twin_fit"))
+           py::arg("instance"), py::arg("top_k"), py::arg("weighted"), py::arg("seed"), py::arg("category_fit"))
       .def("pipeline_feature", &Runtime::PipelineFeature, py::arg("kind"), py::arg("path"), py::arg("seed"))
       .def_property_readonly("database_size", &Runtime::database_size)
       .def_property_readonly("weighted", &Runtime::weighted);

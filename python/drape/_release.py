@@ -200,8 +200,7 @@ class Release:
 
     def recognize(self, *, entry: Optional[str] = None, sweep: Optional[str] = None, mesh=None, feature=None,
                   category: str = "", instance: str = "", top_k: int = 5, weighted: bool = True,
-                  weights: str = "", seed: int = 0, category_fit: bool = True,
-                  twin_fit: bool = False) -> Recognition:
+                  weights: str = "", seed: int = 0, category_fit: bool = True) -> Recognition:
         """Category and grasp point of a hung garment, against this release's train split
         (as `drape recognize`). Exactly one query:
           entry=ID      a release entry (its stored feature)
@@ -210,9 +209,7 @@ class Release:
           feature=bits  a feature array (layers, rings, sectors)
         weights: "" = the release's calibration/weights.json if present, "none", or a path.
         category_fit: an entry= query with a reconstruction and no category takes its category by
-          registration (as `drape recognize --entry`); False: the unweighted nearest neighbour.
-        twin_fit: an entry= query's anchor against its left/right twin by the fit near the
-          front/back cue (as `drape recognize --entry --twin-fit`; off by default)."""
+          registration (as `drape recognize --entry`); False: the unweighted nearest neighbour."""
         given = [q is not None for q in (entry, sweep, mesh, feature)]
         if sum(given) != 1:
             raise DrapeError("recognize: give exactly one of entry=, sweep=, mesh=, feature=")
@@ -220,14 +217,13 @@ class Release:
         if mesh is not None and not isinstance(mesh, (str, os.PathLike)):
             from ._runtime import _temp_ply
             with _temp_ply(mesh) as p:
-                raw = rt.recognize("mesh", p, None, category, instance, top_k, weighted, seed, category_fit,
-                                   twin_fit)
+                raw = rt.recognize("mesh", p, None, category, instance, top_k, weighted, seed, category_fit)
         else:
             kind, value = next((k, v) for k, v in (("entry", entry), ("sweep", sweep), ("mesh", mesh),
                                                     ("feature", feature)) if v is not None)
             raw = rt.recognize(kind, "" if kind == "feature" else os.fspath(value),
                                value if kind == "feature" else None, category, instance, top_k, weighted, seed,
-                               category_fit, twin_fit)
+                               category_fit)
         j = json.loads(raw)
         r = j["result"]
         b = r["best"]

@@ -24,18 +24,6 @@ def test_recognize_entry_equals_cli(release, release_dir):
         assert r.category == "towel" and r.query["true_anchor"] == e.anchor
 
 
-def test_recognize_twin_fit_equals_cli(release, release_dir):
-    e = release.entries(split="test")[0]
-    r = release.recognize(entry=e.id, twin_fit=True)
-    cli = json.loads(run_drape("recognize", release_dir, "--entry", e.id, "--twin-fit", "--json"))
-    assert without_timing(r.result) == without_timing(cli["result"])
-    # The towel has twins but no front/back cue: the match stands, with the reason.
-    assert not cli["twin_fit"]["switched"] and cli["twin_fit"]["note"]
-    assert r.anchor == release.recognize(entry=e.id).anchor
-    with pytest.raises(drape.DrapeError, match="only with entry="):
-        release.recognize(sweep=e.path("sweep"), twin_fit=True)
-
-
 def test_recognize_sweep_equals_cli(release, release_dir):
     e = release.entries(split="test")[0]
     r = release.recognize(sweep=e.path("sweep"), top_k=3)
@@ -69,9 +57,11 @@ def test_recognize_feature_and_bad_queries(release):
 def test_register_equals_cli(release, release_dir, tmp_path):
     src = release.entries(split="train")[0].path("hang.ply")
     dst = release.entries(split="test")[0].path("recon.ply")
+    config = tmp_path / "options.yaml"
+    config.write_text("registration:\n  iterations: 10\n")  # the CLI's research knobs live in --config
     for rigid_only in (True, False):
         reg = drape.register(src, dst, rigid_only=rigid_only, iterations=10)
-        args = ["register", src, dst, "--json", "--iterations", "10", "-o", tmp_path / "out.ply"]
+        args = ["register", src, dst, "--json", "--config", config, "-o", tmp_path / "out.ply"]
         cli = json.loads(run_drape(*args, *(["--rigid-only"] if rigid_only else [])))
         step = "rigid" if rigid_only else "nonrigid"
         for k in (f"s_to_t_{step}", f"t_to_s_{step}"):

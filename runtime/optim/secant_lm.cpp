@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "common/error.h"
+#include "common/field_error.h"
 #include "common/timing.h"
 
 namespace drape::optim {
@@ -56,7 +57,7 @@ void LeastSquaresProblem::Jacobian(const Eigen::VectorXd&, Eigen::SparseMatrix<d
 }
 
 void SecantLmOptions::Validate() const {
-  if (max_iterations < 0) throw Error("SecantLmOptions.max_iterations must be >= 0");
+  if (max_iterations < 0) BadField(max_iterations, "max_iterations", "must be >= 0");
   if (refresh_every < 1) throw Error("SecantLmOptions.refresh_every must be >= 1");
   if (!(tau > 0)) throw Error("SecantLmOptions.tau must be > 0");
   if (!(gradient_tolerance >= 0)) throw Error("SecantLmOptions.gradient_tolerance must be >= 0");

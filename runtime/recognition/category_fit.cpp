@@ -10,6 +10,7 @@
 
 #include "common/closest_point.h"
 #include "common/error.h"
+#include "common/field_error.h"
 #include "common/parallel.h"
 #include "common/timing.h"
 #include "garments/io.h"
@@ -21,12 +22,11 @@
 namespace drape::recognition {
 
 void CategoryFitOptions::Validate() const {
-  if (per_category < 1)
-    throw Error("category fit: per_category must be >= 1 (got " + std::to_string(per_category) + ")");
+  if (per_category < 1) BadField(per_category, "per_category", "must be >= 1, got " + std::to_string(per_category));
   if (top_categories < 0)
-    throw Error("category fit: top_categories must be >= 0 (0 = all; got " + std::to_string(top_categories) + ")");
+    BadField(top_categories, "top_categories", "must be >= 0 (0 = all), got " + std::to_string(top_categories));
   if (!(bits_weight >= 0) || !std::isfinite(bits_weight))
-    throw Error("category fit: bits_weight must be a finite number >= 0");
+    BadField(bits_weight, "bits_weight", "must be a finite number >= 0");
 }
 
 std::vector<int> CategoryPool(const Database& db, double query_height, double tau,

@@ -216,55 +216,6 @@ std::string CategoryFitMarkdown(const Json& r) {
   return md.str();
 }
 
-// `drape eval --twin-fit` (twin_fit.h): strict pose before / after, and the selection.
-std::string TwinFitMarkdown(const Json& r) {
-  std::ostringstream md;
-  if (r.contains("twin_fit")) {
-    const Json& f = r["twin_fit"];
-    const Json& o = f["options"];
-    md << "\n## Twins by the cue's fit (`--twin-fit`)\n\n"
-       << "Category known, every instance, " << f["metric"].get<std::string>()
-       << ". The matched entry and its left/right twin of " << (o["instances"] == "all" ? "every" : "the same")
-       << " instance registered (scale + ICP) onto recon.ply, compared within " << Num(o["radius"], "%.2f")
-       << " m of the cue anchors, direction " << o["direction"].get<std::string>() << ", margin "
-       << Num(o["margin"], "%.2f") << ".\n\n"
-       << "| category | queries | strict, bits / twin fit | twin credited, bits / twin fit | compared | switched "
-          "(to right / from right) | s per query |\n|---|---|---|---|---|---|---|\n";
-    for (const Json& c : f["categories"]) {
-      md << "| " << c["category"].get<std::string>() << " | " << c["queries"].get<int>() << " | "
-         << Percent(c["strict"]["bits"]) << " / " << Percent(c["strict"]["twin_fit"]) << " | "
-         << Percent(c["twin_credited"]["bits"]) << " / " << Percent(c["twin_credited"]["twin_fit"]) << " | "
-         << c["compared"].get<int>() << " | " << c["switched"].get<int>() << " (" << c["switched_to_right"].get<int>()
-         << " / " << c["switched_from_right"].get<int>() << ") | " << Num(c["seconds_per_query"], "%.2f") << " |\n";
-    }
-  }
-  if (r.contains("twin_fit_selection")) {
-    const Json& s = r["twin_fit_selection"];
-    md << "\n## Twins by the cue's fit: selection on train + calibration (`--twin-fit-selection`)\n\n"
-       << s["queries"].get<int>() << " queries (" << s["compared"].get<int>()
-       << " with a twin to compare); strict right by the bits alone: " << s["bits"]["right"].get<int>()
-       << " (one standard error " << Num(s["standard_error"], "%.1f") << "). Right per setting, margin 0:\n\n"
-       << "| instances | direction | radius m | right |\n|---|---|---|---|\n";
-    for (const Json& g : s["grid"]) {
-      const Json& o = g["options"];
-      if (o["margin"].get<double>() != 0) continue;
-      md << "| " << o["instances"].get<std::string>() << " | " << o["direction"].get<std::string>() << " | "
-         << (o["direction"] == "whole" ? std::string("—") : Num(o["radius"], "%.2f")) << " | " << g["right"].get<int>()
-         << " |\n";
-    }
-    if (!s["chosen"].is_null()) {
-      const Json& c = s["chosen"];
-      md << "\nMost right: instances " << c["instances"].get<std::string>() << ", direction "
-         << c["direction"].get<std::string>() << ", radius " << Num(c["radius"], "%.2f") << " m, margin "
-         << Num(c["margin"], "%.2f") << ": " << s["chosen_right"].get<int>()
-         << " right; a nested leave-one-out of this choice (each query answered by the setting chosen on the "
-            "others): "
-         << s["nested_leave_one_out"]["right"].get<int>() << " right.\n";
-    }
-  }
-  return md.str();
-}
-
 // The category accuracy cell: with `--category-fit` also the registration's.
 std::string CategoryCell(const Json& r, const Json& row) {
   const Json fit = FitRow(r, row["category"].get<std::string>());
@@ -304,7 +255,6 @@ std::string ReportMarkdown(const Json& r) {
        << Pair(c.value("pose_accuracy_twin_credited", Json{{"unweighted", nullptr}, {"learned", nullptr}})) << " |\n";
   }
   md << CategoryFitMarkdown(r);
-  md << TwinFitMarkdown(r);
   if (r.contains("height_gates")) {
     const Json& g = r["height_gates"];
     md << "\n## Height gates (an addition to the paper's Algorithm 1)\n\n"

@@ -307,6 +307,13 @@ std::optional<Vec3> HungVertex(const Release& release, const std::string& id, in
 
 fs::path DefaultWeightsDir(const Release& release) { return release.dir() / "calibration"; }
 
+fs::path ResolveWeightsPath(const Release& release, const std::string& spec) {
+  if (spec == "none") return {};
+  if (!spec.empty()) return spec;
+  const fs::path own = DefaultWeightsDir(release) / "weights.json";
+  return fs::exists(own) ? own : fs::path();
+}
+
 std::vector<EvalQuery> LoadEvalQueries(const Release& release, const std::string& split, LoadReport* report) {
   std::vector<LabelledCode> qs = LoadSplit(release, split, report);
   const Json build = release.build_info();

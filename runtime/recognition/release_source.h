@@ -63,6 +63,11 @@ std::optional<Vec3> HungVertex(const Release& release, const std::string& id, in
 // from the release, and tied to its digest inside weights.json).
 std::filesystem::path DefaultWeightsDir(const Release& release);
 
+// The weights file a command uses (`--weights SPEC`, Python's weights=): "" = the
+// release's own (DefaultWeightsDir/weights.json) when it exists, "none" = none, anything
+// else the weights.json (or its folder) given. An empty path means unweighted.
+std::filesystem::path ResolveWeightsPath(const Release& release, const std::string& spec);
+
 // The queries of a split with their build timings, for Evaluate.
 std::vector<EvalQuery> LoadEvalQueries(const Release& release, const std::string& split, LoadReport* report);
 

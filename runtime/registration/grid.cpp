@@ -7,6 +7,7 @@
 #include <string>
 
 #include "common/error.h"
+#include "common/field_error.h"
 #include "common/format.h"
 #include "common/parallel.h"
 #include "common/timing.h"
@@ -14,7 +15,7 @@
 namespace drape::registration {
 
 void GridOptions::Validate() const {
-  if (cells < 2 || cells > 4096) throw Error("GridOptions.cells must be in [2, 4096], got " + std::to_string(cells));
+  if (cells < 2 || cells > 4096) BadField(cells, "cells", "must be in [2, 4096], got " + std::to_string(cells));
   if (!(padding >= 0 && padding <= 10))
     throw Error("GridOptions.padding must be in [0, 10], got " + FormatNumber(padding));
   if (!(band >= 1 && band <= 16)) throw Error("GridOptions.band must be in [1, 16] cells, got " + FormatNumber(band));

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "common/error.h"
+#include "common/field_error.h"
 #include "common/timing.h"
 
 namespace drape::registration {
@@ -38,9 +39,9 @@ void RegistrationOptions::Validate() const {
   grid.Validate();
   icp.Validate();
   lm.Validate();
-  if (!(kappa >= 0 && std::isfinite(kappa))) throw Error("RegistrationOptions.kappa must be >= 0");
-  if (!(beta >= 0 && std::isfinite(beta))) throw Error("RegistrationOptions.beta must be >= 0");
-  if (!(alpha >= 0 && std::isfinite(alpha))) throw Error("RegistrationOptions.alpha must be >= 0");
+  if (!(kappa >= 0 && std::isfinite(kappa))) BadField(kappa, "kappa", "must be >= 0 and finite");
+  if (!(beta >= 0 && std::isfinite(beta))) BadField(beta, "beta", "must be >= 0 and finite");
+  if (!(alpha >= 0 && std::isfinite(alpha))) BadField(alpha, "alpha", "must be >= 0 and finite");
 }
 
 RegistrationResult Register(const TriMesh& source, const TriMesh& target, const RegistrationOptions& options) {
@@ -132,14 +133,9 @@ DirectedDistance MeasureDirected(const TriMesh& from, const ExactClosestPoint& t
 
 DirectedDistance MeasureDirectedNear(const TriMesh& from, const ExactClosestPoint& to, const Vec3& centre,
                                      double radius) {
-  return MeasureDirectedNear(from, to, std::vector<Vec3>{centre}, radius);
-}
-
-DirectedDistance MeasureDirectedNear(const TriMesh& from, const ExactClosestPoint& to, const std::vector<Vec3>& centres,
-                                     double radius) {
   if (!(radius >= 0)) throw Error("registration metric: radius must be >= 0");
   double total = 0;
-  return MeasurePatches(from, to, centres, radius, total);
+  return MeasurePatches(from, to, {centre}, radius, total);
 }
 
 std::vector<AnchorTransfer> TransferAnchors(const RegistrationResult& result, const std::vector<AnchorPair>& anchors) {

@@ -75,10 +75,6 @@ DirectedDistance MeasureDirected(const TriMesh& from, const ExactClosestPoint& t
 // (the fit around one region); samples = 0 and mean = 0 when none does.
 DirectedDistance MeasureDirectedNear(const TriMesh& from, const ExactClosestPoint& to, const Vec3& centre,
                                      double radius);
-// The same over the patches within `radius` of any of `centres` (the union of the balls:
-// a region around several anchors, e.g. a neckline's; recognition/twin_fit.h).
-DirectedDistance MeasureDirectedNear(const TriMesh& from, const ExactClosestPoint& to, const std::vector<Vec3>& centres,
-                                     double radius);
 
 // How well a registered mesh fits a target: the symmetric mean of the paper's two
 // directed errors (MeasureDirected both ways), metres. `onto_target` is over `target`.

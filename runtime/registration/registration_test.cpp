@@ -79,25 +79,5 @@ TEST(MeasureDirectedNear, ThePatchesWithinTheBallAndTheirAreaWeightedMean) {
   EXPECT_THROW(MeasureDirectedNear(from, onto, Vec3::Zero(), -1.0), Error);
 }
 
-TEST(MeasureDirectedNear, TheUnionOfSeveralBalls) {
-  // The same sheets: a ball at each edge's middle holds patches 1 cm and 2 cm off, each
-  // counted once where the balls overlap.
-  const TriMesh from = testing::WavySheet(11, 9, 1.0, 0.8, 0.0);
-  TriMesh to = from;
-  for (int v = 0; v < to.NumVertices(); ++v) to.V(v, 2) = to.V(v, 0) > 0.5 ? 0.02 : 0.01;
-  const ExactClosestPoint onto(to);
-  const Vec3 left(0.0, 0.4, 0.0), right(1.0, 0.4, 0.0);
-  const DirectedDistance l = MeasureDirectedNear(from, onto, left, 0.15);
-  const DirectedDistance r = MeasureDirectedNear(from, onto, right, 0.15);
-  const DirectedDistance both = MeasureDirectedNear(from, onto, std::vector<Vec3>{left, right}, 0.15);
-  EXPECT_EQ(both.samples, l.samples + r.samples);
-  EXPECT_NEAR(both.mean, 0.015, 1e-12);  // equal areas at 1 and 2 cm
-  EXPECT_NEAR(both.max, 0.02, 1e-12);
-  // Overlapping balls count a patch once; no centre, no sample.
-  EXPECT_EQ(MeasureDirectedNear(from, onto, std::vector<Vec3>{left, left}, 0.15).samples, l.samples);
-  EXPECT_EQ(MeasureDirectedNear(from, onto, std::vector<Vec3>{}, 0.15).samples, 0);
-  EXPECT_THROW(MeasureDirectedNear(from, onto, std::vector<Vec3>{left}, -1.0), Error);
-}
-
 }  // namespace
 }  // namespace drape::registration
