@@ -9,7 +9,7 @@ test_entry=$("$DRAPE" ls "$rel" --split test | awk 'NR>1 && $1 ~ /^[0-9][0-9][0-
 [ -n "$test_entry" ] || fail "no test entry listed"
 "$DRAPE" recognize "$rel" --entry "$test_entry"
 rm -rf "$WORK/report"
-"$DRAPE" eval "$rel" --report "$WORK/report"
+"$DRAPE" eval "$rel" -o "$WORK/report"
 for f in report.md report.json accuracy.png; do
   [ -s "$WORK/report/$f" ] || fail "eval wrote no $f"
 done

@@ -4,7 +4,7 @@
 source "$(dirname "$0")/e2e_lib.sh"
 rel="$WORK/../quickstart_reference/quickstart"
 [ -f "$rel/dataset.json" ] || fail "the quickstart fixture did not build $rel"
-"$DRAPE" calibrate "$rel" --out "$WORK/calibration" > /dev/null
+"$DRAPE" calibrate "$rel" -o "$WORK/calibration" > /dev/null
 w="$WORK/calibration/weights.json"
 rm -rf "$WORK/out"
 "$DRAPE" unfold "$rel" --weights "$w" --category towel --trials 1 --frames 36 --max-regrasps 2 -o "$WORK/out"

@@ -5,7 +5,7 @@
 
 Each REPORT_DIR is recognised by what it holds:
   a release       dataset.json + build.json          (`drape build`: the build's time)
-  an eval report  report.json with "categories"      (`drape eval --report DIR`)
+  an eval report  report.json with "categories"      (`drape eval -o DIR`)
   an unfold run   report.json with "rows"            (`drape unfold -o DIR`)
   a fold run      trajectories.json with "trials"    (`drape fold -o DIR`; one per garment)
 

@@ -5,7 +5,7 @@
 #
 #   1. drape build RECIPE -o OUT/release        the release (build.json: wall and CPU time)
 #   2. drape calibrate OUT/release              weights and height gates
-#   3. drape eval OUT/release --report OUT/eval pose, category, registration, query time
+#   3. drape eval OUT/release -o OUT/eval       pose, category, registration, query time
 #   4. drape unfold OUT/release -o OUT/unfold   every test category, TRIALS trials, seed SEED
 #   5. drape fold G --plan ... -o OUT/fold/G    for each garment in FOLD (10 perturbed trials)
 #   6. tools/results.py OUT/release OUT/eval OUT/unfold OUT/fold/* --readme README
@@ -65,7 +65,7 @@ fold_args() {
 
 step build "$OUT/release/SHA256SUMS" "$DRAPE" build "$RECIPE" -o "$OUT/release" -j "$JOBS"
 step calibrate "$OUT/release/calibration/weights.json" "$DRAPE" calibrate "$OUT/release"
-step eval "$OUT/eval/report.json" "$DRAPE" eval "$OUT/release" --report "$OUT/eval"
+step eval "$OUT/eval/report.json" "$DRAPE" eval "$OUT/release" -o "$OUT/eval"
 step unfold "$OUT/unfold/report.json" "$DRAPE" unfold "$OUT/release" --trials "$TRIALS" --seed "$SEED" \
   --jobs "$JOBS" -o "$OUT/unfold"
 # One garment's fold run; OUT/fold/G.done marks it finished (trajectories.json is written

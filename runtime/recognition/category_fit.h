@@ -30,8 +30,8 @@
 
 namespace drape::recognition {
 
-// The defaults were chosen on train + calibration queries of paper 2.3.0 (`drape eval
-// --category-fit-selection`: 76 of 77 right against the nearest neighbour's 70, and 76 by
+// The defaults were chosen on train + calibration queries of paper 2.3.0 (`drape eval` with
+// the options file's eval.category_fit_selection: 76 of 77 right against the nearest neighbour's 70, and 76 by
 // the nested leave-one-out of the choice; docs).
 struct CategoryFitOptions {
   int per_category = 2;    // entries registered per category: its nearest by Eq. match in the pool
@@ -123,7 +123,7 @@ CategoryFit EntryCategoryByFit(const Release& release, const Database& db, const
 Json EvaluateCategoryFit(const Release& release, const Database& db, const Weights* weights,
                          const std::vector<EvalQuery>& queries, const CategoryFitOptions& options);
 
-// `drape eval --category-fit-selection`: the settings chosen on train + calibration only.
+// `drape eval`, eval.category_fit_selection: the settings chosen on train + calibration only.
 // Queries: `calibration` (ranked against the whole database) and every database entry
 // ranked against the entries of the other garment instances (leave one instance out;
 // entries whose category has no other instance are left out: they cannot be right). Each

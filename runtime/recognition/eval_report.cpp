@@ -144,7 +144,7 @@ std::string RegistrationMarkdown(const Json& t) {
        << t["average"]["pairs_with_warnings"].get<int>() << ".";
   }
   if (t.value("failed", 0) > 0) md << " Failed registrations: " << t["failed"].get<int>() << ".";
-  if (t.value("limited_out", 0) > 0) md << " Left out by --registration-pairs: " << t["limited_out"].get<int>() << ".";
+  if (t.value("limited_out", 0) > 0) md << " Left out by eval.registration_pairs: " << t["limited_out"].get<int>() << ".";
   md << "\n";
   for (const Json& s : t.value("skipped", Json::array())) {
     md << "- skipped " << s.value("id", "") << ": " << s.value("reason", "") << "\n";
@@ -193,7 +193,7 @@ std::string CategoryFitMarkdown(const Json& r) {
   }
   if (r.contains("category_fit_selection")) {
     const Json& s = r["category_fit_selection"];
-    md << "\n## Category by registration: selection on train + calibration (`--category-fit-selection`)\n\n"
+    md << "\n## Category by registration: selection on train + calibration (`eval.category_fit_selection`)\n\n"
        << s["queries"].get<int>() << " queries (calibration split, and train entries against the other "
        << "instances; " << s["left_out"].get<int>() << " train entries left out: no other instance of their "
        << "category). Unweighted nearest neighbour: " << s["nearest_neighbour"]["right"].get<int>() << " right.\n\n"
