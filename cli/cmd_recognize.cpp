@@ -295,9 +295,7 @@ Runner SetupRecognize(CLI::App& app) {
       ->type_name("DIR");
   app.add_option("--mesh", a->mesh, "query: a hung mesh in the object frame (gripper at the origin, y up)")
       ->type_name("FILE");
-  app.add_option("--weights", a->weights,
-                 "weights.json, or 'none' for Eq. match only (default: RELEASE/calibration/weights.json if present)")
-      ->type_name("PATH");
+  AddWeights(app, a->weights);
   app.add_option("--category", a->category, "the category is known: search only its entries")->type_name("C");
   AddCount(app, "--top-k", a->top_k, "distinct anchors listed");
   a->seed_option = AddSeed(app, a->seed, "seed of a sweep's fusion or a mesh's synthetic sweep");
@@ -590,9 +588,7 @@ Runner SetupEval(CLI::App& app) {
   app.add_option("RELEASE", a->release, "the release")->required();
   app.add_option("--split", a->split, "the queries' split")->type_name("S")->capture_default_str();
   AddOutput(app, a->output, "write report.md, report.json and PNG plots into this folder");
-  app.add_option("--weights", a->weights,
-                 "weights.json, or 'none' for Eq. match only (default: RELEASE/calibration/weights.json if present)")
-      ->type_name("PATH");
+  AddWeights(app, a->weights);
   AddCount(app, "--top-k", a->top_k, "k of the top-k accuracy");
   AddJobs(app, a->jobs, "registrations run side by side (default: all cores; the same numbers for any N)");
   app.add_flag("--ladder", a->ladder,

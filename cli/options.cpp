@@ -72,6 +72,13 @@ CLI::Option* AddJobs(CLI::App& app, int& jobs, const std::string& what) {
 
 CLI::Option* AddJson(CLI::App& app, bool& json) { return app.add_flag("--json", json, "print the result as JSON"); }
 
+CLI::Option* AddWeights(CLI::App& app, std::string& spec) {
+  return app
+      .add_option("--weights", spec,
+                  "weights.json, or 'none' for Eq. match only (default: RELEASE/calibration/weights.json if present)")
+      ->type_name("PATH");
+}
+
 CLI::Option* AddCount(CLI::App& app, const std::string& name, int& value, const std::string& what, int min, int max) {
   return app.add_option(name, value, what)->type_name("N")->check(IntegerIn(min, max))->capture_default_str();
 }

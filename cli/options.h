@@ -23,6 +23,9 @@ CLI::Option* AddSeed(CLI::App& app, uint64_t& seed, const std::string& what);
 CLI::Option* AddJobs(CLI::App& app, int& jobs, const std::string& what);
 // --json: print the result as JSON instead of text.
 CLI::Option* AddJson(CLI::App& app, bool& json);
+// --weights PATH|none: learned weights for recognition (resolved by
+// recognition::ResolveWeightsPath: "" = the release's own calibration if present).
+CLI::Option* AddWeights(CLI::App& app, std::string& spec);
 
 // An integer option in [min, max], e.g. AddCount(app, "--trials", trials, "trials per
 // category", 1). The default shown in --help is `value`'s.

@@ -144,7 +144,8 @@ std::string RegistrationMarkdown(const Json& t) {
        << t["average"]["pairs_with_warnings"].get<int>() << ".";
   }
   if (t.value("failed", 0) > 0) md << " Failed registrations: " << t["failed"].get<int>() << ".";
-  if (t.value("limited_out", 0) > 0) md << " Left out by eval.registration_pairs: " << t["limited_out"].get<int>() << ".";
+  if (t.value("limited_out", 0) > 0)
+    md << " Left out by eval.registration_pairs: " << t["limited_out"].get<int>() << ".";
   md << "\n";
   for (const Json& s : t.value("skipped", Json::array())) {
     md << "- skipped " << s.value("id", "") << ": " << s.value("reason", "") << "\n";
