@@ -15,11 +15,6 @@ std::vector<Command>& Registry() {
   return commands;
 }
 
-std::vector<LegacyCommand>& LegacyRegistry() {
-  static std::vector<LegacyCommand> commands;
-  return commands;
-}
-
 namespace {
 
 std::string VersionLine() { return std::string("drape ") + DRAPE_VERSION + " (" + GitVersion() + ")"; }
@@ -54,16 +49,10 @@ DrapeApp MakeApp() {
     CLI::App* sub = app.add_subcommand(c.name, c.summary);
     d.runners[c.name] = c.setup(*sub);
   }
-  for (const LegacyCommand& c : LegacyRegistry()) app.add_subcommand(c.name, c.summary)->prefix_command();
   return d;
 }
 
 int RunDrape(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
-  for (const LegacyCommand& c : LegacyRegistry()) {
-    if (args.empty() || args[0] != c.name) continue;
-    const std::vector<std::string> rest(args.begin() + 1, args.end());
-    return Guarded(c.name, err, [&] { return c.run(rest); });
-  }
   DrapeApp d = MakeApp();
   if (args.empty()) {
     out << d.app->help();

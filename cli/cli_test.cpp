@@ -32,7 +32,6 @@ void CollectLeaves(CLI::App* app, std::vector<std::string> path, std::vector<Lea
     return;
   }
   for (CLI::App* sub : subs) {
-    if (sub->get_prefix_command()) continue;  // a legacy command (checked below)
     std::vector<std::string> p = path;
     p.push_back(sub->get_name());
     CollectLeaves(sub, p, out);
@@ -95,15 +94,8 @@ TEST_F(Commands, EveryCommandIsFound) {
   std::set<std::string> names;
   for (const Leaf& l : leaves_) names.insert(Join(l.path));
   for (const char* c : {"build", "garments list", "garments make", "garments show", "info", "ls", "verify", "merge",
-                        "register", "recognize", "calibrate", "eval"})
+                        "register", "recognize", "calibrate", "eval", "unfold", "fold"})
     EXPECT_TRUE(names.count(c)) << c;
-}
-
-// Commands still on the hand-written parser are the ones another branch is converting
-// (unfold, fold); no other may join them.
-TEST_F(Commands, OnlyThePendingCommandsAreLegacy) {
-  const std::set<std::string> pending = {"unfold", "fold"};
-  for (const LegacyCommand& c : LegacyRegistry()) EXPECT_TRUE(pending.count(c.name)) << c.name;
 }
 
 TEST_F(Commands, EveryHelpShowsAtMost12Options) {

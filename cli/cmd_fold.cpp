@@ -1,17 +1,20 @@
 // drape fold GARMENT --plan PLAN: the paper's trajectory optimisation for folding with
 // the cloth simulation in the loop, and its evaluation over seeded, perturbed trials.
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <memory>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <optional>
 #include <sstream>
 
-#include "cli/args.h"
 #include "cli/command.h"
+#include "cli/config.h"
+#include "cli/options.h"
 #include "common/error.h"
 #include "common/files.h"
 #include "common/format.h"
@@ -31,61 +34,85 @@ namespace {
 using namespace drape::folding;
 namespace fs = std::filesystem;
 
-const char* kUsage =
-    "Usage: drape fold GARMENT_OR_ENTRY --plan PLAN [--trials N] [--seed S] [-o DIR]\n"
-    "                  [--size S|M|L] [--edge M] [--material NAME] [--category C]\n"
-    "                  [--gripper pinch|point] [--max-sims N] [--fan STEP|none] [--no-optimise]\n"
-    "                  [--key-points-only]\n"
-    "                  [--stiffness K] [--friction MU] [--cloth-friction MU]\n"
-    "                  [--replay TRAJECTORIES_JSON]\n"
-    "\n"
+const char* kFooter =
     "Folds a garment lying flat on a table in simulation, step by step as PLAN says\n"
     "(runtime/folding/plans/*.yaml), optimising each step's cubic Bezier trajectories by\n"
     "secant Levenberg-Marquardt on C = l + 1000 D with the cloth simulation in the loop\n"
     "(paper: Trajectory Optimization for Folding); then replays the optimised trajectories\n"
     "in N seeded trials under perturbation (friction +-10 %, material +-10 %, placement\n"
     "offset <= 3 cm, yaw <= 5 deg) and reports the success rate.\n"
-    "  GARMENT_OR_ENTRY   a template name (towel, pants, shorts, long_sleeve_shirt, tshirt), a\n"
-    "                     flat garment mesh file (pattern frame, with its NAME.anchors.json), or\n"
-    "                     a garment as drape unfold placed it: its trial folder (OUT/CATEGORY/\n"
-    "                     trial_K), placed.json or trace.json; folded as it lies (turned upright),\n"
-    "                     with the trial's material fit unless --stiffness / --friction\n"
-    "  --plan PATH        the folding plan\n"
-    "  --trials N         evaluation trials (default 10; 0 = none)\n"
-    "  --seed S           seed of the trials' perturbations (default 1)\n"
-    "  -o, --output DIR   write trajectories.json, report.md and pictures (default fold-out)\n"
-    "  --size S|M|L       template size (default M)\n"
-    "  --edge M           mesh edge length, metres (default 0.04: coarse, simulation in the loop)\n"
-    "  --material NAME    material preset (default by category: towel_b, pants, tshirt)\n"
-    "  --category C       category of an imported mesh (default: its sidecar's)\n"
-    "  --gripper MODEL    pinch (a gripper pinching a small area, default) or point (moving one vertex)\n"
-    "  --max-sims N       simulations per step's optimisation (default 40)\n"
-    "  --fan STEP|none    the solution-space fans for this step (1-based; default the last)\n"
-    "  --no-optimise      keep the initial h = 1/3 trajectories (for comparison)\n"
-    "  --key-points-only  no folding: the trials' perturbed flat garments and the key points the\n"
-    "                     camera finds on them (keypoints_trialN.png), or why it found none\n"
-    "  --stiffness K      Bullet link stiffness kLST instead of fitting it to the material's stretch\n"
-    "  --friction MU      table friction coefficient instead of fitting it to the friction angle\n"
-    "  --cloth-friction MU  Coulomb friction between layers of the cloth (default: the table's)\n"
-    "  --replay FILE      no optimisation: replay the optimised trajectories of an earlier run's\n"
-    "                     trajectories.json (relative to each step's P0 -> P3) on this garment\n"
-    "\n"
+    "GARMENT_OR_ENTRY: a template name (towel, pants, shorts, long_sleeve_shirt, tshirt), a\n"
+    "flat garment mesh file (pattern frame, with its NAME.anchors.json), or a garment as\n"
+    "drape unfold placed it: its trial folder (OUT/CATEGORY/trial_K), placed.json or\n"
+    "trace.json; folded as it lies (turned upright), with the trial's material fit.\n"
     "Material: link stiffness fitted to the measured stretch and table friction fitted to the\n"
     "measured friction angle (a square of the cloth starts to slide on a table tilted by it;\n"
-    "generator/hang FitMaterial) unless --stiffness / --friction; strain limit 1.8 x the measured\n"
-    "stretch. Layers of the cloth on each other take the table's friction (no cloth-on-cloth\n"
-    "angle is measured) unless --cloth-friction.\n";
+    "generator/hang FitMaterial); strain limit 1.8 x the measured stretch. Layers of the\n"
+    "cloth on each other take the table's friction (no cloth-on-cloth angle is measured).\n"
+    "The mesh edge, the optimisation budget, the fans and given material constants are the\n"
+    "options file's `fold` section.";
 
-Garment LoadGarment(const std::string& what, const Args& args) {
+// `fold`: the research settings of drape fold (mesh, optimisation budget, fans, material
+// constants given instead of fitted).
+struct FoldKnobs {
+  double edge = 0.04;  // m: template mesh edge and the material fit's strip edge (coarse: simulation in the loop)
+  int max_sims = 40;   // simulations per step's optimisation
+  bool optimise = true;
+  std::string fan = "last";    // the step whose solution-space fans are drawn: "last", "none" or 1-based
+  double stiffness = 0;        // Bullet link stiffness kLST; 0: fitted to the stretch
+  double friction = -1;        // table friction; < 0: fitted to the friction angle
+  double cloth_friction = -1;  // between layers of the cloth; < 0: the table's
+  void Validate() const {
+    if (!(edge >= 0.005 && edge <= 0.2)) BadField(edge, "edge", "must be in [0.005, 0.2] m, got " + FormatNumber(edge));
+    if (max_sims < 1) BadField(max_sims, "max_sims", "must be >= 1, got " + std::to_string(max_sims));
+    if (!(stiffness >= 0 && stiffness <= 1))
+      BadField(stiffness, "stiffness", "must be in (0, 1] (0: fitted), got " + FormatNumber(stiffness));
+    if (!(friction == -1 || (friction >= 0 && friction < 5)))
+      BadField(friction, "friction", "must be in [0, 5) (-1: fitted), got " + FormatNumber(friction));
+    if (!(cloth_friction == -1 || (cloth_friction >= 0 && cloth_friction < 5)))
+      BadField(cloth_friction, "cloth_friction",
+               "must be in [0, 5) (-1: the table's), got " + FormatNumber(cloth_friction));
+    if (fan != "last" && fan != "none" && FanStep() < 1)
+      BadField(fan, "fan", "'" + fan + "' is not last, none or a step number (1-based)");
+  }
+  // The fan's step as a number (0 when not a positive integer).
+  int FanStep() const {
+    int k = 0;
+    const auto r = std::from_chars(fan.data(), fan.data() + fan.size(), k);
+    return r.ec == std::errc() && r.ptr == fan.data() + fan.size() && k > 0 ? k : 0;
+  }
+};
+
+const ConfigSection<FoldKnobs> kFoldSection(
+    "fold", "`drape fold`'s mesh, optimisation budget, solution-space fans and material constants (docs/folding.md).",
+    {{"edge", Ref(&FoldKnobs::edge), "m", "mesh edge length of a template (and of the material fit's strip)"},
+     {"max_sims", Ref(&FoldKnobs::max_sims), "simulations", "simulations per step's optimisation"},
+     {"optimise", Ref(&FoldKnobs::optimise), "bool", "optimise (false: keep the initial h = 1/3 trajectories)"},
+     {"fan", Ref(&FoldKnobs::fan), "step",
+      "the step whose solution-space fans are drawn: `last`, `none` or its number"},
+     {"stiffness", Ref(&FoldKnobs::stiffness), "—", "Bullet link stiffness kLST instead of the fitted (0: fitted)"},
+     {"friction", Ref(&FoldKnobs::friction), "—", "table friction coefficient instead of the fitted (-1: fitted)"},
+     {"cloth_friction", Ref(&FoldKnobs::cloth_friction), "—",
+      "Coulomb friction between layers of the cloth (-1: the table's)"}});
+
+struct FoldArgs {
+  std::string garment, plan, output = "fold-out", size = "M", material, category, gripper = "pinch", replay, config;
+  int trials = 10;
+  uint64_t seed = 1;
+  bool key_points_only = false;
+  FoldKnobs knobs;  // from --config
+};
+
+Garment LoadGarment(const std::string& what, const FoldArgs& args) {
   if (FindTemplate(what)) {
     TemplateOptions t;
-    t.size = args.Get("--size", "M");
-    t.edge_length = args.GetDouble("--edge").value_or(0.04);
+    t.size = args.size;
+    t.edge_length = args.knobs.edge;
     return MakeGarment(what, t);
   }
   if (!fs::exists(what)) throw Error("'" + what + "' is neither a garment template nor a mesh file");
   ImportOptions io;
-  if (auto c = args.Get("--category")) io.category = *c;
+  if (!args.category.empty()) io.category = args.category;
   const fs::path anchors = AnchorsPath(what);
   return ImportGarment(what, fs::exists(anchors) ? anchors : fs::path(), io);
 }
@@ -125,17 +152,17 @@ void WritePng(const fs::path& p, const cv::Mat& img) {
 }
 
 // The garment lying on the table, its material (link stiffness fitted to the measured
-// stretch unless --stiffness) and the table's friction.
+// stretch unless given) and the table's friction.
 struct FoldInputs {
   FoldSetup setup;
   std::string material;
   MaterialFit fit;
 };
 
-FoldInputs SetUpFold(const Args& args) {
+FoldInputs SetUpFold(const FoldArgs& args) {
   FoldInputs in;
   FoldSetup& setup = in.setup;
-  const std::string& what = args.positional()[0];
+  const std::string& what = args.garment;
   std::optional<PlacedGarment> placed;
   if (!FindTemplate(what) && IsPlacedGarmentPath(what)) {
     placed = ReadPlacedGarment(what);
@@ -145,20 +172,22 @@ FoldInputs SetUpFold(const Args& args) {
     setup.garment = LoadGarment(what, args);
   }
   const bool preset = placed && FindMaterialPreset(placed->material);
-  in.material = args.Get("--material", preset ? placed->material : DefaultMaterial(setup.garment.category));
+  in.material = !args.material.empty() ? args.material
+                : preset               ? placed->material
+                                       : DefaultMaterial(setup.garment.category);
   const Material* material = FindMaterialPreset(in.material);
   if (!material) throw Error("--material: unknown material '" + in.material + "'");
   // FitMaterial fits the link stiffness to the measured stretch and the table friction to
   // the measured friction angle (a square on a tilted table); skipped only when both are
-  // given on the command line.
+  // given in the options file.
   // A placed garment keeps the fit its unfold trial's cloth had (at its mesh's edges).
-  auto k = args.GetDouble("--stiffness");
-  auto mu = args.GetDouble("--friction");
+  std::optional<double> k, mu;
+  if (args.knobs.stiffness > 0) k = args.knobs.stiffness;
+  if (args.knobs.friction >= 0) mu = args.knobs.friction;
   if (placed && !k) k = placed->stiffness;
   if (placed && !mu) mu = placed->friction;
-  if (mu && !(*mu >= 0 && *mu < 5)) throw Error("--friction: must be in [0, 5), got " + FormatNumber(*mu));
   HangOptions ho;
-  ho.fit_edge_length = args.GetDouble("--edge").value_or(0.04);
+  ho.fit_edge_length = args.knobs.edge;
   // The stretch reference strip (fit_width 0.1 m) is hung from its top_centre node, node
   // nx/2 of nx = round(width / edge) elements across: at 8 cm edges nx = 1 and that node
   // is a corner — the strip hangs from its corner, swings diagonal, and what FitMaterial
@@ -185,18 +214,16 @@ FoldInputs SetUpFold(const Args& args) {
   // Cloth on cloth: the hang leaves it frictionless, but a fold stacks layers that must
   // not slide off each other. No cloth-on-cloth angle was measured, so the table's
   // fitted μ (the paper's table was measured with garments on it) unless given.
-  const auto cmu = args.GetDouble("--cloth-friction");
-  if (cmu && !(*cmu >= 0 && *cmu < 5)) throw Error("--cloth-friction: must be in [0, 5), got " + FormatNumber(*cmu));
-  setup.cloth.collision.cloth_friction = cmu.value_or(in.fit.friction);
+  setup.cloth.collision.cloth_friction = args.knobs.cloth_friction >= 0 ? args.knobs.cloth_friction : in.fit.friction;
   return in;
 }
 
-PlanRunOptions RunOptionsFrom(const Args& args, const FoldSetup& setup) {
+PlanRunOptions RunOptionsFrom(const FoldArgs& args, const FoldSetup& setup) {
   PlanRunOptions ro;
-  ro.sim.gripper = ParseGripperModel(args.Get("--gripper", "pinch"));
+  ro.sim.gripper = ParseGripperModel(args.gripper);
   ro.thickness = setup.cloth.collision.thickness;
-  if (auto n = args.GetInt("--max-sims")) ro.optimise.lm.max_residual_evaluations = static_cast<int>(*n);
-  if (args.Flag("--no-optimise")) ro.optimise.lm.max_iterations = 0;
+  ro.optimise.lm.max_residual_evaluations = args.knobs.max_sims;
+  if (!args.knobs.optimise) ro.optimise.lm.max_iterations = 0;
   ro.Validate();
   return ro;
 }
@@ -345,13 +372,13 @@ void WriteFailurePicture(const fs::path& file, const TrialResult& tr, const Face
 // Evaluation trials replaying the optimised relative trajectories under perturbation,
 // after the criterion applied to the unperturbed run itself; a failed trial as a
 // picture; the success table and one row per trial in md.
-Json RunTrialsReport(const Args& args, const FoldSetup& setup, const FoldingPlan& plan, const PlanRunOptions& ro,
+Json RunTrialsReport(const FoldArgs& args, const FoldSetup& setup, const FoldingPlan& plan, const PlanRunOptions& ro,
                      const PlanRun& run, const fs::path& out, std::ostringstream& md, Json& nominal_json) {
   std::vector<std::vector<RelativeTrajectory>> relative;
   for (const StepRecord& s : run.steps) relative.push_back(s.relative);
   TrialOptions to;
-  to.trials = static_cast<int>(args.GetInt("--trials").value_or(10));
-  to.seed = static_cast<uint64_t>(args.GetInt("--seed").value_or(1));
+  to.trials = args.trials;
+  to.seed = args.seed;
   const Faces& F = setup.garment.mesh.F;
   TrialResult nominal;
   nominal.index = -1;
@@ -428,10 +455,9 @@ std::vector<std::vector<RelativeTrajectory>> LoadReplay(const fs::path& file, co
 
 // The three 13-trajectory fans of step `fan` (1-based): fan.png, the D per knot height
 // in md, and the same as JSON.
-Json WriteFans(const FoldScene& scene, const PlanRun& run, const PlanRunOptions& ro, const std::string& fan,
-               const fs::path& out, std::ostringstream& md) {
-  const int k = std::stoi(fan) - 1;
-  if (k < 0 || k >= static_cast<int>(run.steps.size())) throw Error("--fan: no step " + fan);
+Json WriteFans(const FoldScene& scene, const PlanRun& run, const PlanRunOptions& ro, int fan, const fs::path& out,
+               std::ostringstream& md) {
+  const int k = fan - 1;
   std::vector<std::vector<FanTrajectory>> fans;
   for (const char* kind : {"symmetric", "early", "late"})
     fans.push_back(SolutionFan(scene, run.steps[k].setup, ro.sim, kind));
@@ -458,13 +484,13 @@ Json WriteFans(const FoldScene& scene, const PlanRun& run, const PlanRunOptions&
 
 // --key-points-only: each trial's perturbed garment settles flat and the camera looks
 // for the plan's key points (the plan without its steps: no folding simulated).
-int KeyPointTrials(const Args& args, const FoldSetup& setup, const FoldingPlan& plan, const PlanRunOptions& ro,
+int KeyPointTrials(const FoldArgs& args, const FoldSetup& setup, const FoldingPlan& plan, const PlanRunOptions& ro,
                    const fs::path& out) {
   FoldingPlan none = plan;
   none.steps.clear();
   TrialOptions to;
-  to.trials = static_cast<int>(args.GetInt("--trials").value_or(10));
-  to.seed = static_cast<uint64_t>(args.GetInt("--seed").value_or(1));
+  to.trials = args.trials;
+  to.seed = args.seed;
   int found = 0;
   RunTrials(setup, none, ro, {}, to, [&](const TrialResult& tr) {
     found += tr.completed;
@@ -482,19 +508,17 @@ int KeyPointTrials(const Args& args, const FoldSetup& setup, const FoldingPlan& 
   return 0;
 }
 
-int Run(const std::vector<std::string>& argv) {
-  Args args(argv, {"--no-optimise", "--key-points-only"},
-            {"--plan", "--trials", "--seed", "-o", "--output", "--size", "--edge", "--material", "--category",
-             "--gripper", "--max-sims", "--fan", "--stiffness", "--friction", "--cloth-friction", "--replay"});
-  if (args.help()) {
-    std::cout << kUsage;
-    return 0;
-  }
-  args.RequirePositional(1, 1, "a GARMENT (template name or mesh file)");
-  const auto plan_path = args.Get("--plan");
-  if (!plan_path) throw Error("--plan PLAN is required");
-  const FoldingPlan plan = LoadPlan(*plan_path);
-  const fs::path out = args.Get("-o", args.Get("--output", "fold-out"));
+int Run(FoldArgs& args) {
+  kFoldSection.Read(OptionsFile::LoadIfGiven(args.config), args.knobs);
+  const FoldingPlan plan = LoadPlan(args.plan);
+  // The fans' step, checked before the expensive part.
+  const int fan = args.knobs.fan == "none"   ? 0
+                  : args.knobs.fan == "last" ? static_cast<int>(plan.steps.size())
+                                             : args.knobs.FanStep();
+  if (fan > static_cast<int>(plan.steps.size()))
+    throw Error("fold.fan: no step " + args.knobs.fan + " (plan " + plan.name + " has " +
+                std::to_string(plan.steps.size()) + ")");
+  const fs::path out = args.output;
   fs::create_directories(out);
 
   const FoldInputs in = SetUpFold(args);
@@ -507,9 +531,9 @@ int Run(const std::vector<std::string>& argv) {
               GripperModelName(ro.sim.gripper).c_str());
   std::fflush(stdout);
 
-  if (args.Flag("--key-points-only")) return KeyPointTrials(args, setup, plan, ro, out);
+  if (args.key_points_only) return KeyPointTrials(args, setup, plan, ro, out);
   std::vector<std::vector<RelativeTrajectory>> replay;
-  if (auto r = args.Get("--replay")) replay = LoadReplay(*r, plan);
+  if (!args.replay.empty()) replay = LoadReplay(args.replay, plan);
   PlanRun run;
   try {
     RunPlan(run, scene, LaidGarment(setup), category, plan, WithProgress(ro), replay.empty() ? nullptr : &replay);
@@ -524,7 +548,7 @@ int Run(const std::vector<std::string>& argv) {
      << "Mesh " << setup.garment.mesh.NumVertices() << " vertices / " << setup.garment.mesh.NumFaces()
      << " faces; material " << in.material << " (kLST " << in.fit.stiffness << ", mu " << setup.friction
      << "); gripper " << GripperModelName(ro.sim.gripper) << "."
-     << (replay.empty() ? "" : " Replayed " + *args.Get("--replay") + " (no optimisation).") << "\n\n"
+     << (replay.empty() ? "" : " Replayed " + args.replay + " (no optimisation).") << "\n\n"
      << "| step | arms | D before (mm) | D after (mm) | C before | C after | l before (m) | l after (m) | simulations "
         "| "
         "seconds |\n|---|---|---|---|---|---|---|---|---|---|\n";
@@ -542,8 +566,7 @@ int Run(const std::vector<std::string>& argv) {
               {"provenance", RunProvenance()}};
 
   // The solution-space fans (paper Fig. "solution_space") for one step.
-  const std::string fan = args.Get("--fan", std::to_string(plan.steps.size()));
-  if (fan != "none") doc["fan"] = WriteFans(scene, run, ro, fan, out, md);
+  if (fan > 0) doc["fan"] = WriteFans(scene, run, ro, fan, out, md);
 
   // Written before the trials too: the optimisation is the expensive part.
   WriteFileAtomic(out / "trajectories.json", doc.dump(2) + "\n");
@@ -557,8 +580,33 @@ int Run(const std::vector<std::string>& argv) {
   return 0;
 }
 
-Register reg({"fold", "fold a garment on a table: optimised trajectories with the cloth simulation in the loop", kUsage,
-              Run});
+Runner Setup(CLI::App& app) {
+  auto a = std::make_shared<FoldArgs>();
+  app.footer(kFooter);
+  app.add_option("GARMENT_OR_ENTRY", a->garment, "a template name, a flat garment mesh or an unfold trial's folder")
+      ->required();
+  app.add_option("--plan", a->plan, "the folding plan (runtime/folding/plans/*.yaml)")->type_name("PATH")->required();
+  AddCount(app, "--trials", a->trials, "evaluation trials (0: none)", 0);
+  AddSeed(app, a->seed, "seed of the trials' perturbations");
+  AddOutput(app, a->output, "write trajectories.json, report.md and pictures here")->capture_default_str();
+  app.add_option("--size", a->size, "template size")->check(CLI::IsMember({"S", "M", "L"}))->capture_default_str();
+  app.add_option("--material", a->material, "material preset (default by category: towel_b, pants, tshirt)")
+      ->type_name("NAME");
+  app.add_option("--category", a->category, "category of an imported mesh (default: its sidecar's)")->type_name("C");
+  app.add_option("--gripper", a->gripper, "pinch (a small area) or point (one vertex)")
+      ->check(CLI::IsMember({"pinch", "point"}))
+      ->capture_default_str();
+  app.add_option("--replay", a->replay,
+                 "no optimisation: replay an earlier run's trajectories.json (relative to each step's P0 -> P3)")
+      ->type_name("FILE");
+  app.add_flag("--key-points-only", a->key_points_only,
+               "no folding: the trials' perturbed flat garments and the key points the camera finds on them");
+  AddConfig(app, a->config);
+  return [a] { return Run(*a); };
+}
+
+Register reg({"fold", "fold a garment on a table: optimised trajectories with the cloth simulation in the loop",
+              Setup});
 
 }  // namespace
 }  // namespace drape::cli

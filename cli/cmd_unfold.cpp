@@ -7,11 +7,13 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <memory>
 #include <mutex>
 #include <sstream>
 
-#include "cli/args.h"
 #include "cli/command.h"
+#include "cli/config.h"
+#include "cli/options.h"
 #include "common/error.h"
 #include "common/files.h"
 #include "common/parallel.h"
@@ -31,55 +33,54 @@ namespace {
 namespace fs = std::filesystem;
 using namespace drape::unfolding;
 
-const char* kUsage =
-    "Usage: drape unfold RELEASE [--category C] [--trials N] [--seed S] [-o DIR] [options]\n"
-    "\n"
+const char* kFooter =
     "Unfolds test garments of the release with simulated dual-arm hardware (paper Algorithm\n"
     "\"Iterative Procedure for Regrasping\"): pick up at a random point, turn in front of the\n"
     "Kinect, fuse, recognise the grasped anchor (learned weights), register the matched\n"
     "database mesh, choose the next grasp by the objective f over anchor pairs (Eq. finalobj),\n"
-    "refine it with the IR range sensor (LoG), regrasp with the free arm; until f >= xi.\n"
-    "Desired pairs: long_sleeve_shirt both elbows, pants/shorts the outer leg-opening corners,\n"
-    "towel two adjacent corners.\n"
-    "\n"
-    "Options:\n"
-    "  --category C      only this category (default: every test category with a desired pair)\n"
-    "  --trials N        trials per category (default 10)\n"
-    "  --only K,K,...    run only these of the N trials (1-based; each with the seed it has in\n"
-    "                    the full run), e.g. to rerun the trials an option changes\n"
-    "  --seed S          trial seeds derive from S (default 1)\n"
-    "  -o DIR            write DIR/<category>/trial_<k>/{trace.json, *.png}, DIR/report.md/.json;\n"
-    "                    a garment placed flat also as placed.json, garment.ply, lying.ply there\n"
-    "                    (drape fold DIR/<category>/trial_<k> --plan PLAN folds it as it lies)\n"
-    "  --weights PATH    weights.json (default RELEASE/calibration/weights.json; required unless\n"
-    "                    --unweighted)\n"
-    "  --frames N        Kinect frames per turn, 360 deg one way and back (default 550, the paper's)\n"
-    "  --max-regrasps K  give up after K regrasps (default 4)\n"
-    "  --jobs N          trials run side by side on N threads (default 1; same results for any N)\n"
-    "  --category-known  tell recognition the category (default: by registration at every hang,\n"
-    "                    the fits summed over the hangs deciding)\n"
-    "  --refit-absent P  at every hang, a category left out of the hang's registration counts\n"
-    "                    the hang's worst score + P (default 0.5)\n"
-    "  --plan-prior K    after a regrasp keep the anchor it aimed at (or its twin) as recognition's\n"
-    "                    top-K anchor when it ranks it there, else as that anchor's best entry\n"
-    "                    (default 3)\n"
-    "  --candidates K    register recognition's top K database entries (its answer first; after a\n"
-    "                    kept plan prior only that anchor's or its twin's) and predict from the\n"
-    "                    best fit after rigid registration: symmetric mean surface distance to\n"
-    "                    the reconstruction (default 5; 1 = recognition's answer alone)\n"
-    "  --lowest-near R   when the target is not the database hang's lowest point but the\n"
-    "                    lowest within R metres of it, regrasp at the reconstruction's lowest\n"
-    "                    point within R of the registered target, 2 cm above it (default 0.06; 0: off)\n"
-    "  --no-ir           ablation: grasp the registered point without IR refinement\n"
-    "  --rigid           ablation: rigid-only registration\n"
-    "  --unweighted      ablation: unweighted recognition (Eq. match)\n"
-    "  --ablations       also run the three ablations (4x the trials)\n"
-    "  --no-figures      traces only\n"
-    "  --dump-meshes     per step also step_K_recon.ply (the reconstruction), step_K_cloth.ply (truth: the\n"
-    "                    cloth as it hung, same frame), step_K_registered.ply (the kept registration)\n"
-    "                    and the test garment (garment.ply + garment.anchors.json)\n"
-    "  --no-place        do not lay the garment flat once f >= xi (no coverage; success is judged\n"
-    "                    before placing, so it is the same; the placing is a long cloth simulation)\n";
+    "refine it with the IR range sensor (LoG), regrasp with the free arm; until f >= xi; then\n"
+    "lay the garment flat on the table (drape fold OUT/<category>/trial_<k> --plan PLAN folds\n"
+    "it as it lies). Desired pairs: long_sleeve_shirt both elbows, pants/shorts the outer\n"
+    "leg-opening corners, towel two adjacent corners. The loop's settings (Kinect frames,\n"
+    "regrasps, candidates, plan prior, the single ablations, placing) are the options file's\n"
+    "`unfold` section.";
+
+// `unfold`: the loop's research settings (runtime/unfolding/loop.h; each struct's
+// Validate() owns the ranges, so a bad value is reported at its key).
+const ConfigSection<LoopOptions> kUnfoldSection(
+    "unfold",
+    "`drape unfold`'s loop (runtime/unfolding/loop.h, docs/unfolding.md): sensing, recognition, the next grasp, the "
+    "regrasp and the placing.",
+    {{"frames", Ref(&LoopOptions::observe, &ObserveOptions::capture, &hardware::CaptureOptions::frames), "frames",
+      "Kinect frames per turn, 360° one way and back (the paper's 550)"},
+     {"max_regrasps", Ref(&LoopOptions::max_regrasps), "", "give up after this many regrasps"},
+     {"category_known", Ref(&LoopOptions::recognise, &RecogniseOptions::category_known), "bool",
+      "tell recognition the category (false: by registration at every hang, the fits summed over the hangs)"},
+     {"refit_absent_penalty", Ref(&LoopOptions::recognise, &RecogniseOptions::refit_absent_penalty), "—",
+      "at every hang, a category left out of the hang's registration counts the hang's worst score + this"},
+     {"plan_prior_top_k", Ref(&LoopOptions::recognise, &RecogniseOptions::plan_prior_top_k), "anchors",
+      "after a regrasp keep the anchor it aimed at (or its twin) when recognition ranks it in its top k, else as "
+      "that anchor's best entry"},
+     {"candidates", Ref(&LoopOptions::plan, &PlanOptions::candidates), "entries",
+      "register recognition's top k database entries and predict from the best rigid fit (1: its answer alone)"},
+     {"lowest_near_radius", Ref(&LoopOptions::plan, &PlanOptions::lowest, &LowestPointOptions::near_radius), "m",
+      "regrasp at the reconstruction's lowest point within this distance of the registered target when the target "
+      "is the hang's lowest near it (0: off)"},
+     {"xi", Ref(&LoopOptions::plan, &PlanOptions::objective, &ObjectiveOptions::xi), "—",
+      "ξ: stop regrasping when f ≥ ξ"},
+     {"ir_refinement", Ref(&LoopOptions::regrasp, &RegraspOptions::ir_refinement), "bool",
+      "refine the grasp point with the IR scan (false: the \"no IR refinement\" ablation alone)"},
+     {"nonrigid", Ref(&LoopOptions::plan, &PlanOptions::nonrigid), "bool",
+      "non-rigid registration after the rigid (false: the \"rigid-only registration\" ablation alone)"},
+     {"place_flat", Ref(&LoopOptions::place_flat), "bool",
+      "lay the garment flat once f ≥ ξ (success is judged before; the placing is a long cloth simulation)"}});
+
+struct UnfoldArgs {
+  std::string release, category, only, output, weights, config;
+  int trials = 10, jobs = 1;
+  uint64_t seed = 1;
+  bool ablations = false, no_figures = false, dump_meshes = false;
+};
 
 struct Variant {
   std::string name;
@@ -87,33 +88,30 @@ struct Variant {
 };
 
 // --category, checked before anything expensive: a known category with a desired pair.
-std::vector<std::string> RequestedCategories(const Args& a) {
+std::vector<std::string> RequestedCategories(const std::string& c) {
   std::vector<std::string> categories;
-  if (auto c = a.Get("--category")) {
+  if (!c.empty()) {
     bool known = false;
-    for (const auto& t : Templates()) known |= t.category == *c;
-    if (!known) throw Error("--category: unknown category '" + *c + "'");
-    if (DesiredPairsFor(*c).empty())
-      throw Error("--category: '" + *c +
+    for (const auto& t : Templates()) known |= t.category == c;
+    if (!known) throw Error("--category: unknown category '" + c + "'");
+    if (DesiredPairsFor(c).empty())
+      throw Error("--category: '" + c +
                   "' has no desired anchor pair to unfold by (long_sleeve_shirt, pants, shorts, towel have)");
-    categories.push_back(*c);
+    categories.push_back(c);
   }
   return categories;
 }
 
-// --weights, else the release's calibration; empty when only unweighted runs need none.
-fs::path WeightsPath(const Args& a, const fs::path& dir, bool unweighted_only) {
-  fs::path wpath = a.Get("--weights", "");
-  if (wpath.empty()) {
-    const Release probe = Release::Open(dir);
-    wpath = recognition::DefaultWeightsDir(probe) / "weights.json";
-    if (!fs::exists(wpath)) {
-      if (!unweighted_only)
-        throw Error(dir.string() + ": the release has no learned weights (run `drape calibrate " + dir.string() +
-                    "` first, or pass --unweighted)");
-      wpath.clear();
-    }
-  }
+// --weights (resolved as every command does); empty for --weights none. The weighted
+// runs need weights: the release's own calibration unless given.
+fs::path WeightsPath(const UnfoldArgs& a, const fs::path& dir) {
+  const bool unweighted = a.weights == "none";
+  if (unweighted && a.ablations)
+    throw Error("--ablations: the ablations are measured against the weighted loop; --weights none leaves none");
+  const fs::path wpath = recognition::ResolveWeightsPath(Release::Open(dir), a.weights);
+  if (wpath.empty() && !unweighted)
+    throw Error(dir.string() + ": the release has no learned weights (run `drape calibrate " + dir.string() +
+                "` first, or pass --weights none)");
   return wpath;
 }
 
@@ -207,22 +205,12 @@ TableRow RunTrials(const ReleaseModel& model, const Variant& v, const std::strin
   return Summarise(c, v.name, results);
 }
 
-// --plan-prior, --candidates.
-void PlanOptions(const Args& a, LoopOptions& lo) {
-  lo.recognise.plan_prior_top_k = static_cast<int>(a.GetInt("--plan-prior").value_or(lo.recognise.plan_prior_top_k));
-  if (lo.recognise.plan_prior_top_k < 0 || lo.recognise.plan_prior_top_k > 5)
-    throw Error("--plan-prior: must be in 0..5");
-  lo.plan.candidates = static_cast<int>(a.GetInt("--candidates").value_or(lo.plan.candidates));
-  if (lo.plan.candidates < 1 || lo.plan.candidates > 10) throw Error("--candidates: must be in 1..10");
-}
-
 // --only K,K,...: 0-based trial indices, each in 1..trials as given; empty: all.
-std::vector<int> OnlyTrials(const Args& a, int trials) {
+std::vector<int> OnlyTrials(const std::string& list, int trials) {
   std::vector<int> ks;
-  const auto list = a.Get("--only");
-  if (!list) return ks;
+  if (list.empty()) return ks;
   std::string item;
-  std::istringstream is(*list);
+  std::istringstream is(list);
   while (std::getline(is, item, ',')) {
     size_t used = 0;
     int k = 0;
@@ -262,67 +250,32 @@ Json OptionsJson(const LoopOptions& lo, int trials, const std::vector<int>& only
           {"place_flat", lo.place_flat}};
 }
 
-// drape unfold's flags and its options with a value.
-const std::vector<std::string> kUnfoldFlags = {"--no-ir",      "--rigid",    "--unweighted",  "--ablations",
-                                               "--no-figures", "--no-place", "--dump-meshes", "--category-known"};
-const std::vector<std::string> kUnfoldValues = {"--category",   "--trials",     "--only",       "--seed",
-                                                "-o",           "--weights",    "--frames",     "--max-regrasps",
-                                                "--jobs",       "--plan-prior", "--candidates", "--refit-absent",
-                                                "--lowest-near"};
-
-// The loop's options from the command line.
-LoopOptions LoopOptionsFrom(const Args& a) {
+int RunUnfold(const UnfoldArgs& a) {
+  const fs::path dir = a.release;
+  const std::vector<int> only = OnlyTrials(a.only, a.trials);
   LoopOptions lo;
-  lo.observe.capture.frames = static_cast<int>(a.GetInt("--frames").value_or(550));
-  lo.max_regrasps = static_cast<int>(a.GetInt("--max-regrasps").value_or(4));
-  lo.recognise.category_known = a.Flag("--category-known");
-  lo.recognise.refit_absent_penalty = a.GetDouble("--refit-absent").value_or(lo.recognise.refit_absent_penalty);
-  if (!(lo.recognise.refit_absent_penalty >= 0)) throw Error("--refit-absent: must be >= 0");
-  lo.plan.lowest.near_radius = a.GetDouble("--lowest-near").value_or(lo.plan.lowest.near_radius);
-  if (!(lo.plan.lowest.near_radius >= 0 && lo.plan.lowest.near_radius < 0.5))
-    throw Error("--lowest-near: must be in [0, 0.5) m");
-  lo.place_flat = !a.Flag("--no-place");
-  PlanOptions(a, lo);
-  return lo;
-}
+  kUnfoldSection.Read(OptionsFile::LoadIfGiven(a.config), lo);
 
-int RunUnfold(const std::vector<std::string>& argv) {
-  Args a(argv, kUnfoldFlags, kUnfoldValues);
-  if (a.help()) {
-    std::cout << kUsage;
-    return 0;
-  }
-  a.RequirePositional(1, 1, "RELEASE");
-  const fs::path dir = a.positional()[0];
-  const int trials = static_cast<int>(a.GetInt("--trials").value_or(10));
-  if (trials < 1) throw Error("--trials: must be >= 1");
-  const uint64_t seed = static_cast<uint64_t>(a.GetInt("--seed").value_or(1));
-  const std::vector<int> only = OnlyTrials(a, trials);
-
-  std::vector<std::string> categories = RequestedCategories(a);
-  const bool unweighted_only = a.Flag("--unweighted") && !a.Flag("--ablations");
-  const fs::path wpath = WeightsPath(a, dir, unweighted_only);
+  std::vector<std::string> categories = RequestedCategories(a.category);
+  const bool unweighted = a.weights == "none";
+  const fs::path wpath = WeightsPath(a, dir);
   const ReleaseModel model(dir, wpath);
-  CheckCategories(model, dir, unweighted_only, categories);
+  CheckCategories(model, dir, unweighted, categories);
 
-  LoopOptions lo = LoopOptionsFrom(a);
-  const int jobs = static_cast<int>(a.GetInt("--jobs").value_or(1));
-  if (jobs < 1) throw Error("--jobs: must be >= 1");
-  if (jobs > 1) lo.observe.fusion_threads = 1;  // the trials share the cores instead
+  if (a.jobs > 1) lo.observe.fusion_threads = 1;  // the trials share the cores instead
   std::vector<Variant> variants;
-  variants.push_back({"full", !a.Flag("--no-ir"), !a.Flag("--rigid"), !a.Flag("--unweighted")});
-  if (a.Flag("--ablations")) {
+  variants.push_back({"full", lo.regrasp.ir_refinement, lo.plan.nonrigid, !unweighted});
+  if (a.ablations) {
     variants = {{"full"},
                 {"no IR refinement", false, true, true},
                 {"rigid-only registration", true, false, true},
                 {"unweighted recognition", true, true, false}};
   }
-  const std::optional<fs::path> out = a.Get("-o") ? std::optional<fs::path>(*a.Get("-o")) : std::nullopt;
+  const std::optional<fs::path> out = a.output.empty() ? std::nullopt : std::optional<fs::path>(a.output);
   std::vector<TableRow> rows;
   for (const Variant& v : variants)
     for (const std::string& c : categories)
-      rows.push_back(RunTrials(model, v, c, lo, trials, only, seed, out,
-                               {!a.Flag("--no-figures"), a.Flag("--dump-meshes")}, jobs));
+      rows.push_back(RunTrials(model, v, c, lo, a.trials, only, a.seed, out, {!a.no_figures, a.dump_meshes}, a.jobs));
   const std::string md = ReportMarkdown(rows);
   std::cout << md;
   if (out) {
@@ -330,7 +283,7 @@ int RunUnfold(const std::vector<std::string>& argv) {
     rj["release"] = dir.string();
     rj["digest"] = model.release().digest();
     rj["weights"] = wpath.empty() ? Json(nullptr) : Json(wpath.string());
-    rj["options"] = OptionsJson(lo, trials, only, seed);
+    rj["options"] = OptionsJson(lo, a.trials, only, a.seed);
     rj["provenance"] = RunProvenance();
     WriteFileAtomic(*out / "report.json", rj.dump(2) + "\n");
     WriteFileAtomic(*out / "report.md", "# Unfolding\n\n" + md);
@@ -339,7 +292,33 @@ int RunUnfold(const std::vector<std::string>& argv) {
   return 0;
 }
 
-Register reg({"unfold", "regrasp and unfold test garments with simulated dual-arm hardware", kUsage, RunUnfold});
+Runner Setup(CLI::App& app) {
+  auto a = std::make_shared<UnfoldArgs>();
+  app.footer(kFooter);
+  app.add_option("RELEASE", a->release, "the release (calibrated: drape calibrate RELEASE)")->required();
+  app.add_option("--category", a->category, "only this category (default: every test category with a desired pair)")
+      ->type_name("C");
+  AddCount(app, "--trials", a->trials, "trials per category");
+  app.add_option("--only", a->only,
+                 "run only these of the N trials (1-based; each with the seed it has in the full run)")
+      ->type_name("K,K,...");
+  AddSeed(app, a->seed, "trial seeds derive from S, the category and the trial");
+  AddOutput(app, a->output,
+            "write DIR/<category>/trial_<k>/{trace.json, *.png} and DIR/report.md/.json; a garment placed flat also "
+            "as placed.json, garment.ply, lying.ply there");
+  AddWeights(app, a->weights);
+  AddJobs(app, a->jobs, "trials run side by side (default 1; the same results for any N)");
+  app.add_flag("--ablations", a->ablations,
+               "also run the three ablations: no IR refinement, rigid-only registration, unweighted (4x the trials)");
+  app.add_flag("--no-figures", a->no_figures, "traces only");
+  app.add_flag("--dump-meshes", a->dump_meshes,
+               "per step also step_K_recon.ply, step_K_cloth.ply (truth), step_K_registered.ply and the test "
+               "garment (garment.ply + garment.anchors.json)");
+  AddConfig(app, a->config);
+  return [a] { return RunUnfold(*a); };
+}
+
+Register reg({"unfold", "regrasp and unfold test garments with simulated dual-arm hardware", Setup});
 
 }  // namespace
 }  // namespace drape::cli

@@ -24,19 +24,10 @@ struct Command {
   std::function<Runner(CLI::App& app)> setup;
 };
 
-// A command still on the hand-written parser (cli/args.h) until it moves to CLI11: it
-// receives the arguments after its name and prints its own `usage` for --help.
-struct LegacyCommand {
-  std::string name, summary, usage;
-  std::function<int(const std::vector<std::string>&)> run;
-};
-
 std::vector<Command>& Registry();
-std::vector<LegacyCommand>& LegacyRegistry();
 
 struct Register {
   explicit Register(Command c) { Registry().push_back(std::move(c)); }
-  explicit Register(LegacyCommand c) { LegacyRegistry().push_back(std::move(c)); }
 };
 
 }  // namespace drape::cli

@@ -13,9 +13,14 @@ expect_error() {
   [ "$status" -eq 1 ] || fail "fold $*: status $status (want 1), output: $out"
   echo "$out" | grep -qxF -- "drape fold: $message" || fail "fold $*: expected 'drape fold: $message', got: $out"
 }
-expect_error "--plan PLAN is required" towel
-expect_error "--friction: must be in [0, 5), got 7" towel --plan "$plan" --friction 7
-expect_error "--friction: must be in [0, 5), got -0.25" towel --plan "$plan" --friction -0.25
+expect_error "--plan is required (see drape fold --help)" towel
+# Material constants given instead of fitted come from the options file, checked at their key.
+printf 'fold:\n  friction: 7\n' > "$WORK/f7.yaml"
+expect_error "$WORK/f7.yaml:2:13: fold.friction: must be in [0, 5) (-1: fitted), got 7" towel --plan "$plan" --config "$WORK/f7.yaml"
+printf 'fold:\n  friction: -0.25\n' > "$WORK/f025.yaml"
+expect_error "$WORK/f025.yaml:2:13: fold.friction: must be in [0, 5) (-1: fitted), got -0.25" towel --plan "$plan" --config "$WORK/f025.yaml"
+printf 'fold:\n  fan: 9\n' > "$WORK/fan9.yaml"
+expect_error "fold.fan: no step 9 (plan towel has 2)" towel --plan "$plan" --config "$WORK/fan9.yaml"
 expect_error "--material: unknown material 'felt'" towel --plan "$plan" --material felt
 # An unfold trial folder whose garment was never placed flat: nothing to fold, and why.
 mkdir -p "$WORK/trial_1"

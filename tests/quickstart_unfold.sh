@@ -7,7 +7,8 @@ rel="$WORK/../quickstart_reference/quickstart"
 "$DRAPE" calibrate "$rel" -o "$WORK/calibration" > /dev/null
 w="$WORK/calibration/weights.json"
 rm -rf "$WORK/out"
-"$DRAPE" unfold "$rel" --weights "$w" --category towel --trials 1 --frames 36 --max-regrasps 2 -o "$WORK/out"
+printf 'unfold:\n  frames: 36\n  max_regrasps: 2\n' > "$WORK/short.yaml"
+"$DRAPE" unfold "$rel" --weights "$w" --category towel --trials 1 --config "$WORK/short.yaml" -o "$WORK/out"
 t="$WORK/out/towel/trial_1"
 for f in trace.json pickup.png step_1.png final.png; do
   [ -s "$t/$f" ] || fail "unfold wrote no $t/$f"
@@ -52,10 +53,17 @@ expect_error "unknown category" --weights "$w" --category socks
 expect_error "no desired anchor pair" --weights "$w" --category tshirt
 expect_error "database has no 'pants'" --weights "$w" --category pants
 expect_error "weights" --weights "$WORK/none/weights.json" --category towel
-expect_error "\-\-jobs: must be >= 1" --weights "$w" --category towel --jobs 0
-expect_error "\-\-plan-prior: must be in 0..5" --weights "$w" --category towel --plan-prior 6
-expect_error "\-\-candidates: must be in 1..10" --weights "$w" --category towel --candidates 0
+expect_error "\-\-jobs: '0' is not an integer >= 1" --weights "$w" --category towel --jobs 0
+expect_error "\-\-ablations: .*--weights none" --weights none --category towel --ablations
+# The loop's settings from the options file: a bad value names the file, line, column and key.
+bad_setting() {
+  printf 'unfold:\n  %s: %s\n' "$1" "$2" > "$WORK/bad.yaml"
+  expect_error "$WORK/bad.yaml:2:[0-9]*: unfold.$1: $3" --weights "$w" --category towel --config "$WORK/bad.yaml"
+}
+bad_setting plan_prior_top_k 6 "must be in 0..5"
+bad_setting candidates 0 "must be in 1..10"
+bad_setting refit_absent_penalty -0.5 "must be >= 0"
+bad_setting lowest_near_radius 0.5 "must be in \[0, 0.5) m"
+bad_setting frame 36 "unknown key (did you mean 'frames'?)"
 expect_error "\-\-only: '3' is not a trial number in 1..2" --weights "$w" --category towel --trials 2 --only 1,3
 expect_error "\-\-only: 'x' is not a trial number" --weights "$w" --category towel --only x
-expect_error "\-\-refit-absent: must be >= 0" --weights "$w" --category towel --refit-absent -0.5
-expect_error "\-\-lowest-near: must be in \[0, 0.5) m" --weights "$w" --category towel --lowest-near 0.5

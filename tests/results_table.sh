@@ -12,8 +12,9 @@ for d in "$RESULTS_RELEASE" "$RESULTS_EVAL" "$RESULTS_UNFOLD"; do
   [ -d "$d" ] || fail "the fixtures did not make $d"
 done
 rm -rf "$RESULTS_FOLD"
-"$DRAPE" fold towel --plan "$SRC/runtime/folding/plans/towel.yaml" --edge 0.08 --no-optimise --trials 1 \
-  --fan none -o "$RESULTS_FOLD" > "$WORK/fold.log" || fail "fold: $(tail -n 5 "$WORK/fold.log")"
+printf 'fold:\n  edge: 0.08\n  optimise: false\n  fan: none\n' > "$WORK/fold.yaml"
+"$DRAPE" fold towel --plan "$SRC/runtime/folding/plans/towel.yaml" --config "$WORK/fold.yaml" --trials 1 \
+  -o "$RESULTS_FOLD" > "$WORK/fold.log" || fail "fold: $(tail -n 5 "$WORK/fold.log")"
 python=/usr/bin/python3
 [ -x "$python" ] || python=python3
 export SRC

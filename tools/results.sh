@@ -55,11 +55,12 @@ step() {
   echo "results.sh: $name: done in $((SECONDS - t0)) s"
 }
 
-# Mesh edge and optimisation budget per garment: the settings docs/folding.md measured.
-fold_args() {
+# Mesh edge and optimisation budget per garment (the options file's fold section): the
+# settings docs/folding.md measured.
+fold_config() {
   case $1 in
-    long_sleeve_shirt) echo "--edge 0.08 --max-sims 22" ;;
-    *) echo "--edge 0.06" ;;
+    long_sleeve_shirt) printf 'fold:\n  edge: 0.08\n  max_sims: 22\n  fan: none\n' ;;
+    *) printf 'fold:\n  edge: 0.06\n  fan: none\n' ;;
   esac
 }
 
@@ -72,8 +73,8 @@ step unfold "$OUT/unfold/report.json" "$DRAPE" unfold "$OUT/release" --trials "$
 # before the trials too).
 fold_one() {
   local g=$1
-  # shellcheck disable=SC2046  # fold_args is a list of options
-  "$DRAPE" fold "$g" --plan "runtime/folding/plans/$g.yaml" $(fold_args "$g") --fan none \
+  fold_config "$g" > "$OUT/fold/$g.yaml"
+  "$DRAPE" fold "$g" --plan "runtime/folding/plans/$g.yaml" --config "$OUT/fold/$g.yaml" \
     --trials "$TRIALS" --seed "$SEED" -o "$OUT/fold/$g" && touch "$OUT/fold/$g.done"
 }
 for g in $FOLD; do
