@@ -304,8 +304,8 @@ Runner Setup(CLI::App& app) {
       ->type_name("K,K,...");
   AddSeed(app, a->seed, "trial seeds derive from S, the category and the trial");
   AddOutput(app, a->output,
-            "write DIR/<category>/trial_<k>/{trace.json, *.png} and DIR/report.md/.json; a garment placed flat also "
-            "as placed.json, garment.ply, lying.ply there");
+            "write <category>/trial_<k>/{trace.json, *.png} and report.md/.json into this folder; a garment "
+            "placed flat also as placed.json, garment.ply, lying.ply in its trial folder");
   AddWeights(app, a->weights);
   AddJobs(app, a->jobs, "trials run side by side (default 1; the same results for any N)");
   app.add_flag("--ablations", a->ablations,
