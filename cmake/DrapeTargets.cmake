@@ -2,13 +2,20 @@
 
 set(DRAPE_SOURCE_ROOT ${CMAKE_CURRENT_LIST_DIR}/..)
 
+# drape_warnings(TARGET): -Wall -Wextra on drape's own code, errors unless DRAPE_WERROR
+# is OFF (the option in CMakeLists.txt). Third-party headers come in through imported
+# targets, i.e. as -isystem, so their warnings are not reported.
+function(drape_warnings target)
+  target_compile_options(${target} PRIVATE -Wall -Wextra $<$<BOOL:${DRAPE_WERROR}>:-Werror>)
+endfunction()
+
 # drape_library(NAME SOURCES ... DEPS ...): a stage library; headers are included
 # from the repository root, e.g. #include "garments/garment.h".
 function(drape_library name)
   cmake_parse_arguments(ARG "" "" "SOURCES;DEPS;PRIVATE_DEPS" ${ARGN})
   add_library(${name} STATIC ${ARG_SOURCES})
   target_include_directories(${name} PUBLIC ${DRAPE_SOURCE_ROOT})
-  target_compile_options(${name} PRIVATE -Wall -Wextra -Wno-unused-parameter)
+  drape_warnings(${name})
   target_link_libraries(${name} PUBLIC ${ARG_DEPS} PRIVATE ${ARG_PRIVATE_DEPS})
 endfunction()
 
@@ -22,7 +29,7 @@ function(drape_test name)
   cmake_parse_arguments(ARG "" "TIMEOUT" "SOURCES;DEPS;LABELS" ${ARGN})
   add_executable(${name} ${ARG_SOURCES})
   target_link_libraries(${name} PRIVATE ${ARG_DEPS} GTest::gtest GTest::gtest_main)
-  target_compile_options(${name} PRIVATE -Wall -Wextra -Wno-unused-parameter)
+  drape_warnings(${name})
   target_compile_definitions(${name} PRIVATE DRAPE_SOURCE_DIR="${DRAPE_SOURCE_ROOT}")
   if(NOT ARG_TIMEOUT)
     set(ARG_TIMEOUT 600)
@@ -39,5 +46,6 @@ function(drape_bench name)
   cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
   add_executable(${name} ${ARG_SOURCES})
   target_link_libraries(${name} PRIVATE ${ARG_DEPS} benchmark::benchmark)
+  drape_warnings(${name})
   target_compile_definitions(${name} PRIVATE DRAPE_SOURCE_DIR="${DRAPE_SOURCE_ROOT}")
 endfunction()
