@@ -182,6 +182,14 @@ Feature Rotate(const Feature& f, int k) {
   return out;
 }
 
+Feature Mirror(const Feature& f) {
+  Feature out = f;
+  for (int l = 0; l < f.layers; ++l)
+    for (int r = 0; r < f.rings; ++r)
+      for (int s = 0; s < f.sectors; ++s) out.Set(l, r, f.sectors - 1 - s, f.Get(l, r, s));
+  return out;
+}
+
 int RotatedBit(int bit, int sectors, int k) {
   const int lr = bit / sectors, s = bit % sectors;
   return lr * sectors + ((s + k) % sectors + sectors) % sectors;

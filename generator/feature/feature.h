@@ -90,6 +90,12 @@ Match Distance(const Feature& a, const Feature& b);           // word-parallel
 Match DistanceReference(const Feature& a, const Feature& b);  // bit by bit
 // Per-ring circular shift: out(l, r, (s + k) mod Φ) = f(l, r, s). Any integer k.
 Feature Rotate(const Feature& f, int k);
+// The feature of the garment's mirror image through a vertical plane (z → −z about the
+// polar origin; any other vertical plane is this and a turn): per ring, sector s ↔ Φ − 1 − s. Exact, since the cell
+// centres sit at the sectors' middles and the frame (layers, origin, r_m) is mirror-invariant. Eq. match turns but
+// never mirrors, so a hang and its mirror image are different codes; a garment's left/right twin anchor hangs as the
+// mirror image of the other's hang.
+Feature Mirror(const Feature& f);
 // Where bit `bit` goes under Rotate(·, k) for Φ = sectors.
 int RotatedBit(int bit, int sectors, int k);
 

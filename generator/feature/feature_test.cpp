@@ -162,6 +162,35 @@ TEST(Feature, RotatedGarmentMatchesAtItsRotation) {
   }
 }
 
+// Mirror: the feature of the mirrored garment (z → −z, any mirror plane through the axis
+// up to a turn), sector s ↔ Φ − 1 − s; an involution; a chiral shape's mirror is not
+// one of its rotations.
+TEST(Feature, MirroredGarmentIsTheMirroredCode) {
+  const Scene garment = Garment();
+  for (const char* origin : {"top_layer", "grip"}) {
+    FeatureOptions o;
+    o.origin = origin;
+    const auto sdf0 = [&](const Vec3& p) { return garment.Sdf(p); };
+    const Points3 P0 = SurfacePoints(sdf0, 1);
+    const Feature f0 = ExtractFeature(P0, sdf0, o);
+    EXPECT_EQ(Mirror(Mirror(f0)), f0);
+    // Mirror through the z = 0 plane turned by `plane` about y: the z = 0 mirror and a turn
+    // by 2·plane, here 3 sectors (the feature is rotation-invariant in sector steps).
+    for (double plane : {0.0, 3 * M_PI / 16}) {
+      const Eigen::Matrix3d R = Eigen::AngleAxisd(plane, Vec3::UnitY()).toRotationMatrix();
+      const Eigen::Matrix3d M = R * Vec3(1, 1, -1).asDiagonal() * R.transpose();
+      const auto sdfm = [&](const Vec3& p) { return garment.Sdf(M * p); };
+      const Feature fm = ExtractFeature((P0 * M.transpose()).eval(), sdfm, o);
+      const Match m = Distance(Mirror(f0), fm);
+      EXPECT_LE(m.distance, 2) << origin << " plane " << plane;  // floating-point ties at cell centres
+      if (plane == 0.0) {
+        EXPECT_EQ(m.rotation, 0);
+      }
+      EXPECT_GT(Distance(f0, fm).distance, 20) << origin;  // the garment is chiral: no turn makes its mirror
+    }
+  }
+}
+
 // The same with SDFs fused from synthetic depth sweeps: the voxel grid does not turn
 // with the garment, so the match is close but not exact.
 TEST(Feature, FusedGarmentRotatedMatchesWithinAFewBits) {
