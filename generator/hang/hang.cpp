@@ -132,7 +132,7 @@ struct Run {
 // One simulation: the gripper closes on the flat garment at the origin, the start is
 // perturbed by a seeded jitter (breaks symmetry), and the world settles.
 Run RunHang(const Garment& garment, const Points3& start, const Material& material, const MaterialFit& fit,
-            const HangOptions& o, double dt, uint64_t seed) {
+            const HangOptions& o, double dt, uint64_t seed, const HangStart& how) {
   // Links take their rest lengths from the model's rest mesh: the start pose is the
   // flat garment moved rigidly, so it serves as the rest mesh too.
   const TriMesh rest{start, garment.mesh.F};
@@ -147,6 +147,13 @@ Run RunHang(const Garment& garment, const Points3& start, const Material& materi
   for (int i = 0; i < dx.rows(); ++i)
     for (int c = 0; c < 3; ++c) dx(i, c) = o.jitter * rng.Uniform(-1, 1);
   world.Perturb(dx);
+  if (how.spin != Vec3::Zero()) {
+    // A lift's swing: the free nodes turn rigidly about the grasp point (the origin).
+    ClothState s = world.State();
+    for (int i = 0; i < s.x.rows(); ++i) s.v.row(i) = how.spin.cross(Vec3(s.x.row(i).transpose())).transpose();
+    for (int i : world.HeldNodes(g)) s.v.row(i).setZero();
+    world.SetState(s);
+  }
   SettleOptions so;
   so.distance = o.settle_distance;
   so.window = o.settle_window;
@@ -268,7 +275,7 @@ ClothOptions ClothOptionsFor(const HangOptions& o, double dt) {
 }
 
 HangResult Hang(const Garment& garment, int anchor_vertex, const Vec3& grasp_offset, const Material& material,
-                const MaterialFit& fit, const HangOptions& options, uint64_t seed) {
+                const MaterialFit& fit, const HangOptions& options, uint64_t seed, const HangStart& how) {
   const auto wall0 = Clock::now();
   options.Validate();
   material.Validate();
@@ -292,7 +299,7 @@ HangResult Hang(const Garment& garment, int anchor_vertex, const Vec3& grasp_off
       ++st.retries;
       dt /= 2;
     }
-    run = RunHang(garment, start, material, fit, options, dt, seed);
+    run = RunHang(garment, start, material, fit, options, dt, seed, how);
     result.mesh.V = run.x.allFinite() ? run.x : start;
     const auto tm = Clock::now();
     m = MeasureCloth(result.mesh, garment.mesh.V);

@@ -183,12 +183,18 @@ struct HangResult {
   HangStats stats;
 };
 
+// How the flat garment starts its fall. spin: every free node starts with velocity
+// ω × x (x from the grasp point; rad/s), the swing a lift gives it; zero: at rest.
+struct HangStart {
+  Vec3 spin = Vec3::Zero();
+};
+
 // Hangs `garment` from the point `grasp_offset` (metres, on the flat pattern, i.e. in the
 // garment's flat frame; z ignored) away from vertex `anchor_vertex`. Throws drape::Error
 // on bad input; numerical failure (blow-up, never settled, self-intersecting or
 // over-stretched result) is returned as ok=false with the reason. Thread-safe.
 HangResult Hang(const Garment& garment, int anchor_vertex, const Vec3& grasp_offset, const Material& material,
-                const MaterialFit& fit, const HangOptions& options, uint64_t seed);
+                const MaterialFit& fit, const HangOptions& options, uint64_t seed, const HangStart& start = {});
 
 // The cloth core's material and options for a fit and these options at step dt (s; a
 // retry halves it): one model for hanging and the material fits' reference runs.

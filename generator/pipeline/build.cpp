@@ -155,6 +155,13 @@ void RecordJob(Json& rec, const Job& job, const GarmentSpec& g, const Garment& g
   if (job.turn != 0) rec["turn_radians"] = job.turn;
   if (job.pose_noise_degrees > 0) rec["gripper_pose_noise_degrees"] = job.pose_noise_degrees;
   if (job.repeat) rec["repeat"] = job.repeat;
+  if (job.hang > 0) {  // hang k ≥ 1 of hangs_per_anchor (absent for hang 0: K = 1 keeps its bytes)
+    rec["hang_index"] = job.hang;
+    const double* mj = job.hang_material_jitter;
+    rec["hang_variation"] = {{"grasp_miss", {job.hang_miss.x(), job.hang_miss.y()}},
+                             {"material_jitter", {mj[0], mj[1], mj[2], mj[3]}},
+                             {"pickup_spin", {job.pickup_spin.x(), job.pickup_spin.y(), job.pickup_spin.z()}}};
+  }
   rec["garment_mesh"] = {{"vertices", garment.mesh.NumVertices()}, {"faces", garment.mesh.NumFaces()}};
 }
 
@@ -292,8 +299,10 @@ Entry BuildEntry(const Recipe& recipe, const Job& job, JobCache& cache) {
 
   try {
     HangResult hung;
-    stage("hang",
-          [&] { hung = Hang(*garment, anchor->vertex, offset, job.material, *fit, hang_options, job.hang_seed); });
+    stage("hang", [&] {
+      hung = Hang(*garment, anchor->vertex, offset, job.material, *fit, hang_options, job.hang_seed,
+                  HangStart{job.pickup_spin});
+    });
     rec["hang"] = HangStatsJson(hung.stats);
     timing["bullet"] = hung.stats.bullet_seconds;
     timing["collision"] = hung.stats.collision_seconds;

@@ -137,6 +137,47 @@ TEST(Build, TinyRecipeEndToEndIsDeterministicAcrossThreadsAndResume) {
   for (const auto& d : {a, b, c, s1, s2, merged}) fs::remove_all(d);
 }
 
+// hangs_per_anchor: 2 stores the anchor's own hang (hang 0) byte for byte as the K = 1
+// build does, and a second hang of the same label with its variation recorded.
+TEST(Build, HangsPerAnchorKeepHangZeroAndRecordTheVariation) {
+  const Recipe r1 = ParseRecipe(kTiny, "tiny.yaml", fs::temp_directory_path());
+  std::string k2 = kTiny;
+  const std::string train = "    garments: [{garment: towel, instances: [0]}]\n";
+  k2.replace(k2.find(train), train.size(),
+             train +
+                 "    hangs_per_anchor: 2\n"
+                 "    hang_variation: {grasp_miss: 0.01, material_jitter: 0.1, pickup_spin: 1}\n");
+  const Recipe r2 = ParseRecipe(k2, "tiny.yaml", fs::temp_directory_path());
+  const auto jobs1 = ExpandJobs(r1), jobs2 = ExpandJobs(r2);
+  ASSERT_EQ(jobs2.size(), 3u);
+  JobCache cache1, cache2;
+  const Entry one = BuildEntry(r1, jobs1[0], cache1);
+  const Entry h0 = BuildEntry(r2, jobs2[0], cache2);
+  const Entry h1 = BuildEntry(r2, jobs2[1], cache2);
+  ASSERT_FALSE(one.failed) << one.failure;
+  ASSERT_FALSE(h0.failed) << h0.failure;
+  ASSERT_FALSE(h1.failed) << h1.failure;
+  EXPECT_EQ(h0.id, one.id);
+  EXPECT_EQ(h0.record, one.record);
+  ASSERT_EQ(h0.files.size(), one.files.size());
+  for (size_t i = 0; i < one.files.size(); ++i) {
+    EXPECT_EQ(h0.files[i].path, one.files[i].path);
+    EXPECT_TRUE(h0.files[i].bytes == one.files[i].bytes) << one.files[i].path;
+  }
+  EXPECT_FALSE(h0.record.contains("hang_index"));
+  EXPECT_EQ(h1.key, one.key + "/h1");
+  EXPECT_EQ(h1.record["anchor"]["label"], "top_left");
+  EXPECT_EQ(h1.record["hang_index"], 1);
+  const Json& v = h1.record["hang_variation"];
+  EXPECT_EQ(v["grasp_miss"][0].get<double>(), jobs2[1].hang_miss.x());
+  EXPECT_EQ(v["material_jitter"][3].get<double>(), jobs2[1].hang_material_jitter[3]);
+  EXPECT_EQ(v["pickup_spin"][2].get<double>(), jobs2[1].pickup_spin.z());
+  bool same_hang = true;
+  for (size_t i = 0; i < h1.files.size(); ++i)
+    if (h1.files[i].path == "hang.ply") same_hang = h1.files[i].bytes == one.files[i].bytes;
+  EXPECT_FALSE(same_hang);  // another draw of the fall
+}
+
 // A recipe importing meshes/cloth.EXT (+ its anchors sidecar).
 std::string ImportedRecipe(const std::string& ext) {
   return "name: imported" + kFastSettings + R"(garments:

@@ -89,19 +89,70 @@ std::vector<std::string> SelectedAnchors(const Recipe& recipe, const std::string
   return anchors;
 }
 
-// The material with its seeded relative jitter (stretch, friction, density, bending).
+// `m` with its four values (stretch, friction, density, bending) × (1 + U(−j, j)) drawn
+// from `seed`; the factors − 1 go to `jitter`.
+Material Jittered(Material m, double j, uint64_t seed, double jitter[4]) {
+  if (j <= 0) return m;
+  Rng rng(seed);
+  for (int k = 0; k < 4; ++k) jitter[k] = rng.Uniform(-j, j);
+  m.stretch_percent *= 1 + jitter[0];
+  m.friction_deg *= 1 + jitter[1];
+  m.area_density *= 1 + jitter[2];
+  m.bending_stiffness *= 1 + jitter[3];
+  return m;
+}
+
+// The material with its seeded relative jitter, drawn once per instance and material.
 Material JitteredMaterial(const Recipe& recipe, const Perturbation& pt, const std::string& iname,
                           const std::string& mname, double jitter[4]) {
-  Material m = recipe.materials.at(mname);
-  if (pt.material_jitter > 0) {
-    Rng rng(DeriveSeed(recipe.seed, iname + "/" + mname + "/material_jitter"));
-    for (int k = 0; k < 4; ++k) jitter[k] = rng.Uniform(-pt.material_jitter, pt.material_jitter);
-    m.stretch_percent *= 1 + jitter[0];
-    m.friction_deg *= 1 + jitter[1];
-    m.area_density *= 1 + jitter[2];
-    m.bending_stiffness *= 1 + jitter[3];
+  return Jittered(recipe.materials.at(mname), pt.material_jitter,
+                  DeriveSeed(recipe.seed, iname + "/" + mname + "/material_jitter"), jitter);
+}
+
+// Hang k ≥ 1 of an anchor: its own grasp miss, material jitter and pickup spin, each from
+// its own seed (so setting one does not move the others' draws).
+void VaryHang(const HangVariation& v, Job& j) {
+  if (v.grasp_miss > 0) {
+    Rng rng(DeriveSeed(j.seed, "hang_variation/grasp_miss"));
+    const double dx = v.grasp_miss * rng.Normal();
+    const double dy = v.grasp_miss * rng.Normal();
+    j.hang_miss = Vec2(dx, dy);
+    j.grasp_offset += j.hang_miss;
   }
-  return m;
+  j.material = Jittered(j.material, v.material_jitter, DeriveSeed(j.seed, "hang_variation/material_jitter"),
+                        j.hang_material_jitter);
+  if (v.pickup_spin > 0) {
+    Rng rng(DeriveSeed(j.seed, "hang_variation/pickup_spin"));
+    for (int a = 0; a < 3; ++a) j.pickup_spin[a] = rng.Uniform(-v.pickup_spin, v.pickup_spin);
+  }
+}
+
+// The split's perturbation of job j (key without the split's prefix: `base`): the
+// instance's size and material jitter, its grasp (fixed distance, a miss level's or a
+// drawn miss), turn and pose noise.
+void Perturb(const Recipe& recipe, const SplitSpec& split, const std::string& base, double size_scale,
+             const double jitter[4], Job& j) {
+  const Perturbation& pt = split.perturbation;
+  j.size_scale = size_scale;
+  std::copy(jitter, jitter + 4, j.material_jitter);
+  if (split.miss_level >= 0) {
+    // The miss curve: one direction per anchor (from the key without the
+    // split's prefix), the same at every level.
+    const double a = 2 * M_PI * Rng(DeriveSeed(DeriveSeed(recipe.seed, base), "miss_direction")).Uniform();
+    j.grasp_offset = pt.grasp_offset * Vec2(std::cos(a), std::sin(a));
+  } else if (pt.grasp_offset > 0) {
+    Rng rng(DeriveSeed(j.seed, "grasp_offset"));
+    const double a = 2 * M_PI * rng.Uniform();
+    j.grasp_offset = pt.grasp_offset * Vec2(std::cos(a), std::sin(a));
+  }
+  if (pt.grasp_miss > 0) {
+    Rng rng(DeriveSeed(j.seed, "grasp_miss"));
+    const double dx = pt.grasp_miss * rng.Normal();
+    const double dy = pt.grasp_miss * rng.Normal();
+    j.grasp_offset = Vec2(dx, dy);
+  }
+  if (pt.turn) j.turn = 2 * M_PI * Rng(DeriveSeed(j.seed, "turn")).Uniform();
+  j.pose_noise_degrees = pt.gripper_pose_noise;
 }
 
 // Ids: zero-padded index (at least 5 digits) + slug of the key; keys must be unique.
@@ -143,40 +194,33 @@ std::vector<Job> ExpandJobs(const Recipe& recipe) {
           for (const auto& anchor : anchors) {
             // rep < 0: the split's unperturbed job of this anchor (SplitSpec::unperturbed).
             for (int rep = split.unperturbed ? -1 : 0; rep < split.repeats; ++rep) {
-              const bool perturbed = rep >= 0;
-              Job j;
-              j.index = static_cast<int>(jobs.size());
-              const bool suffix = perturbed && (split.repeats > 1 || split.unperturbed);
-              const std::string base = iname + "/" + mname + "/" + anchor + (suffix ? "/p" + std::to_string(rep) : "");
-              const bool ladder = split.name.rfind("test_", 0) == 0;
-              j.key = ladder ? split.name + "/" + base : base;
-              j.split = split.name;
-              j.sensing = split.sensing;
-              j.garment = gi;
-              j.instance = inst;
-              j.instance_name = iname;
-              j.instance_seed = InstanceSeed(recipe, g->name, inst);
-              j.material_name = mname;
-              j.anchor = anchor;
-              j.repeat = std::max(rep, 0);
-              j.seed = DeriveSeed(recipe.seed, j.key);
-              j.hang_seed = DeriveSeed(DeriveSeed(recipe.seed, base), "hang");
-              if (!perturbed) {
-                j.material = plain;
+              for (int hang = 0; hang < split.hangs_per_anchor; ++hang) {
+                const bool perturbed = rep >= 0;
+                Job j;
+                j.index = static_cast<int>(jobs.size());
+                const bool suffix = perturbed && (split.repeats > 1 || split.unperturbed);
+                const std::string base = iname + "/" + mname + "/" + anchor +
+                                         (suffix ? "/p" + std::to_string(rep) : "") +
+                                         (hang > 0 ? "/h" + std::to_string(hang) : "");
+                const bool ladder = split.name.rfind("test_", 0) == 0;
+                j.key = ladder ? split.name + "/" + base : base;
+                j.split = split.name;
+                j.sensing = split.sensing;
+                j.garment = gi;
+                j.instance = inst;
+                j.instance_name = iname;
+                j.instance_seed = InstanceSeed(recipe, g->name, inst);
+                j.material_name = mname;
+                j.anchor = anchor;
+                j.repeat = std::max(rep, 0);
+                j.hang = hang;
+                j.seed = DeriveSeed(recipe.seed, j.key);
+                j.hang_seed = DeriveSeed(DeriveSeed(recipe.seed, base), "hang");
+                j.material = perturbed ? m : plain;
+                if (perturbed) Perturb(recipe, split, base, size_scale, jitter, j);
+                if (hang > 0) VaryHang(split.hang_variation, j);
                 jobs.push_back(std::move(j));
-                continue;
               }
-              j.material = m;
-              j.size_scale = size_scale;
-              std::copy(jitter, jitter + 4, j.material_jitter);
-              if (pt.grasp_offset > 0) {
-                Rng rng(DeriveSeed(j.seed, "grasp_offset"));
-                const double a = 2 * M_PI * rng.Uniform();
-                j.grasp_offset = pt.grasp_offset * Vec2(std::cos(a), std::sin(a));
-              }
-              if (pt.turn) j.turn = 2 * M_PI * Rng(DeriveSeed(j.seed, "turn")).Uniform();
-              j.pose_noise_degrees = pt.gripper_pose_noise;
-              jobs.push_back(std::move(j));
             }
           }
         }

@@ -1,5 +1,5 @@
 // Job expansion: a recipe becomes a deterministic list of jobs, one per garment
-// instance × material × anchor (× perturbed repeat). Keys, ids, seeds and
+// instance × material × anchor (× perturbed repeat × hang of the anchor). Keys, ids, seeds and
 // perturbations depend only on the recipe, never on thread count or shard.
 #pragma once
 
@@ -37,15 +37,21 @@ struct Job {
   Vec2 grasp_offset = Vec2::Zero();          // metres on the flat pattern
   double turn = 0;                           // radians about the gripper (y) axis, applied before the sweep
   double pose_noise_degrees = 0;             // the fusion's gripper encoder noise (σ per frame)
+  // The anchor's hang k of SplitSpec::hangs_per_anchor (0: the anchor's own hang) and what
+  // its hang variation drew (zero for hang 0); grasp_offset and material include them.
+  int hang = 0;
+  Vec2 hang_miss = Vec2::Zero();                  // m on the flat pattern, added to grasp_offset
+  double hang_material_jitter[4] = {0, 0, 0, 0};  // applied factors − 1, on top of material_jitter
+  Vec3 pickup_spin = Vec3::Zero();                // rad/s, the fall's start (HangStart::spin)
 };
 
 // Seed of garment instance k (its TemplateOptions::seed): DeriveSeed(recipe seed,
 // "<garment>/i<k>"), never 0 (0 means preset proportions to MakeGarment).
 uint64_t InstanceSeed(const Recipe& recipe, const std::string& garment, int instance);
 
-// Every job of the recipe, in order: splits (train, calibration, test), their
-// garment selectors, instances ascending, the garment's materials, its anchors in
-// label order, repeats.
+// Every job of the recipe, in order: splits (train, calibration, test, the miss curve's,
+// the ladder's), their garment selectors, instances ascending, the garment's materials,
+// its anchors in label order, repeats, hangs.
 std::vector<Job> ExpandJobs(const Recipe& recipe);
 
 // Indices of the jobs of shard K of N (1 <= K <= N): index % N == K − 1.

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <map>
 #include <regex>
 #include <set>
@@ -234,6 +235,188 @@ splits:
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("splits.train.unperturbed"), std::string::npos) << e.what();
   }
+}
+
+}  // namespace
+}  // namespace drape
+
+namespace drape {
+namespace {
+
+const char* kHangsHead = R"(
+name: hangs
+version: 1.0.0
+seed: 9
+garments:
+  - template: towel
+    instances: 3
+    materials: [towel_a]
+splits:
+  train:
+    garments: [{garment: towel, instances: [0]}]
+)";
+
+// hangs_per_anchor: hang 0 is the job of K = 1 (same key, seeds, grasp, material: a
+// release built with K = 1 keeps its bytes); hangs k ≥ 1 are keyed /h<k>, hang with
+// their own seed and draw their own variation.
+TEST(Jobs, HangsPerAnchorKeepHangZeroAndVaryTheOthers) {
+  const auto plain = ExpandJobs(Parse(kHangsHead));
+  const auto one = ExpandJobs(Parse(std::string(kHangsHead) + "    hangs_per_anchor: 1\n"));
+  ASSERT_EQ(one.size(), plain.size());
+  for (size_t i = 0; i < plain.size(); ++i) EXPECT_EQ(one[i].key, plain[i].key);
+  const Recipe r = Parse(std::string(kHangsHead) +
+                         "    hangs_per_anchor: 3\n"
+                         "    hang_variation: {grasp_miss: 0.01, material_jitter: 0.1, pickup_spin: 2}\n");
+  const auto jobs = ExpandJobs(r);
+  ASSERT_EQ(jobs.size(), 3 * plain.size());
+  const Material& towel_a = r.materials.at("towel_a");
+  for (size_t a = 0; a < plain.size(); ++a) {
+    const Job& h0 = jobs[3 * a];
+    EXPECT_EQ(h0.key, plain[a].key);
+    EXPECT_EQ(h0.seed, plain[a].seed);
+    EXPECT_EQ(h0.hang_seed, plain[a].hang_seed);
+    EXPECT_EQ(h0.hang, 0);
+    EXPECT_EQ(h0.grasp_offset, Vec2::Zero());
+    EXPECT_EQ(h0.pickup_spin, Vec3::Zero());
+    EXPECT_EQ(h0.material.stretch_percent, towel_a.stretch_percent);
+    for (int k = 1; k < 3; ++k) {
+      const Job& h = jobs[3 * a + k];
+      EXPECT_EQ(h.key, plain[a].key + "/h" + std::to_string(k));
+      EXPECT_EQ(h.anchor, plain[a].anchor);
+      EXPECT_EQ(h.split, "train");
+      EXPECT_EQ(h.hang, k);
+      EXPECT_NE(h.hang_seed, h0.hang_seed);
+      EXPECT_EQ(h.grasp_offset, h.hang_miss);
+      EXPECT_GT(h.grasp_offset.norm(), 0);
+      EXPECT_LT(h.grasp_offset.cwiseAbs().maxCoeff(), 0.06);  // 6 σ
+      EXPECT_NE(h.material.stretch_percent, towel_a.stretch_percent);
+      EXPECT_NEAR(h.material.stretch_percent / towel_a.stretch_percent, 1.0, 0.1 + 1e-12);
+      EXPECT_NEAR(h.material.stretch_percent / towel_a.stretch_percent, 1 + h.hang_material_jitter[0], 1e-12);
+      EXPECT_GT(h.pickup_spin.norm(), 0);
+      EXPECT_LE(h.pickup_spin.cwiseAbs().maxCoeff(), 2.0);
+    }
+    EXPECT_NE(jobs[3 * a + 1].grasp_offset, jobs[3 * a + 2].grasp_offset);
+  }
+  // Setting one variation does not move another's draws.
+  const auto miss_only =
+      ExpandJobs(Parse(std::string(kHangsHead) + "    hangs_per_anchor: 3\n    hang_variation: {grasp_miss: 0.01}\n"));
+  ASSERT_EQ(miss_only.size(), jobs.size());
+  for (size_t i = 0; i < jobs.size(); ++i) {
+    EXPECT_EQ(miss_only[i].grasp_offset, jobs[i].grasp_offset);
+    EXPECT_EQ(miss_only[i].pickup_spin, Vec3::Zero());
+  }
+  // A variation with K = 1 would vary nothing: an error at its key.
+  try {
+    Parse(std::string(kHangsHead) + "    hang_variation: {grasp_miss: 0.01}\n");
+    ADD_FAILURE() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("mem.yaml:12:21: splits.train.hang_variation"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(Parse(std::string(kHangsHead) + "    hangs_per_anchor: 0\n"), Error);
+  try {
+    Parse(std::string(kHangsHead) + "    hangs_per_anchor: 2\n    hang_variation: {pickup_spin: 30}\n");
+    ADD_FAILURE() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("splits.train.hang_variation.pickup_spin: must be in [0, 20] rad/s"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
+// grasp_miss: a Gaussian miss per job, σ per axis; not with grasp_offset.
+TEST(Jobs, GraspMissIsGaussianPerAxis) {
+  const Recipe r = Parse(std::string(kHangsHead) + R"(  test:
+    garments: [{garment: towel, instances: [2]}]
+    perturbation: {grasp_miss: 0.01}
+    repeats: 100
+)");
+  double sx = 0, sy = 0, sxx = 0, syy = 0;
+  int n = 0;
+  for (const Job& j : ExpandJobs(r)) {
+    if (j.split != "test") continue;
+    sx += j.grasp_offset.x(), sy += j.grasp_offset.y();
+    sxx += j.grasp_offset.x() * j.grasp_offset.x(), syy += j.grasp_offset.y() * j.grasp_offset.y();
+    ++n;
+  }
+  ASSERT_GE(n, 400);
+  // Mean within 4 standard errors of 0, σ within 15 % of 1 cm, on each axis.
+  EXPECT_LT(std::abs(sx / n), 4 * 0.01 / std::sqrt(n));
+  EXPECT_LT(std::abs(sy / n), 4 * 0.01 / std::sqrt(n));
+  EXPECT_NEAR(std::sqrt(sxx / n), 0.01, 0.0015);
+  EXPECT_NEAR(std::sqrt(syy / n), 0.01, 0.0015);
+  try {
+    Parse(std::string(kHangsHead) +
+          "  test:\n    garments: [{garment: towel, instances: [2]}]\n"
+          "    perturbation: {grasp_miss: 0.01, grasp_offset: 0.02}\n");
+    ADD_FAILURE() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("splits.test.perturbation.grasp_miss: not together with grasp_offset"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
+// miss_curve: one split per level after test, the test split's jobs with the grasp that
+// far from the anchor, one direction per anchor at every level, the test job's hang
+// seed and material.
+TEST(Jobs, MissCurveSplitsRepeatTheTestSplitAtEachMiss) {
+  const Recipe r = Parse(std::string(kHangsHead) + R"(  test:
+    garments: [{garment: towel, instances: [2]}]
+    perturbation: {grasp_miss: 0.01, material_jitter: 0.1, turn: true}
+    miss_curve: [0, 0.005, 0.01, 0.03]
+  test_extra:
+    garments: [{garment: towel, instances: [0]}]
+)");
+  std::vector<std::string> names;
+  for (const auto& s : r.splits) names.push_back(s.name);
+  EXPECT_EQ(names, (std::vector<std::string>{"train", "test", "test_miss_0mm", "test_miss_5mm", "test_miss_10mm",
+                                             "test_miss_30mm", "test_extra"}));
+  const auto jobs = ExpandJobs(r);
+  std::map<std::string, const Job*> test;
+  for (const auto& j : jobs)
+    if (j.split == "test") test[j.key] = &j;
+  ASSERT_FALSE(test.empty());
+  std::map<std::string, Vec2> direction;  // per anchor, from the 5 mm level
+  std::map<std::string, int> per_level;
+  for (const auto& j : jobs) {
+    if (j.split.rfind("test_miss_", 0) != 0) continue;
+    per_level[j.split]++;
+    const Job* t = test.at(j.key.substr(j.split.size() + 1));
+    EXPECT_EQ(j.hang_seed, t->hang_seed);
+    EXPECT_NE(j.seed, t->seed);
+    EXPECT_EQ(j.material.stretch_percent, t->material.stretch_percent);
+    EXPECT_GT(j.turn, 0);
+    const double level = std::stoi(j.split.substr(10)) / 1000.0;
+    EXPECT_NEAR(j.grasp_offset.norm(), level, 1e-12) << j.key;
+    if (level > 0) {
+      const Vec2 d = j.grasp_offset / level;
+      auto [it, fresh] = direction.insert({j.anchor, d});
+      if (!fresh) {
+        EXPECT_NEAR((it->second - d).norm(), 0, 1e-12) << j.key;
+      }
+    }
+  }
+  for (const auto& [split, count] : per_level) EXPECT_EQ(count, static_cast<int>(test.size())) << split;
+  EXPECT_EQ(per_level.size(), 4u);
+  auto error = [&](const std::string& tail) {
+    try {
+      Parse(std::string(kHangsHead) + tail);
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  const std::string test_head = "  test:\n    garments: [{garment: towel, instances: [2]}]\n";
+  EXPECT_NE(error(test_head + "    miss_curve: [0, 0.0025]\n").find("miss_curve[1]: must be whole millimetres"),
+            std::string::npos);
+  EXPECT_NE(error(test_head + "    miss_curve: [0.01, 0.005]\n").find("miss_curve[1]: levels must be strictly"),
+            std::string::npos);
+  EXPECT_NE(error(test_head + "    miss_curve: []\n").find("miss_curve: the list is empty"), std::string::npos);
+  EXPECT_NE(error(test_head + "    miss_curve: [0.01]\n  test_miss_10mm:\n" +
+                  "    garments: [{garment: towel, instances: [1]}]\n")
+                .find("splits.test_miss_10mm: this split is also made by splits.test.miss_curve"),
+            std::string::npos);
+  EXPECT_NE(error("    miss_curve: [0.01]\n").find("splits.train.miss_curve: only the test split"), std::string::npos);
 }
 
 }  // namespace

@@ -173,6 +173,20 @@ const std::vector<OptionKey<SplitSpec>>& SplitKeys() {
       {"unperturbed", Ref(&SplitSpec::unperturbed), "bool",
        "also one unperturbed job per anchor (key without `/p<r>`, hung as in a split without perturbation), before its "
        "repeats"},
+      {"hangs_per_anchor", Ref(&SplitSpec::hangs_per_anchor), "count",
+       "K hangs per anchor sharing its label: hang 0 as with K = 1, hangs 1..K−1 keyed `/h<k>` with their own seed and "
+       "`hang_variation`"},
+      {"hang_variation.grasp_miss", Ref(&SplitSpec::hang_variation, &HangVariation::grasp_miss), "m",
+       "hangs 1..K−1: σ per axis of a Gaussian grasp miss on the flat pattern"},
+      {"hang_variation.material_jitter", Ref(&SplitSpec::hang_variation, &HangVariation::material_jitter), "fraction",
+       "hangs 1..K−1: each of the material's four values × (1 + U(−j, j)), per hang (stiffness refitted)"},
+      {"hang_variation.pickup_spin", Ref(&SplitSpec::hang_variation, &HangVariation::pickup_spin), "rad/s",
+       "hangs 1..K−1: the flat garment starts turning about the grasp point, each axis U(−w, w) (a lift's swing)"},
+      {"miss_curve",
+       {},
+       "list of m",
+       "`test` only: grasp misses (whole mm, ascending); each adds a split `test_miss_<mm>mm` "
+       "(the test split with the grasp that far from the anchor, one direction per anchor at every level)"},
   };
   return t;
 }
@@ -193,6 +207,9 @@ const std::vector<OptionKey<Perturbation>>& PerturbationKeys() {
   static const std::vector<OptionKey<Perturbation>> t = {
       {"grasp_offset", Ref(&Perturbation::grasp_offset), "m",
        "grasp point moved this far from the anchor on the flat pattern, random direction per job"},
+      {"grasp_miss", Ref(&Perturbation::grasp_miss), "m",
+       "σ per axis of a Gaussian grasp miss on the flat pattern, drawn per job (a robot's grasp; not with "
+       "`grasp_offset`)"},
       {"size_scale",
        {},
        "factor or `[min, max]`",

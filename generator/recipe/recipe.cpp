@@ -386,6 +386,40 @@ SplitSelector ParseSelector(const Parser& P, const YAML::Node& e, const std::str
   return sel;
 }
 
+// The miss curve's levels: whole millimetres in [0, 0.5] m, strictly ascending.
+std::vector<double> ParseMissCurve(const Parser& P, const YAML::Node& n, const std::string& path) {
+  if (!n.IsSequence()) P.Fail(n, path, "expected a list of grasp misses in metres, got " + P.Describe(n));
+  if (n.size() == 0) P.Fail(n, path, "the list is empty");
+  if (n.size() > 20) P.Fail(n, path, "at most 20 levels (each is a test split of its own)");
+  std::vector<double> out;
+  for (size_t i = 0; i < n.size(); ++i) {
+    const std::string ip = path + "[" + std::to_string(i) + "]";
+    const double v = P.Number(n[i], ip);
+    if (!(v >= 0 && v <= 0.5)) P.Fail(n[i], ip, "must be in [0, 0.5] m");
+    if (std::abs(v * 1000 - std::round(v * 1000)) > 1e-6)
+      P.Fail(n[i], ip, "must be whole millimetres (it names the split test_miss_<mm>mm)");
+    if (!out.empty() && !(v > out.back())) P.Fail(n[i], ip, "levels must be strictly ascending");
+    out.push_back(v);
+  }
+  return out;
+}
+
+// The miss curve's splits of `test` (none without a curve): the test split's garments,
+// sensing and perturbation, with the grasp `level` from the anchor instead of its miss.
+std::vector<SplitSpec> MissCurveSplits(const SplitSpec& test) {
+  std::vector<SplitSpec> out;
+  for (double level : test.miss_curve) {
+    SplitSpec rung = test;
+    rung.name = MissCurveSplitName(level);
+    rung.miss_curve.clear();
+    rung.miss_level = level;
+    rung.perturbation.grasp_miss = 0;
+    rung.perturbation.grasp_offset = level;
+    out.push_back(std::move(rung));
+  }
+  return out;
+}
+
 bool IsLadderSplit(const std::string& name) {
   if (name.rfind("test_", 0) != 0 || name.size() == 5) return false;
   for (char c : name)
@@ -417,6 +451,13 @@ void ParseSplits(const Parser& P, const YAML::Node& n, Recipe& r) {
     if (sp.unperturbed && !sp.perturbation.Any())
       P.Fail(s["unperturbed"], path + ".unperturbed",
              "'unperturbed: true' needs a perturbation: without one every repeat is unperturbed too");
+    if (sp.hangs_per_anchor == 1 && sp.hang_variation.Any())
+      P.Fail(s["hang_variation"], path + ".hang_variation",
+             "a hang variation needs hangs_per_anchor > 1: it varies hangs 1..K−1 (hang 0 is the anchor's own)");
+    if (s["miss_curve"].IsDefined()) {
+      if (split != "test") P.Fail(s["miss_curve"], path + ".miss_curve", "only the test split has a miss curve");
+      sp.miss_curve = ParseMissCurve(P, s["miss_curve"], path + ".miss_curve");
+    }
     const YAML::Node gl = s["garments"];
     if (!gl.IsDefined()) P.Fail(s, path, "missing key 'garments' (a list of {garment, instances, ...})");
     if (!gl.IsSequence()) P.Fail(gl, path + ".garments", "expected a list, got " + P.Describe(gl));
@@ -427,7 +468,13 @@ void ParseSplits(const Parser& P, const YAML::Node& n, Recipe& r) {
       sp.selectors.push_back(ParseSelector(P, gl[i], path + ".garments[" + std::to_string(i) + "]", r, split,
                                            IsLadderSplit(split) ? own : used));
     }
+    for (const SplitSpec& rung : MissCurveSplits(sp))
+      if (n[rung.name].IsDefined())
+        P.Fail(Parser::KeyNode(n, rung.name), "splits." + rung.name,
+               "this split is also made by splits.test.miss_curve: drop one of them");
+    std::vector<SplitSpec> rungs = MissCurveSplits(sp);
     r.splits.push_back(std::move(sp));
+    for (SplitSpec& rung : rungs) r.splits.push_back(std::move(rung));
   }
   if (r.splits.empty()) P.Fail(n, "splits", "no split given (train, calibration, test)");
   for (const auto& g : r.garments)
@@ -445,6 +492,9 @@ void GarmentSpec::Validate() const {
 
 void Perturbation::Validate() const {
   if (!(grasp_offset >= 0 && grasp_offset <= 0.5)) BadField(grasp_offset, "grasp_offset", "must be in [0, 0.5] m");
+  if (!(grasp_miss >= 0 && grasp_miss <= 0.5)) BadField(grasp_miss, "grasp_miss", "must be in [0, 0.5] m");
+  if (grasp_miss > 0 && grasp_offset > 0)
+    BadField(grasp_miss, "grasp_miss", "not together with grasp_offset (a miss drawn per job, or a fixed distance)");
   if (!(material_jitter >= 0 && material_jitter <= 0.9))
     BadField(material_jitter, "material_jitter", "must be in [0, 0.9]");
   if (!(size_scale_min > 0 && size_scale_min <= 10)) BadField(size_scale_min, "size_scale", "must be in (0, 10]");
@@ -460,7 +510,16 @@ void SplitSelector::Validate() const {
 
 void SplitSpec::Validate() const {
   if (repeats < 1 || repeats > 1000) BadField(repeats, "repeats", "must be in 1..1000");
+  if (hangs_per_anchor < 1 || hangs_per_anchor > 1000)
+    BadField(hangs_per_anchor, "hangs_per_anchor", "must be in 1..1000");
+  const HangVariation& v = hang_variation;
+  if (!(v.grasp_miss >= 0 && v.grasp_miss <= 0.5)) BadField(v.grasp_miss, "grasp_miss", "must be in [0, 0.5] m");
+  if (!(v.material_jitter >= 0 && v.material_jitter <= 0.9))
+    BadField(v.material_jitter, "material_jitter", "must be in [0, 0.9]");
+  if (!(v.pickup_spin >= 0 && v.pickup_spin <= 20)) BadField(v.pickup_spin, "pickup_spin", "must be in [0, 20] rad/s");
 }
+
+std::string MissCurveSplitName(double miss) { return "test_miss_" + std::to_string(std::lround(miss * 1000)) + "mm"; }
 
 SensingSpec DatabaseSensingDefaults() {
   SensingSpec s;

@@ -41,7 +41,10 @@ struct GarmentSpec {
 
 // Perturbations applied to the sensed splits (calibration, test).
 struct Perturbation {
-  double grasp_offset = 0.0;                          // metres on the flat pattern, random direction per job
+  double grasp_offset = 0.0;  // metres on the flat pattern, random direction per job
+  // σ per axis (metres, on the flat pattern) of a Gaussian grasp miss drawn per job: a
+  // robot's grasp. Exclusive with grasp_offset.
+  double grasp_miss = 0.0;
   double size_scale_min = 1.0, size_scale_max = 1.0;  // uniform per instance
   double material_jitter = 0.0;  // fraction: each measured material value × (1 + U(−j, j)), per instance
   // The hung garment turned about the gripper (y) axis by a seeded angle U(0, 2π) before
@@ -52,8 +55,8 @@ struct Perturbation {
   // pose_noise_degrees of this split's fusion).
   double gripper_pose_noise = 0.0;
   bool Any() const {
-    return grasp_offset > 0 || size_scale_min != 1.0 || size_scale_max != 1.0 || material_jitter > 0 || turn ||
-           gripper_pose_noise > 0;
+    return grasp_offset > 0 || grasp_miss > 0 || size_scale_min != 1.0 || size_scale_max != 1.0 ||
+           material_jitter > 0 || turn || gripper_pose_noise > 0;
   }
   void Validate() const;  // throws drape::FieldError
 };
@@ -66,6 +69,18 @@ struct SplitSelector {
   std::vector<std::string> anchors;    // subset of the garment's anchors (empty = the garment's)
   int max_anchors = 0;                 // > 0: a seeded sample of this many anchors per instance
   void Validate() const;               // throws drape::FieldError
+};
+
+// How the K hangs of one anchor differ (SplitSpec::hangs_per_anchor). Hang 0 is the
+// anchor's hang as without K; hangs 1..K−1 each draw their own variation, seeded by
+// their key, on top of the split's perturbation.
+struct HangVariation {
+  double grasp_miss = 0;       // m, σ per axis of a Gaussian grasp miss on the flat pattern
+  double material_jitter = 0;  // fraction: each of the material's four values × (1 + U(−j, j)), per hang
+  // rad/s: the flat garment starts turning about the grasp point at ω, each axis drawn
+  // U(−w, w) (how a lift swings it before it hangs; 0: it starts at rest)
+  double pickup_spin = 0;
+  bool Any() const { return grasp_miss > 0 || material_jitter > 0 || pickup_spin > 0; }
 };
 
 struct SplitSpec {
@@ -84,8 +99,24 @@ struct SplitSpec {
   // without perturbation, so e.g. a database can hold the exact anchors and grasps
   // offset from them. Needs a perturbation.
   bool unperturbed = false;
+  // Every anchor hung K times (the database holds each anchor as a distribution of
+  // hangs): hang 0 keyed as with K = 1, hangs k ≥ 1 keyed "/h<k>" and varied by
+  // hang_variation (their hang seed differs too, so even without a variation they are
+  // other draws of the fall).
+  int hangs_per_anchor = 1;
+  HangVariation hang_variation;
+  // test only: the miss curve, grasp misses in metres (whole millimetres, ascending).
+  // Each level becomes a ladder split "test_miss_<mm>mm" after test: the test split's
+  // garments and perturbation with the grasp exactly that far from the anchor, in a
+  // direction drawn from the anchor's key alone (the same at every level).
+  std::vector<double> miss_curve;
+  // >= 0 on a generated miss-curve split: its level (m); -1 otherwise.
+  double miss_level = -1;
   void Validate() const;  // throws drape::FieldError
 };
+
+// "test_miss_<mm>mm", the name of the miss-curve split at `miss` metres.
+std::string MissCurveSplitName(double miss);
 
 // Sensing options of one kind of split, plus what the build keeps of it.
 struct SensingSpec {
