@@ -419,5 +419,25 @@ TEST(Jobs, MissCurveSplitsRepeatTheTestSplitAtEachMiss) {
   EXPECT_NE(error("    miss_curve: [0.01]\n").find("splits.train.miss_curve: only the test split"), std::string::npos);
 }
 
+// Every shipped recipe parses and expands; the paper recipe's test split is the protocol
+// (a 1 cm Gaussian grasp miss, ±10 % material) with its miss curve after it.
+TEST(Jobs, ShippedRecipesExpandAndThePaperTestIsTheProtocol) {
+  for (const auto& f : std::filesystem::directory_iterator(std::filesystem::path(DRAPE_SOURCE_DIR) / "recipes")) {
+    if (f.path().extension() != ".yaml") continue;
+    EXPECT_FALSE(ExpandJobs(LoadRecipe(f.path())).empty()) << f.path();
+  }
+  const Recipe paper = LoadRecipe(std::filesystem::path(DRAPE_SOURCE_DIR) / "recipes/paper.yaml");
+  std::map<std::string, int> per_split;
+  for (const Job& j : ExpandJobs(paper)) per_split[j.split]++;
+  const SplitSpec* test = nullptr;
+  for (const auto& s : paper.splits)
+    if (s.name == "test") test = &s;
+  ASSERT_NE(test, nullptr);
+  EXPECT_EQ(test->perturbation.grasp_miss, 0.01);
+  EXPECT_EQ(test->perturbation.material_jitter, 0.1);
+  for (const char* level : {"test_miss_0mm", "test_miss_5mm", "test_miss_10mm", "test_miss_20mm", "test_miss_30mm"})
+    EXPECT_EQ(per_split[level], per_split["test"]) << level;
+}
+
 }  // namespace
 }  // namespace drape

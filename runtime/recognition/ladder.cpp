@@ -26,7 +26,11 @@ std::string Describe(const SplitSpec& s) {
   d << (s.sensing == "database" ? "no noise" : "Kinect noise");
   const Perturbation& p = s.perturbation;
   if (p.turn) d << ", turned";
-  if (p.grasp_offset > 0) d << ", grasp offset " << p.grasp_offset * 100 << " cm";
+  if (s.miss_level >= 0)
+    d << ", grasp " << s.miss_level * 1000 << " mm from the anchor (miss curve)";
+  else if (p.grasp_offset > 0)
+    d << ", grasp offset " << p.grasp_offset * 100 << " cm";
+  if (p.grasp_miss > 0) d << ", grasp miss σ " << p.grasp_miss * 1000 << " mm per axis";
   if (p.gripper_pose_noise > 0) d << ", gripper noise " << p.gripper_pose_noise << "°";
   if (p.size_scale_min != 1 || p.size_scale_max != 1)
     d << ", size ×[" << p.size_scale_min << ", " << p.size_scale_max << "]";
