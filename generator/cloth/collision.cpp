@@ -1192,6 +1192,45 @@ bool FreezeZone(ApplyContext& cx, const std::vector<int>& zone) {
   return still;
 }
 
+// One round's merges into the zones: nodes of colliding pairs, of pairs against a box
+// (pinned: such a zone stays at x0) and of edges beyond the strain bound. `level`: hop
+// levels from the kinematic nodes, computed on first need.
+void MergeRound(ApplyContext& cx, const Pending& pending, const std::vector<int>& stretched, UnionFind& uf,
+                std::vector<char>& in_zone, std::vector<char>& pinned, std::vector<int>& level) {
+  for (const Hit& h : pending.self)
+    for (int k = 0; k < 4; ++k) {
+      in_zone[h.s.n[k]] = 1;
+      uf.Unite(h.s.n[0], h.s.n[k]);
+    }
+  for (const BoxHit& h : pending.box) {
+    int first = -1;
+    for (int i : h.n) {
+      if (i < 0) continue;
+      in_zone[i] = pinned[i] = 1;
+      if (first < 0) first = i;
+      uf.Unite(first, i);
+    }
+  }
+  // A stretched edge of two free nodes, neither in a zone, first freezes only its lead
+  // node (the one nearer the kinematic nodes; a zone of its own, which stays where the
+  // step left it), so that the clamp below shortens the edge by moving the other node
+  // alone. Merging both nodes keeps the edge's x0 length, which cannot help an edge
+  // already beyond the bound at x0: that is what an edge still stretched next round
+  // (or next to a zone, or a kinematic node) gets.
+  if (!stretched.empty() && level.empty()) level = HopLevels(cx.adj_start, cx.adj, cx.inv_mass);
+  const std::vector<char> was_in_zone = in_zone;
+  for (int e : stretched) {
+    const int a = cx.E[e][0], b = cx.E[e][1];
+    if (!was_in_zone[a] && !was_in_zone[b] && cx.inv_mass[a] != 0 && cx.inv_mass[b] != 0) {
+      in_zone[level[b] < level[a] ? b : a] = 1;
+      continue;
+    }
+    in_zone[a] = in_zone[b] = 1;
+    uf.Unite(a, b);
+    ++cx.rep.strain_merges;
+  }
+}
+
 // Rigid impact zones, merged from colliding pairs, from pairs against a box (such a
 // zone is pinned: it stays at x0) and from edges beyond the strain bound; after each
 // move the free nodes are clamped with the zones frozen and the colliders re-checked,
@@ -1217,38 +1256,7 @@ void ImpactZones(ApplyContext& cx, Pending pending, std::vector<int> stretched,
       cx.rep.reverted = true;
     }
     ++cx.rep.zone_iterations;
-    for (const Hit& h : pending.self)
-      for (int k = 0; k < 4; ++k) {
-        in_zone[h.s.n[k]] = 1;
-        uf.Unite(h.s.n[0], h.s.n[k]);
-      }
-    for (const BoxHit& h : pending.box) {
-      int first = -1;
-      for (int i : h.n) {
-        if (i < 0) continue;
-        in_zone[i] = pinned[i] = 1;
-        if (first < 0) first = i;
-        uf.Unite(first, i);
-      }
-    }
-    // A stretched edge of two free nodes, neither in a zone, first freezes only its lead
-    // node (the one nearer the kinematic nodes; a zone of its own, which stays where the
-    // step left it), so that the clamp below shortens the edge by moving the other node
-    // alone. Merging both nodes keeps the edge's x0 length, which cannot help an edge
-    // already beyond the bound at x0: that is what an edge still stretched next round
-    // (or next to a zone, or a kinematic node) gets.
-    if (!stretched.empty() && level.empty()) level = HopLevels(cx.adj_start, cx.adj, cx.inv_mass);
-    const std::vector<char> was_in_zone = in_zone;
-    for (int e : stretched) {
-      const int a = cx.E[e][0], b = cx.E[e][1];
-      if (!was_in_zone[a] && !was_in_zone[b] && cx.inv_mass[a] != 0 && cx.inv_mass[b] != 0) {
-        in_zone[level[b] < level[a] ? b : a] = 1;
-        continue;
-      }
-      in_zone[a] = in_zone[b] = 1;
-      uf.Unite(a, b);
-      ++cx.rep.strain_merges;
-    }
+    MergeRound(cx, pending, stretched, uf, in_zone, pinned, level);
     zones = BuildZones(uf, in_zone, &zone_of);
     for (const auto& zone : zones) {
       const bool pin = std::any_of(zone.begin(), zone.end(), [&](int i) { return pinned[i] != 0; });
