@@ -1,4 +1,5 @@
 // drape build RECIPE [-o DIR] [-j N] [--resume] [--shard K/N] [--keep-going] [--quiet]
+//             [--dry-run [--json] [--costs PATH]...]
 #include <csignal>
 #include <iostream>
 #include <memory>
@@ -7,10 +8,15 @@
 #include "cli/command.h"
 #include "cli/options.h"
 #include "common/error.h"
+#include "common/parallel.h"
 #include "generator/pipeline/build.h"
 #include "generator/pipeline/build_mpi.h"
+#include "generator/pipeline/cost.h"
+#include "generator/recipe/jobs.h"
 #include "generator/recipe/recipe.h"
 #include "generator/release/release.h"
+
+namespace fs = std::filesystem;
 
 namespace drape::cli {
 namespace {
@@ -37,7 +43,8 @@ input, 4 the release was built but some entries failed (listed), 5 stopped early
 struct BuildArgs {
   std::string recipe, output, shard;
   int jobs = 0;
-  bool resume = false, keep_going = false, quiet = false;
+  bool resume = false, keep_going = false, quiet = false, dry_run = false, json = false;
+  std::vector<std::string> costs;
 };
 
 // --shard K/N into its two numbers; "" when it reads, else what is wrong.
@@ -49,6 +56,42 @@ std::string ParseShard(const std::string& s, int* k, int* n) {
   *n = std::stoi(m[2]);
   if (*n < 1 || *k < 1 || *k > *n) return "'" + s + "': need 1 <= K <= N";
   return "";
+}
+
+// The costs earlier builds measured: published ones (datasets/*/*/costs.json), releases
+// built into datasets/, the output folder's own earlier build, --costs.
+CostModel MeasuredCosts(const BuildArgs& args, const fs::path& out, std::vector<std::string>* notes) {
+  std::vector<fs::path> extra;
+  for (const std::string& c : args.costs) {
+    if (!fs::exists(c)) throw Error("--costs " + c + ": no such release or file");
+    extra.push_back(c);
+  }
+  if (fs::is_regular_file(out / "build.json")) extra.push_back(out);
+  return CostModel::Fit(FindBuildCosts(fs::current_path(), extra, notes));
+}
+
+// --dry-run: the jobs and what building them would cost, as text or JSON.
+int DryRun(const BuildArgs& args, const Recipe& recipe, const BuildOptions& o, const fs::path& out) {
+  std::vector<std::string> notes;
+  const CostModel costs = MeasuredCosts(args, out, &notes);
+  const std::vector<Job> jobs = ExpandJobs(recipe);
+  const int threads = o.threads > 0 ? o.threads : HardwareThreads();
+  const BuildPlan plan =
+      PlanBuild(recipe, jobs, ShardJobs(static_cast<int>(jobs.size()), o.shard_index, o.shard_count), threads, costs);
+  if (args.json) {
+    Json j = PlanJson(plan, costs);
+    j["recipe"] = args.recipe;
+    j["output"] = out.string();
+    for (const std::string& n : notes) j["notes"].push_back(n);
+    std::cout << j.dump(2) << "\n";
+    return 0;
+  }
+  std::cout << "drape build --dry-run: " << recipe.name << " " << recipe.version << " -> " << out.string();
+  if (o.shard_count > 1) std::cout << ", shard " << o.shard_index << "/" << o.shard_count;
+  std::cout << "\n";
+  PrintPlan(std::cout, plan, costs);
+  for (const std::string& n : notes) std::cout << "  note: " << n << "\n";
+  return 0;
 }
 
 // Exit status of a build that did not throw (see kUsage).
@@ -72,6 +115,11 @@ int Run(const BuildArgs& args) {
   o.keep_going = args.keep_going;
   if (args.quiet) o.progress = ProgressMode::kQuiet;
   if (!args.shard.empty()) ParseShard(args.shard, &o.shard_index, &o.shard_count);
+  if (args.json && !args.dry_run) throw Error("--json: only with --dry-run");
+  const fs::path out = o.output.empty() ? DefaultOutput(recipe) : o.output;
+  if (args.dry_run) return speaker ? DryRun(args, recipe, o, out) : 0;
+  const CostModel costs = MeasuredCosts(args, out, nullptr);  // for the progress line's ETA
+  o.costs = &costs;
   o.stop = &g_stop;
   g_stop.store(false);
   auto previous = std::signal(SIGINT, OnSigint);
@@ -134,6 +182,13 @@ Runner Setup(CLI::App& app) {
           ""));
   app.add_flag("--keep-going", a->keep_going, "turn unexpected per-job errors into failed entries instead of stopping");
   app.add_flag("--quiet", a->quiet, "no progress output");
+  app.add_flag("--dry-run", a->dry_run,
+               "build nothing: print the jobs per split and garment and the expected wall time (on -j idle "
+               "cores), CPU time and disk size, priced by the costs earlier builds measured (each release's "
+               "build.json; published ones in datasets/*/*/costs.json under the working folder)");
+  app.add_flag("--json", a->json, "with --dry-run: the same as JSON (jobs, wall_s, cpu_s, bytes, ...)");
+  app.add_option("--costs", a->costs, "also price with this release's (or build.json's) measured costs")
+      ->type_name("PATH");
   return [a] { return Run(*a); };
 }
 

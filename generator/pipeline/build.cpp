@@ -16,6 +16,7 @@
 
 #include "common/cpu_time.h"
 #include "common/error.h"
+#include "common/files.h"
 #include "common/parallel.h"
 #include "common/rng.h"
 #include "common/timing.h"
@@ -25,6 +26,7 @@
 #include "generator/feature/feature.h"
 #include "generator/fusion/fusion.h"
 #include "generator/hang/hang.h"
+#include "generator/pipeline/cost.h"
 #include "generator/release/release.h"
 #include "generator/sweep/sweep.h"
 
@@ -200,14 +202,19 @@ std::string EntryPreview(const Job& job, const HangResult& hung, const Anchor& a
   return RenderEntryPreview(hung.mesh, anchor_hung, depth_png, fused.mesh, job.key + " (" + job.split + ")");
 }
 
-// Times each stage of an entry into its timing record (seconds by stage name).
+// Times each stage of an entry into its timing record: wall seconds by stage name, and
+// the job thread's CPU seconds in `cpu` (what the cost model reads; every stage of a job
+// runs on its thread).
 struct StageClock {
   Json& timing;
+  Json cpu = Json::object();
   template <class Fn>
   void operator()(const char* name, Fn&& fn) {
     const auto t0 = Clock::now();
+    const double c0 = ThreadCpuSeconds();
     fn();
     timing[name] = Since(t0);
+    cpu[name] = ThreadCpuSeconds() - c0;
   }
 };
 
@@ -289,11 +296,25 @@ Entry BuildEntry(const Recipe& recipe, const Job& job, JobCache& cache) {
   Json& rec = e.record;
   RecordJob(rec, job, g, *garment, *fit, *anchor, offset);
 
+  // The timing record ends with what the cost model reads (generator/pipeline/cost.h):
+  // the stages' CPU, what drove them and the files' bytes.
+  auto finish_timing = [&] {
+    timing["total"] = Since(t_start);
+    timing["cpu"] = stage.cpu;
+    timing["job"] = DriversJson(DriversFor(recipe, job, *garment));
+    Json bytes = Json::object();
+    for (const auto& f : e.files) {
+      const std::string kind = f.path.rfind("sweep/", 0) == 0 ? "sweep" : f.path;
+      bytes[kind] = bytes.value(kind, 0.0) + static_cast<double>(f.bytes.size());
+    }
+    timing["bytes"] = bytes;
+    if (e.failed) timing["failed"] = true;
+    e.timing = timing;
+  };
   auto fail = [&](const std::string& why) {
     e.failed = true;
     e.failure = why;
-    timing["total"] = Since(t_start);
-    e.timing = timing;
+    finish_timing();
     return e;
   };
 
@@ -313,8 +334,7 @@ Entry BuildEntry(const Recipe& recipe, const Job& job, JobCache& cache) {
   } catch (const NumericalError& err) {
     return fail(std::string("numerical: ") + err.what());
   }
-  timing["total"] = Since(t_start);
-  e.timing = timing;
+  finish_timing();
   return e;
 }
 
@@ -423,13 +443,54 @@ void LogStageSeconds(std::ostream& log, const std::map<std::string, double>& sta
   log << std::defaultfloat << "\n";
 }
 
+namespace {
+
+// build.json "costs" of a finalized release: what the entries' timing does not hold
+// (cost.h). build.json is never hashed, so it is rewritten here, after Finalize.
+void RecordBuildCosts(const fs::path& dir, const BuildReport& report, double finalize_cpu) {
+  double viewer_meshes = 0, fixed = 0, per_entry = 0;
+  int entries = 0;
+  std::error_code ec;
+  for (auto it = fs::recursive_directory_iterator(dir, ec); it != fs::recursive_directory_iterator();
+       it.increment(ec)) {
+    if (ec || !it->is_regular_file()) continue;
+    const std::string rel = fs::relative(it->path(), dir).generic_string();
+    const double size = static_cast<double>(it->file_size());
+    if (rel.rfind("entries/", 0) == 0) {
+      if (it->path().filename() == "entry.json") per_entry += size, ++entries;  // the other files: entry timing
+    } else if (rel.rfind("viewer/meshes/", 0) == 0) {
+      viewer_meshes += size;
+    } else if (rel == "catalog.sqlite" || rel == "index.html" || rel == "SHA256SUMS" || rel == "build.json") {
+      per_entry += size;
+    } else {
+      fixed += size;  // the viewer's libraries, README.md, dataset.json, sources/
+    }
+  }
+  Json costs{
+      {"entries", entries},
+      {"commit_cpu_seconds", report.commit_cpu_seconds},
+      {"finalize_cpu_seconds", finalize_cpu},
+      {"bytes", {{"viewer_meshes", viewer_meshes}, {"fixed", fixed}, {"per_entry", per_entry / std::max(1, entries)}}},
+  };
+  const Json dataset = Release::Open(dir).dataset();
+  costs["release"] = dataset.value("name", "") + " " + dataset.value("version", "");
+  const fs::path p = dir / "build.json";
+  Json build = Json::parse(ReadFile(p));
+  build["costs"] = costs;
+  WriteFileAtomic(p, build.dump(1) + "\n");
+}
+
+}  // namespace
+
 void FinishBuild(ReleaseWriter& writer, BuildReport& report, ProgressMode mode, std::ostream& log) {
   report.interrupted = !report.aborted && report.already_done + report.built < report.shard_jobs;
   writer.SetBuildInfo("stage_seconds", Json(report.stage_seconds));
   writer.SetBuildInfo("provenance", RunProvenance());
   if (mode != ProgressMode::kQuiet) LogStageSeconds(log, report.stage_seconds);
   if (report.aborted || report.interrupted) return;
+  const double c0 = ProcessCpuSeconds();
   const auto summary = writer.Finalize();
+  RecordBuildCosts(report.output, report, ProcessCpuSeconds() - c0);
   report.finalized = true;
   report.digest = summary.digest;
   report.release_failed = summary.failed;
@@ -496,6 +557,13 @@ BuildStart StartBuild(const Recipe& recipe, const BuildOptions& options, BuildRe
   return start;
 }
 
+EtaClock MakeEtaClock(const Recipe& recipe, const BuildStart& start, int workers, const BuildOptions& options) {
+  std::vector<double> predicted(start.todo.size(), 0.0);
+  if (options.costs && !options.costs->empty())
+    predicted = PlanBuild(recipe, start.jobs, start.todo, workers, *options.costs).job_cpu;
+  return EtaClock(std::move(predicted), workers);
+}
+
 ProgressMode ResolveProgressMode(ProgressMode mode, const std::ostream& log) {
   if (mode != ProgressMode::kAuto) return mode;
   return (&log == &std::cerr && isatty(STDERR_FILENO)) || (&log == &std::cout && isatty(STDOUT_FILENO))
@@ -517,24 +585,24 @@ namespace {
 
 // What the job threads share with the thread that prints progress (under mu).
 struct JobsState {
+  explicit JobsState(EtaClock eta) : eta(std::move(eta)) {}
   std::mutex mu;
   std::condition_variable cv;
   std::atomic<bool> abort{false};
   int finished = 0, running = 0;
-  double busy_seconds = 0;  // summed job wall time, for the ETA
-  bool over = false;        // every job handed out has returned
+  EtaClock eta;       // the finished jobs' wall times against their price
+  bool over = false;  // every job handed out has returned
 };
 
 // Prints progress (and the interrupt note) until every job handed out has returned.
 void WatchJobs(JobsState& st, std::ostream& log, ProgressMode mode, const BuildOptions& options,
-               const BuildReport& report, int n_todo, int threads, Clock::time_point t0) {
+               const BuildReport& report, Clock::time_point t0) {
   std::unique_lock<std::mutex> lock(st.mu);
   ProgressLine progress(log, mode, options.progress_interval);
   bool stop_noted = false;
   for (;;) {
     const bool last = st.over;
-    const int remaining = n_todo - st.finished;
-    const double eta = st.finished ? st.busy_seconds / st.finished * remaining / threads : NAN;
+    const double eta = st.eta.Remaining();
     if (options.stop && options.stop->load() && !stop_noted && mode != ProgressMode::kQuiet) {
       stop_noted = true;
       log << (mode == ProgressMode::kTty ? "\n" : "") << "drape build: interrupted; letting " << st.running
@@ -566,7 +634,7 @@ BuildReport RunBuild(const Recipe& recipe, const BuildOptions& options) {
   }
 
   JobCache cache;
-  JobsState st;
+  JobsState st(MakeEtaClock(recipe, start, threads, options));
 
   auto stopping = [&] { return st.abort.load() || (options.stop && options.stop->load()); };
   // One job: build, commit, count. An error stops handing out jobs (unless keep_going).
@@ -580,6 +648,7 @@ BuildReport RunBuild(const Recipe& recipe, const BuildOptions& options) {
     const auto tj = Clock::now();
     std::string error;
     std::optional<Entry> entry = BuildOrFailEntry(recipe, job, cache, options.keep_going, &error);
+    const double c0 = ThreadCpuSeconds();
     if (entry) {
       try {
         writer->Commit(*entry);
@@ -588,6 +657,7 @@ BuildReport RunBuild(const Recipe& recipe, const BuildOptions& options) {
         error = std::string("committing ") + job.key + ": " + ex.what();
       }
     }
+    const double commit_cpu = ThreadCpuSeconds() - c0;
     std::lock_guard<std::mutex> lock(st.mu);
     --st.running;
     if (!entry) {
@@ -595,7 +665,8 @@ BuildReport RunBuild(const Recipe& recipe, const BuildOptions& options) {
       report.aborted = true;
     } else {
       ++st.finished;
-      st.busy_seconds += Since(tj);
+      st.eta.Done(k, Since(tj));
+      report.commit_cpu_seconds += commit_cpu;
       CountEntry(*entry, job, report);
     }
     st.cv.notify_all();
@@ -608,7 +679,7 @@ BuildReport RunBuild(const Recipe& recipe, const BuildOptions& options) {
     st.cv.notify_all();
   });
 
-  WatchJobs(st, log, mode, options, report, static_cast<int>(todo.size()), threads, t0);
+  WatchJobs(st, log, mode, options, report, t0);
   jobs_thread.join();
 
   writer->SetBuildInfo("threads", threads);

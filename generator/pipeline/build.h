@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "common/timing.h"
+#include "generator/pipeline/cost.h"
 #include "generator/recipe/jobs.h"
 #include "generator/recipe/recipe.h"
 #include "generator/release/entry.h"
@@ -40,6 +41,9 @@ struct BuildOptions {
   std::ostream* log = nullptr;                  // progress and summary (nullptr = std::cerr)
   const std::atomic<bool>* stop = nullptr;      // set (e.g. by SIGINT) → hand out no more jobs
   std::string code_version;                     // recorded in dataset.json; empty = this binary's git version
+  // Prices the jobs for the progress line's ETA (generator/pipeline/cost.h); nullptr or
+  // empty: every job counts the same (the mean job time so far).
+  const CostModel* costs = nullptr;
 };
 
 struct BuildReport {
@@ -58,6 +62,7 @@ struct BuildReport {
   int release_failed = 0;                       // failed entries in the whole release, when finalized
   std::map<std::string, double> stage_seconds;  // summed wall time per stage (this run)
   double wall_seconds = 0;
+  double commit_cpu_seconds = 0;  // committing this run's entries (hashing, writing)
 };
 
 // Caches shared by the jobs of one build (thread-safe): the garment of each
@@ -93,6 +98,10 @@ struct BuildStart {
 };
 BuildStart StartBuild(const Recipe& recipe, const BuildOptions& options, BuildReport& report);
 
+// The progress line's clock for a build's jobs still to run (`start.todo`, in order):
+// priced by options.costs when it holds a model, else every job the same.
+EtaClock MakeEtaClock(const Recipe& recipe, const BuildStart& start, int workers, const BuildOptions& options);
+
 // kAuto → kTty when `log` is std::cerr or std::cout on a terminal, else kPlain.
 ProgressMode ResolveProgressMode(ProgressMode mode, const std::ostream& log);
 
@@ -113,7 +122,9 @@ void LogStageSeconds(std::ostream& log, const std::map<std::string, double>& sta
 
 // The end of a build, shared by RunBuild and the MPI build's rank 0: records the stage
 // times in build.json, logs them, and finalizes the release unless the build was
-// aborted or interrupted (sets report.interrupted, finalized, digest, release_failed).
+// aborted or interrupted (sets report.interrupted, finalized, digest, release_failed);
+// a finalized release's build.json then gets "costs" (cost.h: commit and finalize CPU,
+// the release's bytes outside the entries).
 void FinishBuild(ReleaseWriter& writer, BuildReport& report, ProgressMode mode, std::ostream& log);
 
 // A duration for people: "42s", "3m05s", "1h02m"; "--" when unknown (NaN, negative).

@@ -14,11 +14,13 @@
 #include <thread>
 #include <vector>
 
+#include "common/cpu_time.h"
 #include "common/error.h"
 #include "common/hash.h"
 #include "common/json.h"
 #include "common/timing.h"
 #include "common/version.h"
+#include "generator/pipeline/build.h"
 #include "generator/recipe/jobs.h"
 #include "generator/release/release.h"
 
@@ -323,8 +325,8 @@ Json FinalMessage(const BuildReport& report, const std::exception_ptr& error) {
 // that come back, and keeps the progress line (Coordinate below starts and finishes).
 class JobServer {
  public:
-  JobServer(const BuildOptions& options, int size, Clock::time_point t0, std::ostream& log, ProgressMode mode,
-            BuildStart& start, std::string expected, BuildReport& report, std::exception_ptr& error)
+  JobServer(const Recipe& recipe, const BuildOptions& options, int size, Clock::time_point t0, std::ostream& log,
+            ProgressMode mode, BuildStart& start, std::string expected, BuildReport& report, std::exception_ptr& error)
       : options_(options),
         workers_(size - 1),
         t0_(t0),
@@ -335,8 +337,10 @@ class JobServer {
         report_(report),
         error_(error),
         running_(size, -1),
+        position_(size, -1),
         started_(size),
         active_(size - 1),
+        eta_(MakeEtaClock(recipe, start, size - 1, options)),
         progress_line_(log, mode, options.progress_interval) {}
 
   // Until every worker has been told to stop.
@@ -381,6 +385,7 @@ class JobServer {
   // The next job for worker w, or stop.
   void HandOut(int w) {
     if (!Stopping() && next_ < start_.todo.size()) {
+      position_[w] = static_cast<int>(next_);
       const int32_t j = start_.todo[next_++];
       MPI_Send(&j, 1, MPI_INT32_T, w, kJob, MPI_COMM_WORLD);
       running_[w] = j;
@@ -399,8 +404,7 @@ class JobServer {
   }
   void Progress(bool over) {
     if (error_) return;
-    const int remaining = static_cast<int>(start_.todo.size()) - finished_;
-    const double eta = finished_ ? busy_seconds_ / finished_ * remaining / std::max(1, workers_) : NAN;
+    const double eta = eta_.Remaining();
     progress_line_.Print(report_.already_done + finished_, report_.shard_jobs, report_.failed, Since(t0_), eta, over,
                          ", " + std::to_string(InFlight()) + "/" + std::to_string(workers_) + " ranks busy");
   }
@@ -423,6 +427,7 @@ class JobServer {
     const Job& job = start_.jobs[job_index];
     std::string err;
     std::optional<Entry> entry = ResultEntry(frame, job, w, options_.keep_going, &err);
+    const double c0 = ThreadCpuSeconds();
     if (entry) {
       try {
         start_.writer->Commit(*entry);
@@ -435,7 +440,8 @@ class JobServer {
       FailBuild(job.key + ": " + err);
     } else {
       ++finished_;
-      busy_seconds_ += Since(started_[w]);
+      eta_.Done(position_[w], Since(started_[w]));
+      report_.commit_cpu_seconds += ThreadCpuSeconds() - c0;
       CountEntry(*entry, job, report_);
     }
     HandOut(w);
@@ -450,12 +456,13 @@ class JobServer {
   const std::string expected_;
   BuildReport& report_;
   std::exception_ptr& error_;
-  std::vector<int> running_;  // job index each worker is computing
+  std::vector<int> running_;   // job index each worker is computing
+  std::vector<int> position_;  // and its position in start_.todo
   std::vector<Clock::time_point> started_;
   int active_;  // workers not yet told to stop
   size_t next_ = 0;
   int finished_ = 0;
-  double busy_seconds_ = 0;
+  EtaClock eta_;
   ProgressLine progress_line_;
   bool stop_noted_ = false;
 };
@@ -489,7 +496,7 @@ MpiBuildOutcome Coordinate(const Recipe& recipe, const BuildOptions& options, in
     error = std::current_exception();
     start.todo.clear();
   }
-  JobServer(options, size, t0, log, mode, start, expected, report, error).Serve();
+  JobServer(recipe, options, size, t0, log, mode, start, expected, report, error).Serve();
 
   if (!error) {
     try {
