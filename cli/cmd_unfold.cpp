@@ -141,7 +141,7 @@ struct TrialOutput {
 
 // OUT/<variant>/<category>/trial_<k>/trace.json and, unless --no-figures, its pictures.
 void WriteTrialTrace(const TrialResult& t, const Variant& v, const std::string& c, int k, const ReleaseModel& model,
-                     const LoopOptions& o, const TrialOutput& what, const fs::path& out) {
+                     const TrialOutput& what, const fs::path& out) {
   std::string vdir = v.name == "full" ? "" : v.name;
   for (char& ch : vdir)
     if (ch == ' ') ch = '_';
@@ -199,7 +199,7 @@ TableRow RunTrials(const ReleaseModel& model, const Variant& v, const std::strin
                   t.regrasps, t.final_f, pair, t.seconds, t.failure.empty() ? "" : ": ", t.failure.c_str());
     say(line);
     if (tty) std::cerr << "\n";
-    if (out) WriteTrialTrace(t, v, c, k, model, o, what, *out);
+    if (out) WriteTrialTrace(t, v, c, k, model, what, *out);
     results[i] = std::move(t);
   });
   return Summarise(c, v.name, results);
