@@ -5,7 +5,9 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <map>
 #include <memory>
+#include <optional>
 
 #include "cli/command.h"
 #include "cli/config.h"
@@ -20,6 +22,7 @@
 #include "runtime/recognition/category_fit.h"
 #include "runtime/recognition/evaluate.h"
 #include "runtime/recognition/ladder.h"
+#include "runtime/recognition/miss_curve.h"
 #include "runtime/recognition/registration_eval.h"
 #include "runtime/recognition/release_query.h"
 #include "runtime/recognition/release_source.h"
@@ -464,7 +467,9 @@ const char* kEvalFooter =
     "build's timing record, matching measured here). Then the registration table (each test\n"
     "entry's database mesh registered onto its recon.ply: S->T, T->S for R and R+N, anchor\n"
     "transfer error) and the category by registration beside the nearest neighbour's (~4 CPU-s\n"
-    "per query). --ladder adds the same tables on every test_<rung> split of the recipe\n"
+    "per query). A recipe with a miss curve (splits test_miss_<mm>mm) adds its table: strict and\n"
+    "twin-credited pose accuracy per category at each grasp miss, beside the test split. --ladder adds the same tables "
+    "on every test_<rung> split of the recipe\n"
     "(e.g. recipes/quickstart_ladder.yaml) and figures of the worst confusions.";
 
 struct EvalArgs {
@@ -473,28 +478,59 @@ struct EvalArgs {
   bool json = false, ladder = false, no_registration = false, no_category_fit = false;
 };
 
+// The evaluations of other splits than the headline's, each run once (the miss curve's
+// levels are also ladder rungs); null when the split has no usable entries.
+class SplitEvals {
+ public:
+  SplitEvals(const Release& rel, const Database& db, const Weights* w, const EvalOptions& eo)
+      : rel_(rel), db_(db), w_(w), eo_(eo) {}
+  const EvalResult* Get(const std::string& split) {
+    auto it = done_.find(split);
+    if (it == done_.end()) {
+      LoadReport lr;
+      const std::vector<EvalQuery> q = LoadEvalQueries(rel_, split, &lr);
+      std::optional<EvalResult> r;
+      if (!q.empty()) r = Evaluate(db_, w_, q, AnchorUvs(rel_), eo_);
+      it = done_.emplace(split, std::move(r)).first;
+    }
+    return it->second ? &*it->second : nullptr;
+  }
+
+ private:
+  const Release& rel_;
+  const Database& db_;
+  const Weights* w_;
+  const EvalOptions& eo_;
+  std::map<std::string, std::optional<EvalResult>> done_;
+};
+
 // The ablation ladder: every rung's split evaluated like `split` (whose result is
 // reused), the table into res.report["ladder"], figures into the report folder.
-void RunLadder(const Release& rel, const Database& db, const Weights* w, const EvalOptions& eo,
-               const std::string& split, EvalResult& res, const std::optional<std::string>& dir) {
+void RunLadder(const Release& rel, const Database& db, SplitEvals& evals, const std::string& split, EvalResult& res,
+               const std::optional<std::string>& dir) {
   const std::vector<LadderRung> rungs = LadderRungs(rel);
   if (rungs.empty()) throw Error("eval --ladder: the release's recipe has no test_<rung> split with entries");
   std::vector<LadderResult> results;
   for (const LadderRung& rung : rungs) {
-    if (rung.split == split) {
-      results.push_back({rung, res});
-      continue;
-    }
-    LoadReport lr;
-    const std::vector<EvalQuery> q = LoadEvalQueries(rel, rung.split, &lr);
-    if (q.empty()) continue;
-    results.push_back({rung, Evaluate(db, w, q, AnchorUvs(rel), eo)});
+    const EvalResult* r = rung.split == split ? &res : evals.Get(rung.split);
+    if (r) results.push_back({rung, *r});
   }
   res.report["ladder"] = LadderTable(results);
   if (dir) {
     fs::create_directories(*dir);
     res.report["ladder_figures"] = WriteWorstConfusions(rel, db, results, *dir);
   }
+}
+
+// The miss curve (recipes with `miss_curve`) into res.report["miss_curve"], the test
+// split as its headline when it is the evaluated split.
+void RunMissCurve(const Release& rel, SplitEvals& evals, const std::string& split, EvalResult& res) {
+  const std::vector<MissLevel> levels = MissCurveLevels(rel);
+  if (levels.empty()) return;
+  std::vector<MissPoint> points;
+  for (const MissLevel& l : levels)
+    if (const EvalResult* r = evals.Get(l.split)) points.push_back({l, *r});
+  res.report["miss_curve"] = MissCurveTable(split == "test" ? &res : nullptr, DescribeTestSplit(rel), points);
 }
 
 // The category by registration and its selection into res.report.
@@ -565,7 +601,9 @@ int RunEval(const EvalArgs& a) {
     }
     res.report["registration"] = rr.table;
   }
-  if (a.ladder) RunLadder(rel, db, wp, eo, split, res, report_dir);
+  SplitEvals evals(rel, db, wp, eo);
+  RunMissCurve(rel, evals, split, res);
+  if (a.ladder) RunLadder(rel, db, evals, split, res, report_dir);
   RunCategoryFit(a, knobs, fit, rel, db, wp, queries, res);
   if (report_dir) WriteReport(res, header, *report_dir);
   if (a.json) {

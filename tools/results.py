@@ -5,7 +5,8 @@
 
 Each REPORT_DIR is recognised by what it holds:
   a release       dataset.json + build.json          (`drape build`: the build's time)
-  an eval report  report.json with "categories"      (`drape eval -o DIR`)
+  an eval report  report.json with "categories"      (`drape eval -o DIR`; with its miss curve
+                                                     when the release's recipe has one)
   an unfold run   report.json with "rows"            (`drape unfold -o DIR`)
   a fold run      trajectories.json with "trials"    (`drape fold -o DIR`; one per garment)
 
@@ -118,6 +119,7 @@ def eval_rows(doc, path):
         label = "all" if name == "all" else category_name(name)
         rows.append((f"pose accuracy, {label}: strict / twin credited ({field(cat, path, ['queries'])} test queries)",
                      f"{pct(strict)} / {pct(twin)}", pct(paper.get("both"))))
+    rows += miss_curve_rows(doc, path)
     overall = field(doc, path, ["overall"])
     nn = field(overall, path, ["category_accuracy"])
     fit = doc.get("category_fit")
@@ -140,6 +142,30 @@ def eval_rows(doc, path):
     total = seconds.get("total")
     rows.append(("query time: fusion + feature + matching (the build's own timing)",
                  "–" if total is None else f"{total:.2f} s", PAPER_QUERY_SECONDS))
+    return rows
+
+
+def miss_curve_rows(doc, path):
+    """The protocol the pose rows were measured at, and the eval's miss curve (when its
+    release's recipe has one): all categories strict / twin credited, each category strict."""
+    curve = doc.get("miss_curve")
+    if not curve:
+        return []
+    rows = []
+    head = curve.get("headline")
+    if head:
+        rows.append(("test protocol of the pose rows above", field(head, path, ["differs"]),
+                     "real garments, grasped at the anchors (no miss stated)"))
+    for level in field(curve, path, ["levels"]):
+        cats = field(level, path, ["categories"])
+        every = field(cats, path, ["all"])
+        strict = learned_or_unweighted(field(every, path, ["strict"]))
+        twin = learned_or_unweighted(field(every, path, ["twin_credited"]))
+        per = ", ".join(f"{category_name(c)} {pct(learned_or_unweighted(field(f, path, ['strict'])))}"
+                        for c, f in cats.items() if c != "all")
+        rows.append((f"miss curve, grasp {field(level, path, ['miss_mm'])} mm from the anchor: strict / twin "
+                     f"credited, all ({field(every, path, ['queries'])} queries; strict per category)",
+                     f"{pct(strict)} / {pct(twin)} ({per})", "–"))
     return rows
 
 

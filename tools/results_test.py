@@ -166,3 +166,34 @@ def test_missing_values_print_as_a_dash(tmp_path):
     assert rows["query time: fusion + feature + matching (the build's own timing)"][0] == "–"
     assert "eval: code `unknown code` on an unrecorded machine" in out.stdout
 
+
+
+def test_miss_curve_rows_follow_the_pose_rows(tmp_path):
+    """Hand-made: an eval report with a miss curve gives the protocol and one row per level."""
+    d = tmp_path / "eval"
+    d.mkdir()
+    cat = {"category": "towel", "queries": 4, "pose_accuracy": {"both": {"unweighted": 0.5, "learned": None}},
+           "pose_accuracy_twin_credited": {"unweighted": 0.75, "learned": None}, "category_accuracy": 1.0,
+           "seconds_per_query": {"total": None}, "paper": None}
+
+    def figures(strict, twin):
+        return {"queries": 4, "strict": {"unweighted": 0.25, "learned": strict},
+                "twin_credited": {"unweighted": 0.5, "learned": twin}, "category_accuracy": 1.0}
+
+    level = {"split": "test_miss_10mm", "miss_mm": 10, "differs": "grasp 10 mm from the anchor",
+             "categories": {"towel": figures(0.75, 1.0), "all": figures(0.75, 1.0)}}
+    curve = {"headline": {"split": "test", "miss_mm": None, "differs": "grasp miss σ 10 mm per axis",
+                          "categories": {}}, "levels": [level]}
+    (d / "report.json").write_text(json.dumps({"categories": [cat], "overall": dict(cat, category="all"),
+                                               "miss_curve": curve}))
+    out = run(str(d))
+    assert out.returncode == 0, out.stderr
+    rows = rows_of(out.stdout)
+    assert rows["test protocol of the pose rows above"][0] == "grasp miss σ 10 mm per axis"
+    key = "miss curve, grasp 10 mm from the anchor: strict / twin credited, all (4 queries; strict per category)"
+    assert rows[key] == ("75.0 % / 100.0 % (towel 75.0 %)", "–")
+    del level["categories"]["all"]
+    (d / "report.json").write_text(json.dumps({"categories": [cat], "overall": dict(cat, category="all"),
+                                               "miss_curve": curve}))
+    out = run(str(d))
+    assert out.returncode == 1 and '["all"]' in out.stderr

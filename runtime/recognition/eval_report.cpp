@@ -12,6 +12,7 @@
 #include "common/files.h"
 #include "runtime/recognition/evaluate.h"
 #include "runtime/recognition/ladder.h"
+#include "runtime/recognition/miss_curve.h"
 
 namespace drape::recognition {
 
@@ -233,6 +234,7 @@ std::string ReportMarkdown(const Json& r) {
   rows.push_back(r["overall"]);
 
   md << PoseTableMarkdown(r, rows);
+  if (r.contains("miss_curve") && r["miss_curve"].is_object()) md << "\n" << MissCurveMarkdown(r["miss_curve"]);
   md << "\n## Category, end to end, top-" << r["top_k"].get<int>() << ", grasp-point error\n\n"
      << "Category by the unweighted nearest neighbour over the whole database (and, beside it, by "
         "registration when `--category-fit` ran: section below); end to end = right "

@@ -13,15 +13,12 @@
 #include "common/files.h"
 #include "garments/io.h"
 #include "garments/render.h"
-#include "generator/recipe/recipe.h"
 
 namespace drape::recognition {
 
 namespace fs = std::filesystem;
 
-namespace {
-
-std::string Describe(const SplitSpec& s) {
+std::string DescribeSplit(const SplitSpec& s) {
   std::ostringstream d;
   d << (s.sensing == "database" ? "no noise" : "Kinect noise");
   const Perturbation& p = s.perturbation;
@@ -37,6 +34,14 @@ std::string Describe(const SplitSpec& s) {
   if (p.material_jitter > 0) d << ", material jitter " << p.material_jitter * 100 << " %";
   return d.str();
 }
+
+std::optional<Recipe> ReleaseRecipe(const Release& release) {
+  const std::string text = release.dataset().value("recipe", Json::object()).value("text", "");
+  if (text.empty()) return std::nullopt;
+  return ParseRecipe(text, (release.dir() / "dataset.json").string() + " (recipe)", release.dir());
+}
+
+namespace {
 
 bool OnlyTrainInstances(const Recipe& r, const SplitSpec& s) {
   std::set<std::pair<std::string, int>> train;
@@ -60,9 +65,9 @@ std::string Percent(const Json& v) {
 }  // namespace
 
 std::vector<LadderRung> LadderRungs(const Release& release) {
-  const std::string text = release.dataset().value("recipe", Json::object()).value("text", "");
-  if (text.empty()) return {};
-  const Recipe r = ParseRecipe(text, (release.dir() / "dataset.json").string() + " (recipe)", release.dir());
+  const std::optional<Recipe> recipe = ReleaseRecipe(release);
+  if (!recipe) return {};
+  const Recipe& r = *recipe;
   std::set<std::string> present;
   for (const auto& e : release.entries()) present.insert(e.split);
   std::vector<LadderRung> same, other;
@@ -70,12 +75,12 @@ std::vector<LadderRung> LadderRungs(const Release& release) {
   for (const auto& s : r.splits) {
     if (s.name == "test") test = &s;
     if (s.name.rfind("test_", 0) != 0 || !present.count(s.name)) continue;
-    LadderRung rung{s.name, Describe(s), OnlyTrainInstances(r, s)};
+    LadderRung rung{s.name, DescribeSplit(s), OnlyTrainInstances(r, s)};
     rung.differs = (rung.database_instances ? "database entry, " : "other instance, ") + rung.differs;
     (rung.database_instances ? same : other).push_back(rung);
   }
   if (same.empty() && other.empty()) return {};
-  if (test && present.count("test")) same.push_back({"test", "other instance, " + Describe(*test), false});
+  if (test && present.count("test")) same.push_back({"test", "other instance, " + DescribeSplit(*test), false});
   same.insert(same.end(), other.begin(), other.end());
   return same;
 }

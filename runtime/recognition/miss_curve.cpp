@@ -1,0 +1,118 @@
+#include "runtime/recognition/miss_curve.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <set>
+#include <sstream>
+
+#include "runtime/recognition/ladder.h"
+
+namespace drape::recognition {
+
+namespace {
+
+bool HasMissSplits(const Release& release) {
+  for (const auto& e : release.entries())
+    if (e.split.rfind("test_miss_", 0) == 0) return true;
+  return false;
+}
+
+// One category's figures of an eval result: {queries, strict, twin_credited, category_accuracy}.
+Json Figures(const Json& c) {
+  const Json none{{"unweighted", nullptr}, {"learned", nullptr}};
+  return {{"queries", c["queries"]},
+          {"strict", c["pose_accuracy"]["both"]},
+          {"twin_credited", c.value("pose_accuracy_twin_credited", none)},
+          {"category_accuracy", c["category_accuracy"]}};
+}
+
+Json Row(const EvalResult& eval, const std::string& split, const Json& miss_mm, const std::string& differs) {
+  Json cats = Json::object();
+  for (const Json& c : eval.report["categories"]) cats[c["category"].get<std::string>()] = Figures(c);
+  cats["all"] = Figures(eval.report["overall"]);
+  return {{"split", split}, {"miss_mm", miss_mm}, {"differs", differs}, {"categories", cats}};
+}
+
+std::string Percent(const Json& v) {
+  if (v.is_null()) return "n/a";
+  char b[32];
+  std::snprintf(b, sizeof b, "%.1f %%", 100 * v.get<double>());
+  return b;
+}
+
+}  // namespace
+
+std::vector<MissLevel> MissCurveLevels(const Release& release) {
+  if (!HasMissSplits(release)) return {};
+  const std::optional<Recipe> recipe = ReleaseRecipe(release);
+  if (!recipe) return {};
+  std::set<std::string> present;
+  for (const auto& e : release.entries()) present.insert(e.split);
+  std::vector<MissLevel> out;
+  for (const SplitSpec& s : recipe->splits)
+    if (s.miss_level >= 0 && present.count(s.name)) out.push_back({s.name, s.miss_level, DescribeSplit(s)});
+  std::sort(out.begin(), out.end(), [](const MissLevel& a, const MissLevel& b) { return a.miss_m < b.miss_m; });
+  return out;
+}
+
+std::string DescribeTestSplit(const Release& release) {
+  const std::optional<Recipe> recipe = ReleaseRecipe(release);
+  if (!recipe) return "";
+  for (const SplitSpec& s : recipe->splits)
+    if (s.name == "test") return DescribeSplit(s);
+  return "";
+}
+
+Json MissCurveTable(const EvalResult* headline, const std::string& headline_differs,
+                    const std::vector<MissPoint>& points) {
+  Json levels = Json::array();
+  for (const MissPoint& p : points)
+    levels.push_back(Row(p.eval, p.level.split, std::lround(p.level.miss_m * 1000), p.level.differs));
+  return {{"headline", headline ? Row(*headline, "test", nullptr, headline_differs) : Json(nullptr)},
+          {"levels", levels}};
+}
+
+namespace {
+
+// "strict / twin credited" of the runtime's distance: learned where the category has
+// weights, else unweighted.
+std::string Cell(const Json& f) {
+  const char* m = f["strict"]["learned"].is_null() ? "unweighted" : "learned";
+  return Percent(f["strict"][m]) + " / " + Percent(f["twin_credited"][m]);
+}
+
+}  // namespace
+
+std::string MissCurveMarkdown(const Json& table) {
+  std::vector<Json> rows;
+  if (!table["headline"].is_null()) rows.push_back(table["headline"]);
+  for (const Json& r : table["levels"]) rows.push_back(r);
+  if (rows.empty()) return "";
+  std::vector<std::string> cats;
+  for (const auto& [cat, f] : rows.front()["categories"].items())
+    if (cat != "all") cats.push_back(cat);
+  cats.push_back("all");
+  std::ostringstream md;
+  md << "## Miss curve (pose accuracy strict / twin credited, both database instances, category known)\n\n"
+     << "The test split's garments with the grasp exactly this far from the anchor (one direction per anchor, "
+        "the same at every level); the headline row is the test split itself, the protocol. Learned distance "
+        "where the category has weights, else unweighted; category accuracy by the unweighted nearest "
+        "neighbour.\n\n| grasp miss | queries |";
+  for (const auto& c : cats) md << " " << c << " |";
+  md << " category |\n|---|---|";
+  for (size_t i = 0; i <= cats.size(); ++i) md << "---|";
+  md << "\n";
+  for (const Json& r : rows) {
+    const Json& all = r["categories"]["all"];
+    md << "| "
+       << (r["miss_mm"].is_null() ? "test (" + r["differs"].get<std::string>() + ")"
+                                  : std::to_string(r["miss_mm"].get<int>()) + " mm")
+       << " | " << all["queries"].get<int>() << " |";
+    for (const auto& c : cats) md << " " << (r["categories"].contains(c) ? Cell(r["categories"][c]) : "—") << " |";
+    md << " " << Percent(all["category_accuracy"]) << " |\n";
+  }
+  return md.str();
+}
+
+}  // namespace drape::recognition
