@@ -183,6 +183,8 @@ def unfold_rows(doc, path):
         mine = (f"{r['successful_recognition']} / {r['successful_regrasping']} / "
                 f"{field(r, path, ['successful_unfolding'])} of {n}, "
                 + ("–" if regrasps is None else f"{regrasps:.1f}"))
+        if r.get("declared_not_unfolded") is not None:  # reports from 2026-12-06 on
+            mine += f"; {r['declared_not_unfolded']} declared unfolded but not"
         p = paper_by_name.get(cat.lower())
         if p:
             theirs = (f"{p['successful_recognition']} / {p['successful_regrasping']} / "

@@ -89,6 +89,7 @@ def test_unfolding_folding_and_build_rows_are_their_reports(table):
         key = f"unfolding, {r['category']}: recognised / regrasped / unfolded, regrasps on success"
         assert rows[key][0].startswith(f"{r['successful_recognition']} / {r['successful_regrasping']} / "
                                        f"{r['successful_unfolding']} of {r['trials']}, ")
+        assert rows[key][0].endswith(f"; {r['declared_not_unfolded']} declared unfolded but not")
         assert rows[key][1].endswith("(average)")  # the paper has no towel row: its average
     fold = load(os.path.join(DIRS["fold"], "trajectories.json"))
     success = sum(t["success"] for t in fold["trials"])

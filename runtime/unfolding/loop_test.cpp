@@ -151,8 +151,10 @@ TEST(Report, CountsTheConvergedTrialsWithinEachDistance) {
   const TableRow r = Summarise("pants", "default", trials);
   EXPECT_EQ(r.unfolded, 2);
   EXPECT_EQ(r.unfolded_within, (std::array<int, 4>{1, 2, 3, 3}));
-  EXPECT_NE(ReportMarkdown({r}).find("| 1 / 2 / 3 / 3 |"), std::string::npos);
+  EXPECT_EQ(r.declared_not_unfolded, 2);  // 7 and 20 cm off at f ≥ ξ; the unconverged one is not declared
+  EXPECT_NE(ReportMarkdown({r}).find("| 2 | 1 / 2 / 3 / 3 |"), std::string::npos);
   EXPECT_EQ(ReportJson({r})["rows"][0]["unfolded_within_m"]["0.08"], 3);
+  EXPECT_EQ(ReportJson({r})["rows"][0]["declared_not_unfolded"], 2);
 }
 
 }  // namespace

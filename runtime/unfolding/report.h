@@ -24,6 +24,10 @@ struct TableRow {
   // Trials that reached f ≥ ξ with both grippers within kUnfoldedWithin[i] of a desired
   // pair: the success criterion's sensitivity to its distance (the paper's was judged by eye).
   std::array<int, 4> unfolded_within{};
+  // Trials the loop declared unfolded (f ≥ ξ on its belief) whose grippers, by truth, are
+  // not within the success distance of a desired pair: a success the robot would report
+  // falsely (issue 45: there must be none).
+  int declared_not_unfolded = 0;
   int placed = 0;       // trials laid on the table
   double coverage = 0;  // mean coverage over placed trials (0 if none)
   double seconds = 0;   // mean wall seconds per trial
