@@ -468,8 +468,8 @@ const char* kEvalFooter =
     "entry's database mesh registered onto its recon.ply: S->T, T->S for R and R+N, anchor\n"
     "transfer error) and the category by registration beside the nearest neighbour's (~4 CPU-s\n"
     "per query). A recipe with a miss curve (splits test_miss_<mm>mm) adds its table: strict and\n"
-    "twin-credited pose accuracy per category at each grasp miss, beside the test split. --ladder adds the same tables "
-    "on every test_<rung> split of the recipe\n"
+    "twin-credited pose accuracy per category at each grasp miss, beside the test split.\n"
+    "--ladder adds the same tables on every test_<rung> split of the recipe\n"
     "(e.g. recipes/quickstart_ladder.yaml) and figures of the worst confusions.";
 
 struct EvalArgs {

@@ -8,23 +8,14 @@
 #pragma once
 
 #include <filesystem>
-#include <optional>
 #include <string>
 #include <vector>
 
 #include "common/json.h"
-#include "generator/recipe/recipe.h"
 #include "generator/release/release.h"
 #include "runtime/recognition/evaluate.h"
 
 namespace drape::recognition {
-
-// The release's recipe, parsed from dataset.json; nullopt when the release records no
-// recipe text.
-std::optional<Recipe> ReleaseRecipe(const Release& release);
-
-// A split's sensing and perturbation in words ("Kinect noise, grasp miss σ 10 mm per axis, ...").
-std::string DescribeSplit(const SplitSpec& split);
 
 struct LadderRung {
   std::string split;

@@ -6,7 +6,7 @@
 #include <set>
 #include <sstream>
 
-#include "runtime/recognition/ladder.h"
+#include "runtime/recognition/release_recipe.h"
 
 namespace drape::recognition {
 
