@@ -73,10 +73,16 @@ class OnceMap {
 };
 
 Json MaterialJson(const Material& m) {
-  return {{"stretch_percent", m.stretch_percent},
-          {"friction_deg", m.friction_deg},
-          {"area_density", m.area_density},
-          {"bending_stiffness", m.bending_stiffness}};
+  Json j = {{"stretch_percent", m.stretch_percent},
+            {"friction_deg", m.friction_deg},
+            {"area_density", m.area_density},
+            {"bending_stiffness", m.bending_stiffness}};
+  if (m.bending_rigidity > 0) {  // hinge bending (absent otherwise: older records keep their bytes)
+    j["bending_rigidity"] = m.bending_rigidity;
+    j["crease_yield"] = m.crease_yield;
+    j["crease_weakening"] = m.crease_weakening;
+  }
+  return j;
 }
 
 Json HangStatsJson(const HangStats& s) {
@@ -128,7 +134,8 @@ std::shared_ptr<const Garment> InstanceGarment(const Recipe& recipe, const Job& 
 std::shared_ptr<const MaterialFit> MaterialFitFor(const Material& m, const HangOptions& hang_options, JobCache& cache) {
   std::ostringstream fkey;
   fkey << std::setprecision(17) << m.stretch_percent << "/" << m.friction_deg << "/" << m.area_density << "/"
-       << m.bending_stiffness << "/" << hang_options.fit_edge_length;
+       << m.bending_stiffness << "/" << m.bending_rigidity << "/" << m.crease_yield << "/" << m.crease_weakening << "/"
+       << hang_options.fit_edge_length;
   return cache.impl->fits.Get(fkey.str(), [&] { return FitMaterial(m, hang_options); });
 }
 
@@ -151,6 +158,11 @@ void RecordJob(Json& rec, const Job& job, const GarmentSpec& g, const Garment& g
                          {"friction", fit.friction},
                          {"target_friction_deg", fit.target_friction_deg},
                          {"reproduced_friction_deg", fit.reproduced_friction_deg}};
+  if (job.material.bending_rigidity > 0) {  // the hinge constant and the cantilever it reproduces
+    rec["material_fit"]["bending_scale"] = fit.bending_scale;
+    rec["material_fit"]["target_bending_length"] = fit.target_bending_length;
+    rec["material_fit"]["reproduced_bending_length"] = fit.reproduced_bending_length;
+  }
   rec["anchor"] = {{"label", anchor.label}, {"vertex", anchor.vertex}, {"uv", PointJson(anchor.uv)}};
   rec["grasp_offset"] = {offset.x(), offset.y(), offset.z()};
   rec["seed"] = job.seed;

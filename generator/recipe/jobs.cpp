@@ -90,7 +90,8 @@ std::vector<std::string> SelectedAnchors(const Recipe& recipe, const std::string
 }
 
 // `m` with its four values (stretch, friction, density, bending) × (1 + U(−j, j)) drawn
-// from `seed`; the factors − 1 go to `jitter`.
+// from `seed`; the factors − 1 go to `jitter`. The bending factor scales whichever
+// bending the material uses (relative links or the hinges' rigidity B).
 Material Jittered(Material m, double j, uint64_t seed, double jitter[4]) {
   if (j <= 0) return m;
   Rng rng(seed);
@@ -99,6 +100,7 @@ Material Jittered(Material m, double j, uint64_t seed, double jitter[4]) {
   m.friction_deg *= 1 + jitter[1];
   m.area_density *= 1 + jitter[2];
   m.bending_stiffness *= 1 + jitter[3];
+  m.bending_rigidity *= 1 + jitter[3];
   return m;
 }
 

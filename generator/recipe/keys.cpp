@@ -40,7 +40,13 @@ const std::vector<OptionKey<Material>>& MaterialKeys() {
       {"friction_deg", Ref(&Material::friction_deg), "degrees", "tilt angle at which the garment starts to slide"},
       {"area_density", Ref(&Material::area_density), "kg/m²", "mass per area of one layer"},
       {"bending", Ref(&Material::bending_stiffness), "—",
-       "bending stiffness relative to stretch stiffness (generator/hang/material.h)"},
+       "bending stiffness relative to stretch stiffness (generator/hang/material.h); unused with `bending_rigidity`"},
+      {"bending_rigidity", Ref(&Material::bending_rigidity), "N·m",
+       "bending rigidity B of one layer, [0, 0.01]; > 0: hinge bending (docs/fabric.md) replaces `bending`"},
+      {"crease_yield", Ref(&Material::crease_yield), "1/m",
+       "curvature beyond which a fold's rest angle yields (creases), [0, 1e5]; 0: never"},
+      {"crease_weakening", Ref(&Material::crease_weakening), "—",
+       "a yielded fold's stiffness ÷ (1 + this × damage), [0, 100]"},
   };
   return t;
 }

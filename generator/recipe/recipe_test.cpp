@@ -72,6 +72,7 @@ description: a test recipe
 materials:
   heavy_towel: {preset: towel_a, area_density: 0.35}
   custom: {stretch_percent: 2.0, friction_deg: 20, area_density: 0.25, bending: 0.01}
+  pressed: {preset: tshirt, bending_rigidity: 2.3e-5, crease_yield: 200, crease_weakening: 2}
 simulation:
   time_step: 0.005
   solver_iterations: 12
@@ -138,6 +139,10 @@ TEST(Recipe, ParsesEveryKeyIntoTypedOptions) {
   EXPECT_DOUBLE_EQ(r.materials.at("heavy_towel").area_density, 0.35);
   EXPECT_DOUBLE_EQ(r.materials.at("heavy_towel").stretch_percent, FindMaterialPreset("towel_a")->stretch_percent);
   EXPECT_DOUBLE_EQ(r.materials.at("custom").bending_stiffness, 0.01);
+  EXPECT_DOUBLE_EQ(r.materials.at("pressed").bending_rigidity, 2.3e-5);
+  EXPECT_DOUBLE_EQ(r.materials.at("pressed").crease_yield, 200);
+  EXPECT_DOUBLE_EQ(r.materials.at("pressed").crease_weakening, 2);
+  EXPECT_EQ(r.materials.at("heavy_towel").bending_rigidity, 0);
   ASSERT_EQ(r.splits.size(), 2u);
   EXPECT_EQ(r.splits[0].name, "train");
   EXPECT_EQ(r.splits[0].sensing, "database");
