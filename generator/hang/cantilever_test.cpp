@@ -69,6 +69,33 @@ TEST(Cantilever, AFineStripBendsAsTheElastica) {
   EXPECT_NEAR(s.bending_length / r.bending_length, 2, 0.1);
 }
 
+// One row of overhang is one hinge (k = C·B·W·h/2 for the strip's cross edge, W wide,
+// A₁ + A₂ = W·h) turning a rigid row whose tip nodes carry half its weight: the chord
+// angle φ solves C·B·W/h · φ = (w·W·h/2)·h·cos φ, i.e. φ/cos φ = γ/(2C) with γ = w·h³/B.
+// The continuum's chord at the same γ needs C ≈ 4 (the heavy chain's first-order error at
+// a clamp; docs/fabric.md): the hinge constant a cantilever fits depends on the rows of
+// its overhang, not on the hinge's weight.
+TEST(Cantilever, OneRowIsOneHingeTurningARigidRow) {
+  const Material m = Jersey();
+  MaterialFit fit;
+  fit.stiffness = 0.8;
+  HangOptions h;
+  CantileverOptions o;
+  o.edge_length = o.overhang = 0.04;
+  const double w = m.area_density * 9.81, gamma = w * std::pow(o.overhang, 3) / m.bending_rigidity;
+  for (const double C : {1.0, 4.0}) {
+    SCOPED_TRACE(C);
+    fit.bending_scale = C;
+    const CantileverResult r = RunCantilever(m, fit, h, o);
+    ASSERT_TRUE(r.failure.empty()) << r.failure;
+    double lo = 0, hi = std::numbers::pi / 2;  // φ/cos φ grows from 0 to ∞ on [0, π/2)
+    for (int i = 0; i < 60; ++i)
+      (0.5 * (lo + hi) / std::cos(0.5 * (lo + hi)) > gamma / (2 * C) ? hi : lo) = 0.5 * (lo + hi);
+    EXPECT_NEAR(r.chord_angle, lo, 0.05 * lo);
+    if (C == 4.0) EXPECT_NEAR(r.chord_angle, HeavyElastica(gamma).chord_angle, 0.1 * r.chord_angle);
+  }
+}
+
 // FitMaterial with a bending rigidity: KINSOL finds kLST and the hinge constant C whose
 // hung strip stretches as measured and whose cantilever has the measured bending length
 // (measured: kLST 0.12, C 2.65 at 2.5 cm in 7 evaluations, 6.9 CPU-s).
