@@ -94,7 +94,8 @@ TEST_F(Commands, EveryCommandIsFound) {
   std::set<std::string> names;
   for (const Leaf& l : leaves_) names.insert(Join(l.path));
   for (const char* c : {"build", "garments list", "garments make", "garments show", "info", "ls", "verify", "merge",
-                        "register", "recognize", "calibrate", "eval", "unfold", "fold"})
+                        "register", "recognize", "calibrate", "eval", "unfold", "fold", "fabric cantilever",
+                        "fabric drape", "fabric incline", "fabric crease"})
     EXPECT_TRUE(names.count(c)) << c;
 }
 
