@@ -13,6 +13,7 @@
 #include "cli/config.h"
 #include "common/error.h"
 #include "common/files.h"
+#include "common/source_dir.h"
 
 namespace drape::cli {
 namespace {
@@ -215,7 +216,7 @@ TEST(OptionsFile, EverySectionAndKeyIsChecked) {
 }
 
 TEST(OptionsFile, DocsListEverySectionAsTheTablesSay) {
-  const std::string doc = ReadFile(fs::path(DRAPE_SOURCE_DIR) / "docs/options.md");
+  const std::string doc = ReadFile(SourceDir() / "docs/options.md");
   const std::string close = "<!-- /options -->";
   std::string want = OptionsFileMarkdown();
   want = want.substr(0, want.rfind(close) + close.size());

@@ -19,18 +19,33 @@ function(drape_library name)
   target_link_libraries(${name} PUBLIC ${ARG_DEPS} PRIVATE ${ARG_PRIVATE_DEPS})
 endfunction()
 
+# drape_source_dir: drape::SourceDir() (common/source_dir.h), the repository's path for
+# the fixtures of tests and benchmarks. The path is compiled into this one object only:
+# a -DDRAPE_SOURCE_DIR on every test would make each clone's compile commands differ,
+# and ccache would miss on all of them.
+function(drape_source_dir_library)
+  if(TARGET drape_source_dir)
+    return()
+  endif()
+  add_library(drape_source_dir STATIC ${DRAPE_SOURCE_ROOT}/common/source_dir.cpp)
+  target_include_directories(drape_source_dir PUBLIC ${DRAPE_SOURCE_ROOT})
+  drape_warnings(drape_source_dir)
+  get_filename_component(root ${DRAPE_SOURCE_ROOT} REALPATH)
+  target_compile_definitions(drape_source_dir PRIVATE DRAPE_SOURCE_DIR="${root}")
+endfunction()
+
 # drape_test(NAME SOURCES ... DEPS ... [LABELS ...] [TIMEOUT s]): a GoogleTest executable
-# registered with CTest.
-# Tests run from the build tree; DRAPE_SOURCE_DIR points at the repository for fixtures.
+# registered with CTest. Tests run from the build tree; fixtures are found through
+# drape::SourceDir().
 function(drape_test name)
   if(NOT DRAPE_BUILD_TESTS)
     return()
   endif()
   cmake_parse_arguments(ARG "" "TIMEOUT" "SOURCES;DEPS;LABELS" ${ARGN})
   add_executable(${name} ${ARG_SOURCES})
-  target_link_libraries(${name} PRIVATE ${ARG_DEPS} GTest::gtest GTest::gtest_main)
+  drape_source_dir_library()
+  target_link_libraries(${name} PRIVATE ${ARG_DEPS} drape_source_dir GTest::gtest GTest::gtest_main)
   drape_warnings(${name})
-  target_compile_definitions(${name} PRIVATE DRAPE_SOURCE_DIR="${DRAPE_SOURCE_ROOT}")
   if(NOT ARG_TIMEOUT)
     set(ARG_TIMEOUT 600)
   endif()
@@ -45,7 +60,7 @@ function(drape_bench name)
   endif()
   cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
   add_executable(${name} ${ARG_SOURCES})
-  target_link_libraries(${name} PRIVATE ${ARG_DEPS} benchmark::benchmark)
+  drape_source_dir_library()
+  target_link_libraries(${name} PRIVATE ${ARG_DEPS} drape_source_dir benchmark::benchmark)
   drape_warnings(${name})
-  target_compile_definitions(${name} PRIVATE DRAPE_SOURCE_DIR="${DRAPE_SOURCE_ROOT}")
 endfunction()

@@ -12,6 +12,7 @@
 #include "common/error.h"
 #include "common/files.h"
 #include "common/format.h"
+#include "common/source_dir.h"
 #include "common/testing.h"
 #include "garments/io.h"
 #include "garments/templates.h"
@@ -21,7 +22,7 @@ namespace fs = std::filesystem;
 namespace drape {
 namespace {
 
-const fs::path kTestdata = fs::path(DRAPE_SOURCE_DIR) / "garments" / "testdata";
+const fs::path kTestdata = SourceDir() / "garments" / "testdata";
 
 fs::path TempDir(const std::string& name) { return FreshTempDir("drape_mesh_read_" + name); }
 

@@ -9,6 +9,7 @@
 
 #include "common/error.h"
 #include "common/rng.h"
+#include "common/source_dir.h"
 
 namespace drape {
 namespace {
@@ -422,11 +423,11 @@ TEST(Jobs, MissCurveSplitsRepeatTheTestSplitAtEachMiss) {
 // Every shipped recipe parses and expands; the paper recipe's test split is the protocol
 // (a 1 cm Gaussian grasp miss, ±10 % material) with its miss curve after it.
 TEST(Jobs, ShippedRecipesExpandAndThePaperTestIsTheProtocol) {
-  for (const auto& f : std::filesystem::directory_iterator(std::filesystem::path(DRAPE_SOURCE_DIR) / "recipes")) {
+  for (const auto& f : std::filesystem::directory_iterator(SourceDir() / "recipes")) {
     if (f.path().extension() != ".yaml") continue;
     EXPECT_FALSE(ExpandJobs(LoadRecipe(f.path())).empty()) << f.path();
   }
-  const Recipe paper = LoadRecipe(std::filesystem::path(DRAPE_SOURCE_DIR) / "recipes/paper.yaml");
+  const Recipe paper = LoadRecipe(SourceDir() / "recipes/paper.yaml");
   std::map<std::string, int> per_split;
   for (const Job& j : ExpandJobs(paper)) per_split[j.split]++;
   const SplitSpec* test = nullptr;

@@ -7,6 +7,7 @@
 
 #include "common/error.h"
 #include "common/files.h"
+#include "common/source_dir.h"
 #include "generator/recipe/recipe.h"
 
 namespace fs = std::filesystem;
@@ -24,7 +25,7 @@ std::string Block(const std::string& readme, const std::string& name, bool* foun
 }
 
 TEST(RecipeKeys, ReadmeTablesAreTheParsersTables) {
-  const std::string readme = ReadFile(fs::path(DRAPE_SOURCE_DIR) / "recipes/README.md");
+  const std::string readme = ReadFile(SourceDir() / "recipes/README.md");
   std::set<std::string> names;
   for (const auto& section : RecipeKeyDocs()) {
     names.insert(section.name);
@@ -52,7 +53,7 @@ TEST(RecipeKeys, ValidateErrorsArePlacedAtTheirKey) {
   const std::string tail = "garments:\n  - template: towel\n    materials: [towel_a]\n";
   auto error = [&](const std::string& middle) {
     try {
-      ParseRecipe(head + middle + tail, "r.yaml", DRAPE_SOURCE_DIR);
+      ParseRecipe(head + middle + tail, "r.yaml", SourceDir());
     } catch (const Error& e) {
       return std::string(e.what());
     }

@@ -8,12 +8,13 @@
 
 #include "common/error.h"
 #include "common/files.h"
+#include "common/source_dir.h"
 
 namespace fs = std::filesystem;
 namespace drape {
 namespace {
 
-const fs::path kTestdata = fs::path(DRAPE_SOURCE_DIR) / "generator/recipe/testdata";
+const fs::path kTestdata = SourceDir() / "generator/recipe/testdata";
 
 std::string LoadError(const fs::path& p) {
   try {

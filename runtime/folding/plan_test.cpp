@@ -7,11 +7,12 @@
 #include <filesystem>
 
 #include "common/error.h"
+#include "common/source_dir.h"
 
 namespace drape::folding {
 namespace {
 
-const std::filesystem::path kPlans = std::filesystem::path(DRAPE_SOURCE_DIR) / "runtime/folding/plans";
+const std::filesystem::path kPlans = SourceDir() / "runtime/folding/plans";
 
 // The paper's step counts, except the shirt's: its sleeves are folded down first.
 TEST(Plan, ShippedPlansParseWithTheirStepCounts) {

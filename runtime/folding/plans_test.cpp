@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <filesystem>
 
+#include "common/source_dir.h"
 #include "garments/templates.h"
 #include "runtime/folding/evaluate.h"
 #include "runtime/folding/keypoints.h"
@@ -17,7 +18,7 @@
 namespace drape::folding {
 namespace {
 
-const std::filesystem::path kPlans = std::filesystem::path(DRAPE_SOURCE_DIR) / "runtime/folding/plans";
+const std::filesystem::path kPlans = SourceDir() / "runtime/folding/plans";
 
 struct Folded {
   TriMesh flat, base, folded;  // laid template; its faces no step moved; after the last step

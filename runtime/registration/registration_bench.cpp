@@ -11,6 +11,7 @@
 #include <string>
 
 #include "common/rng.h"
+#include "common/source_dir.h"
 #include "common/timing.h"
 #include "runtime/registration/registration.h"
 #include "runtime/registration/test_meshes.h"
@@ -103,9 +104,9 @@ void IcpComparison() {
       WriteXyz(p.source.V, dir / "src.xyz");
       WriteXyz(p.target.V, dir / "dst.xyz");
       const fs::path out = dir / "out.txt";
-      const std::string cmd = "/usr/bin/python3 " + std::string(DRAPE_SOURCE_DIR) +
-                              "/runtime/registration/open3d_icp.py " + (dir / "src.xyz").string() + " " +
-                              (dir / "dst.xyz").string() + " 100 > " + out.string() + " 2>/dev/null";
+      const std::string cmd = "/usr/bin/python3 " + SourceDir().string() + "/runtime/registration/open3d_icp.py " +
+                              (dir / "src.xyz").string() + " " + (dir / "dst.xyz").string() + " 100 > " + out.string() +
+                              " 2>/dev/null";
       if (std::system(cmd.c_str()) != 0) {
         std::printf("%-30s open3d failed\n", p.name.c_str());
         continue;
