@@ -70,8 +70,10 @@ bool EntryHas3d(const Release::EntryInfo& e) {
   return GalleryHas3d() && !e.failed && Has(e, "hang.ply") && Has(e, "recon.ply");
 }
 
-std::vector<std::pair<std::string, std::string>> GalleryViewerFiles(const fs::path& dir,
-                                                                    const std::vector<Release::EntryInfo>& entries) {
+// dir and entries are unused in a build without three.js (DRAPE_GALLERY_3D 0, e.g. the
+// sanitizer build), whose galleries have no 3D view.
+std::vector<std::pair<std::string, std::string>> GalleryViewerFiles(
+    [[maybe_unused]] const fs::path& dir, [[maybe_unused]] const std::vector<Release::EntryInfo>& entries) {
   std::vector<std::pair<std::string, std::string>> files;
 #if DRAPE_GALLERY_3D
   auto blob = [](const char* b, const char* e) { return std::string(b, static_cast<size_t>(e - b)); };
