@@ -92,7 +92,9 @@ TEST(Cantilever, OneRowIsOneHingeTurningARigidRow) {
     for (int i = 0; i < 60; ++i)
       (0.5 * (lo + hi) / std::cos(0.5 * (lo + hi)) > gamma / (2 * C) ? hi : lo) = 0.5 * (lo + hi);
     EXPECT_NEAR(r.chord_angle, lo, 0.05 * lo);
-    if (C == 4.0) EXPECT_NEAR(r.chord_angle, HeavyElastica(gamma).chord_angle, 0.1 * r.chord_angle);
+    if (C == 4.0) {
+      EXPECT_NEAR(r.chord_angle, HeavyElastica(gamma).chord_angle, 0.1 * r.chord_angle);
+    }
   }
 }
 
