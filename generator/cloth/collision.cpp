@@ -8,15 +8,15 @@
 #include <numeric>
 #include <string>
 
-#include "common/cpu_time.h"
 #include "common/error.h"
+#include "common/timing.h"
 
 namespace drape {
 namespace {
 
-// Thread CPU seconds since t0, a ThreadCpuSeconds() taken earlier (drape::Since is wall
-// time): phase timings that a busy shared machine does not inflate.
-double CpuSince(double t0) { return ThreadCpuSeconds() - t0; }
+// Seconds since t0, a ClockSeconds() taken earlier: the phases' timing (steady clock, cheap
+// to read; the caller scales a run's sum to its thread CPU time, see CollisionReport).
+double ClockSince(double t0) { return ClockSeconds() - t0; }
 
 constexpr double kTiny = 1e-30;               // m²: below this a segment has zero length
 constexpr double kAccdShrink = 0.1;           // ACCD's s: report when the gap falls below s × initial
@@ -533,7 +533,7 @@ struct ApplyContext {
       CarryResults();
       std::swap(cand, next);
       have_cand = true;
-      const double t1 = ThreadCpuSeconds();
+      const double t1 = ClockSeconds();
       rep.broad_seconds += t1 - *t0;
       *t0 = t1;
     }
@@ -684,7 +684,7 @@ void ClampSweeps(ApplyContext& cx, const Eigen::VectorXd& w, const StrainBounds&
 // nodes with w == 0 (kinematic, or frozen in an impact zone): w is the inverse mass
 // the clamp uses.
 void LimitStrain(ApplyContext& cx, const Eigen::VectorXd& w) {
-  const auto t0 = ThreadCpuSeconds();
+  const auto t0 = ClockSeconds();
   const StrainBounds b(cx.opt);
   if (!b.active) return;
   CollisionHandler::StrainOrder& so = cx.strain_order;
@@ -707,11 +707,12 @@ void LimitStrain(ApplyContext& cx, const Eigen::VectorXd& w) {
     ClampSweeps(cx, w, b);
   else
     ClampSweepsReference(cx, w, b);
-  cx.rep.strain_seconds += CpuSince(t0);
+  cx.rep.strain_seconds += ClockSince(t0);
 }
 
 // Edges of x1 outside the accepted bounds (sorted); *max_strain: the largest (l − L0)/L0.
 std::vector<int> StrainViolations(const ApplyContext& cx, double* max_strain = nullptr) {
+  const double t0 = ClockSeconds();
   const StrainBounds b(cx.opt);
   std::vector<int> out;
   double worst = -std::numeric_limits<double>::infinity();
@@ -723,6 +724,7 @@ std::vector<int> StrainViolations(const ApplyContext& cx, double* max_strain = n
     if (r > b.hi_ok || r < b.lo_ok) out.push_back(e);
   }
   if (max_strain) *max_strain = cx.E.empty() ? 0 : worst;
+  cx.rep.strain_seconds += ClockSince(t0);
   return out;
 }
 
@@ -735,6 +737,7 @@ std::vector<int> StrainViolations(const ApplyContext& cx, double* max_strain = n
 // in a hand-over fall an edge went from strain 0.04087 to 0.04101, bound 0.041, and on
 // by a few 1e-6 per step).
 std::vector<int> StrainWorsened(const ApplyContext& cx) {
+  const double t0 = ClockSeconds();
   const StrainBounds b(cx.opt);
   std::vector<int> out;
   for (int e = 0; e < static_cast<int>(cx.E.size()); ++e) {
@@ -748,6 +751,7 @@ std::vector<int> StrainWorsened(const ApplyContext& cx) {
     if ((r1 > b.hi_ok && (r0 <= b.hi_ok || r1 > r0 + tol)) || (r1 < b.lo_ok && (r0 >= b.lo_ok || r1 < r0 - tol)))
       out.push_back(e);
   }
+  cx.rep.strain_seconds += ClockSince(t0);
   return out;
 }
 
@@ -826,12 +830,12 @@ void SnapshotDistances(const std::vector<std::array<int, 2>>& from, const double
 // sweep measures every pair at x0); the calls between skip the pairs that are surely
 // still beyond the thickness (FarSinceSnapshot): about half of them in a settling hang.
 void Repel(ApplyContext& cx) {
-  auto t0 = ThreadCpuSeconds();
+  auto t0 = ClockSeconds();
   PathBoxes(cx.x0, cx.x1, cx.opt.thickness, 0, &cx.near_boxes);
   cx.broad.FindClosePaths(cx.near_boxes, cx.x0, &cx.near);
   ++cx.rep.broad_builds;
   cx.rep.broad_candidates += static_cast<long long>(cx.near.vf.size() + cx.near.ee.size());
-  const double t1 = ThreadCpuSeconds();
+  const double t1 = ClockSeconds();
   cx.rep.broad_seconds += t1 - t0;
   t0 = t1;
   const CandidatePairs& cand = cx.near;
@@ -877,7 +881,7 @@ void Repel(ApplyContext& cx) {
     if (moved == 0) break;
     for (int i = 0; i < n; ++i) moved_node[i] = cx.x1.row(i) != before.row(i);
   }
-  cx.rep.proximity_seconds += CpuSince(t0);
+  cx.rep.proximity_seconds += ClockSince(t0);
 }
 
 // ---- static boxes --------------------------------------------------------------------
@@ -931,7 +935,7 @@ bool CollideNode(const BoxCollider& box, double pad, const Vec3& x0, Vec3& x1) {
 void HandleColliders(ApplyContext& cx, const std::vector<BoxCollider>& colliders,
                      const std::vector<char>* frozen = nullptr) {
   if (colliders.empty()) return;
-  const auto t0 = ThreadCpuSeconds();
+  const auto t0 = ClockSeconds();
   for (int i = 0; i < cx.x1.rows(); ++i) {
     if (cx.inv_mass[i] == 0 || (frozen && (*frozen)[i])) continue;
     const Vec3 a = cx.x0.row(i).transpose();
@@ -943,7 +947,7 @@ void HandleColliders(ApplyContext& cx, const std::vector<BoxCollider>& colliders
       ++cx.rep.collider_contacts;
     }
   }
-  cx.rep.collider_seconds += CpuSince(t0);
+  cx.rep.collider_seconds += ClockSince(t0);
 }
 
 // ---- box edges and corners ------------------------------------------------------------------
@@ -989,7 +993,7 @@ std::vector<BoxHit> DetectBoxes(ApplyContext& cx, const std::vector<BoxCollider>
                                 const std::vector<char>* pinned = nullptr) {
   std::vector<BoxHit> hits;
   if (colliders.empty()) return hits;
-  const auto t0 = ThreadCpuSeconds();
+  const auto t0 = ClockSeconds();
   const double pad = cx.opt.min_separation;
   auto moving = [&](int i) { return cx.inv_mass[i] != 0 && !(pinned && (*pinned)[i]); };
   auto node_box = [&](int i) {
@@ -1042,7 +1046,7 @@ std::vector<BoxHit> DetectBoxes(ApplyContext& cx, const std::vector<BoxCollider>
       }
     }
   }
-  cx.rep.collider_seconds += CpuSince(t0);
+  cx.rep.collider_seconds += ClockSince(t0);
   return hits;
 }
 
@@ -1075,7 +1079,7 @@ void BoxImpulse(ApplyContext& cx, const BoxHit& hit, const std::vector<BoxCollid
 // ---- continuous collision detection and impulses (Bridson §7.3) -------------------------
 // Colliding pairs on x0 → x1; pairs whose nodes all lie in one rigid zone are skipped.
 std::vector<Hit> Detect(ApplyContext& cx, const std::vector<int>* zone_of) {
-  auto t0 = ThreadCpuSeconds();
+  auto t0 = ClockSeconds();
   const CandidatePairs& cand = cx.Fresh(&t0);
   const int n = static_cast<int>(cx.x1.rows());
   const bool have_ref = cx.detect_ref.rows() == n && cx.shortcuts;
@@ -1107,7 +1111,7 @@ std::vector<Hit> Detect(ApplyContext& cx, const std::vector<int>* zone_of) {
   };
   for (const auto& [v, f] : cand.vf) test(cx.VF(v, f));
   for (const auto& [a, b] : cand.ee) test(cx.EE(a, b));
-  cx.rep.ccd_seconds += CpuSince(t0);
+  cx.rep.ccd_seconds += ClockSince(t0);
   return hits;
 }
 
@@ -1231,13 +1235,18 @@ void MergeRound(ApplyContext& cx, const Pending& pending, const std::vector<int>
   }
 }
 
+// The phases the fail-safe calls (its own time is what it spends beyond them).
+double PhaseSeconds(const CollisionReport& r) {
+  return r.ccd_seconds + r.broad_seconds + r.strain_seconds + r.collider_seconds;
+}
+
 // Rigid impact zones, merged from colliding pairs, from pairs against a box (such a
 // zone is pinned: it stays at x0) and from edges beyond the strain bound; after each
 // move the free nodes are clamped with the zones frozen and the colliders re-checked,
 // so the last change of x1 is always followed by all the checks.
 void ImpactZones(ApplyContext& cx, Pending pending, std::vector<int> stretched,
                  const std::vector<BoxCollider>& colliders) {
-  const auto t0 = ThreadCpuSeconds();
+  const auto t0 = ClockSeconds();
   const CollisionReport before = cx.rep;
   cx.rep.fail_safe_used = true;
   const int n = static_cast<int>(cx.x1.rows());
@@ -1283,9 +1292,7 @@ void ImpactZones(ApplyContext& cx, Pending pending, std::vector<int> stretched,
   }
   cx.rep.remaining_collisions = static_cast<int>(hits.size());
   cx.rep.collider_violations = static_cast<int>(DetectBoxes(cx, colliders, &pinned).size());
-  CollisionReport& r = cx.rep;
-  r.zone_seconds += CpuSince(t0) - (r.ccd_seconds - before.ccd_seconds) - (r.broad_seconds - before.broad_seconds) -
-                    (r.strain_seconds - before.strain_seconds) - (r.collider_seconds - before.collider_seconds);
+  cx.rep.zone_seconds += ClockSince(t0) - (PhaseSeconds(cx.rep) - PhaseSeconds(before));
 }
 
 // CCD + impulse passes until no pair collides (cloth–cloth and cloth–box) or
@@ -1344,6 +1351,7 @@ CollisionReport CollisionHandler::Apply(const Points3& x0, Points3& x1, const Ei
   if (!x1.allFinite()) throw NumericalError("collision: the proposed positions x1 are not finite");
   for (const BoxCollider& box : colliders) box.Validate();
 
+  const double t0 = ClockSeconds();
   CollisionReport rep;
   const long long searches0 = broad_.searches();
   ApplyContext cx{F_, edges_,   rest_,         options_,         x0,
@@ -1367,6 +1375,7 @@ CollisionReport CollisionHandler::Apply(const Points3& x0, Points3& x1, const Ei
   if (!pending.Empty() || !merge.empty()) ImpactZones(cx, std::move(pending), std::move(merge), colliders);
   rep.strain_violations = static_cast<int>(StrainViolations(cx, &rep.max_strain).size());
   rep.broad_searches = static_cast<int>(broad_.searches() - searches0);
+  rep.total_seconds = ClockSince(t0);
   return rep;
 }
 

@@ -165,8 +165,12 @@ struct CollisionReport {
   int broad_searches = 0;     // of which needed a tree search (the rest filtered the kept superset)
   long long broad_candidates = 0;  // candidate pairs found (summed over searches)
   long long ccd_tests = 0;         // pair CCD tests run (summed over passes)
+  // Timing only, never hashed: seconds on the steady clock (common/timing.h ClockSeconds,
+  // cheap to read); a caller that wants CPU time scales a run's sums by the thread CPU
+  // time it reads around the run (the hang does). total_seconds: the whole call, so
+  // total − the phases is the call's own overhead (checks, copies).
   double broad_seconds = 0, strain_seconds = 0, proximity_seconds = 0, collider_seconds = 0, ccd_seconds = 0,
-         zone_seconds = 0;  // s, thread CPU time, timing only
+         zone_seconds = 0, total_seconds = 0;
 };
 
 class CollisionHandler {

@@ -8,9 +8,9 @@
 #include <algorithm>
 #include <cmath>
 
-#include "common/cpu_time.h"
 #include "common/error.h"
 #include "common/format.h"
+#include "common/timing.h"
 
 namespace drape {
 
@@ -351,10 +351,20 @@ void ClothWorld::Perturb(const Points3& dx) {
   if (handler_) {
     Eigen::VectorXd im(x_.rows());
     for (int i = 0; i < x_.rows(); ++i) im[i] = holder_[i] >= 0 ? 0.0 : 1 / model_->mass[i];
-    handler_->Apply(x_, x1, im, model_->options.time_step, colliders_);
+    AddCollisionTimings(handler_->Apply(x_, x1, im, model_->options.time_step, colliders_));
   }
   x_ = x1;
   SyncBullet();
+}
+
+void ClothWorld::AddCollisionTimings(const CollisionReport& rep) {
+  timings_.collision_seconds += rep.total_seconds;
+  timings_.broad_seconds += rep.broad_seconds;
+  timings_.strain_seconds += rep.strain_seconds;
+  timings_.proximity_seconds += rep.proximity_seconds;
+  timings_.collider_seconds += rep.collider_seconds;
+  timings_.ccd_seconds += rep.ccd_seconds;
+  timings_.zone_seconds += rep.zone_seconds;
 }
 
 // Bullet's part of a step: the held nodes' velocities that carry them to their place at
@@ -379,9 +389,9 @@ void ClothWorld::StepBullet(const std::vector<Eigen::Isometry3d>& pose1, Points3
   const double h = dt / m.substeps;
   for (int s = 0; s < m.substeps; ++s) {
     if (!m.bending.hinges.empty()) AddHingeForces();
-    const auto t0 = ThreadCpuSeconds();
+    const double t0 = ClockSeconds();
     bullet_->world.stepSimulation(btScalar(h), 0, btScalar(h));
-    timings_.bullet_seconds += (ThreadCpuSeconds() - t0);
+    timings_.bullet_seconds += ClockSeconds() - t0;
   }
   x1.resize(n, 3);
   for (int i = 0; i < n; ++i) {
@@ -403,6 +413,8 @@ void ClothWorld::StepBullet(const std::vector<Eigen::Isometry3d>& pose1, Points3
 }
 
 CollisionReport ClothWorld::Step() {
+  const double t_step = ClockSeconds();
+  const double own0 = timings_.bullet_seconds + timings_.bending_seconds;
   const ClothModel& m = *model_;
   const double dt = m.options.time_step;
   const double t1 = time_ + dt;
@@ -420,15 +432,8 @@ CollisionReport ClothWorld::Step() {
   if (handler_) {
     Eigen::VectorXd im(n);
     for (int i = 0; i < n; ++i) im[i] = holder_[i] >= 0 ? 0.0 : 1 / m.mass[i];
-    const auto tc = ThreadCpuSeconds();
     rep = handler_->Apply(x_, x1, im, dt, colliders_);
-    timings_.collision_seconds += (ThreadCpuSeconds() - tc);
-    timings_.broad_seconds += rep.broad_seconds;
-    timings_.strain_seconds += rep.strain_seconds;
-    timings_.proximity_seconds += rep.proximity_seconds;
-    timings_.collider_seconds += rep.collider_seconds;
-    timings_.ccd_seconds += rep.ccd_seconds;
-    timings_.zone_seconds += rep.zone_seconds;
+    AddCollisionTimings(rep);
     timings_.ccd_collisions += rep.ccd_collisions;
     timings_.fail_safe_steps += rep.fail_safe_used;
     timings_.reverted_steps += rep.reverted;
@@ -445,18 +450,22 @@ CollisionReport ClothWorld::Step() {
   x_ = std::move(x1);
   time_ = t1;
   if (m.bending.plastic()) {
-    const auto tb = ThreadCpuSeconds();
+    const double tb = ClockSeconds();
     UpdatePlasticity(m.bending, bend_, x_);
-    timings_.bending_seconds += ThreadCpuSeconds() - tb;
+    timings_.bending_seconds += ClockSeconds() - tb;
   }
   for (size_t k = 0; k < grippers_.size(); ++k) grippers_[k].pose = pose1[k];
   ++timings_.steps;
   SyncBullet();
+  const double step_seconds = ClockSeconds() - t_step;
+  step_total_seconds_ += step_seconds;
+  const double parts = timings_.bullet_seconds + timings_.bending_seconds - own0 + rep.total_seconds;
+  timings_.step_seconds += step_seconds - parts;
   return rep;
 }
 
 void ClothWorld::AddHingeForces() {
-  const auto t0 = ThreadCpuSeconds();
+  const double t0 = ClockSeconds();
   btSoftBody* sb = bullet_->body.get();
   const int n = static_cast<int>(x_.rows());
   Points3 x(n, 3);
@@ -468,7 +477,7 @@ void ClothWorld::AddHingeForces() {
   AddBendingForces(model_->bending, bend_, x, force_);
   for (int i = 0; i < n; ++i)
     if (holder_[i] < 0) sb->addForce(Bt(force_(i, 0), force_(i, 1), force_(i, 2)), i);
-  timings_.bending_seconds += ThreadCpuSeconds() - t0;
+  timings_.bending_seconds += ClockSeconds() - t0;
 }
 
 double ClothWorld::KineticEnergy() const {
@@ -512,6 +521,7 @@ void ClothWorld::SetStrainZones(bool on) {
 }
 
 SettleReport ClothWorld::Settle(const SettleOptions& o) {
+  const double t_settle = ClockSeconds(), stepping = step_total_seconds_;
   o.Validate();
   const double dt = model_->options.time_step;
   const int window = std::max(4, static_cast<int>(std::lround(o.window / dt)));
@@ -559,6 +569,7 @@ SettleReport ClothWorld::Settle(const SettleOptions& o) {
                              " pair CCD tests were spent, after " + FormatNumber(r.steps * dt) + " s" + moving
                        : "not settled within time_cap " + FormatNumber(o.time_cap) + " s" + moving;
   }
+  timings_.settle_seconds += ClockSeconds() - t_settle - (step_total_seconds_ - stepping);
   return r;
 }
 

@@ -161,19 +161,25 @@ struct GraspReport {
   std::vector<int> layers;    // distinct garment layers among them, sorted (empty if unknown)
 };
 
-// Cumulative cost (thread CPU seconds) and counts since the world was made (timing is
-// never hashed).
+// Cumulative cost and counts since the world was made. The seconds (timing only, never
+// hashed) are on the steady clock, cheap enough to read around every phase of a step (a
+// CPU clock is a system call; see common/timing.h ClockSeconds): a caller that reports
+// CPU time scales them by the thread CPU time it reads around its run, as Hang does.
+// Every part of the world's work is one of them: the Bullet step, the collision handler's
+// phases and its own overhead, the rest of Step, and Settle's checks between steps.
 struct ClothTimings {
   int steps = 0;
   double bullet_seconds = 0;       // inside Bullet's stepSimulation
   double bending_seconds = 0;      // hinge forces and plasticity
   double broad_seconds = 0;        // collision handler: broad phase
-  double strain_seconds = 0;       // ... strain limiting
+  double strain_seconds = 0;       // ... strain limiting (the clamp and the strain checks)
   double proximity_seconds = 0;    // ... VF/EE repulsion
   double collider_seconds = 0;     // ... box colliders
   double ccd_seconds = 0;          // ... continuous collision detection + impulses
   double zone_seconds = 0;         // ... rigid impact zones (fail-safe)
-  double collision_seconds = 0;    // the handler in total (around Apply)
+  double collision_seconds = 0;    // the handler in total (its phases + its own overhead)
+  double step_seconds = 0;         // the rest of Step: grippers, copies to and from Bullet, velocities
+  double settle_seconds = 0;       // Settle's checks between steps (health, motion window)
   long ccd_collisions = 0;         // colliding pairs found by CCD, summed
   int fail_safe_steps = 0;         // steps that needed rigid impact zones
   int reverted_steps = 0;          // steps where the whole mesh moved as one zone
@@ -288,6 +294,7 @@ class ClothWorld {
   void SyncBullet();      // Bullet's nodes ← x_, v_, masses ← holds
   void AddHingeForces();  // the hinge force at Bullet's node positions, onto its free nodes
   void StepBullet(const std::vector<Eigen::Isometry3d>& pose1, Points3& x1, Points3* vb);
+  void AddCollisionTimings(const CollisionReport& rep);
 
   std::shared_ptr<const ClothModel> model_;
   std::unique_ptr<Bullet> bullet_;
@@ -301,6 +308,7 @@ class ClothWorld {
   double time_ = 0;
   double kdp_ = 0;
   ClothTimings timings_;
+  double step_total_seconds_ = 0;  // every Step in total (Settle's checks are what it adds)
 };
 
 }  // namespace drape

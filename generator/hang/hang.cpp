@@ -4,6 +4,7 @@
 #include <cmath>
 #include <memory>
 
+#include "common/cpu_time.h"
 #include "common/error.h"
 #include "common/field_error.h"
 #include "common/format.h"
@@ -127,12 +128,15 @@ struct Run {
   GraspReport grasp;
   Points3 x;
   ClothTimings timings;
+  double setup_seconds = 0;  // steady clock: before settling, less the jitter's collision pass
+  double seconds = 0;        // steady clock: the whole run
 };
 
 // One simulation: the gripper closes on the flat garment at the origin, the start is
 // perturbed by a seeded jitter (breaks symmetry), and the world settles.
 Run RunHang(const Garment& garment, const Points3& start, const Material& material, const MaterialFit& fit,
             const HangOptions& o, double dt, uint64_t seed, const HangStart& how) {
+  const double t0 = ClockSeconds();
   // Links take their rest lengths from the model's rest mesh: the start pose is the
   // flat garment moved rigidly, so it serves as the rest mesh too.
   const TriMesh rest{start, garment.mesh.F};
@@ -154,6 +158,7 @@ Run RunHang(const Garment& garment, const Points3& start, const Material& materi
     for (int i : world.HeldNodes(g)) s.v.row(i).setZero();
     world.SetState(s);
   }
+  run.setup_seconds = ClockSeconds() - t0 - world.timings().collision_seconds;
   SettleOptions so;
   so.distance = o.settle_distance;
   so.window = o.settle_window;
@@ -176,6 +181,7 @@ Run RunHang(const Garment& garment, const Points3& start, const Material& materi
   }
   run.x = world.positions();
   run.timings = world.timings();
+  run.seconds = ClockSeconds() - t0;
   return run;
 }
 
@@ -194,12 +200,34 @@ void RecordRun(const Run& run, HangStats& st) {
   st.fail_safe_steps = t.fail_safe_steps;
   st.remaining_collisions = t.remaining_collisions;
   st.strain_violation_steps = t.strain_violation_steps;
-  st.bullet_seconds = t.bullet_seconds;
-  st.collision_seconds = t.collision_seconds;
-  st.broad_seconds = t.broad_seconds;
-  st.ccd_seconds = t.ccd_seconds;
-  st.zone_seconds = t.zone_seconds;
-  st.other_collision_seconds = t.strain_seconds + t.proximity_seconds + t.collider_seconds;
+}
+
+// Adds a run's parts (steady-clock seconds) to st; Hang scales them to CPU time at the end.
+void AddRunCost(const Run& run, HangStats& st) {
+  const ClothTimings& t = run.timings;
+  st.setup_seconds += run.setup_seconds;
+  st.bullet_seconds += t.bullet_seconds;
+  st.bend_seconds += t.bending_seconds;
+  st.collision_seconds += t.collision_seconds;
+  st.broad_seconds += t.broad_seconds;
+  st.strain_seconds += t.strain_seconds;
+  st.repulsion_seconds += t.proximity_seconds;
+  st.collider_seconds += t.collider_seconds;
+  st.ccd_seconds += t.ccd_seconds;
+  st.zone_seconds += t.zone_seconds;
+  st.step_seconds += t.step_seconds;
+  st.settle_seconds += t.settle_seconds;
+}
+
+// The parts, steady-clock seconds until now, as shares of the call's thread CPU time.
+void ScaleCost(double cpu, double wall, HangStats& st) {
+  st.cpu_seconds = cpu;
+  st.wall_seconds = wall;
+  const double f = wall > 0 ? cpu / wall : 0;
+  for (double* p : {&st.setup_seconds, &st.bullet_seconds, &st.bend_seconds, &st.collision_seconds, &st.broad_seconds,
+                    &st.strain_seconds, &st.repulsion_seconds, &st.collider_seconds, &st.ccd_seconds, &st.zone_seconds,
+                    &st.step_seconds, &st.settle_seconds, &st.measure_seconds, &st.retry_seconds})
+    *p *= f;
 }
 
 void RecordMeasurement(const ClothMeasurement& m, HangStats& st) {
@@ -276,7 +304,7 @@ ClothOptions ClothOptionsFor(const HangOptions& o, double dt) {
 
 HangResult Hang(const Garment& garment, int anchor_vertex, const Vec3& grasp_offset, const Material& material,
                 const MaterialFit& fit, const HangOptions& options, uint64_t seed, const HangStart& how) {
-  const auto wall0 = Clock::now();
+  const double wall0 = ClockSeconds(), cpu0 = ThreadCpuSeconds();
   options.Validate();
   material.Validate();
   CheckInput(garment, anchor_vertex, fit);
@@ -293,32 +321,33 @@ HangResult Hang(const Garment& garment, int anchor_vertex, const Vec3& grasp_off
   HangStats& st = result.stats;
   result.mesh.F = garment.mesh.F;
   ClothMeasurement m;
-  double measure_seconds = 0;
   for (int attempt = 0; attempt < 2; ++attempt) {
     if (attempt > 0) {
       ++st.retries;
       dt /= 2;
     }
     run = RunHang(garment, start, material, fit, options, dt, seed, how);
+    AddRunCost(run, st);
     result.mesh.V = run.x.allFinite() ? run.x : start;
-    const auto tm = Clock::now();
+    const double tm = ClockSeconds();
     m = MeasureCloth(result.mesh, garment.mesh.V);
-    measure_seconds += Since(tm);
+    const double measure = ClockSeconds() - tm;
+    st.measure_seconds += measure;
     result.failure = Verdict(run.settle, m, material, options);
     if (result.failure.empty()) break;
+    if (attempt == 0) st.retry_seconds = run.seconds + measure;
   }
   RecordRun(run, st);
   st.time_step = dt;
   st.strain_limit = options.strain_limit * material.stretch_percent / 100;
   result.held_vertices = run.grasp.node_ids;
-  st.measure_seconds = measure_seconds;
   RecordMeasurement(m, st);
   st.com_offset = ComOffset(result.mesh);
   if (!result.failure.empty() && st.retries > 0) {
     result.failure += " (after a retry at time_step " + FormatNumber(dt) + " s)";
   }
   result.ok = result.failure.empty();
-  st.wall_seconds = Since(wall0);
+  ScaleCost(ThreadCpuSeconds() - cpu0, ClockSeconds() - wall0, st);
   return result;
 }
 

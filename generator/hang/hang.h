@@ -160,19 +160,32 @@ struct HangStats {
   // and the cloth's in-plane stiffness at the mesh's resolution move it sideways.
   double com_offset = 0;
   // Collision handling over the accepted run.
-  long ccd_collisions = 0;             // colliding pairs found by CCD, summed over steps
-  int fail_safe_steps = 0;             // steps that needed rigid impact zones
-  long remaining_collisions = 0;       // crossings left by the handler (0 with one still gripper)
-  int strain_violation_steps = 0;      // steps that ended with an edge beyond the strain clamp
-  int retries = 0;                     // runs repeated at half the step (not settled or not publishable)
-  double wall_seconds = 0;             // timing only (never hashed), from here down
-  double bullet_seconds = 0;           // inside Bullet's stepSimulation
-  double collision_seconds = 0;        // the collision handler in total
-  double broad_seconds = 0;            // ... its broad phase
-  double ccd_seconds = 0;              // ... CCD + impulses
-  double zone_seconds = 0;             // ... rigid impact zones (fail-safe)
-  double other_collision_seconds = 0;  // ... strain limiting, repulsion, colliders
-  double measure_seconds = 0;          // CGAL test + clearance + strain
+  long ccd_collisions = 0;         // colliding pairs found by CCD, summed over steps
+  int fail_safe_steps = 0;         // steps that needed rigid impact zones
+  long remaining_collisions = 0;   // crossings left by the handler (0 with one still gripper)
+  int strain_violation_steps = 0;  // steps that ended with an edge beyond the strain clamp
+  int retries = 0;                 // runs repeated at half the step (not settled or not publishable)
+  // Timing only (never hashed), from here down. cpu_seconds is the thread CPU time of the
+  // whole call, every attempt; the parts below are its shares (thread CPU seconds, summed
+  // over the attempts: the phases are timed on the steady clock and scaled by the call's
+  // CPU/wall ratio, see cloth/world.h ClothTimings). cpu_seconds − their sum is what no
+  // part names (input checks, the start pose; milliseconds).
+  double wall_seconds = 0;
+  double cpu_seconds = 0;
+  double setup_seconds = 0;      // the model and world, the grasp, the start jitter
+  double bullet_seconds = 0;     // inside Bullet's stepSimulation
+  double bend_seconds = 0;       // hinge bending forces and plasticity (cloth/bending.h)
+  double collision_seconds = 0;  // the collision handler: the six below + its own overhead
+  double broad_seconds = 0;      // ... its broad phase
+  double strain_seconds = 0;     // ... strain limiting (the clamp and the strain checks)
+  double repulsion_seconds = 0;  // ... VF/EE repulsion
+  double collider_seconds = 0;   // ... box colliders (none in a hang)
+  double ccd_seconds = 0;        // ... CCD + impulses
+  double zone_seconds = 0;       // ... rigid impact zones (fail-safe)
+  double step_seconds = 0;       // the rest of each step (grippers, copies to and from Bullet)
+  double settle_seconds = 0;     // the settling test between steps
+  double measure_seconds = 0;    // CGAL test + clearance + strain
+  double retry_seconds = 0;      // of cpu_seconds: the attempts not kept (a retry followed)
 };
 
 struct HangResult {

@@ -214,6 +214,27 @@ std::string EntryPreview(const Job& job, const HangResult& hung, const Anchor& a
   return RenderEntryPreview(hung.mesh, anchor_hung, depth_png, fused.mesh, job.key + " (" + job.split + ")");
 }
 
+// The hang's thread CPU time and every part of it, as "hang.<part>" keys of the timing
+// record (LogStageSeconds prints them as the hang's own line).
+void HangCostTiming(const HangStats& s, Json& timing) {
+  const std::pair<const char*, double> parts[] = {{"hang.cpu", s.cpu_seconds},
+                                                  {"hang.setup", s.setup_seconds},
+                                                  {"hang.bullet", s.bullet_seconds},
+                                                  {"hang.bend", s.bend_seconds},
+                                                  {"hang.collision", s.collision_seconds},
+                                                  {"hang.broad", s.broad_seconds},
+                                                  {"hang.strain", s.strain_seconds},
+                                                  {"hang.repulsion", s.repulsion_seconds},
+                                                  {"hang.colliders", s.collider_seconds},
+                                                  {"hang.ccd", s.ccd_seconds},
+                                                  {"hang.zones", s.zone_seconds},
+                                                  {"hang.step", s.step_seconds},
+                                                  {"hang.settle", s.settle_seconds},
+                                                  {"hang.measure", s.measure_seconds},
+                                                  {"hang.retry", s.retry_seconds}};
+  for (const auto& [key, seconds] : parts) timing[key] = seconds;
+}
+
 // Times each stage of an entry into its timing record: wall seconds by stage name, and
 // the job thread's CPU seconds in `cpu` (what the cost model reads; every stage of a job
 // runs on its thread).
@@ -337,9 +358,7 @@ Entry BuildEntry(const Recipe& recipe, const Job& job, JobCache& cache) {
                   HangStart{job.pickup_spin});
     });
     rec["hang"] = HangStatsJson(hung.stats);
-    timing["bullet"] = hung.stats.bullet_seconds;
-    timing["collision"] = hung.stats.collision_seconds;
-    timing["hang_measure"] = hung.stats.measure_seconds;
+    HangCostTiming(hung.stats, timing);
     if (!hung.ok) return fail("hang: " + hung.failure);
 
     if (std::string why = SenseHung(recipe, sensing, job, *anchor, hung, stage, e); !why.empty()) return fail(why);
@@ -438,21 +457,42 @@ ReleaseMeta MakeReleaseMeta(const Recipe& recipe, const std::vector<Job>& jobs, 
 
 void LogStageSeconds(std::ostream& log, const std::map<std::string, double>& stage_seconds) {
   if (stage_seconds.empty()) return;
-  // Parts of the hang stage (Bullet's step, the collision handler, the mesh
-  // measurement) are shown without a share of the total.
-  auto part = [](const std::string& k) { return k == "bullet" || k == "collision" || k == "hang_measure"; };
+  // The hang's parts ("hang.<part>", thread CPU) have a line of their own.
+  auto part = [](const std::string& k) { return k.rfind("hang.", 0) == 0; };
   double sum = 0;
   for (const auto& [k, v] : stage_seconds)
     if (!part(k)) sum += v;
   log << "stage wall time (summed over jobs):";
-  for (const char* k : {"garment", "fit", "hang", "bullet", "collision", "hang_measure", "sweep", "fusion", "accuracy",
-                        "feature", "encode", "preview"}) {
+  for (const char* k : {"garment", "fit", "hang", "sweep", "fusion", "accuracy", "feature", "encode", "preview"}) {
     auto it = stage_seconds.find(k);
     if (it == stage_seconds.end()) continue;
     log << " " << k << " " << std::fixed << std::setprecision(1) << it->second << "s";
-    if (!part(k) && sum > 0) log << " (" << std::lround(100 * it->second / sum) << "%)";
+    if (sum > 0) log << " (" << std::lround(100 * it->second / sum) << "%)";
   }
   log << std::defaultfloat << "\n";
+  auto get = [&](const char* k) {
+    const auto it = stage_seconds.find(std::string("hang.") + k);
+    return it == stage_seconds.end() ? 0.0 : it->second;
+  };
+  if (!stage_seconds.count("hang.cpu")) return;
+  const double cpu = get("cpu"), bullet = get("bullet"), collision = get("collision");
+  double own = collision, named = 0;
+  for (const char* k : {"broad", "strain", "repulsion", "colliders", "ccd", "zones"}) own -= get(k);
+  for (const char* k : {"setup", "bullet", "bend", "collision", "step", "settle", "measure"}) named += get(k);
+  auto s = [](double v, int digits = 1) {
+    std::ostringstream o;
+    o << std::fixed << std::setprecision(digits) << v;
+    return o.str();
+  };
+  log << "hang CPU time (summed over jobs): " << s(cpu) << "s = setup " << s(get("setup")) << " + bullet " << s(bullet)
+      << " + bend " << s(get("bend")) << " + collision " << s(collision) << " (broad " << s(get("broad")) << ", strain "
+      << s(get("strain")) << ", repulsion " << s(get("repulsion")) << ", colliders " << s(get("colliders")) << ", ccd "
+      << s(get("ccd")) << ", zones " << s(get("zones")) << ", own " << s(own) << ") + step " << s(get("step"))
+      << " + settle " << s(get("settle")) << " + measure " << s(get("measure")) << " + unnamed " << s(cpu - named)
+      << "; retried attempts " << s(get("retry")) << "s of it";
+  if (bullet > 0)
+    log << "; collision " << s(collision / bullet, 2) << "x bullet, hang " << s(cpu / bullet, 2) << "x bullet";
+  log << "\n";
 }
 
 namespace {

@@ -117,7 +117,8 @@ Entry FailedEntry(const Job& job, const std::string& error);
 // "mpi_rank").
 void CountEntry(const Entry& entry, const Job& job, BuildReport& report);
 
-// The "stage wall time (summed over jobs): ..." line of the build summary.
+// The "stage wall time (summed over jobs): ..." line of the build summary, and the hang's
+// "hang CPU time (summed over jobs): ..." line, which names every part of the hang stage.
 void LogStageSeconds(std::ostream& log, const std::map<std::string, double>& stage_seconds);
 
 // The end of a build, shared by RunBuild and the MPI build's rank 0: records the stage
