@@ -118,9 +118,15 @@ install_python_path() {
 
 build() {
   install_viewer
-  # ccache, when the machine has it, makes a rebuild after a branch switch cheap.
-  local launcher=()
-  command -v ccache >/dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_C_COMPILER_LAUNCHER=ccache)
+  # ccache, when the machine has it, makes a rebuild after a branch switch cheap, and a
+  # second clone's build too: base_dir (this checkout) turns the paths on every compile
+  # line into relative ones and hash_dir off leaves the build folder's path out, so the
+  # commands are the same in every clone. (fuzz/sanitize_env.sh does the same.)
+  local launcher=() l
+  if command -v ccache >/dev/null; then
+    l="env;CCACHE_BASEDIR=$(pwd);CCACHE_NOHASHDIR=1;ccache"
+    launcher=("-DCMAKE_CXX_COMPILER_LAUNCHER=$l" "-DCMAKE_C_COMPILER_LAUNCHER=$l")
+  fi
   cmake -S . -B "$BUILD_DIR" -G Ninja -DCMAKE_BUILD_TYPE=Release "${launcher[@]}"
   cmake --build "$BUILD_DIR" -j "$JOBS"
   install_python_path

@@ -19,8 +19,13 @@ export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1:detect_stack
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
 
 san_configure() {
-  local launcher=()
-  command -v ccache >/dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_C_COMPILER_LAUNCHER=ccache)
+  # ccache with the paths of every compile line relative to this checkout, as in
+  # setup.sh's build(): another clone's build finds these objects.
+  local launcher=() l
+  if command -v ccache >/dev/null; then
+    l="env;CCACHE_BASEDIR=$(pwd);CCACHE_NOHASHDIR=1;ccache"
+    launcher=("-DCMAKE_CXX_COMPILER_LAUNCHER=$l" "-DCMAKE_C_COMPILER_LAUNCHER=$l")
+  fi
   cmake -S . -B "$SAN_BUILD_DIR" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
     -DCMAKE_C_COMPILER=clang-14 -DCMAKE_CXX_COMPILER=clang++-14 \
     -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O1 $SAN_FLAGS" -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 $SAN_FLAGS" \
