@@ -13,19 +13,13 @@
 #include "runtime/recognition/evaluate.h"
 #include "runtime/recognition/ladder.h"
 #include "runtime/recognition/miss_curve.h"
+#include "runtime/recognition/report_format.h"
 
 namespace drape::recognition {
 
 namespace fs = std::filesystem;
 
 namespace {
-
-std::string Percent(const Json& v) {
-  if (v.is_null()) return "n/a";
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.1f %%", 100.0 * v.get<double>());
-  return buf;
-}
 
 std::string Num(const Json& v, const char* fmt = "%.3f") {
   if (v.is_null()) return "n/a";
@@ -34,7 +28,7 @@ std::string Num(const Json& v, const char* fmt = "%.3f") {
   return buf;
 }
 
-std::string Pair(const Json& obj) { return Percent(obj["unweighted"]) + " / " + Percent(obj["learned"]); }
+std::string Pair(const Json& obj) { return PercentCell(obj["unweighted"]) + " / " + PercentCell(obj["learned"]); }
 
 // The paper's pose table: one column per database instance, the paper's two, all.
 std::string PoseTableMarkdown(const Json& r, const std::vector<Json>& rows) {
@@ -66,8 +60,8 @@ std::string PoseTableMarkdown(const Json& r, const std::vector<Json>& rows) {
     const Json& p = c["pose_accuracy"];
     std::string paper = "—";
     if (!c["paper"].is_null()) {
-      paper = Percent(c["paper"]["instance1"]) + " / " + Percent(c["paper"]["instance2"]) + " / " +
-              Percent(c["paper"]["both"]);
+      paper = PercentCell(c["paper"]["instance1"]) + " / " + PercentCell(c["paper"]["instance2"]) + " / " +
+              PercentCell(c["paper"]["both"]);
     }
     std::string names;
     for (const auto& n : c["database_instances"]) names += (names.empty() ? "" : ", ") + n.get<std::string>();
@@ -185,8 +179,9 @@ std::string CategoryFitMarkdown(const Json& r) {
           "registration (u / l) | s per query |\n|---|---|---|---|---|---|\n";
     for (const Json& c : f["categories"]) {
       md << "| " << c["category"].get<std::string>() << " | " << c["queries"].get<int>() << " | "
-         << Percent(c["category_accuracy"]["unweighted_nn"]) << " / " << Percent(c["category_accuracy"]["registration"])
-         << " | " << Pair(c["end_to_end_pose_accuracy"]["unweighted_nn"]) << " | "
+         << PercentCell(c["category_accuracy"]["unweighted_nn"]) << " / "
+         << PercentCell(c["category_accuracy"]["registration"]) << " | "
+         << Pair(c["end_to_end_pose_accuracy"]["unweighted_nn"]) << " | "
          << Pair(c["end_to_end_pose_accuracy"]["registration"]) << " | " << Num(c["seconds_per_query"], "%.2f")
          << " |\n";
     }
@@ -221,8 +216,8 @@ std::string CategoryFitMarkdown(const Json& r) {
 // The category accuracy cell: with `--category-fit` also the registration's.
 std::string CategoryCell(const Json& r, const Json& row) {
   const Json fit = FitRow(r, row["category"].get<std::string>());
-  std::string cell = Percent(row["category_accuracy"]);
-  if (!fit.is_null()) cell += " / " + Percent(fit["category_accuracy"]["registration"]);
+  std::string cell = PercentCell(row["category_accuracy"]);
+  if (!fit.is_null()) cell += " / " + PercentCell(fit["category_accuracy"]["registration"]);
   return cell;
 }
 
@@ -270,8 +265,8 @@ std::string ReportMarkdown(const Json& r) {
     for (const Json& c : rows) {
       if (!c.contains("without_height_gates")) continue;
       const Json& n = c["without_height_gates"];
-      md << "| " << c["category"].get<std::string>() << " | " << Percent(c["category_accuracy"]) << " / "
-         << Percent(n["category_accuracy"]) << " | " << Pair(c["pose_accuracy"]["both"]) << " | "
+      md << "| " << c["category"].get<std::string>() << " | " << PercentCell(c["category_accuracy"]) << " / "
+         << PercentCell(n["category_accuracy"]) << " | " << Pair(c["pose_accuracy"]["both"]) << " | "
          << Pair(n["pose_accuracy_both"]) << " |\n";
     }
   }

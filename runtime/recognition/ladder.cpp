@@ -14,6 +14,7 @@
 #include "garments/io.h"
 #include "garments/render.h"
 #include "runtime/recognition/release_recipe.h"
+#include "runtime/recognition/report_format.h"
 
 namespace drape::recognition {
 
@@ -31,13 +32,6 @@ bool OnlyTrainInstances(const Recipe& r, const SplitSpec& s) {
     for (int i : sel.instances)
       if (!train.count({sel.garment, i})) return false;
   return true;
-}
-
-std::string Percent(const Json& v) {
-  if (v.is_null()) return "n/a";
-  char b[32];
-  std::snprintf(b, sizeof b, "%.1f %%", 100 * v.get<double>());
-  return b;
 }
 
 }  // namespace
@@ -105,10 +99,10 @@ std::string LadderMarkdown(const Json& table) {
       if (!r["grasp_error_cm_unweighted"].is_null())
         std::snprintf(ge, sizeof ge, "%.1f", r["grasp_error_cm_unweighted"].get<double>());
       md << "| " << r["split"].get<std::string>() << " | " << r["queries"].get<int>() << " | "
-         << r["differs"].get<std::string>() << " | " << Percent(r["pose_unweighted"]) << " | "
-         << Percent(r["pose_learned"]) << " | " << Percent(r.value("pose_unweighted_twin_credited", Json())) << " / "
-         << Percent(r.value("pose_learned_twin_credited", Json())) << " | " << Percent(r["category_accuracy"]) << " | "
-         << ge << " |\n";
+         << r["differs"].get<std::string>() << " | " << PercentCell(r["pose_unweighted"]) << " | "
+         << PercentCell(r["pose_learned"]) << " | " << PercentCell(r.value("pose_unweighted_twin_credited", Json()))
+         << " / " << PercentCell(r.value("pose_learned_twin_credited", Json())) << " | "
+         << PercentCell(r["category_accuracy"]) << " | " << ge << " |\n";
     }
   }
   return md.str();

@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "runtime/recognition/release_recipe.h"
+#include "runtime/recognition/report_format.h"
 
 namespace drape::recognition {
 
@@ -32,13 +33,6 @@ Json Row(const EvalResult& eval, const std::string& split, const Json& miss_mm, 
   for (const Json& c : eval.report["categories"]) cats[c["category"].get<std::string>()] = Figures(c);
   cats["all"] = Figures(eval.report["overall"]);
   return {{"split", split}, {"miss_mm", miss_mm}, {"differs", differs}, {"categories", cats}};
-}
-
-std::string Percent(const Json& v) {
-  if (v.is_null()) return "n/a";
-  char b[32];
-  std::snprintf(b, sizeof b, "%.1f %%", 100 * v.get<double>());
-  return b;
 }
 
 }  // namespace
@@ -79,7 +73,7 @@ namespace {
 // weights, else unweighted.
 std::string Cell(const Json& f) {
   const char* m = f["strict"]["learned"].is_null() ? "unweighted" : "learned";
-  return Percent(f["strict"][m]) + " / " + Percent(f["twin_credited"][m]);
+  return PercentCell(f["strict"][m]) + " / " + PercentCell(f["twin_credited"][m]);
 }
 
 }  // namespace
@@ -110,7 +104,7 @@ std::string MissCurveMarkdown(const Json& table) {
                                   : std::to_string(r["miss_mm"].get<int>()) + " mm")
        << " | " << all["queries"].get<int>() << " |";
     for (const auto& c : cats) md << " " << (r["categories"].contains(c) ? Cell(r["categories"][c]) : "—") << " |";
-    md << " " << Percent(all["category_accuracy"]) << " |\n";
+    md << " " << PercentCell(all["category_accuracy"]) << " |\n";
   }
   return md.str();
 }
