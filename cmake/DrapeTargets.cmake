@@ -21,8 +21,8 @@ endfunction()
 
 # drape_source_dir: drape::SourceDir() (common/source_dir.h), the repository's path for
 # the fixtures of tests and benchmarks. The path is compiled into this one object only:
-# a -DDRAPE_SOURCE_DIR on every test would make each clone's compile commands differ,
-# and ccache would miss on all of them.
+# a -DDRAPE_SOURCE_DIR on every test would make each clone's compile commands differ:
+# ccache's direct mode would miss on all of them (preprocessing again on each).
 function(drape_source_dir_library)
   if(TARGET drape_source_dir)
     return()
