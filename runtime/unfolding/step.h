@@ -8,6 +8,10 @@
 //              regrasp point (registered, the lowest point or the hanging end's)
 //   regrasp    the IR scan across the point (LoG), the free gripper closes there; then
 //              both keep hold (f ≥ ξ) or the old gripper lets go
+//
+// A new phase (e.g. verifying the held anchor before planning) is an options struct in
+// LoopOptions, a record in Step, a member of Trial in its own file (trial.h) and a call
+// in Trial::Run (loop.cpp); its trace goes into trace.cpp's StepJson.
 #pragma once
 
 #include <optional>
