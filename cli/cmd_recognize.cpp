@@ -478,13 +478,16 @@ struct EvalArgs {
   bool json = false, ladder = false, no_registration = false, no_category_fit = false;
 };
 
-// The evaluations of other splits than the headline's, each run once (the miss curve's
-// levels are also ladder rungs); null when the split has no usable entries.
+// Each split's evaluation, run once: the evaluated split's own result (`res`) and the
+// others on first use (the miss curve's levels are also ladder rungs); null when the
+// split has no usable entries.
 class SplitEvals {
  public:
-  SplitEvals(const Release& rel, const Database& db, const Weights* w, const EvalOptions& eo)
-      : rel_(rel), db_(db), w_(w), eo_(eo) {}
+  SplitEvals(const Release& rel, const Database& db, const Weights* w, const EvalOptions& eo, const std::string& split,
+             const EvalResult& res)
+      : rel_(rel), db_(db), w_(w), eo_(eo), split_(split), res_(res) {}
   const EvalResult* Get(const std::string& split) {
+    if (split == split_) return &res_;
     auto it = done_.find(split);
     if (it == done_.end()) {
       LoadReport lr;
@@ -501,19 +504,20 @@ class SplitEvals {
   const Database& db_;
   const Weights* w_;
   const EvalOptions& eo_;
+  const std::string& split_;
+  const EvalResult& res_;
   std::map<std::string, std::optional<EvalResult>> done_;
 };
 
-// The ablation ladder: every rung's split evaluated like `split` (whose result is
-// reused), the table into res.report["ladder"], figures into the report folder.
-void RunLadder(const Release& rel, const Database& db, SplitEvals& evals, const std::string& split, EvalResult& res,
+// The ablation ladder: every rung's split evaluated like the evaluated split, the table
+// into res.report["ladder"], figures into the report folder.
+void RunLadder(const Release& rel, const Database& db, SplitEvals& evals, EvalResult& res,
                const std::optional<std::string>& dir) {
   const std::vector<LadderRung> rungs = LadderRungs(rel);
   if (rungs.empty()) throw Error("eval --ladder: the release's recipe has no test_<rung> split with entries");
   std::vector<LadderResult> results;
   for (const LadderRung& rung : rungs) {
-    const EvalResult* r = rung.split == split ? &res : evals.Get(rung.split);
-    if (r) results.push_back({rung, *r});
+    if (const EvalResult* r = evals.Get(rung.split)) results.push_back({rung, *r});
   }
   res.report["ladder"] = LadderTable(results);
   if (dir) {
@@ -601,9 +605,9 @@ int RunEval(const EvalArgs& a) {
     }
     res.report["registration"] = rr.table;
   }
-  SplitEvals evals(rel, db, wp, eo);
+  SplitEvals evals(rel, db, wp, eo, split, res);
   RunMissCurve(rel, evals, split, res);
-  if (a.ladder) RunLadder(rel, db, evals, split, res, report_dir);
+  if (a.ladder) RunLadder(rel, db, evals, res, report_dir);
   RunCategoryFit(a, knobs, fit, rel, db, wp, queries, res);
   if (report_dir) WriteReport(res, header, *report_dir);
   if (a.json) {
