@@ -224,10 +224,8 @@ void ScaleCost(double cpu, double wall, HangStats& st) {
   st.cpu_seconds = cpu;
   st.wall_seconds = wall;
   const double f = wall > 0 ? cpu / wall : 0;
-  for (double* p : {&st.setup_seconds, &st.bullet_seconds, &st.bend_seconds, &st.collision_seconds, &st.broad_seconds,
-                    &st.strain_seconds, &st.repulsion_seconds, &st.collider_seconds, &st.ccd_seconds, &st.zone_seconds,
-                    &st.step_seconds, &st.settle_seconds, &st.measure_seconds, &st.retry_seconds})
-    *p *= f;
+  for (const HangCostPart& p : kHangCostParts)
+    if (p.seconds != &HangStats::cpu_seconds) st.*p.seconds *= f;
 }
 
 void RecordMeasurement(const ClothMeasurement& m, HangStats& st) {

@@ -188,6 +188,29 @@ struct HangStats {
   double retry_seconds = 0;      // of cpu_seconds: the attempts not kept (a retry followed)
 };
 
+// HangStats' cost in parts, by name: the call's thread CPU time ("cpu") and its shares.
+// Hang scales every share to CPU time through this list, and the build records each as
+// "hang.<name>", so a part added here is both scaled and recorded.
+struct HangCostPart {
+  const char* name;
+  double HangStats::*seconds;
+};
+inline constexpr HangCostPart kHangCostParts[] = {{"cpu", &HangStats::cpu_seconds},
+                                                  {"setup", &HangStats::setup_seconds},
+                                                  {"bullet", &HangStats::bullet_seconds},
+                                                  {"bend", &HangStats::bend_seconds},
+                                                  {"collision", &HangStats::collision_seconds},
+                                                  {"broad", &HangStats::broad_seconds},
+                                                  {"strain", &HangStats::strain_seconds},
+                                                  {"repulsion", &HangStats::repulsion_seconds},
+                                                  {"colliders", &HangStats::collider_seconds},
+                                                  {"ccd", &HangStats::ccd_seconds},
+                                                  {"zones", &HangStats::zone_seconds},
+                                                  {"step", &HangStats::step_seconds},
+                                                  {"settle", &HangStats::settle_seconds},
+                                                  {"measure", &HangStats::measure_seconds},
+                                                  {"retry", &HangStats::retry_seconds}};
+
 struct HangResult {
   bool ok = false;
   std::string failure;             // reason when !ok

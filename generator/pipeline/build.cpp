@@ -217,22 +217,7 @@ std::string EntryPreview(const Job& job, const HangResult& hung, const Anchor& a
 // The hang's thread CPU time and every part of it, as "hang.<part>" keys of the timing
 // record (LogStageSeconds prints them as the hang's own line).
 void HangCostTiming(const HangStats& s, Json& timing) {
-  const std::pair<const char*, double> parts[] = {{"hang.cpu", s.cpu_seconds},
-                                                  {"hang.setup", s.setup_seconds},
-                                                  {"hang.bullet", s.bullet_seconds},
-                                                  {"hang.bend", s.bend_seconds},
-                                                  {"hang.collision", s.collision_seconds},
-                                                  {"hang.broad", s.broad_seconds},
-                                                  {"hang.strain", s.strain_seconds},
-                                                  {"hang.repulsion", s.repulsion_seconds},
-                                                  {"hang.colliders", s.collider_seconds},
-                                                  {"hang.ccd", s.ccd_seconds},
-                                                  {"hang.zones", s.zone_seconds},
-                                                  {"hang.step", s.step_seconds},
-                                                  {"hang.settle", s.settle_seconds},
-                                                  {"hang.measure", s.measure_seconds},
-                                                  {"hang.retry", s.retry_seconds}};
-  for (const auto& [key, seconds] : parts) timing[key] = seconds;
+  for (const HangCostPart& p : kHangCostParts) timing[std::string("hang.") + p.name] = s.*p.seconds;
 }
 
 // Times each stage of an entry into its timing record: wall seconds by stage name, and
