@@ -72,6 +72,9 @@ const ConfigSection<LoopOptions> kUnfoldSection(
       "refine the grasp point with the IR scan (false: the \"no IR refinement\" ablation alone)"},
      {"nonrigid", Ref(&LoopOptions::plan, &PlanOptions::nonrigid), "bool",
       "non-rigid registration after the rigid (false: the \"rigid-only registration\" ablation alone)"},
+     {"verify", Ref(&LoopOptions::verify), "bool",
+      "declare f ≥ ξ only when the hang just sensed supports the held anchor (in recognition's top k) and the "
+      "category (its registration); false: on the belief, as the paper"},
      {"place_flat", Ref(&LoopOptions::place_flat), "bool",
       "lay the garment flat once f ≥ ξ (success is judged before; the placing is a long cloth simulation)"}});
 
@@ -247,6 +250,7 @@ Json OptionsJson(const LoopOptions& lo, int trials, const std::vector<int>& only
           {"refit_absent_penalty", lo.recognise.refit_absent_penalty},
           {"candidates", lo.plan.candidates},
           {"lowest_near_radius_m", lo.plan.lowest.near_radius},
+          {"verify", lo.verify},
           {"place_flat", lo.place_flat}};
 }
 

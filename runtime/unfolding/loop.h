@@ -35,6 +35,11 @@ struct LoopOptions {
   RecogniseOptions recognise;
   PlanOptions plan;
   RegraspOptions regrasp;
+  // Declare f ≥ ξ only when the hang just sensed supports the belief (Trial::Verify: the
+  // held anchor among recognition's top k at its own hang, and that hang's category by
+  // registration the trial's); else the holder lets go and the loop goes on. false: declare
+  // on the belief, as the paper's loop (an ablation).
+  bool verify = true;
   bool place_flat = true;  // lay the garment on the table when f ≥ ξ (cloth core)
   hardware::PlaceFlatOptions place;
   // Evaluation only: unfolded when each gripper pinches within this distance (m, on the
@@ -65,7 +70,14 @@ struct TrialResult {
   // Truth: how far the two pinched points are from a desired pair (DesiredPairDistance,
   // m on the pattern); -1 unless both grippers hold. Unfolded = converged and ≤ success_distance.
   double final_pair_distance = -1;
-  std::string failure;  // why the trial ended early ("" if it ran to the end)
+  // The first step that reached f ≥ ξ on a holder an aimed regrasp placed: where a loop
+  // declaring on the belief alone (LoopOptions::verify false) would have stopped, its
+  // regrasps then and its truth (DesiredPairDistance there, m); -1 if none reached it.
+  int belief_step = -1, belief_regrasps = 0;
+  double belief_pair_distance = -1;
+  bool belief_unfolded = false;  // belief_pair_distance within success_distance
+  int rejected = 0;              // stops the verification held back
+  std::string failure;           // why the trial ended early ("" if it ran to the end)
   std::string final_state;
   TriMesh final_mesh;  // world frame (laid on the table when placed)
   // Placing flat (cloth core) once f ≥ ξ: coverage = top-down silhouette area of the
@@ -111,6 +123,12 @@ int PlanPriorRank(const recognition::Recognition& r, const std::string& aimed, i
 // the holder placed by an aimed regrasp (not the random first grasp, whose anchor is
 // known from recognition alone).
 bool MayStop(const ObjectiveOptions& o, double f, bool holder_regrasped);
+
+// Why the hang a step just sensed does not support the belief a stop at f ≥ ξ stands on
+// ("" when it does): the held anchor was kept by the plan prior beyond recognition's top
+// `top_k` (TrustedAimedEntry), or the hang's own category by registration is not the one
+// the plan stands on (LoopOptions::verify).
+std::string UnsupportedBelief(const Recognised& r, int top_k);
 
 // Index in `r.entries` (the category's entries, best first) of the first entry whose
 // anchor is `aimed` or a symmetry twin of it (the plan prior beyond the top k); -1 if none is,

@@ -121,6 +121,44 @@ TEST(Stop, AtXiOnlyOnARegraspedHolder) {
   EXPECT_FALSE(MayStop(o, 0.19, true));  // a leg's inner corner and the other leg end
 }
 
+TEST(Stop, DeclaresOnlyWhatItsOwnHangSupports) {
+  Recognised r;
+  r.category = "shorts";
+  r.recognition.anchor = "right_leg_outer";
+  r.recognised_anchor = "right_leg_outer";
+  EXPECT_EQ(UnsupportedBelief(r, 3), "");  // recognition's own answer, no category fit (category known)
+  r.category_fit = {{"category", "shorts"}};
+  EXPECT_EQ(UnsupportedBelief(r, 3), "");
+  r.category_fit = {{"category", ""}};  // nothing registered at this hang: nothing against the belief
+  EXPECT_EQ(UnsupportedBelief(r, 3), "");
+  r.category_fit = {{"category", "long_sleeve_shirt"}};
+  EXPECT_EQ(UnsupportedBelief(r, 3),
+            "its own hang fits long_sleeve_shirt best by registration, the plan stands on shorts");
+  r.category_fit = {{"category", "shorts"}};
+  r.recognised_anchor = "waist_center";  // the aimed anchor kept beyond the top 3
+  r.prior_trusted = true;
+  EXPECT_EQ(UnsupportedBelief(r, 3),
+            "its own hang does not rank the held anchor right_leg_outer (or a twin) in its top 3 (recognition: "
+            "waist_center)");
+}
+
+TEST(Report, CountsWhatDecidingOnTheBeliefAloneWouldHaveDeclared) {
+  std::vector<TrialResult> trials(3);
+  trials[0].belief_step = 1, trials[0].belief_regrasps = 2, trials[0].belief_unfolded = true;  // verified there
+  trials[0].converged = trials[0].unfolded = true, trials[0].regrasps = 2;
+  trials[1].belief_step = 1, trials[1].belief_regrasps = 2, trials[1].rejected = 1;  // held back, unfolded later
+  trials[1].converged = trials[1].unfolded = true, trials[1].regrasps = 4;
+  trials[2].belief_step = -1;  // never reached f ≥ ξ on a regrasped holder
+  const TableRow r = Summarise("shorts", "default", trials);
+  EXPECT_EQ(r.unfolded, 2);
+  EXPECT_EQ(r.belief_unfolded, 1);
+  EXPECT_EQ(r.belief_not_unfolded, 1);
+  EXPECT_DOUBLE_EQ(r.belief_regrasps_on_success, 2);
+  EXPECT_EQ(r.rejected, 1);
+  EXPECT_NE(ReportMarkdown({r}).find("| 0 | 1 / 1 / 2.0 | 1 |"), std::string::npos);
+  EXPECT_EQ(ReportJson({r})["rows"][0]["belief_only"]["declared_not_unfolded"], 1);
+}
+
 // Trouser leg ends 40 cm apart on the pattern, and a knee.
 Garment LegEnds() {
   Garment g;
@@ -152,7 +190,7 @@ TEST(Report, CountsTheConvergedTrialsWithinEachDistance) {
   EXPECT_EQ(r.unfolded, 2);
   EXPECT_EQ(r.unfolded_within, (std::array<int, 4>{1, 2, 3, 3}));
   EXPECT_EQ(r.declared_not_unfolded, 2);  // 7 and 20 cm off at f ≥ ξ; the unconverged one is not declared
-  EXPECT_NE(ReportMarkdown({r}).find("| 2 | 1 / 2 / 3 / 3 |"), std::string::npos);
+  EXPECT_NE(ReportMarkdown({r}).find("| 2 | 0 / 0 / – | 0 | 1 / 2 / 3 / 3 |"), std::string::npos);
   EXPECT_EQ(ReportJson({r})["rows"][0]["unfolded_within_m"]["0.08"], 3);
   EXPECT_EQ(ReportJson({r})["rows"][0]["declared_not_unfolded"], 2);
 }

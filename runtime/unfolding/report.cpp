@@ -22,6 +22,11 @@ TableRow Summarise(const std::string& category, const std::string& variant, cons
       r.unfolded_within[i] +=
           t.converged && t.final_pair_distance >= 0 && t.final_pair_distance <= kUnfoldedWithin[i] + 1e-12;
     r.declared_not_unfolded += t.converged && !t.unfolded;
+    r.rejected += t.rejected;
+    if (t.belief_step >= 0) {
+      r.belief_unfolded += t.belief_unfolded, r.belief_not_unfolded += !t.belief_unfolded;
+      if (t.belief_unfolded) r.belief_regrasps_on_success += t.belief_regrasps;
+    }
     if (t.unfolded) {
       ++r.unfolded;
       r.regrasps_on_success += t.regrasps;
@@ -31,6 +36,7 @@ TableRow Summarise(const std::string& category, const std::string& variant, cons
     r.times.registration += t.times.registration, r.times.refinement += t.times.refinement;
   }
   if (r.unfolded) r.regrasps_on_success /= r.unfolded;
+  if (r.belief_unfolded) r.belief_regrasps_on_success /= r.belief_unfolded;
   if (r.placed) r.coverage /= r.placed;
   if (r.trials) r.seconds /= r.trials;
   return r;
@@ -57,19 +63,25 @@ Json ReportJson(const std::vector<TableRow>& rows) {
       std::snprintf(key, sizeof key, "%.2f", kUnfoldedWithin[i]);
       within[key] = r.unfolded_within[i];
     }
-    out["rows"].push_back({{"category", r.category},
-                           {"variant", r.variant},
-                           {"trials", r.trials},
-                           {"successful_recognition", r.recognised},
-                           {"successful_regrasping", r.regrasped},
-                           {"successful_unfolding", r.unfolded},
-                           {"avg_regrasps_success_only", r.unfolded ? Json(r.regrasps_on_success) : Json(nullptr)},
-                           {"unfolded_within_m", within},
-                           {"declared_not_unfolded", r.declared_not_unfolded},
-                           {"placed_flat", r.placed},
-                           {"mean_coverage", r.placed ? Json(r.coverage) : Json(nullptr)},
-                           {"seconds_per_trial", r.seconds},
-                           {"stage_seconds", r.times.ToJson()}});
+    out["rows"].push_back(
+        {{"category", r.category},
+         {"variant", r.variant},
+         {"trials", r.trials},
+         {"successful_recognition", r.recognised},
+         {"successful_regrasping", r.regrasped},
+         {"successful_unfolding", r.unfolded},
+         {"avg_regrasps_success_only", r.unfolded ? Json(r.regrasps_on_success) : Json(nullptr)},
+         {"unfolded_within_m", within},
+         {"declared_not_unfolded", r.declared_not_unfolded},
+         {"verification_rejected", r.rejected},
+         {"belief_only",
+          {{"successful_unfolding", r.belief_unfolded},
+           {"declared_not_unfolded", r.belief_not_unfolded},
+           {"avg_regrasps_success_only", r.belief_unfolded ? Json(r.belief_regrasps_on_success) : Json(nullptr)}}},
+         {"placed_flat", r.placed},
+         {"mean_coverage", r.placed ? Json(r.coverage) : Json(nullptr)},
+         {"seconds_per_trial", r.seconds},
+         {"stage_seconds", r.times.ToJson()}});
   }
   Json paper = Json::array();
   for (const PaperRow& p : kPaper)
@@ -91,26 +103,34 @@ Json ReportJson(const std::vector<TableRow>& rows) {
 std::string ReportMarkdown(const std::vector<TableRow>& rows) {
   std::ostringstream os;
   os << "| garment | variant | # trials | successful recognition | successful regrasping | successful unfolding | "
-        "avg. # regrasps (success only) | declared, not unfolded | unfolded within 4 / 6 / 8 / 10 cm | coverage "
+        "avg. # regrasps (success only) | declared, not unfolded | on the belief alone: unfolded / declared, not / "
+        "regrasps | stops not verified | unfolded within 4 / 6 / 8 / 10 cm | coverage "
         "(placed) | "
         "s / trial |\n"
-     << "|---|---|---|---|---|---|---|---|---|---|---|\n";
+     << "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   char buf[256];
   for (const TableRow& r : rows) {
     char cov[32] = "–", regrasps[32] = "–";
     if (r.placed) std::snprintf(cov, sizeof cov, "%.2f (%d)", r.coverage, r.placed);
     if (r.unfolded) std::snprintf(regrasps, sizeof regrasps, "%.1f", r.regrasps_on_success);  // as the paper's rows
     const auto& w = r.unfolded_within;
+    char belief[64] = "–";
+    if (r.belief_unfolded)
+      std::snprintf(belief, sizeof belief, "%d / %d / %.1f", r.belief_unfolded, r.belief_not_unfolded,
+                    r.belief_regrasps_on_success);
+    else
+      std::snprintf(belief, sizeof belief, "0 / %d / –", r.belief_not_unfolded);
     std::snprintf(buf, sizeof buf,
-                  "| %s | %s | %d | %d/%d | %d/%d | %d/%d | %s | %d | %d / %d / %d / %d | %s | %.0f |\n",
+                  "| %s | %s | %d | %d/%d | %d/%d | %d/%d | %s | %d | %s | %d | %d / %d / %d / %d | %s | %.0f |\n",
                   r.category.c_str(), r.variant.c_str(), r.trials, r.recognised, r.trials, r.regrasped, r.trials,
-                  r.unfolded, r.trials, regrasps, r.declared_not_unfolded, w[0], w[1], w[2], w[3], cov, r.seconds);
+                  r.unfolded, r.trials, regrasps, r.declared_not_unfolded, belief, r.rejected, w[0], w[1], w[2], w[3],
+                  cov, r.seconds);
     os << buf;
   }
-  os << "| **paper (Baxter, average of 7 garments)** | | 10 | 8.3/10 | 8.7/10 | 8.0/10 | 1.6 | – | – | – | |\n";
+  os << "| **paper (Baxter, average of 7 garments)** | | 10 | 8.3/10 | 8.7/10 | 8.0/10 | 1.6 | – | – | – | – | – | |\n";
   for (const PaperRow& p : kPaper) {
-    std::snprintf(buf, sizeof buf, "| paper: %s | | 10 | %d/10 | %d/10 | %d/10 | %.1f | – | – | – | |\n", p.garment,
-                  p.recognised, p.regrasped, p.unfolded, p.regrasps);
+    std::snprintf(buf, sizeof buf, "| paper: %s | | 10 | %d/10 | %d/10 | %d/10 | %.1f | – | – | – | – | – | |\n",
+                  p.garment, p.recognised, p.regrasped, p.unfolded, p.regrasps);
     os << buf;
   }
   return os.str();

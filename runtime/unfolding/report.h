@@ -28,6 +28,12 @@ struct TableRow {
   // not within the success distance of a desired pair: a success the robot would report
   // falsely (issue 45: there must be none).
   int declared_not_unfolded = 0;
+  // The same trials as a loop declaring on the belief alone would have ended them, at the
+  // first f ≥ ξ (TrialResult::belief_step): unfolded, declared but not, and the mean
+  // regrasps of its successes; and the stops the verification held back.
+  int belief_unfolded = 0, belief_not_unfolded = 0;
+  double belief_regrasps_on_success = 0;
+  int rejected = 0;
   int placed = 0;       // trials laid on the table
   double coverage = 0;  // mean coverage over placed trials (0 if none)
   double seconds = 0;   // mean wall seconds per trial

@@ -185,11 +185,24 @@ struct StepTruth {
   } ladder;
 };
 
+// Verify: before both grippers keep hold at f ≥ ξ, whether the hang just sensed (the
+// holder's, this step's observation) supports the belief the plan stands on (Trial::Verify).
+struct Verified {
+  bool checked = false;  // the step reached f ≥ ξ on a holder an aimed regrasp placed
+  bool passed = false;
+  std::string why;  // why not, when checked and not passed
+  // Truth: how far the two pinched points were from a desired pair when it was checked
+  // (DesiredPairDistance, m; -1 unless both held): what a loop declaring on the belief
+  // alone would have reported.
+  double pair_distance = -1;
+};
+
 struct Step {
   Observation observe;
   Recognised recognise;
   Planned plan;
   Regrasped regrasp;
+  Verified verify;
   StepTruth truth;
   std::string note;  // what went differently from the rules ("; " between notes)
 };

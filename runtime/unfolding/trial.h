@@ -59,6 +59,9 @@ class Trial {
   bool Regrasp(Step& s, int free_arm);
   hardware::GripperPose Refine(Step& s, int free_arm);
   void LetGo(Step& s, int free_arm);
+  // loop.cpp: at f ≥ ξ, whether the hang just sensed supports the belief (s.verify);
+  // records the truth of a loop that would have declared here.
+  bool Verify(Step& s, int step);
   // truth.cpp (evaluation only): the step's errors against the simulated garment.
   void MeasureAgainstTruth(Step& s) const;
   void MeasureClosing(Step& s, const hardware::GripperPose& g) const;
