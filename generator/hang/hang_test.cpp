@@ -24,7 +24,18 @@ HangOptions TestOptions() {
   return o;
 }
 
-const Material& Towel() { return *FindMaterialPreset("towel_a"); }
+// The links cloth (B = 0, Bullet's bending links) of towel_a's stretch and friction: at
+// these tests' 4 cm fit edge a 2 cm bending length is under half a row, too short for the
+// cantilever to fit the hinge constant (KINSOL stalls). The presets' hinge hangs are
+// checked at 3.5 cm by the quickstart reference (e2e.quickstart_reference).
+const Material& Towel() {
+  static const Material links = [] {
+    Material m = *FindMaterialPreset("towel_a");
+    m.bending_rigidity = 0;
+    return m;
+  }();
+  return links;
+}
 
 const MaterialFit& TowelFit() {
   static const MaterialFit fit = FitMaterial(Towel(), TestOptions());
@@ -173,7 +184,14 @@ TEST(Material, PresetsArePapersTable) {
   EXPECT_DOUBLE_EQ(FindMaterialPreset("pants")->stretch_percent, 1.7);
   EXPECT_DOUBLE_EQ(FindMaterialPreset("towel_c")->stretch_percent, 1.1);
   EXPECT_EQ(FindMaterialPreset("silk"), nullptr);
-  for (const Material& m : MaterialPresets()) EXPECT_NO_THROW(m.Validate());
+  for (const Material& m : MaterialPresets()) {
+    EXPECT_NO_THROW(m.Validate());
+    // Every preset bends on hinges, with a bending length (B/W)^(1/3) of real apparel
+    // fabric (1.5–4 cm, recipes/README.md "Presets").
+    const double c = std::cbrt(m.bending_rigidity / (m.area_density * 9.81));
+    EXPECT_GT(c, 0.015) << m.name;
+    EXPECT_LT(c, 0.04) << m.name;
+  }
   Material bad = Towel();
   bad.area_density = -1;
   try {

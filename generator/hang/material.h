@@ -26,8 +26,8 @@ struct Material {
   // at 0.08 a towel hung from a corner carried its weight × 7.8 cm at the grip (its
   // centre of mass that far sideways); at 0.02 it hangs within the held patch + 2 cm.
   // Softer still (0.004) lays a towel carried by two corners on the table in a heap
-  // (coverage 0.29 instead of > 0.7). The presets keep the fabrics' order
-  // (jersey < towel < twill < denim).
+  // (coverage 0.29 instead of > 0.7). Unused by the presets: they bend on hinges
+  // (bending_rigidity below; recipes/README.md, "Presets").
   double bending_stiffness = 0.02;
   // Bending rigidity B of one layer, N·m: moment per unit width per unit curvature (KES-FB
   // reports gf·cm²/cm; 1 gf·cm²/cm = 98 µN·m). > 0: hinge bending
@@ -47,7 +47,7 @@ struct Material {
 
 // The paper's measured table (Fig. "garment_stat_fold"), names "tshirt", "jeans",
 // "pants", "towel_a" (large), "towel_b" (medium), "towel_c" (small). Stretch and
-// friction are the paper's; density and bending are typical values for the fabric.
+// friction are the paper's; weight and bending rigidity are measured (recipes/README.md).
 const std::vector<Material>& MaterialPresets();
 // nullptr if unknown.
 const Material* FindMaterialPreset(std::string_view name);
