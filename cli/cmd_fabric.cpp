@@ -94,7 +94,10 @@ int Cantilever(const FabricArgs& a) {
             "\n  bending length c  " + Fmt("%.4f", r.bending_length) + " m (overhang " + Fmt("%.4f", r.overhang) +
             " m, chord " + Fmt("%.1f", r.chord_angle * 180 / std::numbers::pi) + " deg)\n  expected (B/W)^(1/3) " +
             Fmt("%.4f", c0) + " m  from the material's B " + Fmt("%.3g", c.material.bending_rigidity) + " N m and W " +
-            Fmt("%.3g", w) + " N/m^2  (ratio " + Fmt("%.3f", r.bending_length / c0) + ")\n");
+            Fmt("%.3g", w) + " N/m^2  (ratio " + Fmt("%.3f", r.bending_length / c0) + ")\n" +
+            (c.fit.converged ? ""
+                             : "  the constants' fit did not converge: " +
+                                   (c.fit.note.empty() ? "outside its tolerances" : c.fit.note) + "\n"));
   return 0;
 }
 

@@ -15,6 +15,7 @@
 #include <exception>
 #include <functional>
 #include <numbers>
+#include <string>
 
 #include "common/error.h"
 #include "common/format.h"
@@ -126,6 +127,7 @@ struct JointFit {
   Eigen::Vector2d last_u = Eigen::Vector2d::Constant(std::nan("")), last_f;
   int evaluations = 0;
   std::exception_ptr error;
+  std::string kinsol_message;  // KINSOL's last error text (kept for the fit's note, not printed)
   Eigen::Vector2d Eval(const Eigen::Vector2d& u) {
     if (u == last_u) return last_f;
     ++evaluations;
@@ -134,6 +136,14 @@ struct JointFit {
     return last_f;
   }
 };
+
+// KINSOL's errors go into the fit's note, not to stderr (a `--json` caller reads stdout
+// alone, and a build's log would repeat them for every material).
+void KeepKinsolMessage(int /*code*/, const char* /*module*/, const char* /*function*/, char* message, void* data) {
+  std::string m = message;
+  const auto first = m.find_first_not_of(" \n"), last = m.find_last_not_of(" \n");
+  static_cast<JointFit*>(data)->kinsol_message = first == std::string::npos ? "" : m.substr(first, last - first + 1);
+}
 
 int JointResidual(N_Vector u, N_Vector f, void* data) {
   auto* j = static_cast<JointFit*>(data);
@@ -190,6 +200,7 @@ int SolveJointFit(JointFit& j, const Eigen::Vector2d& u0, const Eigen::Vector2d&
   NV_Ith_S(constraints, 1) = 0;
   int flag = KINInit(mem, JointResidual, u);
   flag = flag ? flag : KINSetUserData(mem, &j);
+  flag = flag ? flag : KINSetErrHandlerFn(mem, KeepKinsolMessage, &j);
   flag = flag ? flag : KINSetLinearSolver(mem, LS, J);
   flag = flag ? flag : KINSetJacFn(mem, JointJacobian);
   flag = flag ? flag : KINSetFuncNormTol(mem, 1.0);
@@ -267,6 +278,7 @@ void FitStretchAndBending(const Material& material, const HangOptions& options, 
   if (!fit.converged && status < 0) {
     if (!fit.note.empty()) fit.note += "; ";
     fit.note += "KINSOL stopped with flag " + std::to_string(status);
+    if (!j.kinsol_message.empty()) fit.note += ": " + j.kinsol_message;
   }
 }
 
