@@ -33,6 +33,18 @@ int Guarded(const std::string& name, std::ostream& err, F&& run) {
   }
 }
 
+// CLI11's message for a failed parse. Its leftover-argument message (2.1.2) joins the
+// leftovers last first (it expects them as parse() takes them): they are named here in
+// the order they were given.
+std::string ParseMessage(const CLI::App& app, const CLI::ParseError& e) {
+  const std::vector<std::string> extras = app.remaining(true);
+  if (!dynamic_cast<const CLI::ExtrasError*>(&e) || extras.empty()) return e.what();
+  std::string m =
+      extras.size() > 1 ? "The following arguments were not expected:" : "The following argument was not expected:";
+  for (const std::string& a : extras) m += " " + a;
+  return m;
+}
+
 }  // namespace
 
 DrapeApp MakeApp() {
@@ -78,7 +90,7 @@ int RunDrape(const std::vector<std::string>& args, std::ostream& out, std::ostre
     out << VersionLine() << "\n";
     return 0;
   } catch (const CLI::ParseError& e) {
-    err << "drape" << (name.empty() ? "" : " " + name) << ": " << e.what() << " (see drape " << name
+    err << "drape" << (name.empty() ? "" : " " + name) << ": " << ParseMessage(*d.app, e) << " (see drape " << name
         << (name.empty() ? "" : " ") << "--help)\n";
     return 1;
   }

@@ -155,6 +155,17 @@ TEST_F(Commands, AnUndeclaredFlagFailsNamingIt) {
   }
 }
 
+TEST_F(Commands, LeftoverArgumentsAreNamedInTheOrderGiven) {
+  const Outcome one = Drape({"info", "release", "first", "second", "third"});
+  EXPECT_EQ(one.status, 1);
+  EXPECT_NE(one.err.find("not expected: first second third (see drape info --help)"), std::string::npos) << one.err;
+  const Outcome top = Drape({"no-such-command", "another"});
+  EXPECT_EQ(top.status, 1);
+  EXPECT_NE(top.err.find("not expected: no-such-command another (see"), std::string::npos) << top.err;
+  const Outcome single = Drape({"info", "release", "extra"});
+  EXPECT_NE(single.err.find("argument was not expected: extra (see"), std::string::npos) << single.err;
+}
+
 TEST_F(Commands, ANegativeSeedAndACountBelowItsRangeFailNamingTheOption) {
   int seeds = 0, counts = 0;
   for (const Leaf& l : leaves_) {
