@@ -7,9 +7,9 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <limits>
 #include <memory>
 #include <mutex>
-#include <sstream>
 
 #include "cli/command.h"
 #include "cli/config.h"
@@ -79,7 +79,8 @@ const ConfigSection<LoopOptions> kUnfoldSection(
       "lay the garment flat once f ≥ ξ (success is judged before; the placing is a long cloth simulation)"}});
 
 struct UnfoldArgs {
-  std::string release, category, only, output, weights, config;
+  std::string release, category, output, weights, config;
+  std::vector<int> only;  // --only, 1-based as given
   int trials = 10, jobs = 1;
   uint64_t seed = 1;
   bool ablations = false, no_figures = false, dump_meshes = false;
@@ -208,25 +209,15 @@ TableRow RunTrials(const ReleaseModel& model, const Variant& v, const std::strin
   return Summarise(c, v.name, results);
 }
 
-// --only K,K,...: 0-based trial indices, each in 1..trials as given; empty: all.
-std::vector<int> OnlyTrials(const std::string& list, int trials) {
+// --only K,K,... (CLI11 has checked each is an integer >= 1): 0-based trial indices, each
+// K at most --trials, in the order given, each once; empty: all.
+std::vector<int> OnlyTrials(const std::vector<int>& given, int trials) {
   std::vector<int> ks;
-  if (list.empty()) return ks;
-  std::string item;
-  std::istringstream is(list);
-  while (std::getline(is, item, ',')) {
-    size_t used = 0;
-    int k = 0;
-    try {
-      k = std::stoi(item, &used);
-    } catch (const std::exception&) {
-      used = 0;
-    }
-    if (used == 0 || used != item.size() || k < 1 || k > trials)
-      throw Error("--only: '" + item + "' is not a trial number in 1.." + std::to_string(trials));
+  for (int k : given) {
+    if (k > trials)
+      throw Error("--only: '" + std::to_string(k) + "' is not a trial number in 1.." + std::to_string(trials));
     if (std::find(ks.begin(), ks.end(), k - 1) == ks.end()) ks.push_back(k - 1);
   }
-  if (ks.empty()) throw Error("--only: no trial given");
   return ks;
 }
 
@@ -305,7 +296,10 @@ Runner Setup(CLI::App& app) {
   AddCount(app, "--trials", a->trials, "trials per category");
   app.add_option("--only", a->only,
                  "run only these of the N trials (1-based; each with the seed it has in the full run)")
-      ->type_name("K,K,...");
+      ->type_name("K,K,...")
+      ->delimiter(',')
+      ->allow_extra_args(false)  // one K,K,... per --only: RELEASE after it stays the release
+      ->check(IntegerIn(1, std::numeric_limits<int>::max()));
   AddSeed(app, a->seed, "trial seeds derive from S, the category and the trial");
   AddOutput(app, a->output,
             "write <category>/trial_<k>/{trace.json, *.png} and report.md/.json into this folder; a garment "

@@ -66,4 +66,5 @@ bad_setting refit_absent_penalty -0.5 "must be >= 0"
 bad_setting lowest_near_radius 0.5 "must be in \[0, 0.5) m"
 bad_setting frame 36 "unknown key (did you mean 'frames'?)"
 expect_error "\-\-only: '3' is not a trial number in 1..2" --weights "$w" --category towel --trials 2 --only 1,3
-expect_error "\-\-only: 'x' is not a trial number" --weights "$w" --category towel --only x
+expect_error "\-\-only: 'x' is not an integer >= 1" --weights "$w" --category towel --only x
+expect_error "\-\-only: '0' is not an integer >= 1" --weights "$w" --category towel --only 2,0
