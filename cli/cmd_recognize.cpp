@@ -25,6 +25,7 @@
 #include "runtime/recognition/miss_curve.h"
 #include "runtime/recognition/registration_eval.h"
 #include "runtime/recognition/release_query.h"
+#include "runtime/recognition/release_recipe.h"
 #include "runtime/recognition/release_source.h"
 
 namespace drape::cli {
@@ -511,9 +512,9 @@ class SplitEvals {
 
 // The ablation ladder: every rung's split evaluated like the evaluated split, the table
 // into res.report["ladder"], figures into the report folder.
-void RunLadder(const Release& rel, const Database& db, SplitEvals& evals, EvalResult& res,
-               const std::optional<std::string>& dir) {
-  const std::vector<LadderRung> rungs = LadderRungs(rel);
+void RunLadder(const Release& rel, const std::optional<Recipe>& recipe, const Database& db, SplitEvals& evals,
+               EvalResult& res, const std::optional<std::string>& dir) {
+  const std::vector<LadderRung> rungs = recipe ? LadderRungs(rel, *recipe) : std::vector<LadderRung>{};
   if (rungs.empty()) throw Error("eval --ladder: the release's recipe has no test_<rung> split with entries");
   std::vector<LadderResult> results;
   for (const LadderRung& rung : rungs) {
@@ -528,13 +529,15 @@ void RunLadder(const Release& rel, const Database& db, SplitEvals& evals, EvalRe
 
 // The miss curve (recipes with `miss_curve`) into res.report["miss_curve"], the test
 // split as its headline when it is the evaluated split.
-void RunMissCurve(const Release& rel, SplitEvals& evals, const std::string& split, EvalResult& res) {
-  const std::vector<MissLevel> levels = MissCurveLevels(rel);
+void RunMissCurve(const Release& rel, const std::optional<Recipe>& recipe, SplitEvals& evals, const std::string& split,
+                  EvalResult& res) {
+  if (!recipe) return;
+  const std::vector<MissLevel> levels = MissCurveLevels(rel, *recipe);
   if (levels.empty()) return;
   std::vector<MissPoint> points;
   for (const MissLevel& l : levels)
     if (const EvalResult* r = evals.Get(l.split)) points.push_back({l, *r});
-  res.report["miss_curve"] = MissCurveTable(split == "test" ? &res : nullptr, DescribeTestSplit(rel), points);
+  res.report["miss_curve"] = MissCurveTable(split == "test" ? &res : nullptr, DescribeTestSplit(*recipe), points);
 }
 
 // The category by registration and its selection into res.report.
@@ -606,8 +609,9 @@ int RunEval(const EvalArgs& a) {
     res.report["registration"] = rr.table;
   }
   SplitEvals evals(rel, db, wp, eo, split, res);
-  RunMissCurve(rel, evals, split, res);
-  if (a.ladder) RunLadder(rel, db, evals, res, report_dir);
+  const std::optional<Recipe> recipe = ReleaseRecipe(rel);  // nullopt: the release records no recipe
+  RunMissCurve(rel, recipe, evals, split, res);
+  if (a.ladder) RunLadder(rel, recipe, db, evals, res, report_dir);
   RunCategoryFit(a, knobs, fit, rel, db, wp, queries, res);
   if (report_dir) WriteReport(res, header, *report_dir);
   if (a.json) {

@@ -36,10 +36,7 @@ bool OnlyTrainInstances(const Recipe& r, const SplitSpec& s) {
 
 }  // namespace
 
-std::vector<LadderRung> LadderRungs(const Release& release) {
-  const std::optional<Recipe> recipe = ReleaseRecipe(release);
-  if (!recipe) return {};
-  const Recipe& r = *recipe;
+std::vector<LadderRung> LadderRungs(const Release& release, const Recipe& r) {
   std::set<std::string> present;
   for (const auto& e : release.entries()) present.insert(e.split);
   std::vector<LadderRung> same, other;

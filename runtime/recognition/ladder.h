@@ -15,6 +15,10 @@
 #include "generator/release/release.h"
 #include "runtime/recognition/evaluate.h"
 
+namespace drape {
+struct Recipe;
+}
+
 namespace drape::recognition {
 
 struct LadderRung {
@@ -25,8 +29,9 @@ struct LadderRung {
 
 // The rungs of the release's recipe that have entries, in ladder order: test_<rung>
 // splits selecting only train instances (recipe order), test, then the other
-// test_<rung> splits. Empty when the recipe has no test_<rung> split.
-std::vector<LadderRung> LadderRungs(const Release& release);
+// test_<rung> splits. Empty when the recipe has no test_<rung> split. `recipe`: the
+// release's (ReleaseRecipe, parsed once by the caller).
+std::vector<LadderRung> LadderRungs(const Release& release, const Recipe& recipe);
 
 struct LadderResult {
   LadderRung rung;

@@ -37,23 +37,19 @@ Json Row(const EvalResult& eval, const std::string& split, const Json& miss_mm, 
 
 }  // namespace
 
-std::vector<MissLevel> MissCurveLevels(const Release& release) {
+std::vector<MissLevel> MissCurveLevels(const Release& release, const Recipe& recipe) {
   if (!HasMissSplits(release)) return {};
-  const std::optional<Recipe> recipe = ReleaseRecipe(release);
-  if (!recipe) return {};
   std::set<std::string> present;
   for (const auto& e : release.entries()) present.insert(e.split);
   std::vector<MissLevel> out;
-  for (const SplitSpec& s : recipe->splits)
+  for (const SplitSpec& s : recipe.splits)
     if (s.miss_level >= 0 && present.count(s.name)) out.push_back({s.name, s.miss_level, DescribeSplit(s)});
   std::sort(out.begin(), out.end(), [](const MissLevel& a, const MissLevel& b) { return a.miss_m < b.miss_m; });
   return out;
 }
 
-std::string DescribeTestSplit(const Release& release) {
-  const std::optional<Recipe> recipe = ReleaseRecipe(release);
-  if (!recipe) return "";
-  for (const SplitSpec& s : recipe->splits)
+std::string DescribeTestSplit(const Recipe& recipe) {
+  for (const SplitSpec& s : recipe.splits)
     if (s.name == "test") return DescribeSplit(s);
   return "";
 }

@@ -12,6 +12,10 @@
 #include "generator/release/release.h"
 #include "runtime/recognition/evaluate.h"
 
+namespace drape {
+struct Recipe;
+}
+
 namespace drape::recognition {
 
 struct MissLevel {
@@ -20,13 +24,13 @@ struct MissLevel {
   std::string differs;  // the split's sensing and perturbation in words
 };
 
-// The levels of the release's recipe that have entries, ascending; empty when the
-// recipe has no miss curve (or the release no recipe text).
-std::vector<MissLevel> MissCurveLevels(const Release& release);
+// The levels of the release's recipe (ReleaseRecipe, parsed once by the caller) that
+// have entries, ascending; empty when the recipe has no miss curve.
+std::vector<MissLevel> MissCurveLevels(const Release& release, const Recipe& recipe);
 
 // How the recipe's test split differs from a database entry (for the headline row); ""
 // when the recipe has no test split.
-std::string DescribeTestSplit(const Release& release);
+std::string DescribeTestSplit(const Recipe& recipe);
 
 struct MissPoint {
   MissLevel level;

@@ -1,5 +1,5 @@
 // The recipe a release records (dataset.json "recipe"), as the eval's split tables read
-// it: internal to drape_recognition (the recipe library is a private dependency).
+// it (`drape eval` parses it once and hands it to the miss curve's and the ladder's).
 #pragma once
 
 #include <optional>
