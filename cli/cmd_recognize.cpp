@@ -609,7 +609,9 @@ int RunEval(const EvalArgs& a) {
     res.report["registration"] = rr.table;
   }
   SplitEvals evals(rel, db, wp, eo, split, res);
-  const std::optional<Recipe> recipe = ReleaseRecipe(rel);  // nullopt: the release records no recipe
+  // The recipe only when a table needs it: an older release's recipe may not parse today.
+  std::optional<Recipe> recipe;
+  if (a.ladder || HasMissSplits(rel)) recipe = ReleaseRecipe(rel);  // nullopt: the release records none
   RunMissCurve(rel, recipe, evals, split, res);
   if (a.ladder) RunLadder(rel, recipe, db, evals, res, report_dir);
   RunCategoryFit(a, knobs, fit, rel, db, wp, queries, res);

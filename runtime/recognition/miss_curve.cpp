@@ -11,13 +11,13 @@
 
 namespace drape::recognition {
 
-namespace {
-
 bool HasMissSplits(const Release& release) {
   for (const auto& e : release.entries())
     if (e.split.rfind("test_miss_", 0) == 0) return true;
   return false;
 }
+
+namespace {
 
 // One category's figures of an eval result: {queries, strict, twin_credited, category_accuracy}.
 Json Figures(const Json& c) {

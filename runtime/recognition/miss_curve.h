@@ -24,6 +24,9 @@ struct MissLevel {
   std::string differs;  // the split's sensing and perturbation in words
 };
 
+// Whether the release has entries in a test_miss_<mm>mm split (then its recipe is read).
+bool HasMissSplits(const Release& release);
+
 // The levels of the release's recipe (ReleaseRecipe, parsed once by the caller) that
 // have entries, ascending; empty when the recipe has no miss curve.
 std::vector<MissLevel> MissCurveLevels(const Release& release, const Recipe& recipe);
