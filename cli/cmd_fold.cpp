@@ -203,6 +203,10 @@ FoldInputs SetUpFold(const FoldArgs& args) {
     std::printf("  kLST %.3f (reproduces %.2f %%), mu %.3f (slides at %.2f deg) in %.1f s\n", in.fit.stiffness,
                 in.fit.reproduced_stretch_percent, in.fit.friction, in.fit.reproduced_friction_deg,
                 in.fit.wall_seconds);
+    if (material->bending_rigidity > 0)  // hinge bending: the constant the cantilever fitted, and how well
+      std::printf("  hinge constant %.2f (bending length %.2f cm, target %.2f)%s\n", in.fit.bending_scale,
+                  100 * in.fit.reproduced_bending_length, 100 * in.fit.target_bending_length,
+                  in.fit.converged ? "" : "; the fit did not converge");
     std::fflush(stdout);
   }
   if (k) in.fit.stiffness = *k;
