@@ -17,6 +17,7 @@
 # Safe to run again: packages already present are skipped, the build is incremental.
 set -euo pipefail
 cd "$(dirname "$0")"
+. tools/ccache_launcher.sh
 
 BUILD_DIR=${DRAPE_BUILD_DIR:-build}
 JOBS=${DRAPE_JOBS:-$(nproc)}
@@ -119,15 +120,9 @@ install_python_path() {
 build() {
   install_viewer
   # ccache, when the machine has it, makes a rebuild after a branch switch cheap, and a
-  # second clone's build too: base_dir (this checkout) turns the paths on every compile
-  # line into relative ones and hash_dir off leaves the build folder's path out, so the
-  # commands are the same in every clone. (fuzz/sanitize_env.sh does the same.)
-  local launcher=() l
-  if command -v ccache >/dev/null; then
-    l="env;CCACHE_BASEDIR=$(pwd);CCACHE_NOHASHDIR=1;ccache"
-    launcher=("-DCMAKE_CXX_COMPILER_LAUNCHER=$l" "-DCMAKE_C_COMPILER_LAUNCHER=$l")
-  fi
-  cmake -S . -B "$BUILD_DIR" -G Ninja -DCMAKE_BUILD_TYPE=Release "${launcher[@]}"
+  # second clone's build too (tools/ccache_launcher.sh).
+  ccache_launcher
+  cmake -S . -B "$BUILD_DIR" -G Ninja -DCMAKE_BUILD_TYPE=Release "${DRAPE_LAUNCHER[@]}"
   cmake --build "$BUILD_DIR" -j "$JOBS"
   install_python_path
 }

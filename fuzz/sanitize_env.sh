@@ -19,16 +19,13 @@ export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1:detect_stack
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
 
 san_configure() {
-  # ccache with the paths of every compile line relative to this checkout, as in
-  # setup.sh's build(): another clone's build finds these objects.
-  local launcher=() l
-  if command -v ccache >/dev/null; then
-    l="env;CCACHE_BASEDIR=$(pwd);CCACHE_NOHASHDIR=1;ccache"
-    launcher=("-DCMAKE_CXX_COMPILER_LAUNCHER=$l" "-DCMAKE_C_COMPILER_LAUNCHER=$l")
-  fi
+  # ccache with the paths of every compile line relative to this checkout
+  # (tools/ccache_launcher.sh): another clone's build finds these objects.
+  . tools/ccache_launcher.sh
+  ccache_launcher
   cmake -S . -B "$SAN_BUILD_DIR" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
     -DCMAKE_C_COMPILER=clang-14 -DCMAKE_CXX_COMPILER=clang++-14 \
     -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O1 $SAN_FLAGS" -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 $SAN_FLAGS" \
     -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=address,undefined" -DCMAKE_SHARED_LINKER_FLAGS="-fsanitize=address,undefined" \
-    -DDRAPE_BUILD_BENCH=OFF -DDRAPE_BUILD_PYTHON=OFF -DDRAPE_BUILD_FUZZ=ON "${launcher[@]}" >/dev/null
+    -DDRAPE_BUILD_BENCH=OFF -DDRAPE_BUILD_PYTHON=OFF -DDRAPE_BUILD_FUZZ=ON "${DRAPE_LAUNCHER[@]}" >/dev/null
 }
