@@ -3,6 +3,7 @@
 Environment (CTest sets these; defaults suit a run from the repository root):
   DRAPE             the drape binary (default build/bin/drape)
   DRAPE_TEST_WORK   scratch folder (default build/python_tests)
+  DRAPE_GALLERY_3D  0 when the binary has no 3D view (test_gallery3d.py then skips)
 """
 
 import os
