@@ -26,7 +26,7 @@ struct Leaf {
 };
 
 // Every command that runs: the subcommands without subcommands of their own.
-void CollectLeaves(CLI::App* app, std::vector<std::string> path, std::vector<Leaf>& out) {
+void CollectLeaves(CLI::App* app, const std::vector<std::string>& path, std::vector<Leaf>& out) {
   const std::vector<CLI::App*> subs = app->get_subcommands([](CLI::App*) { return true; });
   if (subs.empty() && !path.empty()) {
     out.push_back({path, app});

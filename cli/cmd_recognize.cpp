@@ -153,7 +153,7 @@ const ConfigSection<CalibrateKnobs> kCalibrateSection(
 // --weights PATH | none (default: the release's calibration if present): the weights
 // loaded into `w` (or none) and their path (empty = unweighted).
 fs::path LoadWeightsFor(const Release& rel, const std::string& spec, std::optional<Weights>& w) {
-  const fs::path p = ResolveWeightsPath(rel, spec);
+  fs::path p = ResolveWeightsPath(rel, spec);
   if (!p.empty()) w = LoadWeights(p, rel.digest());
   return p;
 }
