@@ -21,6 +21,7 @@
 #include "runtime/recognition/calibrate.h"
 #include "runtime/recognition/category_fit.h"
 #include "runtime/recognition/evaluate.h"
+#include "runtime/recognition/k_curve.h"
 #include "runtime/recognition/ladder.h"
 #include "runtime/recognition/miss_curve.h"
 #include "runtime/recognition/registration_eval.h"
@@ -470,6 +471,8 @@ const char* kEvalFooter =
     "transfer error) and the category by registration beside the nearest neighbour's (~4 CPU-s\n"
     "per query). A recipe with a miss curve (splits test_miss_<mm>mm) adds its table: strict and\n"
     "twin-credited pose accuracy per category at each grasp miss, beside the test split.\n"
+    "A release with hangs_per_anchor K > 1 adds the K curve: the same figures with a database\n"
+    "of each anchor's first K' hangs, K' = 1, 2, 4, ... and K.\n"
     "--ladder adds the same tables on every test_<rung> split of the recipe\n"
     "(e.g. recipes/quickstart_ladder.yaml) and figures of the worst confusions.";
 
@@ -613,6 +616,8 @@ int RunEval(const EvalArgs& a) {
   std::optional<Recipe> recipe;
   if (a.ladder || HasMissSplits(rel)) recipe = ReleaseRecipe(rel);  // nullopt: the release records none
   RunMissCurve(rel, recipe, evals, split, res);
+  if (HangsPerAnchor(db) > 1)
+    res.report["k_curve"] = KCurveTable(KCurvePoints(db, wp, queries, AnchorUvs(rel), eo, res));
   if (a.ladder) RunLadder(rel, recipe, db, evals, res, report_dir);
   RunCategoryFit(a, knobs, fit, rel, db, wp, queries, res);
   if (report_dir) WriteReport(res, header, *report_dir);

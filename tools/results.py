@@ -120,6 +120,7 @@ def eval_rows(doc, path):
         rows.append((f"pose accuracy, {label}: strict / twin credited ({field(cat, path, ['queries'])} test queries)",
                      f"{pct(strict)} / {pct(twin)}", pct(paper.get("both"))))
     rows += miss_curve_rows(doc, path)
+    rows += k_curve_rows(doc, path)
     overall = field(doc, path, ["overall"])
     nn = field(overall, path, ["category_accuracy"])
     fit = doc.get("category_fit")
@@ -145,6 +146,18 @@ def eval_rows(doc, path):
     return rows
 
 
+def curve_cells(level, path):
+    """A miss or K curve level's "all" figures and its cell: all categories strict / twin
+    credited, then each category strict."""
+    cats = field(level, path, ["categories"])
+    every = field(cats, path, ["all"])
+    strict = learned_or_unweighted(field(every, path, ["strict"]))
+    twin = learned_or_unweighted(field(every, path, ["twin_credited"]))
+    per = ", ".join(f"{category_name(c)} {pct(learned_or_unweighted(field(f, path, ['strict'])))}"
+                    for c, f in cats.items() if c != "all")
+    return every, f"{pct(strict)} / {pct(twin)} ({per})"
+
+
 def miss_curve_rows(doc, path):
     """The protocol the pose rows were measured at, and the eval's miss curve (when its
     release's recipe has one): all categories strict / twin credited, each category strict."""
@@ -157,15 +170,27 @@ def miss_curve_rows(doc, path):
         rows.append(("test protocol of the pose rows above", field(head, path, ["differs"]),
                      "real garments, grasped at the anchors (no miss stated)"))
     for level in field(curve, path, ["levels"]):
-        cats = field(level, path, ["categories"])
-        every = field(cats, path, ["all"])
-        strict = learned_or_unweighted(field(every, path, ["strict"]))
-        twin = learned_or_unweighted(field(every, path, ["twin_credited"]))
-        per = ", ".join(f"{category_name(c)} {pct(learned_or_unweighted(field(f, path, ['strict'])))}"
-                        for c, f in cats.items() if c != "all")
+        every, cells = curve_cells(level, path)
         rows.append((f"miss curve, grasp {field(level, path, ['miss_mm'])} mm from the anchor: strict / twin "
                      f"credited, all ({field(every, path, ['queries'])} queries; strict per category)",
-                     f"{pct(strict)} / {pct(twin)} ({per})", "–"))
+                     cells, "–"))
+    return rows
+
+
+def k_curve_rows(doc, path):
+    """The eval's K curve (releases with hangs_per_anchor K > 1): all categories strict / twin
+    credited at each K' hangs per anchor in the database, each category strict."""
+    curve = doc.get("k_curve")
+    if not curve:
+        return []
+    rows = []
+    for level in field(curve, path, ["levels"]):
+        every, cells = curve_cells(level, path)
+        k = field(level, path, ["hangs"])
+        rows.append((f"K curve, {k} hang{'' if k == 1 else 's'} per anchor "
+                     f"({field(level, path, ['database_entries'])} database entries): strict / twin credited, all "
+                     f"({field(every, path, ['queries'])} queries; strict per category)",
+                     cells, "–"))
     return rows
 
 

@@ -11,6 +11,7 @@
 #include "common/error.h"
 #include "common/files.h"
 #include "runtime/recognition/evaluate.h"
+#include "runtime/recognition/k_curve.h"
 #include "runtime/recognition/ladder.h"
 #include "runtime/recognition/miss_curve.h"
 #include "runtime/recognition/report_format.h"
@@ -230,6 +231,7 @@ std::string ReportMarkdown(const Json& r) {
 
   md << PoseTableMarkdown(r, rows);
   if (r.contains("miss_curve") && r["miss_curve"].is_object()) md << "\n" << MissCurveMarkdown(r["miss_curve"]);
+  if (r.contains("k_curve") && r["k_curve"].is_object()) md << "\n" << KCurveMarkdown(r["k_curve"]);
   md << "\n## Category, end to end, top-" << r["top_k"].get<int>() << ", grasp-point error\n\n"
      << "Category by the unweighted nearest neighbour over the whole database (and, beside it, by "
         "registration when `--category-fit` ran: section below); end to end = right "

@@ -19,20 +19,11 @@ bool HasMissSplits(const Release& release) {
 
 namespace {
 
-// One category's figures of an eval result: {queries, strict, twin_credited, category_accuracy}.
-Json Figures(const Json& c) {
-  const Json none{{"unweighted", nullptr}, {"learned", nullptr}};
-  return {{"queries", c["queries"]},
-          {"strict", c["pose_accuracy"]["both"]},
-          {"twin_credited", c.value("pose_accuracy_twin_credited", none)},
-          {"category_accuracy", c["category_accuracy"]}};
-}
-
 Json Row(const EvalResult& eval, const std::string& split, const Json& miss_mm, const std::string& differs) {
-  Json cats = Json::object();
-  for (const Json& c : eval.report["categories"]) cats[c["category"].get<std::string>()] = Figures(c);
-  cats["all"] = Figures(eval.report["overall"]);
-  return {{"split", split}, {"miss_mm", miss_mm}, {"differs", differs}, {"categories", cats}};
+  return {{"split", split},
+          {"miss_mm", miss_mm},
+          {"differs", differs},
+          {"categories", CurveFiguresByCategory(eval.report)}};
 }
 
 }  // namespace
@@ -63,26 +54,12 @@ Json MissCurveTable(const EvalResult* headline, const std::string& headline_diff
           {"levels", levels}};
 }
 
-namespace {
-
-// "strict / twin credited" of the runtime's distance: learned where the category has
-// weights, else unweighted.
-std::string Cell(const Json& f) {
-  const char* m = f["strict"]["learned"].is_null() ? "unweighted" : "learned";
-  return PercentCell(f["strict"][m]) + " / " + PercentCell(f["twin_credited"][m]);
-}
-
-}  // namespace
-
 std::string MissCurveMarkdown(const Json& table) {
   std::vector<Json> rows;
   if (!table["headline"].is_null()) rows.push_back(table["headline"]);
   for (const Json& r : table["levels"]) rows.push_back(r);
   if (rows.empty()) return "";
-  std::vector<std::string> cats;
-  for (const auto& [cat, f] : rows.front()["categories"].items())
-    if (cat != "all") cats.push_back(cat);
-  cats.push_back("all");
+  const std::vector<std::string> cats = CurveColumns(rows.front()["categories"]);
   std::ostringstream md;
   md << "## Miss curve (pose accuracy strict / twin credited, both database instances, category known)\n\n"
      << "The test split's garments with the grasp exactly this far from the anchor (one direction per anchor, "
@@ -99,8 +76,7 @@ std::string MissCurveMarkdown(const Json& table) {
        << (r["miss_mm"].is_null() ? "test (" + r["differs"].get<std::string>() + ")"
                                   : std::to_string(r["miss_mm"].get<int>()) + " mm")
        << " | " << all["queries"].get<int>() << " |";
-    for (const auto& c : cats) md << " " << (r["categories"].contains(c) ? Cell(r["categories"][c]) : "—") << " |";
-    md << " " << PercentCell(all["category_accuracy"]) << " |\n";
+    md << CurveCells(r["categories"], cats);
   }
   return md.str();
 }

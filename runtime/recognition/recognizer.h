@@ -45,6 +45,7 @@ struct EntryLabel {
   std::optional<Vec2> anchor_uv;    // anchor on the flat pattern (metres), if known
   std::optional<Vec3> anchor_hung;  // anchor vertex on the hung mesh (object frame, metres)
   double height = 0;                // hung height: the reconstruction's y extent (m), 0 unknown
+  int hang = 0;                     // which of the anchor's hangs (record "hang_index"; 0 = the anchor's own)
 };
 
 struct LabelledCode {

@@ -33,6 +33,11 @@ EntryLabel LabelFromEntry(const Release::EntryInfo& e) {
   if (a.contains("uv") && a["uv"].is_array() && a["uv"].size() == 2) {
     l.anchor_uv = Vec2(a["uv"][0].get<double>(), a["uv"][1].get<double>());
   }
+  if (r.contains("hang_index")) {  // hangs 1..K−1 of `hangs_per_anchor: K`; absent for hang 0
+    if (!r["hang_index"].is_number_integer() || r["hang_index"].get<int>() < 1)
+      throw Error("entry " + e.id + ": record \"hang_index\" is not an integer ≥ 1");
+    l.hang = r["hang_index"].get<int>();
+  }
   return l;
 }
 
