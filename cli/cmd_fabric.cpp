@@ -55,8 +55,8 @@ LabCloth Cloth(const FabricArgs& a) {
   LabCloth c;
   c.material = FindMaterial(a);
   c.hang.fit_edge_length = a.edge;
+  c.hang.fit_hinge_constant = a.hinge_constant;  // > 0: kLST fitted alone with this C
   c.fit = FitMaterial(c.material, c.hang);
-  if (a.hinge_constant > 0) c.fit.bending_scale = a.hinge_constant;
   c.fit.cloth_friction = c.material.FrictionCoefficient();
   return c;
 }
@@ -114,7 +114,8 @@ int Drape(const FabricArgs& a) {
     folds.push_back(run.folds);
     per_seed += "  seed " + std::to_string(run.seed) + ": coefficient " + Fmt("%.3f", run.coefficient) + ", " +
                 std::to_string(run.folds) + " folds" + (run.failure.empty() ? "" : ", failed: " + run.failure) +
-                (run.settled ? "" : ", not settled") + "\n";
+                (run.settled ? ", settled" : ", not settled") + " after " + Fmt("%.2f", run.sim_time) +
+                " s (last window's largest move " + Fmt("%.2g", 1e3 * run.motion) + " mm)\n";
   }
   Print(a, {{"drape_coefficient", r.drape_coefficient}, {"folds", folds}},
         "Cusick drape (BS 5058, 30 cm on an 18 cm disc), " + c.material.name + ", edge " + Fmt("%.3g", a.edge) +

@@ -122,5 +122,22 @@ TEST(Cantilever, FitMaterialReproducesStretchAndBendingLength) {
   EXPECT_NEAR(r.bending_length / c, 1, o.fit_bending_tolerance);
 }
 
+// A given hinge constant is kept: FitMaterial fits kLST alone (secant on the strip, no
+// cantilever runs), so the stretch converges and no bending length is reproduced.
+TEST(Cantilever, FitMaterialKeepsAGivenHingeConstant) {
+  const Material m = *FindMaterialPreset("tshirt");
+  HangOptions o;
+  o.fit_hinge_constant = 1.0;
+  const MaterialFit fit = FitMaterial(m, o);
+  EXPECT_TRUE(fit.converged) << fit.note;
+  EXPECT_EQ(fit.bending_scale, 1.0);
+  EXPECT_NEAR(fit.reproduced_stretch_percent, m.stretch_percent, o.fit_tolerance_percent * (1 + 1e-9));
+  EXPECT_EQ(fit.reproduced_bending_length, 0.0);
+  EXPECT_NEAR(fit.target_bending_length, std::cbrt(m.bending_rigidity / (m.area_density * 9.81)), 1e-12);
+  EXPECT_LE(fit.iterations, o.fit_max_iterations);
+  o.fit_hinge_constant = -1;
+  EXPECT_THROW(o.Validate(), Error);
+}
+
 }  // namespace
 }  // namespace drape

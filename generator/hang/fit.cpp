@@ -341,10 +341,15 @@ MaterialFit FitMaterial(const Material& material, const HangOptions& options) {
   MaterialFit fit;
   fit.target_stretch_percent = material.stretch_percent;
   fit.target_friction_deg = material.friction_deg;
-  if (material.bending_rigidity > 0)
-    FitStretchAndBending(material, options, fit);
-  else
+  if (material.bending_rigidity > 0 && options.fit_hinge_constant > 0) {
+    fit.bending_scale = options.fit_hinge_constant;  // given: kLST alone, no cantilever
+    fit.target_bending_length = std::cbrt(material.bending_rigidity / (material.area_density * 9.81));
     FitStiffness(material, options, fit);
+  } else if (material.bending_rigidity > 0) {
+    FitStretchAndBending(material, options, fit);
+  } else {
+    FitStiffness(material, options, fit);
+  }
 
   // Friction: bisection on μ at the measured angle θ (the square stays with μ ≥ μ*,
   // slides below), bracket [½ tan θ, 2 tan θ]; then the angle it starts to slide at with

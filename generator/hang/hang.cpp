@@ -47,6 +47,8 @@ void HangOptions::Validate() const {
   if (!(fit_tolerance_percent > 0)) bad(fit_tolerance_percent, "fit_tolerance_percent", "must be > 0");
   if (!(fit_bending_tolerance > 0 && fit_bending_tolerance < 0.5))
     bad(fit_bending_tolerance, "fit_bending_tolerance", "must be in (0, 0.5)");
+  if (!(fit_hinge_constant >= 0 && fit_hinge_constant <= 100))
+    bad(fit_hinge_constant, "fit_hinge_constant", "must be in [0, 100] (0: fitted)");
   if (fit_max_iterations < 2) bad(fit_max_iterations, "fit_max_iterations", "must be >= 2");
   if (!(friction_size > 2 * fit_edge_length)) bad(friction_size, "friction_size", "must exceed two fit edge lengths");
   if (!(friction_time > 0)) bad(friction_time, "friction_time", "must be > 0 s");

@@ -89,6 +89,9 @@ struct HangOptions {
   double fit_edge_length = 0.025;            // m; use the garments' edge length
   double fit_tolerance_percent = 0.05;       // |reproduced − target| in stretch %
   double fit_bending_tolerance = 0.01;       // |reproduced − target| / target bending length
+  // > 0: the hinge constant C is this, not fitted (FitMaterial then fits kLST alone, by
+  // secant, with no cantilever runs); 0: C fitted to the bending length with kLST.
+  double fit_hinge_constant = 0;
   int fit_max_iterations = 12;
   // FitMaterial's friction reference: a flat single-layer square of this side on a
   // table tilted by the measured friction angle (paper: the angle at which the garment
@@ -108,7 +111,8 @@ struct MaterialFit {
   double target_stretch_percent = 0;
   double reproduced_stretch_percent = 0;  // on the reference strip, with the strain limit
   // With hinge bending: the bending length c = (B/w)^(1/3) measured and reproduced by
-  // the cantilever at fit_edge_length (cantilever.h), m.
+  // the cantilever at fit_edge_length (cantilever.h), m (reproduced: 0 when C was given,
+  // HangOptions::fit_hinge_constant).
   double target_bending_length = 0;
   double reproduced_bending_length = 0;
   int iterations = 0;  // reference runs used (with hinge bending: KINSOL's evaluations of both references)

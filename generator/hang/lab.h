@@ -41,17 +41,23 @@ struct DrapeOptions {
   double disc_diameter = 0.18;    // m, the clamping discs
   double edge_length = 0.02;      // m
   std::vector<uint64_t> seeds = {1, 2, 3, 4, 5};
-  double jitter = 0.002;      // m: seeded vertical perturbation of the flat sample
-  double settle_time = 12;    // s simulated at most
-  double pixel = 0.001;       // m: the shadow's raster
-  double fold_depth = 0.003;  // m: a lobe of the shadow's outline this much beyond its valleys is a fold
-  void Validate() const;      // throws drape::FieldError naming the field
+  double jitter = 0.002;    // m: seeded vertical perturbation of the flat sample
+  double settle_time = 12;  // s simulated at most
+  // Settled when the coefficient moved less than shadow_tolerance in each of the last
+  // two shadow_windows (after 3 s), or no node moved more than 1 mm in 0.25 s.
+  double shadow_window = 1;         // s
+  double shadow_tolerance = 0.002;  // drape coefficient
+  double pixel = 0.001;             // m: the shadow's raster
+  double fold_depth = 0.003;        // m: a lobe of the shadow's outline this much beyond its valleys is a fold
+  void Validate() const;            // throws drape::FieldError naming the field
 };
 struct DrapeRun {
   uint64_t seed = 0;
   double coefficient = 0;  // (shadow − disc) / (sample − disc)
   int folds = 0;
   bool settled = false;
+  double motion = 0;    // m: the largest node move over the last settle window
+  double sim_time = 0;  // s simulated
   std::string failure;  // empty unless the run blew up
 };
 struct DrapeResult {

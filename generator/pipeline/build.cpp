@@ -135,7 +135,7 @@ std::shared_ptr<const MaterialFit> MaterialFitFor(const Material& m, const HangO
   std::ostringstream fkey;
   fkey << std::setprecision(17) << m.stretch_percent << "/" << m.friction_deg << "/" << m.area_density << "/"
        << m.bending_stiffness << "/" << m.bending_rigidity << "/" << m.crease_yield << "/" << m.crease_weakening << "/"
-       << hang_options.fit_edge_length;
+       << hang_options.fit_edge_length << "/" << hang_options.fit_hinge_constant;
   return cache.impl->fits.Get(fkey.str(), [&] { return FitMaterial(m, hang_options); });
 }
 
