@@ -56,7 +56,13 @@ inline std::vector<std::string> CurveColumns(const Json& categories) {
 // row lacks the category), then category accuracy; "| a | b | c |\n" style.
 inline std::string CurveCells(const Json& categories, const std::vector<std::string>& cols) {
   std::string out;
-  for (const auto& c : cols) out += " " + (categories.contains(c) ? StrictTwinCell(categories[c]) : "—") + " |";
+  // Appended piecewise: " " + a temporary string trips gcc 12's -Wrestrict (a false
+  // positive in libstdc++'s insert, GCC bug 105329), an error under DRAPE_WERROR.
+  for (const auto& c : cols) {
+    out += ' ';
+    out += categories.contains(c) ? StrictTwinCell(categories[c]) : std::string("—");
+    out += " |";
+  }
   return out + " " + PercentCell(categories["all"]["category_accuracy"]) + " |\n";
 }
 
