@@ -120,6 +120,7 @@ Garment LoadGarment(const std::string& what, const FoldArgs& args) {
 std::string DefaultMaterial(const std::string& category) {
   if (category == "towel") return "towel_b";
   if (category == "pants" || category == "shorts") return "pants";
+  if (category == "long_sleeve_shirt") return "shirting";  // a dress shirt: woven cotton, creases
   return "tshirt";
 }
 
@@ -207,6 +208,9 @@ FoldInputs SetUpFold(const FoldArgs& args) {
       std::printf("  hinge constant %.2f (bending length %.2f cm, target %.2f)%s\n", in.fit.bending_scale,
                   100 * in.fit.reproduced_bending_length, 100 * in.fit.target_bending_length,
                   in.fit.converged ? "" : "; the fit did not converge");
+    if (material->crease_recovery_deg > 0)  // creases: the yield the crease test fitted
+      std::printf("  crease yield %.1f 1/m (the crease test opens to %.1f deg, measured %.1f)\n", in.fit.crease_yield,
+                  in.fit.reproduced_crease_recovery_deg, material->crease_recovery_deg);
     std::fflush(stdout);
   }
   if (k) in.fit.stiffness = *k;
@@ -594,7 +598,8 @@ Runner Setup(CLI::App& app) {
   AddSeed(app, a->seed, "seed of the trials' perturbations");
   AddOutput(app, a->output, "write trajectories.json, report.md and pictures here")->capture_default_str();
   app.add_option("--size", a->size, "template size")->check(CLI::IsMember({"S", "M", "L"}))->capture_default_str();
-  app.add_option("--material", a->material, "material preset (default by category: towel_b, pants, tshirt)")
+  app.add_option("--material", a->material,
+                 "material preset (default by category: towel_b, pants, shirting for the long-sleeve shirt, tshirt)")
       ->type_name("NAME");
   app.add_option("--category", a->category, "category of an imported mesh (default: its sidecar's)")->type_name("C");
   app.add_option("--gripper", a->gripper, "pinch (a small area) or point (one vertex)")

@@ -23,6 +23,7 @@
 #include "common/timing.h"
 #include "generator/hang/cantilever.h"
 #include "generator/hang/hang.h"
+#include "generator/hang/lab.h"
 
 namespace drape {
 namespace {
@@ -282,6 +283,67 @@ void FitStretchAndBending(const Material& material, const HangOptions& options, 
   }
 }
 
+// The yield curvature whose crease test (lab.h, at the fit's edge length) opens to the
+// measured recovery angle: the open angle grows with the yield (0 + : a fold keeps
+// nearly all of its 180°; large: it springs open), so a bracket in ln(yield) and an
+// Illinois secant on the angle find it. The fold's curvature is one row of the mesh,
+// so the yield depends on the edge length: it is fitted there, as C is.
+constexpr double kCreaseToleranceDeg = 1;  // |reproduced − measured| recovery angle
+
+void FitCreaseYield(const Material& material, const HangOptions& options, MaterialFit& fit) {
+  const double target = material.crease_recovery_deg;
+  LabCloth cloth{material, fit, options};
+  cloth.fit.cloth_friction = material.FrictionCoefficient();
+  const CreaseOptions co = CreaseOptionsAt(options.fit_edge_length);
+  double best_y = 0, best_a = 0;
+  auto open = [&](double ln_y) {
+    cloth.fit.crease_yield = std::exp(ln_y);
+    ++fit.crease_iterations;
+    const CreaseResult r = RunCrease(cloth, co);
+    if (!r.failure.empty())
+      throw NumericalError("FitMaterial(" + material.name + "): crease test failed at yield " +
+                           FormatNumber(cloth.fit.crease_yield) + " 1/m: " + r.failure);
+    if (best_y == 0 || std::abs(r.open_angle - target) < std::abs(best_a - target)) {
+      best_y = cloth.fit.crease_yield;
+      best_a = r.open_angle;
+    }
+    return r.open_angle - target;
+  };
+  const int max_runs = 2 * options.fit_max_iterations;
+  double ll = std::log(50.0), fl = open(ll), lh = ll, fh = fl;  // ARCSim's crumple scale
+  // Bracket: fl < 0 < fh.
+  while (fl >= 0 && fit.crease_iterations < max_runs) {
+    lh = ll, fh = fl;
+    ll -= std::log(2.0);
+    fl = open(ll);
+  }
+  while (fh <= 0 && fit.crease_iterations < max_runs) {
+    ll = lh, fl = fh;
+    lh += std::log(2.0);
+    fh = open(lh);
+  }
+  int side = 0;
+  while (std::abs(best_a - target) > kCreaseToleranceDeg && fit.crease_iterations < max_runs && fl < 0 && fh > 0) {
+    const double lm = (ll * fh - lh * fl) / (fh - fl), fm = open(lm);
+    if (fm < 0) {
+      ll = lm, fl = fm;
+      if (side == -1) fh /= 2;
+      side = -1;
+    } else {
+      lh = lm, fh = fm;
+      if (side == 1) fl /= 2;
+      side = 1;
+    }
+  }
+  fit.crease_yield = best_y;
+  fit.reproduced_crease_recovery_deg = best_a;
+  if (std::abs(best_a - target) > kCreaseToleranceDeg) {
+    fit.converged = false;
+    if (!fit.note.empty()) fit.note += "; ";
+    fit.note += "crease recovery " + FormatNumber(best_a) + " deg of " + FormatNumber(target) + " at best";
+  }
+}
+
 }  // namespace
 
 bool SlidesOnTilt(double tilt_deg, double mu, const Material& material, const MaterialFit& fit, const HangOptions& o) {
@@ -368,6 +430,7 @@ MaterialFit FitMaterial(const Material& material, const HangOptions& options) {
     fit.reproduced_friction_deg =
         SlidingAngle(fit.friction, material, fit, options, theta - 2, theta + 2, &fit.friction_iterations);
   }
+  if (material.crease_recovery_deg > 0) FitCreaseYield(material, options, fit);
   fit.wall_seconds = Since(t0);
   return fit;
 }

@@ -276,7 +276,7 @@ ClothMaterial ClothMaterialFor(const Material& material, const MaterialFit& fit,
   cm.bending = material.bending_stiffness;
   cm.bending_rigidity = material.bending_rigidity;
   cm.bending_scale = fit.bending_scale;
-  cm.crease_yield = material.crease_yield;
+  cm.crease_yield = material.crease_recovery_deg > 0 ? fit.crease_yield : material.crease_yield;
   cm.crease_weakening = material.crease_weakening;
   cm.max_strain = o.strain_limit * material.stretch_percent / 100;
   return cm;

@@ -116,6 +116,12 @@ struct MaterialFit {
   double target_bending_length = 0;
   double reproduced_bending_length = 0;
   int iterations = 0;  // reference runs used (with hinge bending: KINSOL's evaluations of both references)
+  // With a measured crease recovery angle (Material::crease_recovery_deg): the yield
+  // curvature (1/m) whose lab crease test (lab.h) at fit_edge_length opens to it, and
+  // the angle that test reproduced (degrees). 0 otherwise: the material's crease_yield.
+  double crease_yield = 0;
+  double reproduced_crease_recovery_deg = 0;
+  int crease_iterations = 0;  // crease tests run
   bool converged = false;
   double friction = 0;        // Coulomb μ of the cloth on colliders (tables)
   double cloth_friction = 0;  // Coulomb μ of the cloth on itself: the lab's tests (lab.h) set it; FitMaterial leaves 0

@@ -274,6 +274,14 @@ void CreaseOptions::Validate() const {
   if (!(recovery_time > 0 && recovery_time <= 60)) BadField(recovery_time, "recovery_time", "must be in (0, 60] s");
 }
 
+CreaseOptions CreaseOptionsAt(double edge_length) {
+  CreaseOptions o;
+  o.edge_length = edge_length;
+  o.length = std::max(o.length, 5 * edge_length);
+  o.width = std::max(o.width, 2 * edge_length);
+  return o;
+}
+
 CreaseResult RunCrease(const LabCloth& cloth, const CreaseOptions& o) {
   o.Validate();
   // An even number of cells along the length: a row of nodes on the fold line x = 0.

@@ -97,5 +97,9 @@ struct CreaseResult {
   std::string failure;
 };
 CreaseResult RunCrease(const LabCloth& cloth, const CreaseOptions& options);
+// The crease test at a mesh edge length: the 20 × 10 cm strip, longer and wider where
+// the edge needs it (at least 5 × 2 edges), so that coarse garment meshes can be tested
+// and fitted (the recovery is the fold's own: the legs' length does not enter it).
+CreaseOptions CreaseOptionsAt(double edge_length);
 
 }  // namespace drape

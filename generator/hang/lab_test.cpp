@@ -9,6 +9,7 @@
 #include <numbers>
 
 #include "common/error.h"
+#include "generator/hang/material.h"
 
 namespace drape {
 namespace {
@@ -83,6 +84,38 @@ TEST(Lab, AFoldCreasesOnlyPastTheYield) {
   EXPECT_EQ(elastic.rest_angle, 0);
   EXPECT_GT(creased.rest_angle, 60);
   EXPECT_GT(elastic.open_angle, creased.open_angle + 30);
+}
+
+// A material with a measured crease recovery angle: FitMaterial fits the yield whose
+// crease test at the fit's edge opens to it (shirting: 77.5°, untreated cotton), and the
+// test run again with that fit reads the same; jersey (no yield) springs open further.
+TEST(Lab, FitMaterialFitsTheYieldToTheMeasuredRecovery) {
+  const Material& shirting = *FindMaterialPreset("shirting");
+  ASSERT_GT(shirting.crease_recovery_deg, 0);
+  const HangOptions o;
+  const MaterialFit fit = FitMaterial(shirting, o);
+  EXPECT_TRUE(fit.converged) << fit.note;
+  EXPECT_GT(fit.crease_yield, 0);
+  EXPECT_NEAR(fit.reproduced_crease_recovery_deg, shirting.crease_recovery_deg, 1.0);
+  EXPECT_LE(fit.crease_iterations, 2 * o.fit_max_iterations);
+  LabCloth c{shirting, fit, o};
+  c.fit.cloth_friction = shirting.FrictionCoefficient();
+  const CreaseResult again = RunCrease(c, CreaseOptionsAt(o.fit_edge_length));
+  EXPECT_EQ(again.open_angle, fit.reproduced_crease_recovery_deg);
+  LabCloth jersey{*FindMaterialPreset("tshirt"), fit, o};  // its own B and weight, no yield
+  EXPECT_GT(RunCrease(jersey, CreaseOptionsAt(o.fit_edge_length)).open_angle, again.open_angle + 60);
+}
+
+TEST(Lab, CreaseRecoveryIsCheckedWhereItIsGiven) {
+  Material m = *FindMaterialPreset("shirting");
+  m.crease_yield = 30;
+  EXPECT_THROW(m.Validate(), Error);  // both: the yield is fitted to the recovery
+  m.crease_yield = 0;
+  m.crease_recovery_deg = 180;
+  EXPECT_THROW(m.Validate(), Error);
+  m.crease_recovery_deg = 77.5;
+  m.bending_rigidity = 0;
+  EXPECT_THROW(m.Validate(), Error);  // creases live on the hinges
 }
 
 }  // namespace

@@ -29,6 +29,14 @@ void Material::Validate() const {
     bad(crease_yield, "crease_yield", "must be in [0, 1e5] 1/m (0: no creases), got " + FormatNumber(crease_yield));
   if (!(crease_weakening >= 0 && crease_weakening <= 100))
     bad(crease_weakening, "crease_weakening", "must be in [0, 100], got " + FormatNumber(crease_weakening));
+  if (!(crease_recovery_deg >= 0 && crease_recovery_deg < 180))
+    bad(crease_recovery_deg, "crease_recovery",
+        "must be in [0, 180) degrees (0: none measured), got " + FormatNumber(crease_recovery_deg));
+  if (crease_recovery_deg > 0 && crease_yield > 0)
+    bad(crease_recovery_deg, "crease_recovery",
+        "is fitted into the yield: give crease_recovery or crease_yield, not both");
+  if (crease_recovery_deg > 0 && !(bending_rigidity > 0))
+    bad(crease_recovery_deg, "crease_recovery", "needs hinge bending (bending_rigidity > 0)");
 }
 
 const std::vector<Material>& MaterialPresets() {
@@ -36,7 +44,8 @@ const std::vector<Material>& MaterialPresets() {
   // links (unused: B > 0), B in N·m (hinge bending), crease yield 1/m, weakening.
   // B and weight: Wang, O'Brien & Ramamoorthi 2011 (ARCSim materials/*.json, the 0°,
   // lowest-curvature entry, read as B itself: recipes/README.md "Presets" says why and
-  // cites every number). No creases: no source measures a yield for these fabrics.
+  // cites every number). Only `shirting` creases: its recovery angle is measured
+  // (crease_recovery_deg, the last field; the yield is fitted to it).
   static const std::vector<Material> presets = {
       {"tshirt", 2.9, 24.3, 0.187, 0.0075, 23.2e-6},  // gray interlock (jersey), c 2.33 cm
       {"jeans", 2.9, 19.1, 0.324, 0.05, 64.2e-6},     // 11 oz black denim, c 2.72 cm
@@ -44,6 +53,11 @@ const std::vector<Material>& MaterialPresets() {
       {"towel_a", 2.2, 18.7, 0.40, 0.02, 27.5e-6},    // large towel, terry (B: Feng et al. 2022's
       {"towel_b", 3.1, 22.3, 0.35, 0.02, 27.5e-6},    //   median bending length 2.0 cm at 0.35 kg/m²;
       {"towel_c", 1.1, 24.3, 0.30, 0.02, 27.5e-6},    //   no terry measurement at hand)
+      // Untreated woven cotton shirting: bending lengths 2.3 / 1.52 cm (warp / weft, overall
+      // √(2.3·1.52) = 1.87 cm) and total crease recovery 155° (warp + weft: 77.5° each way)
+      // of Dhiman & Chakraborty 2017's unfinished cotton; 125 g/m² poplin shirting; B = W·g·c³.
+      // Stretch and table friction: the paper's long-sleeve shirt.
+      {"shirting", 2.9, 24.3, 0.125, 0.02, 8.02e-6, 0, 0, 77.5},
   };
   return presets;
 }

@@ -38,6 +38,11 @@ struct Material {
   // damage)).
   double crease_yield = 0;
   double crease_weakening = 0;
+  // The crease recovery angle a lab measured (AATCC 66 / ISO 2313: folded 180°, pressed,
+  // released; the angle the fold opens to), degrees; 0: none measured. > 0: FitMaterial
+  // fits the yield curvature at the mesh's edge length so that the lab's crease test
+  // (lab.h) opens to this angle, and crease_yield must be 0.
+  double crease_recovery_deg = 0;
 
   // Friction coefficient μ = tan(friction_deg).
   double FrictionCoefficient() const;

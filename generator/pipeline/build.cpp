@@ -81,6 +81,7 @@ Json MaterialJson(const Material& m) {
     j["bending_rigidity"] = m.bending_rigidity;
     j["crease_yield"] = m.crease_yield;
     j["crease_weakening"] = m.crease_weakening;
+    if (m.crease_recovery_deg > 0) j["crease_recovery"] = m.crease_recovery_deg;  // (absent: older records)
   }
   return j;
 }
@@ -135,7 +136,7 @@ std::shared_ptr<const MaterialFit> MaterialFitFor(const Material& m, const HangO
   std::ostringstream fkey;
   fkey << std::setprecision(17) << m.stretch_percent << "/" << m.friction_deg << "/" << m.area_density << "/"
        << m.bending_stiffness << "/" << m.bending_rigidity << "/" << m.crease_yield << "/" << m.crease_weakening << "/"
-       << hang_options.fit_edge_length << "/" << hang_options.fit_hinge_constant;
+       << m.crease_recovery_deg << "/" << hang_options.fit_edge_length << "/" << hang_options.fit_hinge_constant;
   return cache.impl->fits.Get(fkey.str(), [&] { return FitMaterial(m, hang_options); });
 }
 
@@ -162,6 +163,10 @@ void RecordJob(Json& rec, const Job& job, const GarmentSpec& g, const Garment& g
     rec["material_fit"]["bending_scale"] = fit.bending_scale;
     rec["material_fit"]["target_bending_length"] = fit.target_bending_length;
     rec["material_fit"]["reproduced_bending_length"] = fit.reproduced_bending_length;
+  }
+  if (job.material.crease_recovery_deg > 0) {  // the yield fitted to the measured crease recovery
+    rec["material_fit"]["crease_yield"] = fit.crease_yield;
+    rec["material_fit"]["reproduced_crease_recovery"] = fit.reproduced_crease_recovery_deg;
   }
   rec["anchor"] = {{"label", anchor.label}, {"vertex", anchor.vertex}, {"uv", PointJson(anchor.uv)}};
   rec["grasp_offset"] = {offset.x(), offset.y(), offset.z()};

@@ -47,6 +47,8 @@ const std::vector<OptionKey<Material>>& MaterialKeys() {
        "curvature beyond which a fold's rest angle yields (creases), [0, 1e5]; 0: never"},
       {"crease_weakening", Ref(&Material::crease_weakening), "—",
        "a yielded fold's stiffness ÷ (1 + this × damage), [0, 100]"},
+      {"crease_recovery", Ref(&Material::crease_recovery_deg), "degrees",
+       "measured crease recovery angle (AATCC 66), [0, 180); > 0: the yield is fitted to it (docs/fabric.md)"},
   };
   return t;
 }
