@@ -178,8 +178,9 @@ void ExpectHangsLikeCloth(const Garment& g, int anchor, const HangResult& r, con
 }
 
 TEST(Material, PresetsArePapersTable) {
-  ASSERT_EQ(MaterialPresets().size(), 6u);
+  ASSERT_EQ(MaterialPresets().size(), 7u);
   EXPECT_DOUBLE_EQ(FindMaterialPreset("tshirt")->stretch_percent, 2.9);
+  EXPECT_DOUBLE_EQ(FindMaterialPreset("shirting")->crease_recovery_deg, 77.5);  // 155° warp + weft
   EXPECT_DOUBLE_EQ(FindMaterialPreset("jeans")->friction_deg, 19.1);
   EXPECT_DOUBLE_EQ(FindMaterialPreset("pants")->stretch_percent, 1.7);
   EXPECT_DOUBLE_EQ(FindMaterialPreset("towel_c")->stretch_percent, 1.1);
