@@ -112,7 +112,7 @@ fs::path WeightsPath(const UnfoldArgs& a, const fs::path& dir) {
   const bool unweighted = a.weights == "none";
   if (unweighted && a.ablations)
     throw Error("--ablations: the ablations are measured against the weighted loop; --weights none leaves none");
-  const fs::path wpath = recognition::ResolveWeightsPath(Release::Open(dir), a.weights);
+  fs::path wpath = recognition::ResolveWeightsPath(Release::Open(dir), a.weights);
   if (wpath.empty() && !unweighted)
     throw Error(dir.string() + ": the release has no learned weights (run `drape calibrate " + dir.string() +
                 "` first, or pass --weights none)");

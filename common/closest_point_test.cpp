@@ -15,8 +15,8 @@ namespace {
 TriMesh BumpySheet() {
   const int nx = 12, ny = 9;
   TriMesh m;
-  m.V.resize(2 * (nx + 1) * (ny + 1), 3);
-  m.F.resize(2 * 2 * nx * ny, 3);
+  m.V.resize(Eigen::Index{2} * (nx + 1) * (ny + 1), 3);
+  m.F.resize(Eigen::Index{4} * nx * ny, 3);
   int f = 0;
   for (int layer = 0; layer < 2; ++layer) {
     const int base = layer * (nx + 1) * (ny + 1);

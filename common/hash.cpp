@@ -34,8 +34,8 @@ std::string Sha256::HexDigest() {
   unsigned int len = 0;
   DRAPE_CHECK(EVP_DigestFinal_ex(impl_->ctx, md, &len) == 1, "EVP_DigestFinal_ex");
   static const char* hex = "0123456789abcdef";
-  std::string out(2 * len, '0');
-  for (unsigned i = 0; i < len; ++i) {
+  std::string out(size_t{2} * len, '0');
+  for (size_t i = 0; i < len; ++i) {
     out[2 * i] = hex[md[i] >> 4];
     out[2 * i + 1] = hex[md[i] & 15];
   }

@@ -51,7 +51,7 @@ Eigen::AlignedBox3d Bounds(const TriMesh& mesh) {
 
 std::vector<std::array<int, 2>> UniqueEdges(const TriMesh& mesh) {
   std::vector<std::array<int, 2>> edges;
-  edges.reserve(3 * mesh.NumFaces());
+  edges.reserve(size_t{3} * mesh.NumFaces());
   for (int f = 0; f < mesh.NumFaces(); ++f)
     for (int k = 0; k < 3; ++k) {
       int a = mesh.F(f, k), b = mesh.F(f, (k + 1) % 3);
@@ -65,7 +65,7 @@ std::vector<std::array<int, 2>> UniqueEdges(const TriMesh& mesh) {
 EdgeTopology BuildEdgeTopology(const TriMesh& mesh) {
   // (edge, face) pairs sorted by edge, then grouped.
   std::vector<std::pair<std::array<int, 2>, int>> pairs;
-  pairs.reserve(3 * mesh.NumFaces());
+  pairs.reserve(size_t{3} * mesh.NumFaces());
   for (int f = 0; f < mesh.NumFaces(); ++f)
     for (int k = 0; k < 3; ++k) {
       int a = mesh.F(f, k), b = mesh.F(f, (k + 1) % 3);

@@ -9,7 +9,7 @@
 
 namespace drape {
 
-int HardwareThreads() { return std::max(1u, std::thread::hardware_concurrency()); }
+int HardwareThreads() { return static_cast<int>(std::max(1u, std::thread::hardware_concurrency())); }
 
 void ParallelFor(int n, int threads, const std::function<void(int)>& fn) {
   if (threads <= 0) threads = HardwareThreads();
@@ -40,6 +40,7 @@ void ParallelFor(int n, int threads, const std::function<void(int)>& fn) {
     worker();
   } else {
     std::vector<std::thread> pool;
+    pool.reserve(threads);
     for (int t = 0; t < threads; ++t) pool.emplace_back(worker);
     for (auto& t : pool) t.join();
   }

@@ -28,7 +28,7 @@ void YamlKeyReader::CheckKeys(const YAML::Node& n, const std::string& path,
   for (auto it = n.begin(); it != n.end(); ++it) {
     const YAML::Node k = it->first;  // a copy: it-> returns a proxy that dies with this statement
     if (!k.IsScalar()) Fail(k, path, "keys must be plain names");
-    const std::string key = k.Scalar();
+    const std::string& key = k.Scalar();
     const std::string kp = Sub(path, key);
     if (std::find(known.begin(), known.end(), key) == known.end())
       Fail(k, kp, "unknown key" + Suggest(key, known) + "; known keys here: " + JoinNames(known));

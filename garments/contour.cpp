@@ -256,7 +256,7 @@ Outline MakeOutline(const Contour& c, double h) {
     if (it == c.back_openings.end()) {
       o.outer.push_back(p[i]);
       o.back.push_back(p[i]);
-      outer_seam.push_back(tag[i].empty());
+      outer_seam.push_back(tag[i].empty() ? 1 : 0);
       ++k;
       continue;
     }
@@ -461,6 +461,7 @@ CDT TriangulateOutline(const Outline& outline, const ContourOptions& options, co
   for (size_t i = 0; i < bv.size(); ++i) cdt.insert_constraint(bv[i], bv[(i + 1) % bv.size()]);
   for (const auto& e : outline.inner) {
     std::vector<VH> ev;
+    ev.reserve(e.size());
     for (const Vec2& p : e) ev.push_back(cdt.insert(Point(p.x(), p.y())));
     for (size_t i = 0; i + 1 < ev.size(); ++i) cdt.insert_constraint(ev[i], ev[i + 1]);
   }
@@ -540,7 +541,7 @@ Layers NumberLayers(const CDT& cdt, const std::map<VH, VertexClass>& cls, const 
   l.seam.assign(nf, 0);
   for (int i = 0; i < nf; ++i) {
     auto it = cls.find(l.front_vertices[i]);
-    l.seam[i] = it != cls.end() && it->second.seam;
+    l.seam[i] = it != cls.end() && it->second.seam ? 1 : 0;
   }
   std::map<VH, int> back_index;
   int next = nf;

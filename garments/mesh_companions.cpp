@@ -54,7 +54,7 @@ class Collector {
     if (ref.empty() || HasScheme(ref)) return "";
     const fs::path r(ref);
     const fs::path rel = (fs::path(from).parent_path() / r).lexically_normal();
-    const std::string s = rel.generic_string();
+    std::string s = rel.generic_string();
     if (r.is_absolute() || s.empty() || s == "." || s.rfind("..", 0) == 0)
       throw Error((dir_ / (from.empty() ? mesh_.filename() : fs::path(from))).string() + ": refers to '" + ref +
                   "', outside the mesh's folder: a release can only carry files at or below it (move it there)");
