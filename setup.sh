@@ -122,7 +122,10 @@ build() {
   # ccache, when the machine has it, makes a rebuild after a branch switch cheap, and a
   # second clone's build too (tools/ccache_launcher.sh).
   ccache_launcher
-  cmake -S . -B "$BUILD_DIR" -G Ninja -DCMAKE_BUILD_TYPE=Release "${DRAPE_LAUNCHER[@]}"
+  # -Werror said on every configure: a build folder configured before it became the
+  # default keeps OFF in its cache otherwise (DRAPE_WERROR=OFF ./setup.sh build opts out).
+  cmake -S . -B "$BUILD_DIR" -G Ninja -DCMAKE_BUILD_TYPE=Release -DDRAPE_WERROR="${DRAPE_WERROR:-ON}" \
+    "${DRAPE_LAUNCHER[@]}"
   cmake --build "$BUILD_DIR" -j "$JOBS"
   install_python_path
 }
