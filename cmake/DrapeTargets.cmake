@@ -51,6 +51,15 @@ function(drape_test name)
   endif()
   # LABELS: "slow" for suites of whole builds/simulations (the sanitizer run skips them).
   gtest_discover_tests(${name} DISCOVERY_TIMEOUT 60 PROPERTIES TIMEOUT ${ARG_TIMEOUT} LABELS "unit;${ARG_LABELS}")
+  if(ARG_LABELS)
+    # gtest_discover_tests flattens a list-valued property ("unit;slow" became the pair
+    # LABELS unit plus a stray "slow", and no test carried `slow`): a CTest include file
+    # read after the discovered tests' own sets them on ${name}_TESTS instead.
+    set(labels_file ${CMAKE_CURRENT_BINARY_DIR}/${name}_labels.cmake)
+    file(WRITE ${labels_file}
+         "set_tests_properties(\${${name}_TESTS} PROPERTIES TIMEOUT ${ARG_TIMEOUT} LABELS \"unit;${ARG_LABELS}\")\n")
+    set_property(DIRECTORY APPEND PROPERTY TEST_INCLUDE_FILES ${labels_file})
+  endif()
 endfunction()
 
 # drape_bench(NAME SOURCES ... DEPS ...): a Google Benchmark program (not a test).
