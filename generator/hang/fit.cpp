@@ -396,10 +396,16 @@ double SlidingAngle(double mu, const Material& material, const MaterialFit& fit,
   return 0.5 * (lo + hi);
 }
 
-MaterialFit FitMaterial(const Material& material, const HangOptions& options) {
+MaterialFit FitMaterial(const Material& material, const HangOptions& given) {
   const auto t0 = Clock::now();
   material.Validate();
-  options.Validate();
+  given.Validate();
+  // The stretch reference strip hangs from its top-centre node. With fewer than two
+  // elements across (edges over ~6.7 cm on the 10 cm strip) that node is a corner: the
+  // strip swings diagonally and the fit measures no stretch (kLST runs off its range).
+  // Two elements then; every narrower edge keeps its strip, and its fit, as it was.
+  HangOptions options = given;
+  if (std::lround(options.fit_width / options.fit_edge_length) < 2) options.fit_width = 2 * options.fit_edge_length;
   MaterialFit fit;
   fit.target_stretch_percent = material.stretch_percent;
   fit.target_friction_deg = material.friction_deg;

@@ -220,6 +220,18 @@ TEST(Fit, ReproducesMeasuredStretch) {
   EXPECT_NEAR(sfit.reproduced_stretch_percent, 4.0, o.fit_tolerance_percent);
 }
 
+// At 8 cm the default 10 cm strip would be one element across, hung from a corner, and
+// the hinge fit's link stiffness ran off its range: FitMaterial widens it to two elements
+// (the fold's meshes are 8 cm).
+TEST(Fit, ReproducesTheStretchOnEdgesWiderThanHalfTheStrip) {
+  HangOptions o;
+  o.fit_edge_length = 0.08;
+  const MaterialFit fit = FitMaterial(*FindMaterialPreset("tshirt"), o);
+  EXPECT_NEAR(fit.reproduced_stretch_percent, FindMaterialPreset("tshirt")->stretch_percent, 0.2) << fit.note;
+  EXPECT_GT(fit.stiffness, 0);
+  EXPECT_LE(fit.stiffness, 1);
+}
+
 TEST(Fit, ReproducesMeasuredFrictionAngle) {
   const MaterialFit& fit = TowelFit();
   const HangOptions o = TestOptions();
