@@ -83,7 +83,7 @@ int Cantilever(const FabricArgs& a) {
   o.edge_length = a.edge;
   const CantileverResult r = RunCantilever(c.material, c.fit, c.hang, o);
   if (!r.failure.empty()) throw NumericalError("cantilever: " + r.failure);
-  const double w = c.material.area_density * 9.81, c0 = std::cbrt(c.material.bending_rigidity / w);
+  const double w = c.material.area_density * 9.81, c0 = c.material.BendingLength();
   const Json j = {{"bending_length", r.bending_length},
                   {"bending_rigidity", c.material.bending_rigidity},
                   {"weight", w},

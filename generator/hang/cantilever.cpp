@@ -90,7 +90,7 @@ CantileverResult RunCantilever(const Material& material, const MaterialFit& fit,
   if (L == 0) {
     if (!(material.bending_rigidity > 0))
       throw Error("cantilever: material '" + material.name + "' has no bending rigidity to size the overhang by");
-    L = 2 * std::cbrt(material.bending_rigidity / w);
+    L = 2 * material.BendingLength();
   }
   // Rows about edge_length apart with the platform edge on a row.
   const int free_rows = std::max(1, static_cast<int>(std::lround(L / o.edge_length)));

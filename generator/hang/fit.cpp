@@ -224,8 +224,7 @@ int SolveJointFit(JointFit& j, const Eigen::Vector2d& u0, const Eigen::Vector2d&
 // Fits kLST and the hinge constant together (a hanging strip barely bends and a
 // cantilever barely stretches, but each constant moves both a little).
 void FitStretchAndBending(const Material& material, const HangOptions& options, MaterialFit& fit) {
-  const double w = material.area_density * 9.81;
-  const double c_target = std::cbrt(material.bending_rigidity / w);
+  const double c_target = material.BendingLength();
   const double s_target = material.stretch_percent / 100;
   fit.target_bending_length = c_target;
   const StretchReference stretch(material, options);
@@ -411,7 +410,7 @@ MaterialFit FitMaterial(const Material& material, const HangOptions& given) {
   fit.target_friction_deg = material.friction_deg;
   if (material.bending_rigidity > 0 && options.fit_hinge_constant > 0) {
     fit.bending_scale = options.fit_hinge_constant;  // given: kLST alone, no cantilever
-    fit.target_bending_length = std::cbrt(material.bending_rigidity / (material.area_density * 9.81));
+    fit.target_bending_length = material.BendingLength();
     FitStiffness(material, options, fit);
   } else if (material.bending_rigidity > 0) {
     FitStretchAndBending(material, options, fit);

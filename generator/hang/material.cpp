@@ -11,6 +11,8 @@ namespace drape {
 
 double Material::FrictionCoefficient() const { return std::tan(friction_deg * std::numbers::pi / 180.0); }
 
+double Material::BendingLength() const { return std::cbrt(bending_rigidity / (area_density * 9.81)); }
+
 void Material::Validate() const {
   auto bad = [&](const auto& field, const char* field_name, const std::string& what) {
     BadField(field, "material '" + name + "': " + field_name, what);

@@ -46,6 +46,8 @@ struct Material {
 
   // Friction coefficient μ = tan(friction_deg).
   double FrictionCoefficient() const;
+  // Bending length c = (B / (ρ g))^(1/3), m: what a cantilever test measures (0 without B).
+  double BendingLength() const;
   // Throws drape::Error naming the bad field.
   void Validate() const;
 };
