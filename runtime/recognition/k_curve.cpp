@@ -62,11 +62,8 @@ std::string KCurveMarkdown(const Json& table) {
      << table["hangs_per_anchor"].get<int>()
      << " per anchor: hang 0 as grasped exactly, the others varied by the recipe's `hang_variation`). "
         "Learned distance where the category has weights, else unweighted; category accuracy by the "
-        "unweighted nearest neighbour.\n\n| hangs per anchor | database entries | queries |";
-  for (const auto& c : cats) md << " " << c << " |";
-  md << " category |\n|---|---|---|";
-  for (size_t i = 0; i <= cats.size(); ++i) md << "---|";
-  md << "\n";
+        "unweighted nearest neighbour.\n\n"
+     << CurveHeader({"hangs per anchor", "database entries", "queries"}, cats);
   for (const Json& r : rows) {
     const Json& all = r["categories"]["all"];
     md << "| " << r["hangs"].get<int>() << " | " << r["database_entries"].get<int>() << " | "

@@ -65,11 +65,8 @@ std::string MissCurveMarkdown(const Json& table) {
      << "The test split's garments with the grasp exactly this far from the anchor (one direction per anchor, "
         "the same at every level); the headline row is the test split itself, the protocol. Learned distance "
         "where the category has weights, else unweighted; category accuracy by the unweighted nearest "
-        "neighbour.\n\n| grasp miss | queries |";
-  for (const auto& c : cats) md << " " << c << " |";
-  md << " category |\n|---|---|";
-  for (size_t i = 0; i <= cats.size(); ++i) md << "---|";
-  md << "\n";
+        "neighbour.\n\n"
+     << CurveHeader({"grasp miss", "queries"}, cats);
   for (const Json& r : rows) {
     const Json& all = r["categories"]["all"];
     md << "| "

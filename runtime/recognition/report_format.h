@@ -52,6 +52,21 @@ inline std::vector<std::string> CurveColumns(const Json& categories) {
   return cols;
 }
 
+// A curve table's header and rule: its leading columns, then `cols`, then "category".
+inline std::string CurveHeader(const std::vector<std::string>& lead, const std::vector<std::string>& cols) {
+  std::string head = "|", rule = "|";
+  auto column = [&](const std::string& name) {
+    head += ' ';
+    head += name;
+    head += " |";
+    rule += "---|";
+  };
+  for (const auto& c : lead) column(c);
+  for (const auto& c : cols) column(c);
+  column("category");
+  return head + "\n" + rule + "\n";
+}
+
 // A curve row's cells after its leading ones: StrictTwinCell per column ("—" where the
 // row lacks the category), then category accuracy; "| a | b | c |\n" style.
 inline std::string CurveCells(const Json& categories, const std::vector<std::string>& cols) {
