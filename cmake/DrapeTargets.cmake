@@ -50,14 +50,13 @@ function(drape_test name)
     set(ARG_TIMEOUT 600)
   endif()
   # LABELS: "slow" for suites of whole builds/simulations (the sanitizer run skips them).
-  gtest_discover_tests(${name} DISCOVERY_TIMEOUT 60 PROPERTIES TIMEOUT ${ARG_TIMEOUT} LABELS "unit;${ARG_LABELS}")
+  gtest_discover_tests(${name} DISCOVERY_TIMEOUT 60 PROPERTIES TIMEOUT ${ARG_TIMEOUT} LABELS unit)
   if(ARG_LABELS)
     # gtest_discover_tests flattens a list-valued property ("unit;slow" became the pair
-    # LABELS unit plus a stray "slow", and no test carried `slow`): a CTest include file
-    # read after the discovered tests' own sets them on ${name}_TESTS instead.
+    # LABELS unit plus a stray "slow"): a CTest include file, read after the discovered
+    # tests' own, sets the whole list on ${name}_TESTS.
     set(labels_file ${CMAKE_CURRENT_BINARY_DIR}/${name}_labels.cmake)
-    file(WRITE ${labels_file}
-         "set_tests_properties(\${${name}_TESTS} PROPERTIES TIMEOUT ${ARG_TIMEOUT} LABELS \"unit;${ARG_LABELS}\")\n")
+    file(WRITE ${labels_file} "set_tests_properties(\${${name}_TESTS} PROPERTIES LABELS \"unit;${ARG_LABELS}\")\n")
     set_property(DIRECTORY APPEND PROPERTY TEST_INCLUDE_FILES ${labels_file})
   endif()
 endfunction()
