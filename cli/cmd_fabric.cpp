@@ -133,11 +133,19 @@ int Incline(const FabricArgs& a) {
   const InclineResult r = RunIncline(c, o);
   if (!r.failure.empty()) throw NumericalError("incline: " + r.failure);
   const double angle = std::atan(r.friction) * 180 / std::numbers::pi;
-  Print(a, {{"slide", r.slide}, {"friction", r.friction}},
+  const std::string moved = r.slid_off ? "slid off the " + Fmt("%.3g", o.base * 100) + " cm base after " +
+                                             Fmt("%.2f", r.off_time) + " s (its centre past the base's edge, " +
+                                             Fmt("%.4f", r.slide) + " m)"
+                                       : "slide " + Fmt("%.4f", r.slide) + " m in " + Fmt("%.3g", o.time) + " s";
+  Print(a,
+        {{"slide", r.slide},
+         {"friction", r.friction},
+         {"slid_off", r.slid_off},
+         {"off_time", r.slid_off ? Json(r.off_time) : Json(nullptr)}},
         "incline, " + c.material.name + " on itself at " + Fmt("%.3g", a.angle) + " deg, edge " + Fmt("%.3g", a.edge) +
-            " m\n  slide " + Fmt("%.4f", r.slide) + " m in " + Fmt("%.3g", o.time) + " s\n  expected: " +
-            (a.angle < angle ? "stays" : "slides") + " (cloth-on-cloth mu " + Fmt("%.3f", r.friction) +
-            ", friction angle " + Fmt("%.1f", angle) + " deg, the material's friction_deg)\n");
+            " m\n  " + moved + "\n  expected: " + (a.angle < angle ? "stays" : "slides") + " (cloth-on-cloth mu " +
+            Fmt("%.3f", r.friction) + ", friction angle " + Fmt("%.1f", angle) +
+            " deg, the material's friction_deg)\n");
   return 0;
 }
 

@@ -257,7 +257,18 @@ InclineResult RunIncline(const LabCloth& cloth, const InclineOptions& o) {
   auto centroid = [&] { return Vec3(w.positions().bottomRows(nu).colwise().mean().transpose()); };
   while (w.time() < 0.25) w.Step();
   const Vec3 c0 = centroid();
-  while (w.time() < 0.25 + o.time) w.Step();
+  // Past the base's edge the sheet falls: its fall is no sliding distance, so the run
+  // stops there and says so.
+  const Vec3 normal = tilt * Vec3::UnitY();
+  while (w.time() < 0.25 + o.time) {
+    w.Step();
+    const Vec3 d = centroid() - c0;
+    if ((d - d.dot(normal) * normal).norm() >= o.base / 2) {
+      res.slid_off = true;
+      res.off_time = w.time() - 0.25;
+      break;
+    }
+  }
   res.failure = w.Health();
   res.slide = (centroid() - c0).norm();
   return res;

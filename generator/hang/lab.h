@@ -77,8 +77,10 @@ struct InclineOptions {
   void Validate() const;      // throws drape::FieldError naming the field
 };
 struct InclineResult {
-  double slide = 0;     // m the sheet's centroid moved over the fixed one
-  double friction = 0;  // the cloth–cloth Coulomb μ simulated
+  double slide = 0;       // m the sheet's centroid moved over the fixed one (until it slid off)
+  double friction = 0;    // the cloth–cloth Coulomb μ simulated
+  bool slid_off = false;  // its centroid passed the base's edge (base/2 along the plane): the run stops
+  double off_time = 0;    // s of sliding until then
   std::string failure;
 };
 InclineResult RunIncline(const LabCloth& cloth, const InclineOptions& options);

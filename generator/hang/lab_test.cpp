@@ -67,9 +67,15 @@ TEST(Lab, ASheetOnASheetStaysLevelAndSlidesOffASteepIncline) {
   const InclineResult level = RunIncline(Cloth(2e-5), o);
   EXPECT_TRUE(level.failure.empty()) << level.failure;
   EXPECT_LT(level.slide, 0.001);
-  o.angle_deg = 50;  // far above the friction angle (25°)
+  EXPECT_FALSE(level.slid_off);
+  o.angle_deg = 50;  // far above the friction angle (25°): ~4.6 m/s², off the base in ~0.26 s
   const InclineResult steep = RunIncline(Cloth(2e-5), o);
-  EXPECT_GT(steep.slide, 0.05);
+  EXPECT_TRUE(steep.slid_off);
+  EXPECT_GT(steep.off_time, 0.1);
+  EXPECT_LT(steep.off_time, o.time);
+  // The run stops where the sheet leaves the base: the slide is the base's half, not the fall.
+  EXPECT_GE(steep.slide, o.base / 2);
+  EXPECT_LT(steep.slide, o.base / 2 + 0.05);
 }
 
 // Folded 180° and pressed: without plasticity the strip springs back open; past its
