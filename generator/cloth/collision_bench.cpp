@@ -1,5 +1,5 @@
 // Cost of CollisionHandler::Apply per step on a real two-layer garment (tshirt M,
-// 1,624 nodes), split into broad phase, strain limiting, proximity, CCD + impulses
+// 1,666 nodes), split into broad phase, strain limiting, proximity, CCD + impulses
 // and impact zones. The states come from a minimal dynamics run inside the benchmark
 // (Verlet with gravity, the collar held still, Apply after every step), so they look
 // like a hang: layers falling onto each other, then resting in contact.
