@@ -306,7 +306,7 @@ void ReadPlyFaces(PlyReader& r, const PlyElement& e, MeshData& m, const std::str
       const unsigned char* q = r.Take(13) + 1;
       std::array<int, 3> f;
       for (int k = 0; k < 3; ++k) {
-        const double idx = PlyReader::At(q + 4 * k, 4, false, e.props[list].is_signed, swap);
+        const double idx = PlyReader::At(q + 4 * static_cast<ptrdiff_t>(k), 4, false, e.props[list].is_signed, swap);
         if (!(idx >= 0 && idx < 2147483647.0))
           throw Error(at() + ": vertex index " + FormatNumber(idx) + " is not a valid index");
         f[k] = static_cast<int>(idx);
@@ -446,11 +446,10 @@ MeshData ParseObj(std::string_view text, const std::string& where) {
   bool uv_ok = !vt.empty();
   for (const auto& [v, t] : corners) {
     if (!uv_ok) break;
-    if (v >= static_cast<int>(m.V.size()) || t < 0 || t >= static_cast<int>(vt.size()))
-      uv_ok = false;
-    else if (vt_of[v] < 0)
+    const bool in_range = v < static_cast<int>(m.V.size()) && t >= 0 && t < static_cast<int>(vt.size());
+    if (in_range && vt_of[v] < 0)
       vt_of[v] = t;
-    else if (vt[vt_of[v]] != vt[t])
+    else if (!in_range || vt[vt_of[v]] != vt[t])
       uv_ok = false;
   }
   if (uv_ok) {

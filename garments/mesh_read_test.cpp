@@ -39,13 +39,14 @@ TriMesh DecodeDrapePly(const std::string& bytes) {
   for (int i = 0; i < nv; ++i)
     for (int k = 0; k < 3; ++k) {
       float x;
-      std::memcpy(&x, bytes.data() + body + 12 * i + 4 * k, 4);
+      std::memcpy(&x, bytes.data() + body + 12 * static_cast<size_t>(i) + 4 * static_cast<size_t>(k), 4);
       m.V(i, k) = x;
     }
   const size_t faces = body + 12 * static_cast<size_t>(nv);
   for (int f = 0; f < nf; ++f) {
-    EXPECT_EQ(bytes[faces + 13 * f], 3);
-    for (int k = 0; k < 3; ++k) std::memcpy(&m.F(f, k), bytes.data() + faces + 13 * f + 1 + 4 * k, 4);
+    const size_t face = faces + 13 * static_cast<size_t>(f);
+    EXPECT_EQ(bytes[face], 3);
+    for (int k = 0; k < 3; ++k) std::memcpy(&m.F(f, k), bytes.data() + face + 1 + 4 * static_cast<size_t>(k), 4);
   }
   return m;
 }

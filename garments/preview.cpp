@@ -142,6 +142,7 @@ void DrawAnchors(cv::Mat& img, const Garment& g, const FlatView& view) {
     if (a.vertex < 0 || a.vertex >= nv) continue;
     dots.push_back(view.Px(view.Pos(a.vertex)));
   }
+  taken.reserve(taken.size() + dots.size());
   for (const cv::Point& d : dots) taken.emplace_back(d.x - 6, d.y - 6, 12, 12);
   size_t di = 0;
   for (const Anchor& a : g.anchors) {

@@ -27,7 +27,7 @@ struct Builder {
     return p;
   }
   // Appends point p; the edge from p to the next point gets `tag`.
-  void Add(Vec2 p, const std::string& tag = "") {
+  void Add(const Vec2& p, const std::string& tag = "") {
     c.points.push_back(Clean(p));
     c.edge_tag.push_back(tag);
   }
@@ -355,7 +355,7 @@ Params Preset(const TemplateInfo& info, const std::string& size) {
 
 std::vector<TemplateDef> MakeDefs() {
   std::vector<TemplateDef> defs;
-  auto add = [&](std::string name, std::string description, std::vector<TemplateParameter> params,
+  auto add = [&](const std::string& name, std::string description, std::vector<TemplateParameter> params,
                  std::function<Builder(const Params&, double)> build) {
     TemplateDef d;
     d.info.name = name;

@@ -153,18 +153,16 @@ py::array ReadImage(const fs::path& path) {
   if (m.channels() == 4) cv::cvtColor(m, m, cv::COLOR_BGRA2RGBA);
   std::vector<py::ssize_t> shape{m.rows, m.cols};
   if (m.channels() > 1) shape.push_back(m.channels());
+  const size_t row = size_t(m.cols) * m.channels();  // values per image row
   if (m.depth() == CV_8U) {
     py::array_t<uint8_t> a(shape);
-    for (int r = 0; r < m.rows; ++r)
-      std::copy(m.ptr<uint8_t>(r), m.ptr<uint8_t>(r) + m.cols * m.channels(),
-                a.mutable_data() + size_t(r) * m.cols * m.channels());
+    for (int r = 0; r < m.rows; ++r) std::copy(m.ptr<uint8_t>(r), m.ptr<uint8_t>(r) + row, a.mutable_data() + r * row);
     return a;
   }
   if (m.depth() == CV_16U) {
     py::array_t<uint16_t> a(shape);
     for (int r = 0; r < m.rows; ++r)
-      std::copy(m.ptr<uint16_t>(r), m.ptr<uint16_t>(r) + m.cols * m.channels(),
-                a.mutable_data() + size_t(r) * m.cols * m.channels());
+      std::copy(m.ptr<uint16_t>(r), m.ptr<uint16_t>(r) + row, a.mutable_data() + r * row);
     return a;
   }
   throw Error(path.string() + ": unsupported pixel depth");
@@ -213,6 +211,8 @@ PYBIND11_MODULE(_drape, m) {
   using namespace drape::python;
   m.doc() = "drape's C++ libraries (use the `drape` package, not this module)";
   static py::exception<Error> drape_error(m, "DrapeError", PyExc_ValueError);
+  // By value: pybind11 stores the translator as void (*)(std::exception_ptr).
+  // NOLINTNEXTLINE(performance-unnecessary-value-param)
   py::register_exception_translator([](std::exception_ptr p) {
     try {
       if (p) std::rethrow_exception(p);

@@ -117,6 +117,7 @@ py::dict Register(const DoubleArray& sv, const IndexArray& sf, const DoubleArray
   if (iterations) opt.lm.max_iterations = *iterations;
   opt.Validate();
   std::vector<registration::AnchorPair> pairs;
+  pairs.reserve(anchors.size());
   for (const auto& [label, vertex] : anchors) pairs.push_back({label, vertex, false, Vec3::Zero()});
   registration::RegistrationResult result;
   registration::RegistrationEvaluation ev;

@@ -115,7 +115,7 @@ TEST(Bending, ForcesAreMinusTheEnergyGradient) {
 // An equilateral lattice of side s, n×m points, in the x–y plane.
 TriMesh Lattice(double s, int n, int m) {
   TriMesh t;
-  t.V.resize(n * m, 3);
+  t.V.resize(Eigen::Index{n} * m, 3);
   for (int j = 0; j < m; ++j)
     for (int i = 0; i < n; ++i) t.V.row(j * n + i) << s * (i + 0.5 * (j % 2)), s * j * std::sqrt(3.0) / 2, 0;
   std::vector<std::array<int, 3>> f;
@@ -209,7 +209,8 @@ TEST(Bending, AFoldPastTheYieldKeepsPartOfItsAngle) {
     const BendingModel m = MakeBendingModel(flat, {}, o);
     BendingState st = InitialBendingState(m);
     // Fold about the line y = y0 by 90°.
-    const double y0 = flat.V(6 * 12, 1) + 0.25 * 0.01;
+    const Eigen::Index row6 = Eigen::Index{6} * 12;  // the first node of lattice row 6
+    const double y0 = flat.V(row6, 1) + 0.25 * 0.01;
     Points3 x = flat.V;
     for (int i = 0; i < x.rows(); ++i)
       if (x(i, 1) > y0) {

@@ -58,9 +58,9 @@ namespace {
 double KthSmallest(std::vector<double>& d, size_t k, std::vector<double>& buf) {
   const size_t n = d.size();
   constexpr int kSample = 63, kReach = 8;  // bracket: sample ranks q ± kReach
-  if (n >= 4 * kSample) {
+  if (n >= 4 * size_t{kSample}) {
     std::array<double, kSample> sample;
-    for (int s = 0; s < kSample; ++s) sample[s] = d[(2 * static_cast<size_t>(s) + 1) * n / (2 * kSample)];
+    for (int s = 0; s < kSample; ++s) sample[s] = d[(2 * static_cast<size_t>(s) + 1) * n / (2 * size_t{kSample})];
     std::sort(sample.begin(), sample.end());
     const int q = static_cast<int>(static_cast<double>(k) / static_cast<double>(n) * kSample);
     const double lo = sample[std::max(0, q - kReach)], hi = sample[std::min(kSample - 1, q + kReach)];
@@ -262,7 +262,7 @@ void BroadPhase::LeavesPair(const Node& a, const Node& b) {
   const std::array<int, 3>* va = leaf_verts_.data() + a.right;
   const std::array<int, 3>* vb = leaf_verts_.data() + b.right;
   // Branch-free: every face pair is written, the count advances past those to test.
-  std::array<std::array<int, 2>, kLeafFaces * kLeafFaces> pairs;
+  std::array<std::array<int, 2>, size_t{kLeafFaces} * kLeafFaces> pairs;
   int m = 0;
   for (int i = 0; i < a.faces; ++i)
     for (int j = &a == &b ? i + 1 : 0; j < b.faces; ++j) {

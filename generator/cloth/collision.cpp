@@ -243,7 +243,7 @@ Rigid KinematicRigid(const std::vector<int>& nodes, const Points3& x0, const Poi
   Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
   for (int i : nodes) H += (x0.row(i).transpose() - out.c0) * (x1.row(i).transpose() - out.c1).transpose();
   Eigen::JacobiSVD<Eigen::Matrix3d> svd(H, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  const Vec3 s = svd.singularValues();
+  const Vec3& s = svd.singularValues();
   if (!(s[0] > 0)) return out;
   if (s[1] <= 1e-9 * s[0]) {  // collinear: the smallest rotation taking the line to the line
     const Vec3 a = svd.matrixU().col(0), b = svd.matrixV().col(0);

@@ -94,6 +94,7 @@ void BM_CollisionStep(benchmark::State& state) {
   state.counters["prox_ms"] = 1e3 * prox / steps;
   state.counters["ccd_ms"] = 1e3 * ccd / steps;
   state.counters["zone_ms"] = 1e3 * zone / steps;
+  state.counters["collider_ms"] = 1e3 * collider / steps;
   state.counters["fail_safe_frac"] = fail_safe / steps;
   state.counters["ccd_pairs"] = ccd_pairs / steps;
   state.counters["prox_pairs"] = prox_pairs / steps;

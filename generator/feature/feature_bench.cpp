@@ -54,7 +54,7 @@ std::vector<Feature> Database(int phi, int n) {
 void BM_MatchPerEntry(benchmark::State& state) {
   const int phi = static_cast<int>(state.range(0));
   const auto db = Database(phi, 1000);
-  const Feature q = db[0];
+  const Feature& q = db[0];
   for (auto _ : state) {
     int best = 1 << 30;
     for (const auto& f : db) best = std::min(best, Distance(q, f).distance);

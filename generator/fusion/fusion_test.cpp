@@ -4,8 +4,8 @@
 #include <tbb/global_control.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
-#include <cstring>
 
 #include "common/error.h"
 #include "common/rng.h"
@@ -20,6 +20,14 @@ using synthetic::Scene;
 using synthetic::Shape;
 
 using synthetic::SmallCamera;
+
+// Bit for bit (NaNs and -0 included): the vectorised kernels must reproduce the scalar
+// ones exactly, which == on floats cannot say.
+bool SameBits(const float* a, const float* b, size_t n) {
+  for (size_t i = 0; i < n; ++i)
+    if (std::bit_cast<uint32_t>(a[i]) != std::bit_cast<uint32_t>(b[i])) return false;
+  return true;
+}
 
 double SignedVolume(const TriMesh& m) {
   double v = 0;
@@ -535,7 +543,7 @@ TEST(Fusion, SegmentRowKernelsMatchTheReferenceExpression) {
         const bool in =
             valid(u) && box.contains(p[u]) && (radius2 <= 0 || p[u].x() * p[u].x() + p[u].z() * p[u].z() <= radius2);
         const float expected = !valid(u) ? 0.f : in ? depth[u] : -depth[u];
-        ASSERT_EQ(std::memcmp(&code[u], &expected, sizeof(float)), 0)
+        ASSERT_TRUE(SameBits(&code[u], &expected, 1))
             << "trial " << trial << " u " << u << ": " << code[u] << " vs " << expected << " depth " << depth[u];
         ASSERT_EQ(fg[u], in) << "trial " << trial << " u " << u;
         expected_n += in;
@@ -556,7 +564,7 @@ TEST(Fusion, SegmentRowKernelsMatchTheReferenceExpression) {
 TEST(Fusion, UpdateBlockKernelsMatchTheScalarOne) {
   Rng rng(5);
   const int W = 64, H = 48;
-  std::vector<float> code(W * H);
+  std::vector<float> code(size_t{W} * H);
   for (int trial = 0; trial < 300; ++trial) {
     const Eigen::Quaterniond q(rng.Normal(), rng.Normal(), rng.Normal(), rng.Normal());
     const Eigen::Matrix3f R = q.normalized().toRotationMatrix().cast<float>();
@@ -589,8 +597,8 @@ TEST(Fusion, UpdateBlockKernelsMatchTheScalarOne) {
       SCOPED_TRACE(std::string(name) + ", trial " + std::to_string(trial));
       FusionBlock b = start;
       EXPECT_EQ(kernel(b, p, code.data()), n);
-      EXPECT_EQ(std::memcmp(b.tsdf.data(), expected.tsdf.data(), sizeof(b.tsdf)), 0);
-      EXPECT_EQ(std::memcmp(b.weight.data(), expected.weight.data(), sizeof(b.weight)), 0);
+      EXPECT_TRUE(SameBits(b.tsdf.data(), expected.tsdf.data(), b.tsdf.size()));
+      EXPECT_TRUE(SameBits(b.weight.data(), expected.weight.data(), b.weight.size()));
     }
   }
 }
@@ -630,12 +638,12 @@ TEST(Fusion, BandSampleKernelsMatchTheDefinition) {
       if ((r.array() < 0).any() || (r.array() >= a.grid_dims.array()).any()) return -3;  // off the grid
       return (int64_t(r.x()) * a.grid_dims.y() + r.y()) * a.grid_dims.z() + r.z();
     };
-    std::vector<int32_t> scalar(64 * a.samples, 7), fast(64 * a.samples, 7);
+    std::vector<int32_t> scalar(64 * size_t(a.samples), 7), fast(64 * size_t(a.samples), 7);
     BandSamplesScalar(a, scalar.data());
     if (HaveAvx512VlBw()) BandSamplesAvx512(a, fast.data());
     for (int i = 0; i < n; ++i) {
       for (int k = 0; k < a.samples; ++k) {
-        const size_t o = size_t(i / 8) * 8 * a.samples + 8 * k + i % 8;
+        const size_t o = size_t(i / 8) * 8 * a.samples + 8 * size_t(k) + i % 8;
         Eigen::Vector3i b;
         const bool sampled = BandSampleBlockAt(a, i, k, &b);
         ASSERT_EQ(scalar[o] != -1, sampled) << "trial " << trial << " pixel " << i << " sample " << k;
@@ -659,7 +667,7 @@ TEST(Fusion, CarveRunKernelsMatchTheScalarOne) {
   if (!HaveAvx512VlBw()) GTEST_SKIP() << "no AVX-512VL/BW";
   Rng rng(17);
   const int W = 64, H = 48;
-  std::vector<float> code(W * H);
+  std::vector<float> code(size_t{W} * H);
   int64_t viewed = 0, freed = 0;  // cells whose counts grew: the test is not vacuous
   for (int trial = 0; trial < 500; ++trial) {
     CarveRun a;
@@ -669,7 +677,8 @@ TEST(Fusion, CarveRunKernelsMatchTheScalarOne) {
     a.n = 1 + static_cast<int>(rng.Below(40));
     a.bz0 = static_cast<int>(rng.Below(40)) - 20;
     // The run's middle cell lies 0.1-0.8 m in front of the camera (some cells behind it).
-    const Vec3 mid(0, 0, (a.bz0 + a.n / 2) * kBlockDim * a.h);
+    const int middle = a.bz0 + a.n / 2;  // the run's middle cell
+    const Vec3 mid(0, 0, middle * kBlockDim * a.h);
     a.t = mid - a.Rt.transpose() * Vec3(rng.Uniform(-0.2, 0.2), rng.Uniform(-0.2, 0.2), rng.Uniform(-0.05, 0.8));
     a.px = rng.Uniform(-0.05, 0.05), a.py = rng.Uniform(-0.05, 0.05);
     a.fx = a.fy = rng.Uniform(40, 80), a.cx = W / 2.0, a.cy = H / 2.0, a.W = W, a.H = H;
@@ -726,7 +735,7 @@ TEST(Fusion, NearForegroundRowKernelsMatchTheScalarOnes) {
     std::vector<float> expected = code, got = code;
     NanWhereNoDataScalar(scalar.data(), w, expected.data());
     NanWhereNoDataAvx512(scalar.data(), w, got.data());
-    ASSERT_EQ(std::memcmp(expected.data(), got.data(), sizeof(float) * code.size()), 0) << "w " << w;
+    ASSERT_TRUE(SameBits(expected.data(), got.data(), code.size())) << "w " << w;
     for (int u = 0; u < w; ++u)
       ASSERT_EQ(std::isnan(expected[u]), std::isnan(code[u]) || (fg[u] && code[u] == 0)) << "w " << w << " u " << u;
   }

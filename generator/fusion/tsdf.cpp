@@ -339,8 +339,9 @@ void Tsdf::Impl::IgnoreDropouts(const FrameView& view, FrameScratch& s) const {
   const float nan = std::numeric_limits<float>::quiet_NaN();
   for (int k = 0; k < n; ++k) {
     if (reaches[FindRoot(parent, k)]) continue;
-    float* row = &s.code[size_t(runs[3 * k]) * W];
-    for (int u = runs[3 * k + 1]; u < runs[3 * k + 2]; ++u)
+    const size_t run = 3 * size_t(k);
+    float* row = &s.code[size_t(runs[run]) * W];
+    for (int u = runs[run + 1]; u < runs[run + 2]; ++u)
       if (row[u] == 0) row[u] = nan;
   }
   MarkNearForeground(view, s);
@@ -406,7 +407,7 @@ __attribute__((target("avx512f,avx512vl,avx512bw"))) void PackRowBitsAvx512(cons
   for (int k = 0; 64 * k < w; ++k) {
     const int left = w - 64 * k;
     const __mmask64 lanes = left >= 64 ? ~__mmask64(0) : (__mmask64(1) << left) - 1;
-    const __m512i bytes = _mm512_maskz_loadu_epi8(lanes, fg + 64 * k);
+    const __m512i bytes = _mm512_maskz_loadu_epi8(lanes, fg + 64 * ptrdiff_t(k));
     bits[k] = _mm512_test_epi8_mask(bytes, bytes);
   }
 }
@@ -473,7 +474,7 @@ void Tsdf::Impl::BandBlocks(const FrameView& view, FrameScratch& s, std::vector<
     for (int i = 0; i < n; ++i) {
       const int32_t* out = &s.band_out[size_t(i / 8) * 8 * a.samples + i % 8];
       for (int k = 0; k < a.samples; ++k) {
-        int64_t g = out[8 * k];
+        int64_t g = out[8 * ptrdiff_t(k)];
         if (g == -1) continue;
         Eigen::Vector3i b(0, 0, 0);
         if (g == -2) {
@@ -528,7 +529,7 @@ void BandSamplesScalar(const BandSamples& a, int32_t* out) {
     const Vec3 ray = a.R * Vec3(a.xhat[i], a.yv, 1.0);
     for (int k = 0; k < a.samples; ++k) {
       const double z = a.d[i] + a.along[k] / lambda;
-      o[8 * k] = z <= 0 ? -1 : BandGridIndex(a, BandSampleBlock(z * ray + a.t, a.h, a.inv_h));
+      o[8 * ptrdiff_t(k)] = z <= 0 ? -1 : BandGridIndex(a, BandSampleBlock(z * ray + a.t, a.h, a.inv_h));
     }
   }
 }
@@ -586,7 +587,7 @@ __attribute__((target("avx512f,avx512vl,avx512bw"))) void BandSamplesAvx512(cons
           _mm256_mullo_epi32(_mm256_add_epi32(_mm256_mullo_epi32(r[0], dims[1]), r[1]), dims[2]), r[2]);
       __m256i res = _mm256_mask_mov_epi32(undecided, decided & inside, g);
       res = _mm256_mask_mov_epi32(none, sample, res);
-      _mm256_storeu_si256(reinterpret_cast<__m256i*>(o + 8 * k), res);
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(o + 8 * ptrdiff_t(k)), res);
     }
   }
 }

@@ -331,7 +331,7 @@ TEST(Hang, OverStretchedResultIsFailedWithItsReason) {
   o.strain_limit = 10;        // let the grip stretch ...
   o.accept_strain_max = 1.5;  // ... and accept less than the strip itself needs
   const Garment towel = MakeRectangleGarment(0.3, 0.4, 0.04, true);
-  Material soft = Towel();
+  const Material& soft = Towel();
   MaterialFit loose = TowelFit();
   loose.stiffness = 0.05;
   const HangResult r = Hang(towel, towel.anchors[0].vertex, Vec3::Zero(), soft, loose, o, 1);

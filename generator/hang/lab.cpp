@@ -149,6 +149,7 @@ DrapeResult RunDrape(const LabCloth& cloth, const DrapeOptions& o) {
   const double R = o.sample_diameter / 2, r_disc = o.disc_diameter / 2;
   std::vector<Vec2> circle;
   const int points = std::max(24, static_cast<int>(std::ceil(2 * kPi * R / (o.edge_length / 4))));
+  circle.reserve(points);
   for (int k = 0; k < points; ++k)
     circle.emplace_back(R * std::cos(2 * kPi * k / points), R * std::sin(2 * kPi * k / points));
   const TriMesh pattern = MeshedSheet(circle, o.edge_length);

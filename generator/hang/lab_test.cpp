@@ -30,6 +30,7 @@ LabCloth Cloth(double B, double yield = 0) {
 
 TEST(Lab, MeshedSheetIsAFlatDiscMeshedAsTheGarments) {
   std::vector<Vec2> circle;
+  circle.reserve(120);
   for (int k = 0; k < 120; ++k)
     circle.emplace_back(0.1 * std::cos(2 * kPi * k / 120), 0.1 * std::sin(2 * kPi * k / 120));
   const TriMesh s = MeshedSheet(circle, 0.02);

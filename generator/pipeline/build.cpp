@@ -666,8 +666,8 @@ BuildReport RunBuild(const Recipe& recipe, const BuildOptions& options) {
   const std::vector<Job>& jobs = start.jobs;
   const std::vector<int>& todo = start.todo;
   std::unique_ptr<ReleaseWriter>& writer = start.writer;
-  const int threads = std::max(
-      1, std::min<int>(options.threads > 0 ? options.threads : HardwareThreads(), std::max<size_t>(1, todo.size())));
+  const size_t wanted = std::max(1, options.threads > 0 ? options.threads : HardwareThreads());
+  const int threads = static_cast<int>(std::min(wanted, std::max<size_t>(1, todo.size())));
   const ProgressMode mode = ResolveProgressMode(options.progress, log);
   if (mode != ProgressMode::kQuiet) {
     LogBuildStart(log, recipe, options, report, todo.size());

@@ -98,8 +98,8 @@ class ByteReader {
 
 std::string SerializeEntry(const Entry& e) {
   const std::string record = Cbor(e.record), timing = Cbor(e.timing);
-  size_t size = sizeof kEntryMagic + 8 * 9 + e.id.size() + e.key.size() + e.split.size() + e.failure.size() +
-                record.size() + timing.size();
+  size_t size = sizeof kEntryMagic + 9 * sizeof(uint64_t) + e.id.size() + e.key.size() + e.split.size() +
+                e.failure.size() + record.size() + timing.size();
   for (const auto& f : e.files) size += 16 + f.path.size() + f.bytes.size();
   std::string out;
   out.reserve(size);

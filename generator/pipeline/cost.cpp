@@ -162,6 +162,7 @@ std::vector<BuildCost> FindBuildCosts(const fs::path& root, const std::vector<fs
     if (it == latest.end() || it->second.finished < c.finished) latest[key] = std::move(c);
   }
   std::vector<BuildCost> out;
+  out.reserve(latest.size());
   for (auto& [k, c] : latest) out.push_back(std::move(c));
   return out;
 }

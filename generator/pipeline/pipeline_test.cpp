@@ -46,7 +46,7 @@ splits:
 )";
 
 fs::path TempDir(const std::string& tag) {
-  const fs::path d = fs::temp_directory_path() / ("drape_pipeline_test_" + std::to_string(::getpid()) + "_" + tag);
+  fs::path d = fs::temp_directory_path() / ("drape_pipeline_test_" + std::to_string(::getpid()) + "_" + tag);
   fs::remove_all(d);
   return d;
 }

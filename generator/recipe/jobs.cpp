@@ -83,6 +83,7 @@ std::vector<std::string> SelectedAnchors(const Recipe& recipe, const std::string
     idx.resize(sel.max_anchors);
     std::sort(idx.begin(), idx.end());
     std::vector<std::string> picked;
+    picked.reserve(idx.size());
     for (int i : idx) picked.push_back(anchors[i]);
     anchors = picked;
   }

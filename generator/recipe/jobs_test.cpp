@@ -46,7 +46,7 @@ TEST(Jobs, ExpansionIsDeterministicWithStableKeysIdsAndSeeds) {
   ASSERT_EQ(a.size(), b.size());
   const size_t towel_anchors = r.garments[0].anchor_labels.size();
   const size_t pants_anchors = r.garments[1].anchor_labels.size();
-  EXPECT_EQ(a.size(), 2 * 2 * towel_anchors + pants_anchors + 2 + 2 * (2 * towel_anchors + pants_anchors));
+  EXPECT_EQ(a.size(), 2 * (2 * towel_anchors) + pants_anchors + 2 + 2 * (2 * towel_anchors + pants_anchors));
   std::set<std::string> keys, ids;
   for (size_t i = 0; i < a.size(); ++i) {
     EXPECT_EQ(a[i].index, static_cast<int>(i));

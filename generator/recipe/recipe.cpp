@@ -91,7 +91,7 @@ class Parser : public YamlKeyReader {
     const fs::path rel(*s);
     const fs::path full = (rel.is_absolute() ? rel : base_ / rel).lexically_normal();
     const fs::path base = fs::weakly_canonical(base_);
-    const fs::path canon = fs::weakly_canonical(full);
+    fs::path canon = fs::weakly_canonical(full);
     const fs::path inside = canon.lexically_relative(base);
     const bool escapes = inside.empty() || *inside.begin() == "..";
     if (escapes && !allow_outside_)

@@ -221,6 +221,7 @@ using namespace release_detail;
 std::string EntryDigest(const std::string& id, const std::string& key, const std::string& split, bool failed,
                         const std::string& failure, const Json& record, const std::vector<Release::FileInfo>& files) {
   std::vector<std::pair<std::string, std::string>> fl;
+  fl.reserve(files.size());
   for (const auto& f : files) fl.emplace_back(f.path, f.sha256);
   std::sort(fl.begin(), fl.end());
   Json jf = Json::array();
@@ -233,6 +234,7 @@ std::string EntryDigest(const std::string& id, const std::string& key, const std
 std::string ComputeDigest(const std::vector<Release::EntryInfo>& entries,
                           const std::map<std::string, std::string>& sources) {
   std::vector<std::pair<std::string, std::string>> lines;
+  lines.reserve(entries.size());
   for (const auto& e : entries) {
     lines.emplace_back(e.id, EntryDigest(e.id, e.key, e.split, e.failed, e.failure, e.record, e.files));
   }

@@ -652,7 +652,7 @@ TEST_F(ReleaseTest, CatalogHasTypedColumnsAndReaderRoundTrips) {
 
 TEST_F(ReleaseTest, MergeOfShardsEqualsSingleBuildAndRejectsBadShards) {
   const auto single = Build(root_ / "single");
-  auto shard = [&](const std::string& name, std::vector<int> jobs, int index, int count,
+  auto shard = [&](const std::string& name, const std::vector<int>& jobs, int index, int count,
                    const ReleaseMeta& base = MakeMeta()) {
     ReleaseMeta m = base;
     m.shard_index = index;

@@ -135,6 +135,9 @@ __attribute__((noinline)) void DrawMeasurements(const float* __restrict Z, const
   for (size_t p = 0; p < n; ++p) {
     float z = Min(Z[p], 1e6f) + axial * sg[p] * na[p];
     // [K] disparity d = b·f/Z, quantised to 1/8 px (round half up; clamped to stay an int).
+    // The argument is >= 0, so truncating after + 0.5 rounds half up; lround would differ
+    // where x + 0.5f itself rounds (x = 0.49999997f), and the sensed bytes must not move.
+    // NOLINTNEXTLINE(bugprone-incorrect-roundings)
     const float k = float(int(Min(Max(bfq / (z * step), 0.0f), 1e7f) + 0.5f));
     const float zq = bfq / (Max(k, 0.5f) * step);
     z = qk * zq + (1.0f - qk) * z;

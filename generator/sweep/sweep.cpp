@@ -122,8 +122,9 @@ Sweep SimulateSweep(const TriMesh& hung, const SweepOptions& options, uint64_t s
   st.frames = options.frames;
   const double npix = double(sweep.intrinsics.width) * sweep.intrinsics.height;
   // The background image is cast once per sweep.
-  st.rays_cast =
-      options.scene ? int64_t((sweep.intrinsics.width + 3) / 4 * 4) * ((sweep.intrinsics.height + 3) / 4 * 4) : 0;
+  st.rays_cast = options.scene
+                     ? int64_t((sweep.intrinsics.width + 3) / 4 * 4) * int64_t((sweep.intrinsics.height + 3) / 4 * 4)
+                     : 0;
   double garment = 0, valid = 0;
   for (const Counters& c : counters) {
     st.rays_cast += c.rays;

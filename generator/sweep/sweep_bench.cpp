@@ -22,14 +22,14 @@ namespace {
 TriMesh HangingTube() {
   const int na = 40, ny = 51;
   TriMesh m;
-  m.V.resize(na * ny, 3);
+  m.V.resize(Eigen::Index{na} * ny, 3);
   for (int j = 0; j < ny; ++j)
     for (int i = 0; i < na; ++i) {
       const double a = 2 * M_PI * i / na, y = -0.95 * j / (ny - 1);
       const double r = std::min(0.02 - y * 0.4, 0.16) * (1 + 0.12 * std::sin(5 * a + 7 * y));
       m.V.row(j * na + i) << r * std::cos(a) + 0.05 * std::sin(3 * y), y, 0.6 * r * std::sin(a);
     }
-  m.F.resize(2 * na * (ny - 1), 3);
+  m.F.resize(2 * Eigen::Index{na} * (ny - 1), 3);
   int k = 0;
   for (int j = 0; j + 1 < ny; ++j)
     for (int i = 0; i < na; ++i) {

@@ -26,7 +26,7 @@ TriMesh Quad(double x0, double x1, double y0, double y1, double z0) {
 
 TriMesh UvSphere(const Vec3& c, double r, int slices, int stacks) {
   TriMesh m;
-  m.V.resize((stacks + 1) * slices, 3);
+  m.V.resize(Eigen::Index{stacks + 1} * slices, 3);
   for (int i = 0; i <= stacks; ++i)
     for (int j = 0; j < slices; ++j) {
       const double t = M_PI * i / stacks, p = 2 * M_PI * j / slices;
@@ -58,13 +58,13 @@ TriMesh Box(const Vec3& lo, const Vec3& hi) {
 // A wavy hanging sheet, roughly garment-sized: 0.5 m wide, 0.9 m long, below the origin.
 TriMesh WavySheet(int nx = 30, int ny = 50) {
   TriMesh m;
-  m.V.resize((nx + 1) * (ny + 1), 3);
+  m.V.resize(Eigen::Index{nx + 1} * (ny + 1), 3);
   for (int j = 0; j <= ny; ++j)
     for (int i = 0; i <= nx; ++i) {
       const double x = -0.25 + 0.5 * i / nx, y = -0.02 - 0.9 * j / ny;
       m.V.row(j * (nx + 1) + i) << x, y, 0.06 * std::sin(9 * x) + 0.03 * std::cos(5 * y) + 0.1 * x * y;
     }
-  m.F.resize(2 * nx * ny, 3);
+  m.F.resize(2 * Eigen::Index{nx} * ny, 3);
   int k = 0;
   for (int j = 0; j < ny; ++j)
     for (int i = 0; i < nx; ++i) {
@@ -490,6 +490,7 @@ TEST(SweepScene, IrRangeAlongRay) {
   EXPECT_TRUE(std::isinf(scene.RangeAlongRay(origin + Vec3(0, 0, 0.5), Vec3(0, 0, -1), 0.0, ir)));  // 0.7 m > max
   Rng rng(5);
   std::vector<double> r;
+  r.reserve(4000);
   for (int i = 0; i < 4000; ++i) r.push_back(scene.RangeAlongRay(origin, Vec3(0, 0, -1), 0.0, ir, &rng));
   double mean;
   const double sd = Std(r, &mean);

@@ -62,7 +62,7 @@ TEST(Fold, TwoArmsFoldASmallClothInHalf) {
     for (size_t a = 0; a < 2; ++a) paths.push_back(InitialTrajectory(setup.p0[a], setup.p3[a], h));
     FoldSimOptions o;
     o.gripper = model;
-    const StepSim r = SimulateStep(s.scene, setup, paths, o);
+    StepSim r = SimulateStep(s.scene, setup, paths, o);
     EXPECT_TRUE(r.ok) << r.failure;
     std::printf("%s, h = %.2f: D %.1f mm (unfolded %.1f mm), C %.3f, held %d+%d nodes, %.2f s simulated in %.1f s\n",
                 GripperModelName(model).c_str(), h, 1e3 * r.dissimilarity, 1e3 * flat_d, r.cost, r.held[0], r.held[1],

@@ -56,7 +56,7 @@ class Reader {
     return n.Scalar();
   }
   std::string Name(const YAML::Node& n, const std::string& path) const {
-    const std::string s = Str(n, path);
+    std::string s = Str(n, path);
     if (!std::regex_match(s, kNameRe)) Fail(n, path, "'" + s + "' is not a valid name (letters, digits, '_', '-')");
     return s;
   }
@@ -97,7 +97,7 @@ std::set<std::string> CommonKeyPoints(const std::vector<std::string>& categories
 PlanPoint ParsePoint(const Reader& rd, const YAML::Node& n, const std::string& path,
                      const std::set<std::string>& names) {
   auto key_point = [&](const YAML::Node& k, const std::string& p) {
-    const std::string s = rd.Name(k, p);
+    std::string s = rd.Name(k, p);
     if (!names.count(s)) {
       std::string list;
       for (const auto& x : names) list += (list.empty() ? "" : ", ") + x;

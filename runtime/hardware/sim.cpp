@@ -742,7 +742,7 @@ SimWorld::SimWorld(Garment garment, Material material, MaterialFit fit, const Si
   if (garment.mesh.NumFaces() == 0) throw Error("sim: garment '" + garment.instance + "' has no mesh");
   w.garment = std::move(garment);
   w.material = std::move(material);
-  w.fit = fit;
+  w.fit = std::move(fit);
   w.o = options;
   w.seed = seed;
   // Flat on the table, front up: pattern (x, y, z) → world (x, z, −y), centred on the top.

@@ -431,6 +431,7 @@ TEST(SimHardware, HeldByTwoCornersItIsPlacedFlatOnTheTable) {
   // bulk within 2 cm.
   EXPECT_LT(w.mesh().V.col(1).maxCoeff(), top + 0.10);
   std::vector<double> y;
+  y.reserve(w.mesh().NumVertices());
   for (int i = 0; i < w.mesh().NumVertices(); ++i) y.push_back(w.mesh().V(i, 1));
   std::nth_element(y.begin(), y.begin() + y.size() / 2, y.end());
   EXPECT_LT(y[y.size() / 2], top + 0.02);

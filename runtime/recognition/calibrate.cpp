@@ -266,6 +266,7 @@ std::vector<QueryData> GatherCategory(const Database& db, const std::string& cat
                                       const std::vector<const LabelledCode*>& qs, WeightFrame frame) {
   std::vector<QueryData> out;
   std::vector<Match> matches;
+  out.reserve(qs.size());
   for (const LabelledCode* lq : qs) out.push_back(Gather(db, *lq, cat, frame, matches));
   return out;
 }

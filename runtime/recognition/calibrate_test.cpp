@@ -34,7 +34,7 @@ struct NoisyCategory {
     for (int a = 0; a < kAnchors; ++a) {
       Code p = base;
       for (int i = 0; i < 24; ++i) {
-        const int b = static_cast<int>(rng.Below(kL / 2 * kR * kS));  // upper layers only
+        const int b = static_cast<int>(rng.Below(uint64_t{kL / 2} * kR * kS));  // upper layers only
         p.Set(b, !p.Get(b));
       }
       protos.push_back(p);
@@ -44,7 +44,7 @@ struct NoisyCategory {
     Code c = protos[a];
     for (int b = kL / 2 * kR * kS; b < c.NumBits(); ++b) c.Set(b, rng.Uniform() < 0.5);
     for (int i = 0; i < flips; ++i) {
-      const int b = static_cast<int>(rng.Below(kL / 2 * kR * kS));
+      const int b = static_cast<int>(rng.Below(uint64_t{kL / 2} * kR * kS));
       c.Set(b, !c.Get(b));
     }
     return c;
@@ -223,7 +223,7 @@ TEST(RecognitionCalibrate, UniformPriorMatchesTheClosedFormOnOnePair) {
   const CalibrationResult res = Calibrate(Database(db_entries), q, opt, "d");
   const auto& w = res.weights.per_category.at("shirt");
   EXPECT_NEAR(w[0], 1, 1e-3);
-  EXPECT_EQ(w[R * S], 0);
+  EXPECT_EQ(w[static_cast<size_t>(R) * S], 0);
   EXPECT_EQ(res.categories[0].clipped, R * S);
 }
 
@@ -249,7 +249,7 @@ TEST(RecognitionCalibrate, UniformPriorWithCZeroRanksAsUnweighted) {
     opt.tying = t;
     opt.c = 0;
     const CalibrationResult zero = Calibrate(db, calib, opt, "d");
-    EXPECT_EQ(zero.weights.per_category.at("shirt"), std::vector<double>(16 * 16 * 16, 1.0));
+    EXPECT_EQ(zero.weights.per_category.at("shirt"), std::vector<double>(size_t{16} * 16 * 16, 1.0));
     Recognizer unweighted(db, nullptr), learned(db, &zero.weights);
     RecognizeOptions ro;
     ro.top_k = 100;
@@ -310,7 +310,8 @@ TEST(RecognitionCalibrate, UniformPriorRaisesTheInformativeBlock) {
   for (int b = half; b < 2 * half; ++b) down += w[b];
   EXPECT_GT(up / half, 1.0);
   EXPECT_LT(down / half, 1.0);
-  for (int b = 0; b < 2 * half; ++b) ASSERT_EQ(w[b], w[b / 16 * 16]) << "annulus weights differ across sectors";
+  for (int b = 0; b < 2 * half; ++b)
+    ASSERT_EQ(w[b], w[static_cast<size_t>(b / 16) * 16]) << "annulus weights differ across sectors";
   Recognizer unweighted(db, nullptr), learned(db, &res.weights);
   int err_u = 0, err_w = 0;
   for (const auto& q : test) {

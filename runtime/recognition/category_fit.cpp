@@ -88,6 +88,7 @@ std::string DecideByFit(const std::vector<FitCandidate>& candidates, const Categ
     if (p.fit < 0 || c.fit < p.fit) p.fit = c.fit;
   }
   std::vector<std::pair<int, std::string>> nearest;
+  nearest.reserve(cats.size());
   for (const auto& [cat, p] : cats) nearest.emplace_back(p.distance, cat);
   std::sort(nearest.begin(), nearest.end());
   if (options.top_categories > 0 && static_cast<int>(nearest.size()) > options.top_categories)

@@ -149,7 +149,7 @@ Recognition ScoreEndToEnd(const Recognizer& rec, const Database& db, const EvalQ
   RecognizeOptions e2e;
   e2e.top_k = top_k;
   e2e.query_height = ql.height;
-  const Recognition r_e2e = rec.Recognize(eq.query.code, e2e);
+  Recognition r_e2e = rec.Recognize(eq.query.code, e2e);
   e2e.weighted = false;
   db.matcher().MatchAll(pq, &matches);
   const Recognition r_e2e_u = rec.Rank(pq, matches, e2e);

@@ -164,7 +164,8 @@ Json WriteWorstConfusions(const Release& release, const Database& db, const std:
         return (*a)["category_known"][key]["distance"].get<double>() <
                (*b)["category_known"][key]["distance"].get<double>();
       });
-      for (int k = 0; k < std::min<int>(per_category, qs.size()); ++k) {
+      const size_t shown = std::min<size_t>(std::max(per_category, 0), qs.size());
+      for (size_t k = 0; k < shown; ++k) {
         const Json& q = *qs[k];
         const Json& m = q["category_known"][key];
         const std::string matched = m["entry"];

@@ -43,6 +43,7 @@ TEST(RecognitionMatcher, FastEqualsReferenceAllRotations) {
   for (auto [l, r, s] : shapes) {
     Rng rng(DeriveSeed(7, std::to_string(l * 10000 + r * 100 + s)));
     std::vector<Code> db;
+    db.reserve(12);
     for (int i = 0; i < 12; ++i) db.push_back(RandomCode(rng, l, r, s, 0.3 + 0.04 * i));
     std::vector<Code> queries;
     for (int k = 0; k < s; ++k) {
@@ -84,7 +85,7 @@ TEST(RecognitionMatcher, WeightedAndXorVectorEqualReference) {
     m.Add(db.back(), "db");
   }
   // Integer weights: sums are exact in any order.
-  std::vector<double> w(l * r * s);
+  std::vector<double> w(static_cast<size_t>(l) * r * s);
   for (double& v : w) v = static_cast<double>(rng.Below(9));
   const Code q = RandomCode(rng, l, r, s);
   PreparedQuery pq(q);

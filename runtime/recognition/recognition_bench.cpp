@@ -287,7 +287,7 @@ Feature QueryFeature(const std::vector<DepthFrame>& frames, const Intrinsics& K,
     points = tsdf.ExtractMesh().V;
     lap("mesh");
   }
-  const Feature f = ExtractFeature(
+  Feature f = ExtractFeature(
       points, [&tsdf](const Vec3& p) { return tsdf.Sdf(p); }, FeatureOptions());
   lap("feature");
   return f;
@@ -327,7 +327,8 @@ void BM_PaperQuery(benchmark::State& state) {
   state.counters["wall_ms_query"] = 1e3 * wall / n;
   state.counters["cpu_ms_query"] = 1e3 * cpu / n;
   state.counters["paper_ms"] = 300;
-  const double fused = double((frames.size() + stride - 1) / stride);
+  const size_t fused_frames = (frames.size() + stride - 1) / stride;  // every stride-th frame
+  const double fused = double(fused_frames);
   state.counters["frames_per_cpu_s"] = fused * n / steps["fusion"].second;
   state.counters["frames_per_s"] = fused * n / steps["fusion"].first;
   int diff = 0;

@@ -27,14 +27,14 @@ namespace fs = std::filesystem;
 TriMesh Sheet() {
   const int nx = 10, ny = 14;
   TriMesh m;
-  m.V.resize(nx * ny, 3);
+  m.V.resize(Eigen::Index{nx} * ny, 3);
   for (int j = 0; j < ny; ++j) {
     for (int i = 0; i < nx; ++i) {
       const double x = -0.12 + 0.3 * i / (nx - 1), y = -0.45 * j / (ny - 1);
       m.V.row(j * nx + i) << x + 0.02 * y * y, y, 0.06 * std::sin(9 * x + 2) * (0.3 - y) + 0.04 * x * y;
     }
   }
-  m.F.resize(2 * (nx - 1) * (ny - 1), 3);
+  m.F.resize(2 * Eigen::Index{nx - 1} * (ny - 1), 3);
   int f = 0;
   for (int j = 0; j + 1 < ny; ++j) {
     for (int i = 0; i + 1 < nx; ++i) {

@@ -9,7 +9,7 @@ namespace drape::registration {
 namespace {
 constexpr double kTiny = 1e-20;
 
-Vec3 X(const Eigen::VectorXd& x, int v) { return x.segment<3>(3 * v); }
+Vec3 X(const Eigen::VectorXd& x, int v) { return x.segment<3>(3 * Eigen::Index{v}); }
 
 // Unit vector of the component of v orthogonal to u (zero if degenerate).
 Vec3 PerpUnit(const Vec3& v, const Vec3& u) {
@@ -84,13 +84,13 @@ double HingeAngle(const Vec3& x0, const Vec3& x1, const Vec3& x2, const Vec3& x3
 
 Eigen::VectorXd RegistrationEnergy::Flatten(const Points3& V) {
   Eigen::VectorXd x(3 * V.rows());
-  for (int i = 0; i < V.rows(); ++i) x.segment<3>(3 * i) = V.row(i).transpose();
+  for (Eigen::Index i = 0; i < V.rows(); ++i) x.segment<3>(3 * i) = V.row(i).transpose();
   return x;
 }
 
 Points3 RegistrationEnergy::Unflatten(const Eigen::VectorXd& x) {
   Points3 V(x.size() / 3, 3);
-  for (int i = 0; i < V.rows(); ++i) V.row(i) = x.segment<3>(3 * i).transpose();
+  for (Eigen::Index i = 0; i < V.rows(); ++i) V.row(i) = x.segment<3>(3 * i).transpose();
   return V;
 }
 
@@ -162,9 +162,10 @@ void RegistrationEnergy::Residuals(const Eigen::VectorXd& x, Eigen::VectorXd& r)
           w > 0 ? w * (CornerAngle(p[k], p[(k + 1) % 3], p[(k + 2) % 3], nullptr) / rest_angle_(f, k) - 1) : 0;
     }
   }
+  const Eigen::Index hinge_rows = 5 * Eigen::Index{num_faces_};
   for (size_t e = 0; e < hinges_.size(); ++e) {
     const Hinge& h = hinges_[e];
-    r[5 * num_faces_ + e] =
+    r[hinge_rows + e] =
         h.weight > 0
             ? h.weight * (HingeAngle(X(x, h.v[0]), X(x, h.v[1]), X(x, h.v[2]), X(x, h.v[3]), nullptr) - h.rest_angle)
             : 0;
@@ -187,7 +188,7 @@ void RegistrationEnergy::Jacobian(const Eigen::VectorXd& x, SparseRowMatrix& J) 
     const Vec3 g = (p[0] + p[1] + p[2]) / 3;
     const ClosestPoint c = closest_(g);
     const Vec3 n = c.distance > 1e-12 ? Vec3((g - c.point) / c.distance) : Vec3::Zero();
-    for (int i = 0; i < 3; ++i) g9.segment<3>(3 * i) = n / 3;
+    for (Eigen::Index i = 0; i < 3; ++i) g9.segment<3>(3 * i) = n / 3;
     put(f, vs, 3, g9.data(), fit_w_[f]);
     TriangleArea(p[0], p[1], p[2], &g9);
     put(num_faces_ + f, vs, 3, g9.data(), area_w_[f] / rest_area_[f]);
@@ -211,7 +212,7 @@ void RegistrationEnergy::Jacobian(const Eigen::VectorXd& x, SparseRowMatrix& J) 
 
 EnergyTerms RegistrationEnergy::TermsFromResiduals(const Eigen::VectorXd& r) const {
   EnergyTerms e;
-  const int nf = num_faces_;
+  const Eigen::Index nf = num_faces_;
   e.fit = r.segment(0, nf).squaredNorm();
   e.area = r.segment(nf, nf).squaredNorm();
   e.angle = r.segment(2 * nf, 3 * nf).squaredNorm();

@@ -46,13 +46,13 @@ TriMesh IcoSphere(int subdivisions, double r) {
 
 TriMesh WavySheet(int nx, int ny, double w, double h, double amp) {
   TriMesh m;
-  m.V.resize(nx * ny, 3);
+  m.V.resize(Eigen::Index{nx} * ny, 3);
   for (int j = 0; j < ny; ++j)
     for (int i = 0; i < nx; ++i) {
       const double x = w * i / (nx - 1), y = h * j / (ny - 1);
       m.V.row(j * nx + i) << x, y, amp * std::sin(2 * M_PI * x / w) * std::cos(M_PI * y / h);
     }
-  m.F.resize(2 * (nx - 1) * (ny - 1), 3);
+  m.F.resize(2 * Eigen::Index{nx - 1} * (ny - 1), 3);
   int k = 0;
   for (int j = 0; j + 1 < ny; ++j)
     for (int i = 0; i + 1 < nx; ++i) {
@@ -71,7 +71,7 @@ TriMesh WavySheet(int nx, int ny, double w, double h, double amp) {
 
 TriMesh FlatTube(int n_around, int n_down, double w, double h, double t) {
   TriMesh m;
-  m.V.resize(n_around * n_down, 3);
+  m.V.resize(Eigen::Index{n_around} * n_down, 3);
   for (int j = 0; j < n_down; ++j)
     for (int i = 0; i < n_around; ++i) {
       const double phi = 2 * M_PI * i / n_around;
@@ -80,7 +80,7 @@ TriMesh FlatTube(int n_around, int n_down, double w, double h, double t) {
       const double flare = 1 + 0.3 * j / (n_down - 1);
       m.V.row(j * n_around + i) << 0.5 * w * flare * std::cos(phi), y, 0.5 * t * std::sin(phi);
     }
-  m.F.resize(2 * n_around * (n_down - 1), 3);
+  m.F.resize(2 * Eigen::Index{n_around} * (n_down - 1), 3);
   int k = 0;
   for (int j = 0; j + 1 < n_down; ++j)
     for (int i = 0; i < n_around; ++i) {

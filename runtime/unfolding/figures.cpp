@@ -36,6 +36,7 @@ OrthoView Fit(const std::vector<Vec3>& pts) {
 }
 std::vector<Vec3> Points(const TriMesh& m) {
   std::vector<Vec3> out;
+  out.reserve(m.NumVertices());
   for (int i = 0; i < m.NumVertices(); ++i) out.push_back(m.V.row(i).transpose());
   return out;
 }
