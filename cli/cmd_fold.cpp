@@ -453,7 +453,15 @@ std::vector<std::vector<RelativeTrajectory>> LoadReplay(const fs::path& file, co
   try {
     for (const Json& st : steps) {
       out.emplace_back();
-      for (const Json& k : st.at("optimised_relative")) out.back().push_back({v3(k.at("k1")), v3(k.at("k2"))});
+      for (const Json& k : st.at("optimised_relative"))
+        out.back().push_back({v3(k.at("k1")), v3(k.at("k2")), std::nullopt});
+      // The absolute paths too (JSON keeps a double exactly): on the run's own garment
+      // the replay then takes them as they were (RelativeTrajectory::source).
+      const Json& abs = st.value("optimised", Json::array());
+      if (abs.size() != out.back().size()) continue;
+      for (size_t a = 0; a < abs.size(); ++a)
+        out.back()[a].source =
+            CubicBezier{{v3(abs[a].at("P0")), v3(abs[a].at("P1")), v3(abs[a].at("P2")), v3(abs[a].at("P3"))}};
     }
   } catch (const Json::exception& e) {
     throw Error(file.string() + ": steps[" + std::to_string(out.size() - 1) + "].optimised_relative: " + e.what());

@@ -22,7 +22,7 @@ FoldSetup SmallSetup(const std::string& category) {
 }
 
 std::vector<std::vector<RelativeTrajectory>> Initial(size_t steps, size_t arms) {
-  const RelativeTrajectory h3{Vec3(1.0 / 3, 1.0 / 3, 0), Vec3(2.0 / 3, 1.0 / 3, 0)};
+  const RelativeTrajectory h3{Vec3(1.0 / 3, 1.0 / 3, 0), Vec3(2.0 / 3, 1.0 / 3, 0), std::nullopt};
   return std::vector<std::vector<RelativeTrajectory>>(steps, std::vector<RelativeTrajectory>(arms, h3));
 }
 
@@ -89,7 +89,8 @@ TEST(Trials, ACompletedTrialIsJudged) {
   o.trials = 1;
   // Knots as high as the fold is wide (fold_test: this folds the small cloth).
   std::vector<std::vector<RelativeTrajectory>> high(
-      1, std::vector<RelativeTrajectory>(2, RelativeTrajectory{Vec3(1.0 / 3, 1, 0), Vec3(2.0 / 3, 1, 0)}));
+      1,
+      std::vector<RelativeTrajectory>(2, RelativeTrajectory{Vec3(1.0 / 3, 1, 0), Vec3(2.0 / 3, 1, 0), std::nullopt}));
   const TrialResult t = RunTrial(SmallSetup("towel"), plan, PlanRunOptions{}, high, o, 0);
   ASSERT_TRUE(t.completed) << t.failure;
   ASSERT_EQ(t.run.steps.size(), 1u);
@@ -101,6 +102,35 @@ TEST(Trials, ACompletedTrialIsJudged) {
   std::printf("small towel trial: D %.1f mm (%.1f %% of %.3f m), %.0f %% inside, %s\n", 1e3 * t.final_dissimilarity,
               100 * t.final_dissimilarity / t.diagonal, t.diagonal, 100 * t.inside_fraction,
               t.success ? "success" : t.failure.c_str());
+}
+
+// A replay of a run's own trajectories on its own garment is that run, bit for bit: the
+// relative form's round trip (~1e-16 m) must not reach the cloth, which would grow it.
+TEST(Replay, TheRunsOwnTrajectoriesOnItsOwnGarmentReproduceItExactly) {
+  const FoldingPlan plan = ParsePlan(
+      "plan: t\ncategories: [towel]\nsteps:\n"
+      "  - name: bottom_up\n    fold_line:\n"
+      "      - {between: [bottom_left, top_left], t: 0.5}\n"
+      "      - {between: [bottom_right, top_right], t: 0.5}\n"
+      "    grasp: [bottom_left, bottom_right]\n",
+      "test.yaml");
+  const FoldSetup setup = SmallSetup("towel");
+  const FoldScene scene = MakeScene(setup);
+  PlanRunOptions o;
+  o.optimise.lm.max_iterations = 2;
+  const PlanRun run = RunPlan(scene, LaidGarment(setup), "towel", plan, o);
+  ASSERT_EQ(run.steps.size(), 1u);
+  std::vector<std::vector<RelativeTrajectory>> replay;
+  for (const StepRecord& s : run.steps) replay.push_back(s.relative);
+  const PlanRun again = RunPlan(scene, LaidGarment(setup), "towel", plan, o, &replay);
+  EXPECT_TRUE((again.final.array() == run.final.array()).all());
+  EXPECT_EQ(again.final_dissimilarity, run.final_dissimilarity);
+  // Without the source path the knots go through the fold frame and back.
+  for (auto& arm : replay[0]) arm.source.reset();
+  const PlanRun framed = RunPlan(scene, LaidGarment(setup), "towel", plan, o, &replay);
+  EXPECT_NEAR(framed.final_dissimilarity, run.final_dissimilarity, 0.01);
+  std::printf("replay: D %.6f mm exact, %.6f mm through the fold frame (run %.6f mm)\n",
+              1e3 * again.final_dissimilarity, 1e3 * framed.final_dissimilarity, 1e3 * run.final_dissimilarity);
 }
 
 }  // namespace

@@ -37,10 +37,11 @@ RelativeTrajectory ToRelative(const CubicBezier& c) {
     const Vec3 d = p - c.P[0];
     return Vec3(d.dot(f.u), d.dot(f.v), d.dot(f.w)) / f.s;
   };
-  return RelativeTrajectory{rel(c.P[1]), rel(c.P[2])};
+  return RelativeTrajectory{rel(c.P[1]), rel(c.P[2]), c};
 }
 
 CubicBezier FromRelative(const RelativeTrajectory& r, const Vec3& p0, const Vec3& p3) {
+  if (r.source && r.source->P[0] == p0 && r.source->P[3] == p3) return *r.source;
   const FoldFrame f = Frame(p0, p3);
   auto abs = [&](const Vec3& k) { return Vec3(p0 + f.s * (k.x() * f.u + k.y() * f.v + k.z() * f.w)); };
   return CubicBezier{{p0, abs(r.k1), abs(r.k2), p3}};

@@ -10,6 +10,7 @@
 
 #include <functional>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -25,6 +26,11 @@ namespace drape::folding {
 // (⅓, h, 0) and (⅔, h, 0).
 struct RelativeTrajectory {
   Vec3 k1 = Vec3::Zero(), k2 = Vec3::Zero();
+  // The absolute path the knots were taken from (ToRelative, or a replay file's
+  // "optimised"), if known. FromRelative returns it as it was when P0 and P3 are its own,
+  // bit for bit: the frame's round trip is exact only to ~1e-16 m, and a fold's cloth
+  // grows that into millimetres, so an unperturbed replay would not reproduce its run.
+  std::optional<CubicBezier> source;
 };
 RelativeTrajectory ToRelative(const CubicBezier& c);
 CubicBezier FromRelative(const RelativeTrajectory& r, const Vec3& p0, const Vec3& p3);
