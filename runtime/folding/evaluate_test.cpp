@@ -26,6 +26,17 @@ std::vector<std::vector<RelativeTrajectory>> Initial(size_t steps, size_t arms) 
   return std::vector<std::vector<RelativeTrajectory>>(steps, std::vector<RelativeTrajectory>(arms, h3));
 }
 
+// One step: the towel's bottom half over its top half, held at both bottom corners.
+FoldingPlan TowelInHalf() {
+  return ParsePlan(
+      "plan: t\ncategories: [towel]\nsteps:\n"
+      "  - name: bottom_up\n    fold_line:\n"
+      "      - {between: [bottom_left, top_left], t: 0.5}\n"
+      "      - {between: [bottom_right, top_right], t: 0.5}\n"
+      "    grasp: [bottom_left, bottom_right]\n",
+      "test.yaml");
+}
+
 // A w × w square on the table (world x, z), its corner at (x0, z0).
 TriMesh Square(double w, double x0, double z0) {
   TriMesh m;
@@ -78,13 +89,7 @@ TEST(Trials, KeyPointFailureMarksTheTrialAndTheNextOneRuns) {
 }
 
 TEST(Trials, ACompletedTrialIsJudged) {
-  const FoldingPlan plan = ParsePlan(
-      "plan: t\ncategories: [towel]\nsteps:\n"
-      "  - name: bottom_up\n    fold_line:\n"
-      "      - {between: [bottom_left, top_left], t: 0.5}\n"
-      "      - {between: [bottom_right, top_right], t: 0.5}\n"
-      "    grasp: [bottom_left, bottom_right]\n",
-      "test.yaml");
+  const FoldingPlan plan = TowelInHalf();
   TrialOptions o;
   o.trials = 1;
   // Knots as high as the fold is wide (fold_test: this folds the small cloth).
@@ -107,13 +112,7 @@ TEST(Trials, ACompletedTrialIsJudged) {
 // A replay of a run's own trajectories on its own garment is that run, bit for bit: the
 // relative form's round trip (~1e-16 m) must not reach the cloth, which would grow it.
 TEST(Replay, TheRunsOwnTrajectoriesOnItsOwnGarmentReproduceItExactly) {
-  const FoldingPlan plan = ParsePlan(
-      "plan: t\ncategories: [towel]\nsteps:\n"
-      "  - name: bottom_up\n    fold_line:\n"
-      "      - {between: [bottom_left, top_left], t: 0.5}\n"
-      "      - {between: [bottom_right, top_right], t: 0.5}\n"
-      "    grasp: [bottom_left, bottom_right]\n",
-      "test.yaml");
+  const FoldingPlan plan = TowelInHalf();
   const FoldSetup setup = SmallSetup("towel");
   const FoldScene scene = MakeScene(setup);
   PlanRunOptions o;
