@@ -256,6 +256,7 @@ Json StepJson(const StepRecord& s, const StepSim& alt, GripperModel other) {
   return {
       {"name", s.name},
       {"grasps", s.grasps},
+      {"gripper", GripperModelName(s.gripper)},
       {"fold_line",
        {{"point", {s.line.point.x(), s.line.point.y()}}, {"direction", {s.line.direction.x(), s.line.direction.y()}}}},
       {"initial", PathsJson(r.initial)},
@@ -280,18 +281,19 @@ Json StepJson(const StepRecord& s, const StepSim& alt, GripperModel other) {
 Json ReportSteps(const FoldScene& scene, const PlanRun& run, const PlanRunOptions& ro, const Faces& F,
                  const fs::path& out, std::ostringstream& md) {
   Json steps = Json::array();
-  // The other gripper model on the optimised trajectories: the paper's sim/real gap.
-  FoldSimOptions other = ro.sim;
-  other.gripper = ro.sim.gripper == GripperModel::kPinch ? GripperModel::kPoint : GripperModel::kPinch;
   for (size_t i = 0; i < run.steps.size(); ++i) {
     const StepRecord& s = run.steps[i];
     const StepOptimum& r = s.result;
+    // The other gripper model on the optimised trajectories: the paper's sim/real gap.
+    FoldSimOptions other = ro.sim;
+    other.gripper = s.gripper == GripperModel::kPinch ? GripperModel::kPoint : GripperModel::kPinch;
     const StepSim alt = SimulateStep(scene, s.setup, r.optimised, other, ro.optimise.alpha);
     steps.push_back(StepJson(s, alt, other.gripper));
     char row[512];
-    std::snprintf(row, sizeof row, "| %s | %zu | %.1f | %.1f | %.3f | %.3f | %.3f | %.3f | %d | %.0f |\n",
-                  s.name.c_str(), s.grasps.size(), 1e3 * r.before.dissimilarity, 1e3 * r.after.dissimilarity,
-                  r.before.cost, r.after.cost, r.before.length, r.after.length, r.simulations, r.wall_seconds);
+    std::snprintf(row, sizeof row, "| %s | %zu | %s | %.1f | %.1f | %.3f | %.3f | %.3f | %.3f | %d | %.0f |\n",
+                  s.name.c_str(), s.grasps.size(), GripperModelName(s.gripper).c_str(), 1e3 * r.before.dissimilarity,
+                  1e3 * r.after.dissimilarity, r.before.cost, r.after.cost, r.before.length, r.after.length,
+                  r.simulations, r.wall_seconds);
     md << row;
     std::printf("step %zu %-16s D %.1f -> %.1f mm, C %.3f -> %.3f (%d simulations, %.0f s); %s gripper: D %.1f mm\n",
                 i + 1, s.name.c_str(), 1e3 * r.before.dissimilarity, 1e3 * r.after.dissimilarity, r.before.cost,
@@ -474,9 +476,11 @@ std::vector<std::vector<RelativeTrajectory>> LoadReplay(const fs::path& file, co
 Json WriteFans(const FoldScene& scene, const PlanRun& run, const PlanRunOptions& ro, int fan, const fs::path& out,
                std::ostringstream& md) {
   const int k = fan - 1;
+  FoldSimOptions sim = ro.sim;
+  sim.gripper = run.steps[k].gripper;
   std::vector<std::vector<FanTrajectory>> fans;
   for (const char* kind : {"symmetric", "early", "late"})
-    fans.push_back(SolutionFan(scene, run.steps[k].setup, ro.sim, kind));
+    fans.push_back(SolutionFan(scene, run.steps[k].setup, sim, kind));
   const std::vector<std::string> kinds = {"symmetric", "first knot varies", "second knot varies"};
   WritePng(out / "fan.png", FanFigure(fans, kinds));
   // The numbers behind the picture: D per knot height h (× span) of the varied knots.
@@ -496,6 +500,18 @@ Json WriteFans(const FoldScene& scene, const PlanRun& run, const PlanRunOptions&
                         {"second_knot", fans[2][t].dissimilarity}});
   }
   return {{"step", k + 1}, {"trajectories", fan_json}};
+}
+
+// The run's gripper, or per step when a plan step names its own: "pinch" or
+// "point, point, pinch, pinch, pinch (per step)".
+std::string GrippersLabel(const FoldingPlan& plan, GripperModel fallback) {
+  std::string per_step;
+  bool any = false;
+  for (const PlanStep& s : plan.steps) {
+    any = any || s.gripper.has_value();
+    per_step += (per_step.empty() ? "" : ", ") + GripperModelName(s.gripper.value_or(fallback));
+  }
+  return any ? per_step + " (per step)" : GripperModelName(fallback);
 }
 
 // --key-points-only: each trial's perturbed garment settles flat and the camera looks
@@ -542,9 +558,10 @@ int Run(FoldArgs& args) {
   const std::string& category = setup.garment.category;
   const PlanRunOptions ro = RunOptionsFrom(args, setup);
   const FoldScene scene = MakeScene(setup);
+  const std::string grippers = GrippersLabel(plan, ro.sim.gripper);
   std::printf("%s: %d vertices, %d faces; plan %s, %zu steps, gripper %s\n", setup.garment.instance.c_str(),
               setup.garment.mesh.NumVertices(), setup.garment.mesh.NumFaces(), plan.name.c_str(), plan.steps.size(),
-              GripperModelName(ro.sim.gripper).c_str());
+              grippers.c_str());
   std::fflush(stdout);
 
   if (args.key_points_only) return KeyPointTrials(args, setup, plan, ro, out);
@@ -563,17 +580,16 @@ int Run(FoldArgs& args) {
   md << "# drape fold: " << setup.garment.instance << " with plan " << plan.name << "\n\n"
      << "Mesh " << setup.garment.mesh.NumVertices() << " vertices / " << setup.garment.mesh.NumFaces()
      << " faces; material " << in.material << " (kLST " << in.fit.stiffness << ", mu " << setup.friction
-     << "); gripper " << GripperModelName(ro.sim.gripper) << "."
-     << (replay.empty() ? "" : " Replayed " + args.replay + " (no optimisation).") << "\n\n"
-     << "| step | arms | D before (mm) | D after (mm) | C before | C after | l before (m) | l after (m) | simulations "
-        "| "
-        "seconds |\n|---|---|---|---|---|---|---|---|---|---|\n";
+     << "); gripper " << grippers << "." << (replay.empty() ? "" : " Replayed " + args.replay + " (no optimisation).")
+     << "\n\n"
+     << "| step | arms | gripper | D before (mm) | D after (mm) | C before | C after | l before (m) | l after (m) "
+        "| simulations | seconds |\n|---|---|---|---|---|---|---|---|---|---|---|\n";
   const Json steps = ReportSteps(scene, run, ro, setup.garment.mesh.F, out, md);
   Json doc = {{"garment", setup.garment.instance},
               {"category", category},
               {"plan", plan.name},
               {"material", in.material},
-              {"gripper", GripperModelName(ro.sim.gripper)},
+              {"gripper", GripperModelName(ro.sim.gripper)},  // the default; each step says its own
               {"alpha", ro.optimise.alpha},
               {"delta", ro.optimise.lm.finite_difference_step},
               {"vertices", setup.garment.mesh.NumVertices()},
@@ -610,7 +626,8 @@ Runner Setup(CLI::App& app) {
                  "material preset (default by category: towel_b, pants, shirting for the long-sleeve shirt, tshirt)")
       ->type_name("NAME");
   app.add_option("--category", a->category, "category of an imported mesh (default: its sidecar's)")->type_name("C");
-  app.add_option("--gripper", a->gripper, "pinch (a small area) or point (one vertex)")
+  app.add_option("--gripper", a->gripper,
+                 "pinch (a small area) or point (one vertex), for the plan steps that do not name their gripper")
       ->check(CLI::IsMember({"pinch", "point"}))
       ->capture_default_str();
   app.add_option("--replay", a->replay,

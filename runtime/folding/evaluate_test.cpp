@@ -26,14 +26,16 @@ std::vector<std::vector<RelativeTrajectory>> Initial(size_t steps, size_t arms) 
   return std::vector<std::vector<RelativeTrajectory>>(steps, std::vector<RelativeTrajectory>(arms, h3));
 }
 
-// One step: the towel's bottom half over its top half, held at both bottom corners.
-FoldingPlan TowelInHalf() {
+// One step: the towel's bottom half over its top half, held at both bottom corners;
+// `extra` adds keys to the step (e.g. its gripper).
+FoldingPlan TowelInHalf(const std::string& extra = "") {
   return ParsePlan(
       "plan: t\ncategories: [towel]\nsteps:\n"
       "  - name: bottom_up\n    fold_line:\n"
       "      - {between: [bottom_left, top_left], t: 0.5}\n"
       "      - {between: [bottom_right, top_right], t: 0.5}\n"
-      "    grasp: [bottom_left, bottom_right]\n",
+      "    grasp: [bottom_left, bottom_right]\n" +
+          extra,
       "test.yaml");
 }
 
@@ -130,6 +132,32 @@ TEST(Replay, TheRunsOwnTrajectoriesOnItsOwnGarmentReproduceItExactly) {
   EXPECT_NEAR(framed.final_dissimilarity, run.final_dissimilarity, 0.01);
   std::printf("replay: D %.6f mm exact, %.6f mm through the fold frame (run %.6f mm)\n",
               1e3 * again.final_dissimilarity, 1e3 * framed.final_dissimilarity, 1e3 * run.final_dissimilarity);
+}
+
+// A plan step that names its gripper uses it whatever the run's default; a step that
+// does not takes the default. (On this mesh both models hold one node per corner; the
+// jaws differ, and so does the fold.)
+TEST(Replay, AStepsGripperOverridesTheRunsDefault) {
+  const FoldSetup setup = SmallSetup("towel");
+  const FoldScene scene = MakeScene(setup);
+  const std::vector<std::vector<RelativeTrajectory>> replay = Initial(1, 2);
+  auto run = [&](const FoldingPlan& plan, GripperModel fallback) {
+    PlanRunOptions o;
+    o.sim.gripper = fallback;
+    PlanRun r = RunPlan(scene, LaidGarment(setup), "towel", plan, o, &replay);
+    EXPECT_EQ(r.steps.size(), 1u);
+    return r;
+  };
+  const PlanRun point = run(TowelInHalf(), GripperModel::kPoint), pinch = run(TowelInHalf(), GripperModel::kPinch);
+  EXPECT_EQ(point.steps[0].gripper, GripperModel::kPoint);
+  EXPECT_EQ(pinch.steps[0].gripper, GripperModel::kPinch);
+  ASSERT_FALSE((point.final.array() == pinch.final.array()).all());
+  const PlanRun named_point = run(TowelInHalf("    gripper: point\n"), GripperModel::kPinch);
+  EXPECT_EQ(named_point.steps[0].gripper, GripperModel::kPoint);
+  EXPECT_TRUE((named_point.final.array() == point.final.array()).all());
+  const PlanRun named_pinch = run(TowelInHalf("    gripper: pinch\n"), GripperModel::kPoint);
+  EXPECT_EQ(named_pinch.steps[0].gripper, GripperModel::kPinch);
+  EXPECT_TRUE((named_pinch.final.array() == pinch.final.array()).all());
 }
 
 }  // namespace

@@ -44,14 +44,6 @@ Grip MakeGrip(const FoldScene& scene, const FoldSimOptions& o, const Vec3& p0) {
 
 }  // namespace
 
-std::string GripperModelName(GripperModel m) { return m == GripperModel::kPinch ? "pinch" : "point"; }
-
-GripperModel ParseGripperModel(const std::string& name) {
-  if (name == "pinch") return GripperModel::kPinch;
-  if (name == "point") return GripperModel::kPoint;
-  throw Error("gripper model '" + name + "': expected pinch or point");
-}
-
 void FoldSimOptions::Validate() const {
   jaw.Validate();
   settle.Validate();

@@ -22,14 +22,11 @@
 
 #include "generator/cloth/world.h"
 #include "runtime/folding/bezier.h"
+#include "runtime/folding/gripper.h"
 #include "runtime/folding/target.h"
 #include "runtime/optim/secant_lm.h"
 
 namespace drape::folding {
-
-enum class GripperModel { kPinch, kPoint };
-std::string GripperModelName(GripperModel m);
-GripperModel ParseGripperModel(const std::string& name);  // "pinch" | "point"; throws drape::Error
 
 // The garment on its table: immutable, shared by every simulation of a run.
 struct FoldScene {

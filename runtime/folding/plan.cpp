@@ -132,6 +132,28 @@ PlanPoint ParsePoint(const Reader& rd, const YAML::Node& n, const std::string& p
   return pt;
 }
 
+PlanStep ParseStep(const Reader& rd, const YAML::Node& s, const std::string& p, const std::set<std::string>& names) {
+  rd.Keys(s, p, {"name", "fold_line", "grasp", "gripper"}, {"name", "fold_line", "grasp"});
+  PlanStep step;
+  step.line = rd.Line(s);
+  step.name = rd.Name(s["name"], p + ".name");
+  const YAML::Node fl = s["fold_line"];
+  if (!fl.IsSequence() || fl.size() != 2) rd.Fail(fl, p + ".fold_line", "expected a list of two points");
+  step.line_from = ParsePoint(rd, fl[0], p + ".fold_line[0]", names);
+  step.line_to = ParsePoint(rd, fl[1], p + ".fold_line[1]", names);
+  const YAML::Node g = s["grasp"];
+  if (!g.IsSequence() || g.size() < 1 || g.size() > 2)
+    rd.Fail(g, p + ".grasp", "expected a list of one or two points (one per arm)");
+  for (size_t k = 0; k < g.size(); ++k)
+    step.grasps.push_back(ParsePoint(rd, g[k], p + ".grasp[" + std::to_string(k) + "]", names));
+  if (s["gripper"].IsDefined()) {
+    const std::string m = rd.Str(s["gripper"], p + ".gripper");
+    if (m != "point" && m != "pinch") rd.Fail(s["gripper"], p + ".gripper", "'" + m + "' is not point or pinch");
+    step.gripper = ParseGripperModel(m);
+  }
+  return step;
+}
+
 }  // namespace
 
 FoldingPlan ParsePlan(const std::string& text, const std::string& file_label) {
@@ -159,23 +181,9 @@ FoldingPlan ParsePlan(const std::string& text, const std::string& file_label) {
   std::set<std::string> step_names;
   for (size_t i = 0; i < steps.size(); ++i) {
     const std::string p = "steps[" + std::to_string(i) + "]";
-    const YAML::Node s = steps[i];
-    rd.Keys(s, p, {"name", "fold_line", "grasp"}, {"name", "fold_line", "grasp"});
-    PlanStep step;
-    step.line = rd.Line(s);
-    step.name = rd.Name(s["name"], p + ".name");
-    if (!step_names.insert(step.name).second)
-      rd.Fail(s["name"], p + ".name", "step name '" + step.name + "' given twice");
-    const YAML::Node fl = s["fold_line"];
-    if (!fl.IsSequence() || fl.size() != 2) rd.Fail(fl, p + ".fold_line", "expected a list of two points");
-    step.line_from = ParsePoint(rd, fl[0], p + ".fold_line[0]", names);
-    step.line_to = ParsePoint(rd, fl[1], p + ".fold_line[1]", names);
-    const YAML::Node g = s["grasp"];
-    if (!g.IsSequence() || g.size() < 1 || g.size() > 2)
-      rd.Fail(g, p + ".grasp", "expected a list of one or two points (one per arm)");
-    for (size_t k = 0; k < g.size(); ++k)
-      step.grasps.push_back(ParsePoint(rd, g[k], p + ".grasp[" + std::to_string(k) + "]", names));
-    plan.steps.push_back(std::move(step));
+    plan.steps.push_back(ParseStep(rd, steps[i], p, names));
+    if (!step_names.insert(plan.steps.back().name).second)
+      rd.Fail(steps[i]["name"], p + ".name", "step name '" + plan.steps.back().name + "' given twice");
   }
   return plan;
 }

@@ -11,10 +11,12 @@
 #pragma once
 
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "common/mesh.h"
+#include "runtime/folding/gripper.h"
 
 namespace drape::folding {
 
@@ -32,6 +34,9 @@ struct PlanStep {
   std::string name;
   PlanPoint line_from, line_to;   // the fold line through two points
   std::vector<PlanPoint> grasps;  // one per arm (1 or 2); arm 0 = the robot's left
+  // The gripper this step uses (a single layer by a point, a stack by a pinch); unset:
+  // the run's default (`drape fold --gripper`).
+  std::optional<GripperModel> gripper;
   int line = 0;
 };
 

@@ -50,6 +50,30 @@ steps:
   EXPECT_EQ(s.grasps[0].line, 6);
 }
 
+// A step may name its gripper; one that does not takes the run's (unset here).
+TEST(Plan, StepGripper) {
+  const FoldingPlan p = ParsePlan(R"(plan: t
+categories: [towel]
+steps:
+  - name: a
+    fold_line: [top_left, top_right]
+    grasp: [bottom_left]
+    gripper: point
+  - name: b
+    fold_line: [top_left, top_right]
+    grasp: [bottom_left]
+  - name: c
+    gripper: pinch
+    fold_line: [top_left, top_right]
+    grasp: [bottom_left]
+)",
+                                  "t.yaml");
+  ASSERT_EQ(p.steps.size(), 3u);
+  EXPECT_EQ(p.steps[0].gripper, GripperModel::kPoint);
+  EXPECT_FALSE(p.steps[1].gripper.has_value());
+  EXPECT_EQ(p.steps[2].gripper, GripperModel::kPinch);
+}
+
 // The error message of parsing `text`, or "" if it parsed.
 std::string ErrorOf(const std::string& text) {
   try {
@@ -63,7 +87,14 @@ std::string ErrorOf(const std::string& text) {
 TEST(Plan, ErrorsNameFileLineAndKey) {
   const std::string head = "plan: t\ncategories: [towel]\nsteps:\n  - name: a\n";
   EXPECT_EQ(ErrorOf(head + "    fold_line: [top_left, top_right]\n    grasp: [bottom_left]\n    speed: 2\n"),
-            "bad.yaml:7:5: steps[0].speed: unknown key; known keys here: name, fold_line, grasp");
+            "bad.yaml:7:5: steps[0].speed: unknown key; known keys here: name, fold_line, grasp, gripper");
+  EXPECT_EQ(ErrorOf(head + "    fold_line: [top_left, top_right]\n    grasp: [bottom_left]\n    gripper: claw\n"),
+            "bad.yaml:7:14: steps[0].gripper: 'claw' is not point or pinch");
+  EXPECT_EQ(ErrorOf(head + "    fold_line: [top_left, top_right]\n    grasp: [bottom_left]\n    gripper: [point]\n"),
+            "bad.yaml:7:14: steps[0].gripper: expected a string, got a list");
+  EXPECT_EQ(ErrorOf(head + "    fold_line: [top_left, top_right]\n    grasp: [bottom_left]\n    gripper: point\n"
+                           "    gripper: pinch\n"),
+            "bad.yaml:8:5: steps[0].gripper: key given twice");
   EXPECT_EQ(ErrorOf(head + "    fold_line: [top_left, top_rihgt]\n    grasp: [bottom_left]\n").substr(0, 62),
             "bad.yaml:5:27: steps[0].fold_line[1]: unknown key point 'top_r");
   EXPECT_EQ(

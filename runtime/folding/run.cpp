@@ -146,6 +146,9 @@ void RunPlan(PlanRun& run, const FoldScene& scene, const Points3& laid, const st
     rec.name = pl.name;
     rec.line = pl.line;
     rec.grasps = pl.grasps;
+    FoldSimOptions sim = o.sim;
+    if (plan.steps[i].gripper) sim.gripper = *plan.steps[i].gripper;
+    rec.gripper = sim.gripper;
     const std::string where = StepWhere(plan, plan.steps[i]);
     try {
       rec.setup = PrepareStep(scene, cur, rec.line, verts, o.thickness);
@@ -158,11 +161,11 @@ void RunPlan(PlanRun& run, const FoldScene& scene, const Points3& laid, const st
       if (rel.size() != verts.size()) throw Error(where + "replay has the wrong number of arms");
       for (size_t k = 0; k < verts.size(); ++k) paths.push_back(FromRelative(rel[k], rec.setup.p0[k], rec.setup.p3[k]));
       rec.result.initial = rec.result.optimised = paths;
-      rec.result.after = SimulateStep(scene, rec.setup, paths, o.sim, o.optimise.alpha, true);
+      rec.result.after = SimulateStep(scene, rec.setup, paths, sim, o.optimise.alpha, true);
       rec.result.before = rec.result.after;
     } else {
       try {
-        rec.result = OptimiseStep(scene, rec.setup, o.sim, o.optimise);
+        rec.result = OptimiseStep(scene, rec.setup, sim, o.optimise);
       } catch (const NumericalError& e) {
         throw NumericalError(where + e.what());
       }

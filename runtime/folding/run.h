@@ -38,7 +38,7 @@ CubicBezier FromRelative(const RelativeTrajectory& r, const Vec3& p0, const Vec3
 struct StepRecord;
 
 struct PlanRunOptions {
-  FoldSimOptions sim;
+  FoldSimOptions sim;  // sim.gripper: the default for plan steps that do not name theirs
   OptimiseOptions optimise;
   KeyPointOptions key_points;
   double camera_metres_per_pixel = 0.003;
@@ -51,8 +51,9 @@ struct PlanRunOptions {
 
 struct StepRecord {
   std::string name;
-  FoldLine line;                    // world x, z
-  std::vector<std::string> grasps;  // what the plan names, per arm
+  FoldLine line;                                // world x, z
+  std::vector<std::string> grasps;              // what the plan names, per arm
+  GripperModel gripper = GripperModel::kPinch;  // the plan step's, else the run's default
   StepSetup setup;
   StepOptimum result;                        // replays: initial = optimised = the replayed paths
   std::vector<RelativeTrajectory> relative;  // of result.optimised
