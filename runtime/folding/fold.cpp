@@ -63,7 +63,8 @@ StepSetup PrepareStep(const FoldScene& scene, const Points3& start, const FoldLi
     if (v < 0 || v >= start.rows()) throw Error("fold step: grasp vertex out of range");
     s.p0.push_back(start.row(v).transpose());
   }
-  s.fold = std::make_shared<IdealFold>(line, Vec2(s.p0[0].x(), s.p0[0].z()), start, thickness);
+  s.fold = std::make_shared<IdealFold>(line, Vec2(s.p0[0].x(), s.p0[0].z()), start, thickness,
+                                       LongestEdge(scene.model->rest));
   for (const Vec3& p : s.p0) {
     if (!s.fold->Folds(p)) throw Error("fold step: the grasp points lie on different sides of the fold line");
     s.p3.push_back(s.fold->Apply(p));

@@ -110,6 +110,27 @@ TEST(Fold, OptimisationNeverEndsWorse) {
   EXPECT_LE(r.after.cost, std::sqrt(2 * r.lm.final_cost) + 1e-9);  // deterministic simulations
 }
 
+// The first sleeve's fold leaves a loop of cloth standing at its shoulder (6.6 cm up at
+// 8 cm edges); the second sleeve's target and P3 were lifted by it from across the
+// shirt (P3 13 cm above the table; D 23.3 mm, 4.3 folded first). A bump the folded
+// part lands on still lifts it.
+TEST(Fold, TheTargetTakesTheStackItLandsOnNotABumpElsewhere) {
+  const Small s = MakeSmall();
+  const FoldLine line{Vec2(0.10, 0), Vec2(0, 1)};  // the strip x > 0.10 lands on 0.05 < x < 0.10
+  const std::vector<int> grasp = {Nearest(s.start, 0.15, 0.10)};
+  const double flat = PrepareStep(s.scene, s.start, line, grasp, 0.004).fold->axis_height();
+  EXPECT_NEAR(flat, s.start.col(1).maxCoeff() + 0.002, 0.001);
+  Points3 far = s.start;
+  far(Nearest(s.start, -0.15, 0.0), 1) += 0.06;
+  const StepSetup setup = PrepareStep(s.scene, far, line, grasp, 0.004);
+  EXPECT_DOUBLE_EQ(setup.fold->axis_height(), flat);
+  EXPECT_NEAR(setup.p3[0].y(), 2 * flat - setup.p0[0].y(), 1e-12);  // before: 0.126 m
+  Points3 under = s.start;
+  const int v = Nearest(s.start, 0.05, 0.0);
+  under(v, 1) += 0.06;
+  EXPECT_DOUBLE_EQ(PrepareStep(s.scene, under, line, grasp, 0.004).fold->axis_height(), under(v, 1) + 0.002);
+}
+
 // A simulation that blows up is run once more at half the time step before the step
 // is failed; the record says which step it ended with. Here a speed limit the arm
 // itself breaks (0.2 m/s against the arm's 0.4) is a blow-up at any time step.

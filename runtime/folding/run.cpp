@@ -102,6 +102,7 @@ std::vector<PlannedStep> PlanSteps(const TriMesh& flat, const std::map<std::stri
   };
   std::vector<PlannedStep> out;
   TriMesh ideal = flat;
+  const double reach = LongestEdge(flat);
   for (const PlanStep& ps : plan.steps) {
     PlannedStep st;
     st.name = ps.name;
@@ -113,7 +114,7 @@ std::vector<PlannedStep> PlanSteps(const TriMesh& flat, const std::map<std::stri
     }
     try {
       const Vec3 g0 = ideal.V.row(st.grasp_vertices[0]).transpose();
-      ideal = TargetShape(ideal, IdealFold(st.line, Vec2(g0.x(), g0.z()), ideal.V, thickness));
+      ideal = TargetShape(ideal, IdealFold(st.line, Vec2(g0.x(), g0.z()), ideal.V, thickness, reach));
     } catch (const Error& e) {
       throw Error(StepWhere(plan, ps) + e.what());
     }

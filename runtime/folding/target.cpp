@@ -1,12 +1,14 @@
 #include "runtime/folding/target.h"
 
+#include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include "common/error.h"
 
 namespace drape::folding {
 
-IdealFold::IdealFold(const FoldLine& line, const Vec2& grasp, const Points3& current, double thickness) {
+IdealFold::IdealFold(const FoldLine& line, const Vec2& grasp, const Points3& current, double thickness, double reach) {
   if (!(line.direction.norm() > 1e-9) || !line.direction.allFinite() || !line.point.allFinite())
     throw Error("fold line: the two points coincide (or are not finite)");
   if (!(thickness >= 0)) throw Error("fold: thickness must be >= 0");
@@ -16,7 +18,32 @@ IdealFold::IdealFold(const FoldLine& line, const Vec2& grasp, const Points3& cur
   const double s = normal_.dot(grasp - line_.point);
   if (std::abs(s) < 1e-6) throw Error("fold: a grasp point lies on the fold line");
   if (s < 0) normal_ = -normal_;
-  axis_height_ = (current.rows() ? current.col(1).maxCoeff() : 0.0) + thickness / 2;
+  if (!(reach > 0)) throw Error("fold: reach must be > 0");
+  axis_height_ = StackTop(current, reach) + thickness / 2;
+}
+
+double IdealFold::StackTop(const Points3& current, double reach) const {
+  if (!current.rows()) return 0;
+  std::vector<Vec2> images;
+  double top = -std::numeric_limits<double>::infinity();
+  for (int i = 0; i < current.rows(); ++i) {
+    const Vec3 p = current.row(i).transpose();
+    if (!Folds(p)) continue;
+    top = std::max(top, p.y());
+    const Vec3 image = Apply(p);  // its x, z (the height needs axis_height_)
+    images.push_back(Vec2(image.x(), image.z()));
+  }
+  if (images.empty()) return current.col(1).maxCoeff();
+  for (int i = 0; i < current.rows(); ++i) {
+    const Vec3 p = current.row(i).transpose();
+    if (Folds(p) || !(p.y() > top)) continue;
+    for (const Vec2& q : images)
+      if ((Vec2(p.x(), p.z()) - q).norm() <= reach) {
+        top = p.y();
+        break;
+      }
+  }
+  return top;
 }
 
 double IdealFold::Side(const Vec3& p) const { return normal_.dot(Vec2(p.x(), p.z()) - line_.point); }
@@ -42,6 +69,12 @@ TriMesh TargetShape(const TriMesh& current, const IdealFold& fold) {
   TriMesh t = current;
   for (int i = 0; i < t.NumVertices(); ++i) t.V.row(i) = fold.Apply(current.V.row(i).transpose()).transpose();
   return t;
+}
+
+double LongestEdge(const TriMesh& mesh) {
+  double longest = 0;
+  for (const auto& e : UniqueEdges(mesh)) longest = std::max(longest, (mesh.V.row(e[0]) - mesh.V.row(e[1])).norm());
+  return longest;
 }
 
 }  // namespace drape::folding

@@ -4,6 +4,8 @@
 // stack. The same map sends each grasp point to its target P3.
 #pragma once
 
+#include <limits>
+
 #include "common/mesh.h"
 
 namespace drape::folding {
@@ -20,9 +22,14 @@ struct FoldLine {
 // bottom layer on top). Points on the other side stay.
 class IdealFold {
  public:
-  // `grasp` (world x, z) picks the folded side; axis_height = highest current vertex
-  // + thickness/2. Throws drape::Error if the line is degenerate or `grasp` lies on it.
-  IdealFold(const FoldLine& line, const Vec2& grasp, const Points3& current, double thickness);
+  // `grasp` (world x, z) picks the folded side; axis_height = the highest current vertex
+  // the fold concerns + thickness/2: those on the folded side and those it lands on
+  // (within `reach` in x–z of a folded vertex's mirror image; pass the mesh's longest
+  // edge). A bump elsewhere (the first sleeve's shoulder, 6.6 cm high at 8 cm) must not
+  // lift the second sleeve's target. No vertex on the folded side: the highest of all.
+  // Throws drape::Error if the line is degenerate or `grasp` lies on it.
+  IdealFold(const FoldLine& line, const Vec2& grasp, const Points3& current, double thickness,
+            double reach = std::numeric_limits<double>::infinity());
 
   bool Folds(const Vec3& p) const;  // on the folded side (strictly)
   Vec3 Apply(const Vec3& p) const;  // the fold's image of p (identity off the folded side)
@@ -34,7 +41,8 @@ class IdealFold {
   Vec3 Axis() const { return Vec3(line_.direction.x(), 0, line_.direction.y()); }
 
  private:
-  double Side(const Vec3& p) const;  // signed distance, > 0 on the folded side
+  double Side(const Vec3& p) const;                             // signed distance, > 0 on the folded side
+  double StackTop(const Points3& current, double reach) const;  // see the constructor
   FoldLine line_;
   Vec2 normal_;  // unit, towards the folded side
   double axis_height_ = 0;
@@ -42,5 +50,8 @@ class IdealFold {
 
 // S_t: every vertex of `current` mapped by the fold (faces unchanged).
 TriMesh TargetShape(const TriMesh& current, const IdealFold& fold);
+
+// The longest edge of a mesh (IdealFold's reach), m.
+double LongestEdge(const TriMesh& mesh);
 
 }  // namespace drape::folding
