@@ -71,6 +71,31 @@ TriMesh TargetShape(const TriMesh& current, const IdealFold& fold) {
   return t;
 }
 
+TriMesh LandedFold(const TriMesh& stack, const IdealFold& fold, double thickness, double reach) {
+  if (!(thickness >= 0) || !(reach > 0)) throw Error("fold: thickness must be >= 0 and reach > 0");
+  const Points3& V = stack.V;
+  TriMesh t = stack;
+  if (!V.rows()) return t;
+  const double table = V.col(1).minCoeff() - thickness;
+  auto xz = [](const Vec3& p) { return Vec2(p.x(), p.z()); };
+  for (int i = 0; i < V.rows(); ++i) {
+    const Vec3 p = V.row(i).transpose();
+    if (!fold.Folds(p)) continue;
+    const Vec3 image = fold.Apply(p);
+    double folded_top = p.y(), under_top = table;
+    for (int j = 0; j < V.rows(); ++j) {
+      const Vec3 u = V.row(j).transpose();
+      if (fold.Folds(u)) {
+        if ((xz(u) - xz(p)).norm() <= reach) folded_top = std::max(folded_top, u.y());
+      } else if ((xz(u) - xz(image)).norm() <= reach) {
+        under_top = std::max(under_top, u.y());
+      }
+    }
+    t.V.row(i) = Vec3(image.x(), under_top + thickness + folded_top - p.y(), image.z()).transpose();
+  }
+  return t;
+}
+
 double LongestEdge(const TriMesh& mesh) {
   double longest = 0;
   for (const auto& e : UniqueEdges(mesh)) longest = std::max(longest, (mesh.V.row(e[0]) - mesh.V.row(e[1])).norm());

@@ -36,6 +36,36 @@ TEST(IdealFold, MirrorsTheGraspedSideOnTopOfTheStack) {
   EXPECT_THROW(IdealFold(FoldLine{Vec2(0.1, 0), Vec2(0, 0)}, Vec2(0.5, 0.3), cur, 0.004), Error);
 }
 
+// A folded part thicker than the stack it lands on (the shirt's side flap carrying its
+// folded sleeve) rests one thickness above that stack in the plan's ideal; IdealFold's
+// rigid half-turn (a step's target) lifts it above its own top. On an even stack the
+// two agree.
+TEST(LandedFold, AThickFlapRestsOnTheStackItLandsOn) {
+  Points3 cur(4, 3);
+  cur << 0.3, 0.002, 0.0,  // the flap (x > 0.1): 0.002 to 0.030
+      0.3, 0.030, 0.0,     //
+      -0.1, 0.006, 0.0,    // the stack under its image (x = -0.1)
+      -0.1, 0.002, 0.0;
+  const Faces F(0, 3);
+  const IdealFold fold(FoldLine{Vec2(0.1, 0), Vec2(0, 1)}, Vec2(0.5, 0), cur, 0.004, 0.01);
+  const TriMesh landed = LandedFold(TriMesh{cur, F}, fold, 0.004, 0.01);
+  EXPECT_NEAR(landed.V(1, 1), 0.010, 1e-15);  // its top, turned over, 4 mm above 0.006
+  EXPECT_NEAR(landed.V(0, 1), 0.038, 1e-15);
+  EXPECT_NEAR(landed.V(0, 0), -0.1, 1e-15);
+  EXPECT_EQ(landed.V.row(2), cur.row(2));
+  EXPECT_NEAR(fold.Apply(cur.row(1).transpose()).y(), 0.034, 1e-15);  // rigid: the axis at 0.030 + 0.002
+  // Under nothing (reach 1 cm, the image 5 cm from the stack): on the table's level.
+  const IdealFold far(FoldLine{Vec2(0.125, 0), Vec2(0, 1)}, Vec2(0.5, 0), cur, 0.004, 0.01);
+  EXPECT_NEAR(LandedFold(TriMesh{cur, F}, far, 0.004, 0.01).V(1, 1), 0.002, 1e-15);
+  // An even stack: the half-turn.
+  Points3 even = cur;
+  even(1, 1) = 0.006;
+  const IdealFold e(FoldLine{Vec2(0.1, 0), Vec2(0, 1)}, Vec2(0.5, 0), even, 0.004, 0.01);
+  const TriMesh le = LandedFold(TriMesh{even, F}, e, 0.004, 0.01);
+  for (int i = 0; i < 4; ++i)
+    EXPECT_TRUE(le.V.row(i).isApprox(e.Apply(even.row(i).transpose()).transpose(), 1e-12)) << i;
+}
+
 TEST(IdealFold, TargetOfATowelFoldedInHalfAndTheDissimilarityOfTheFlatTowel) {
   TemplateOptions o;
   o.edge_length = 0.04;
