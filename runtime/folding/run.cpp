@@ -114,7 +114,7 @@ std::vector<PlannedStep> PlanSteps(const TriMesh& flat, const std::map<std::stri
     }
     try {
       const Vec3 g0 = ideal.V.row(st.grasp_vertices[0]).transpose();
-      ideal = LandedFold(ideal, IdealFold(st.line, Vec2(g0.x(), g0.z()), ideal.V, thickness, reach), thickness, reach);
+      ideal = LandedFold(ideal, IdealFold(st.line, Vec2(g0.x(), g0.z()), ideal.V, thickness, reach));
     } catch (const Error& e) {
       throw Error(StepWhere(plan, ps) + e.what());
     }

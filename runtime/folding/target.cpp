@@ -19,6 +19,8 @@ IdealFold::IdealFold(const FoldLine& line, const Vec2& grasp, const Points3& cur
   if (std::abs(s) < 1e-6) throw Error("fold: a grasp point lies on the fold line");
   if (s < 0) normal_ = -normal_;
   if (!(reach > 0)) throw Error("fold: reach must be > 0");
+  thickness_ = thickness;
+  reach_ = reach;
   axis_height_ = StackTop(current, reach) + thickness / 2;
 }
 
@@ -71,21 +73,23 @@ TriMesh TargetShape(const TriMesh& current, const IdealFold& fold) {
   return t;
 }
 
-TriMesh LandedFold(const TriMesh& stack, const IdealFold& fold, double thickness, double reach) {
-  if (!(thickness >= 0) || !(reach > 0)) throw Error("fold: thickness must be >= 0 and reach > 0");
+TriMesh LandedFold(const TriMesh& stack, const IdealFold& fold) {
   const Points3& V = stack.V;
   TriMesh t = stack;
   if (!V.rows()) return t;
+  const double thickness = fold.thickness(), reach = fold.reach();
   const double table = V.col(1).minCoeff() - thickness;
   auto xz = [](const Vec3& p) { return Vec2(p.x(), p.z()); };
+  std::vector<char> folds(V.rows());
+  for (int j = 0; j < V.rows(); ++j) folds[j] = fold.Folds(V.row(j).transpose());
   for (int i = 0; i < V.rows(); ++i) {
+    if (!folds[i]) continue;
     const Vec3 p = V.row(i).transpose();
-    if (!fold.Folds(p)) continue;
     const Vec3 image = fold.Apply(p);
     double folded_top = p.y(), under_top = table;
     for (int j = 0; j < V.rows(); ++j) {
       const Vec3 u = V.row(j).transpose();
-      if (fold.Folds(u)) {
+      if (folds[j]) {
         if ((xz(u) - xz(p)).norm() <= reach) folded_top = std::max(folded_top, u.y());
       } else if ((xz(u) - xz(image)).norm() <= reach) {
         under_top = std::max(under_top, u.y());

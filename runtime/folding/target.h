@@ -38,6 +38,8 @@ class IdealFold {
   Eigen::Matrix3d Rotation(double fraction) const;
   const FoldLine& line() const { return line_; }
   double axis_height() const { return axis_height_; }
+  double thickness() const { return thickness_; }
+  double reach() const { return reach_; }
   Vec3 Axis() const { return Vec3(line_.direction.x(), 0, line_.direction.y()); }
 
  private:
@@ -45,7 +47,7 @@ class IdealFold {
   double StackTop(const Points3& current, double reach) const;  // see the constructor
   FoldLine line_;
   Vec2 normal_;  // unit, towards the folded side
-  double axis_height_ = 0;
+  double axis_height_ = 0, thickness_ = 0, reach_ = 0;
 };
 
 // S_t: every vertex of `current` mapped by the fold (faces unchanged).
@@ -55,14 +57,14 @@ TriMesh TargetShape(const TriMesh& current, const IdealFold& fold);
 // folded side goes to its mirror image in x–z as in IdealFold, but each folded part
 // lands upside down on what lies under its image, one thickness above it:
 //   y' = (top under the image) + thickness + (top of the folded part at p − p.y),
-// "at" a place = within `reach` of it in x–z (pass the mesh's longest edge: one column
-// of layers); under nothing, on the table (the lowest vertex − thickness). On an even
+// "at" a place = within the fold's reach of it in x–z (the mesh's longest edge: one
+// column of layers); under nothing, on the table (the lowest vertex − thickness). On an even
 // stack it is IdealFold's half-turn. IdealFold turns the folded part rigidly about the
 // higher of its own top and the top it lands on (a step's target and P3, where the
 // cloth's loops must not be turned over below the table); chained on a plan's ideal,
 // that left a gap wherever a flap lands beside a thicker stack, doubled at every later
 // fold: the shirt's ideal stood 21.9 cm high after five folds at 8 cm.
-TriMesh LandedFold(const TriMesh& stack, const IdealFold& fold, double thickness, double reach);
+TriMesh LandedFold(const TriMesh& stack, const IdealFold& fold);
 
 // The longest edge of a mesh (IdealFold's reach), m.
 double LongestEdge(const TriMesh& mesh);

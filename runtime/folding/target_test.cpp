@@ -48,7 +48,7 @@ TEST(LandedFold, AThickFlapRestsOnTheStackItLandsOn) {
       -0.1, 0.002, 0.0;
   const Faces F(0, 3);
   const IdealFold fold(FoldLine{Vec2(0.1, 0), Vec2(0, 1)}, Vec2(0.5, 0), cur, 0.004, 0.01);
-  const TriMesh landed = LandedFold(TriMesh{cur, F}, fold, 0.004, 0.01);
+  const TriMesh landed = LandedFold(TriMesh{cur, F}, fold);
   EXPECT_NEAR(landed.V(1, 1), 0.010, 1e-15);  // its top, turned over, 4 mm above 0.006
   EXPECT_NEAR(landed.V(0, 1), 0.038, 1e-15);
   EXPECT_NEAR(landed.V(0, 0), -0.1, 1e-15);
@@ -56,12 +56,12 @@ TEST(LandedFold, AThickFlapRestsOnTheStackItLandsOn) {
   EXPECT_NEAR(fold.Apply(cur.row(1).transpose()).y(), 0.034, 1e-15);  // rigid: the axis at 0.030 + 0.002
   // Under nothing (reach 1 cm, the image 5 cm from the stack): on the table's level.
   const IdealFold far(FoldLine{Vec2(0.125, 0), Vec2(0, 1)}, Vec2(0.5, 0), cur, 0.004, 0.01);
-  EXPECT_NEAR(LandedFold(TriMesh{cur, F}, far, 0.004, 0.01).V(1, 1), 0.002, 1e-15);
+  EXPECT_NEAR(LandedFold(TriMesh{cur, F}, far).V(1, 1), 0.002, 1e-15);
   // An even stack: the half-turn.
   Points3 even = cur;
   even(1, 1) = 0.006;
   const IdealFold e(FoldLine{Vec2(0.1, 0), Vec2(0, 1)}, Vec2(0.5, 0), even, 0.004, 0.01);
-  const TriMesh le = LandedFold(TriMesh{even, F}, e, 0.004, 0.01);
+  const TriMesh le = LandedFold(TriMesh{even, F}, e);
   for (int i = 0; i < 4; ++i)
     EXPECT_TRUE(le.V.row(i).isApprox(e.Apply(even.row(i).transpose()).transpose(), 1e-12)) << i;
 }
