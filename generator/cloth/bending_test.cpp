@@ -7,7 +7,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <numbers>
+#include <vector>
 
 #include "common/error.h"
 #include "common/rng.h"
@@ -42,6 +44,29 @@ TEST(Bending, WrapAngleIsInMinusPiToPi) {
   EXPECT_NEAR(WrapAngle(-3 * kPi / 2), kPi / 2, 1e-15);
   EXPECT_DOUBLE_EQ(WrapAngle(-kPi), kPi);
   EXPECT_DOUBLE_EQ(WrapAngle(kPi), kPi);
+}
+
+// The one-turn shortcut gives std::remainder's value bit for bit, at the branch edges
+// and across several turns.
+TEST(Bending, WrapAngleIsTheRemainderBitForBit) {
+  auto reference = [](double a) {
+    a = std::remainder(a, 2 * kPi);
+    return a <= -kPi ? a + 2 * kPi : a;
+  };
+  std::vector<double> angles;
+  for (const double edge : {kPi, 2 * kPi, 3 * kPi})
+    for (const double sign : {-1.0, 1.0})
+      for (int ulps = -3; ulps <= 3; ++ulps) {
+        double a = sign * edge;
+        for (int k = 0; k < std::abs(ulps); ++k) a = std::nextafter(a, ulps > 0 ? 10.0 : -10.0);
+        angles.push_back(a);
+      }
+  Rng rng(11);
+  for (int i = 0; i < 100000; ++i) angles.push_back(rng.Uniform(-7 * kPi, 7 * kPi));
+  for (const double a : angles) {
+    const double got = WrapAngle(a), want = reference(a);
+    ASSERT_EQ(std::memcmp(&got, &want, sizeof got), 0) << "angle " << a << ": " << got << " against " << want;
+  }
 }
 
 TEST(Bending, GradientMatchesFiniteDifferences) {
