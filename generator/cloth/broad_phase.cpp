@@ -274,7 +274,8 @@ void BroadPhase::LeavesPair(const Node& a, const Node& b) {
 
 // Branch-free like FilterBoxes: every pair is written at the end of raw_vf_ (raw_ee_),
 // the count num_vf_ (num_ee_) advances past those that overlap. A face owns at most 3
-// vertices and 3 edges: at most 6 VF and 9 EE pairs per call.
+// vertices and 3 edges: at most 6 VF and 9 EE pairs per call. fa and fb share no vertex
+// (LeavesPair), so no vertex of one is in the other and no two of their edges meet.
 void BroadPhase::LeafPair(int fa, int fb) {
   if (raw_vf_.size() < num_vf_ + 6) raw_vf_.resize(2 * raw_vf_.size() + 64);
   if (raw_ee_.size() < num_ee_ + 9) raw_ee_.resize(2 * raw_ee_.size() + 64);
@@ -285,7 +286,7 @@ void BroadPhase::LeafPair(int fa, int fb) {
     for (int k = owned_start_v_[owner]; k < owned_start_v_[owner + 1]; ++k) {
       const int v = owned_v_[k];
       vf[n] = {v, f};
-      n += int(!Has(fverts_[f], v)) & int(vbox_[v].Overlaps(fbox_[f]));
+      n += vbox_[v].Overlaps(fbox_[f]);
     }
   }
   num_vf_ = n;
@@ -296,7 +297,7 @@ void BroadPhase::LeafPair(int fa, int fb) {
     for (int j = owned_start_e_[fb]; j < owned_start_e_[fb + 1]; ++j) {
       const int b = owned_e_[j];
       ee[n] = {std::min(a, b), std::max(a, b)};
-      n += int(!EdgesShare(E_[a], E_[b])) & int(ebox_[a].Overlaps(ebox_[b]));
+      n += ebox_[a].Overlaps(ebox_[b]);
     }
   }
   num_ee_ = n;
