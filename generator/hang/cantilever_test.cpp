@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <numbers>
 
 #include "common/error.h"
@@ -35,6 +36,23 @@ TEST(Elastica, TheAstmAngleGivesHalfTheOverhang) {
   EXPECT_LT(HeavyElastica(1e4).chord_angle, 90 * kDeg);
   EXPECT_THROW(ElasticaGammaForChordAngle(0), Error);
   EXPECT_THROW(HeavyElastica(-1), Error);
+}
+
+// The γ search remembers the elastica at the points it visits: its answers are those of
+// the plain bisection bit for bit, for a first call and for a near one.
+TEST(Elastica, TheRememberedSearchIsThePlainBisection) {
+  auto plain = [](double chord_angle) {
+    double lo = -12, hi = 12;
+    for (int it = 0; it < 80; ++it) {
+      const double mid = 0.5 * (lo + hi);
+      (HeavyElastica(std::exp(mid)).chord_angle < chord_angle ? lo : hi) = mid;
+    }
+    return std::exp(0.5 * (lo + hi));
+  };
+  for (const double deg : {30.0, 30.0 + 1e-9}) {
+    const double got = ElasticaGammaForChordAngle(deg * kDeg), want = plain(deg * kDeg);
+    EXPECT_EQ(std::memcmp(&got, &want, sizeof got), 0) << deg << "°: " << got << " against " << want;
+  }
 }
 
 Material Jersey() {
