@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The sanitizer and fuzz run: the second half of `./setup.sh test` (what CI runs), or
-# alone as `./setup.sh sanitize`. With clang-14, ASan + UBSan, -O1, in
+# alone as `./setup.sh sanitize`. With clang-14, ASan + UBSan, -O2 (fuzz/sanitize_env.sh), in
 # $SAN_BUILD_DIR (default build-san), it builds every unit-test program and every fuzz
 # target (not the drape binary, benchmarks or Python module), then:
 #   1. every unit-test program under the sanitizers, run directly (not one process
@@ -18,13 +18,14 @@ cd "$(dirname "$0")/.."
 . fuzz/sanitize_env.sh
 FUZZ_TARGETS=(recipe anchors mesh feature sweep release plan)
 
-# Trimmed under the sanitizers (10-20x slower than the Release build): gtest filters of
+# Trimmed under the sanitizers (several times slower than the Release build): gtest filters of
 # the programs whose whole suite would cost minutes of CPU. Each leaves out only cases
 # whose code paths the program's other cases (run here) also take: a second or third
 # simulation of a kind already run, or a fast path compared with its slow reference
 # where the fast path itself runs in other cases (and its kernels are compared with
 # scalar ones). The Release suite (./setup.sh test) runs them all; DRAPE_SAN_FULL=1
-# runs everything here too. CPU-seconds under the sanitizers (2026-12-03) in brackets.
+# runs everything here too. CPU-seconds under the sanitizers (2026-12-03, -O1 with
+# comparison tracing: about a third of that now) in brackets.
 declare -A SAN_FILTER=(
   # Kept: the material fit, a 2-layer towel hung from a corner to rest (collisions,
   # settling, strain checks), blow-up, never-settling and over-stretched failures, bad
@@ -70,15 +71,15 @@ t1=$(date +%s)
 
 # One line per gtest shard: program, shard index, shard count, filter; the longest
 # shards first, so that the SAN_JOBS workers (xargs) end together. SAN_CPU: CPU-seconds
-# of each program's filtered suite under the sanitizers (2026-12-06, a 2-core AMD EPYC
-# without AVX-512, so fusion's kernels ran as AVX2; others ~10
-# or less), for that order only. Programs of 90 CPU-s or more are cut into SAN_JOBS
-# shards; not the hang test, whose every case first needs the same material fit.
+# of each program's filtered suite under the sanitizers (2026-12-07, -O2 without
+# comparison tracing, a 2-core AMD EPYC without AVX-512, so fusion's kernels ran as AVX2;
+# others ~5 or less), for that order only. Programs of 90 CPU-s or more are cut into
+# SAN_JOBS shards; not the hang test, whose every case first needs the same material fit.
 san_abs=$(cd "$SAN_BUILD_DIR" && pwd)
 declare -A SAN_CPU=(
-  [drape_hang_test]=424 [drape_fusion_test]=348 [drape_cloth_world_test]=271 [drape_garments_test]=243
-  [drape_hardware_test]=215 [drape_cloth_collision_test]=161 [drape_registration_test]=122 [drape_recognition_test]=70
-  [drape_unfolding_test]=66 [drape_folding_fold_test]=66 [drape_sweep_test]=54 [drape_cloth_broad_phase_test]=18
+  [drape_hang_test]=162 [drape_fusion_test]=110 [drape_cloth_world_test]=101 [drape_hardware_test]=76
+  [drape_garments_test]=75 [drape_cloth_collision_test]=54 [drape_registration_test]=41 [drape_folding_fold_test]=26
+  [drape_recognition_test]=25 [drape_sweep_test]=22 [drape_unfolding_test]=19 [drape_cloth_broad_phase_test]=5
 )
 [ "${DRAPE_SAN_FULL:-0}" != 1 ] || SAN_CPU[drape_hang_test]=600
 for t in "${UNIT_TESTS[@]}"; do
