@@ -6,8 +6,9 @@
 
 #include <gtest/gtest.h>
 
+#include <bit>
 #include <cmath>
-#include <cstring>
+#include <cstdint>
 #include <numbers>
 #include <vector>
 
@@ -65,7 +66,8 @@ TEST(Bending, WrapAngleIsTheRemainderBitForBit) {
   for (int i = 0; i < 100000; ++i) angles.push_back(rng.Uniform(-7 * kPi, 7 * kPi));
   for (const double a : angles) {
     const double got = WrapAngle(a), want = reference(a);
-    ASSERT_EQ(std::memcmp(&got, &want, sizeof got), 0) << "angle " << a << ": " << got << " against " << want;
+    ASSERT_EQ(std::bit_cast<std::uint64_t>(got), std::bit_cast<std::uint64_t>(want))
+        << "angle " << a << ": " << got << " against " << want;
   }
 }
 

@@ -4,8 +4,9 @@
 
 #include <gtest/gtest.h>
 
+#include <bit>
 #include <cmath>
-#include <cstring>
+#include <cstdint>
 #include <numbers>
 
 #include "common/error.h"
@@ -51,7 +52,8 @@ TEST(Elastica, TheRememberedSearchIsThePlainBisection) {
   };
   for (const double deg : {30.0, 30.0 + 1e-9}) {
     const double got = ElasticaGammaForChordAngle(deg * kDeg), want = plain(deg * kDeg);
-    EXPECT_EQ(std::memcmp(&got, &want, sizeof got), 0) << deg << "°: " << got << " against " << want;
+    EXPECT_EQ(std::bit_cast<std::uint64_t>(got), std::bit_cast<std::uint64_t>(want))
+        << deg << "°: " << got << " against " << want;
   }
 }
 
