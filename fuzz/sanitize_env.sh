@@ -16,7 +16,8 @@ fi
 SAN_JOBS=${DRAPE_JOBS:-$(nproc)}
 # UBSan without its object-size check: it tests an access against the object's size as the
 # optimiser knows it (__builtin_object_size), which ASan checks at run time for every access
-# (polymorphic downcasts stay checked by UBSan's vptr), and it cost ~10 % of the sanitizer build's compile time (12 sources, 215 -> 195 CPU-s).
+# (polymorphic downcasts stay checked by UBSan's vptr); it cost ~10 % of the sanitizer
+# build's compile time (12 sources, 215 -> 195 CPU-s; docs/testing.md).
 SAN_FLAGS="-fsanitize=address,undefined -fno-sanitize=object-size $SAN_COVERAGE -fno-sanitize-recover=undefined -fno-omit-frame-pointer -g1"
 # fuzz/ubsan_ignorelist.txt: UBSan checks skipped inside library headers (library bugs).
 # Passed as a copy in the build folder named by its content, relative to it (where Ninja
