@@ -58,14 +58,11 @@ struct FoldKnobs {
   double edge = 0.04;  // m: template mesh edge and the material fit's strip edge (coarse: simulation in the loop)
   int max_sims = 40;   // simulations per step's optimisation
   bool optimise = true;
-  std::string fan = "last";     // the step whose solution-space fans are drawn: "last", "none" or 1-based
-  double stiffness = 0;         // Bullet link stiffness kLST; 0: fitted to the stretch
-  double friction = -1;         // table friction; < 0: fitted to the friction angle
-  double cloth_friction = -1;   // between layers of the cloth; < 0: the table's
-  std::string release = "arm";  // the release lifts the optimiser owns: "arm", "step" or "none"
+  std::string fan = "last";    // the step whose solution-space fans are drawn: "last", "none" or 1-based
+  double stiffness = 0;        // Bullet link stiffness kLST; 0: fitted to the stretch
+  double friction = -1;        // table friction; < 0: fitted to the friction angle
+  double cloth_friction = -1;  // between layers of the cloth; < 0: the table's
   void Validate() const {
-    if (release != "arm" && release != "step" && release != "none")
-      BadField(release, "release", "'" + release + "' is not arm, step or none");
     if (!(edge >= 0.005 && edge <= 0.2)) BadField(edge, "edge", "must be in [0.005, 0.2] m, got " + FormatNumber(edge));
     if (max_sims < 1) BadField(max_sims, "max_sims", "must be >= 1, got " + std::to_string(max_sims));
     if (!(stiffness >= 0 && stiffness <= 1))
@@ -96,9 +93,7 @@ const ConfigSection<FoldKnobs> kFoldSection(
      {"stiffness", Ref(&FoldKnobs::stiffness), "—", "Bullet link stiffness kLST instead of the fitted (0: fitted)"},
      {"friction", Ref(&FoldKnobs::friction), "—", "table friction coefficient instead of the fitted (-1: fitted)"},
      {"cloth_friction", Ref(&FoldKnobs::cloth_friction), "—",
-      "Coulomb friction between layers of the cloth (-1: the table's)"},
-     {"release", Ref(&FoldKnobs::release), "—",
-      "release heights the optimiser owns: `arm` (one per arm), `step` (one per step) or `none` (release at P3)"}});
+      "Coulomb friction between layers of the cloth (-1: the table's)"}});
 
 struct FoldArgs {
   std::string garment, plan, output = "fold-out", size = "M", material, category, gripper = "pinch", replay, config;
@@ -237,9 +232,6 @@ PlanRunOptions RunOptionsFrom(const FoldArgs& args, const FoldSetup& setup) {
   ro.thickness = setup.cloth.collision.thickness;
   ro.optimise.lm.max_residual_evaluations = args.knobs.max_sims;
   if (!args.knobs.optimise) ro.optimise.lm.max_iterations = 0;
-  ro.optimise.release = args.knobs.release == "none"   ? ReleaseLift::kNone
-                        : args.knobs.release == "step" ? ReleaseLift::kPerStep
-                                                       : ReleaseLift::kPerArm;
   ro.Validate();
   return ro;
 }
@@ -248,14 +240,9 @@ PlanRunOptions RunOptionsFrom(const FoldArgs& args, const FoldSetup& setup) {
 PlanRunOptions WithProgress(PlanRunOptions ro) {
   ro.on_step = [](const StepRecord& s) {
     const StepOptimum& r = s.result;
-    std::string lifts;
-    for (double l : r.lift) {
-      if (!lifts.empty()) lifts += ' ';
-      lifts += FormatFixed(1e2 * l, 1);
-    }
-    std::printf("  %-16s D %.1f -> %.1f mm, C %.3f -> %.3f (%d simulations, %.0f s), release lift %s cm\n",
-                s.name.c_str(), 1e3 * r.before.dissimilarity, 1e3 * r.after.dissimilarity, r.before.cost, r.after.cost,
-                r.simulations, r.wall_seconds, lifts.c_str());
+    std::printf("  %-16s D %.1f -> %.1f mm, C %.3f -> %.3f (%d simulations, %.0f s)\n", s.name.c_str(),
+                1e3 * r.before.dissimilarity, 1e3 * r.after.dissimilarity, r.before.cost, r.after.cost, r.simulations,
+                r.wall_seconds);
     std::fflush(stdout);
   };
   return ro;
@@ -265,7 +252,7 @@ PlanRunOptions WithProgress(PlanRunOptions ro) {
 Json StepJson(const StepRecord& s, const StepSim& alt, GripperModel other) {
   const StepOptimum& r = s.result;
   Json rel = Json::array();
-  for (const auto& k : s.relative) rel.push_back({{"k1", Vec(k.k1)}, {"k2", Vec(k.k2)}, {"lift", k.lift}});
+  for (const auto& k : s.relative) rel.push_back({{"k1", Vec(k.k1)}, {"k2", Vec(k.k2)}});
   return {
       {"name", s.name},
       {"grasps", s.grasps},
@@ -468,8 +455,8 @@ std::vector<std::vector<RelativeTrajectory>> LoadReplay(const fs::path& file, co
   try {
     for (const Json& st : steps) {
       out.emplace_back();
-      for (const Json& k : st.at("optimised_relative"))  // no "lift": released at P3 (before 2026-12-07)
-        out.back().push_back({v3(k.at("k1")), v3(k.at("k2")), std::nullopt, k.value("lift", 0.0)});
+      for (const Json& k : st.at("optimised_relative"))
+        out.back().push_back({v3(k.at("k1")), v3(k.at("k2")), std::nullopt});
       // The absolute paths too (JSON keeps a double exactly): on the run's own garment
       // the replay then takes them as they were (RelativeTrajectory::source).
       const Json& abs = st.value("optimised", Json::array());

@@ -112,30 +112,5 @@ TEST(Bezier, RelativeTrajectoryIsInTheFoldFrameAndRoundTrips) {
   for (int k = 0; k < 4; ++k) EXPECT_NEAR((back.P[k] - c.P[k]).norm(), 0, 1e-12) << "P" << k;
 }
 
-// A path released above its step's P3 (the release lift, fold.h) is stored in the frame
-// of its own end, with the lift; it comes back ending at the lift above the P3 it is
-// replayed on: bit for bit from its source, and through the frame on another garment.
-TEST(Bezier, ARelativeTrajectoryCarriesItsReleaseLift) {
-  const Vec3 p0(0.1, 0.0, 0.2), p3(0.4, 0.01, 0.35);
-  const double lift = 0.037;
-  const CubicBezier c{{p0, Vec3(0.15, 0.1, 0.25), Vec3(0.3, 0.12, 0.3), ReleasePoint(p3, lift)}};
-  const RelativeTrajectory r = ToRelative(c, lift);
-  EXPECT_EQ(r.lift, lift);
-  const CubicBezier same = FromRelative(r, p0, p3);
-  for (int k = 0; k < 4; ++k) EXPECT_EQ(same.P[k], c.P[k]) << "P" << k;
-  RelativeTrajectory framed = r;
-  framed.source.reset();
-  const CubicBezier back = FromRelative(framed, p0, p3);
-  EXPECT_EQ(back.P[3], c.P[3]);
-  for (int k = 1; k <= 2; ++k) EXPECT_NEAR((back.P[k] - c.P[k]).norm(), 0, 1e-12) << "P" << k;
-  // Elsewhere (the source is not this garment's): from the new P3, lifted by the same.
-  const Vec3 q0 = p0 + Vec3(0.02, 0, -0.01), q3 = p3 + Vec3(0.01, 0.005, 0.02);
-  const CubicBezier moved = FromRelative(r, q0, q3);
-  EXPECT_EQ(moved.P[0], q0);
-  EXPECT_EQ(moved.P[3], ReleasePoint(q3, lift));
-  // Without a lift (a file from before the lift): released at P3.
-  EXPECT_EQ(FromRelative(RelativeTrajectory{r.k1, r.k2, std::nullopt}, q0, q3).P[3], q3);
-}
-
 }  // namespace
 }  // namespace drape::folding

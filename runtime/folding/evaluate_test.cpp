@@ -134,34 +134,6 @@ TEST(Replay, TheRunsOwnTrajectoriesOnItsOwnGarmentReproduceItExactly) {
               1e3 * again.final_dissimilarity, 1e3 * framed.final_dissimilarity, 1e3 * run.final_dissimilarity);
 }
 
-// The release lift is part of a replay: a stored lift is replayed as it was, bit for bit
-// on the run's own garment, and it moves the fold.
-TEST(Replay, TheReleaseLiftIsReplayedBitForBit) {
-  const FoldingPlan plan = TowelInHalf();
-  const FoldSetup setup = SmallSetup("towel");
-  const FoldScene scene = MakeScene(setup);
-  PlanRunOptions o;
-  std::vector<std::vector<RelativeTrajectory>> lifted = Initial(1, 2);
-  for (auto& arm : lifted[0]) arm.lift = 0.03;
-  const PlanRun run = RunPlan(scene, LaidGarment(setup), "towel", plan, o, &lifted);
-  ASSERT_EQ(run.steps.size(), 1u);
-  const StepRecord& st = run.steps[0];
-  ASSERT_EQ(st.result.lift, (std::vector<double>{0.03, 0.03}));
-  for (size_t a = 0; a < 2; ++a) {
-    EXPECT_EQ(st.relative[a].lift, 0.03);
-    EXPECT_EQ(st.result.optimised[a].P[3], ReleasePoint(st.setup.p3[a], 0.03));
-  }
-  std::vector<std::vector<RelativeTrajectory>> replay{st.relative};
-  const PlanRun again = RunPlan(scene, LaidGarment(setup), "towel", plan, o, &replay);
-  EXPECT_TRUE((again.final.array() == run.final.array()).all());
-  EXPECT_EQ(again.final_dissimilarity, run.final_dissimilarity);
-  const std::vector<std::vector<RelativeTrajectory>> at_p3_paths = Initial(1, 2);
-  const PlanRun at_p3 = RunPlan(scene, LaidGarment(setup), "towel", plan, o, &at_p3_paths);
-  EXPECT_FALSE((at_p3.final.array() == run.final.array()).all());
-  std::printf("release 3 cm above P3: D %.1f mm (at P3 %.1f mm)\n", 1e3 * run.final_dissimilarity,
-              1e3 * at_p3.final_dissimilarity);
-}
-
 // A plan step that names its gripper uses it whatever the run's default; a step that
 // does not takes the default. (On this mesh both models hold one node per corner; the
 // jaws differ, and so does the fold.)

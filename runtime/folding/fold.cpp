@@ -203,51 +203,23 @@ void OptimiseOptions::Validate() const {
   if (!(alpha >= 0)) throw Error("OptimiseOptions.alpha must be >= 0");
   if (!(h >= 0 && h < 5)) throw Error("OptimiseOptions.h must be in [0, 5)");
   if (!(length_tolerance > 0)) throw Error("OptimiseOptions.length_tolerance must be > 0");
-  if (!(max_release_lift >= 0 && max_release_lift <= 0.5))
-    throw Error("OptimiseOptions.max_release_lift must be in [0, 0.5] m");
   lm.Validate();
   if (!(lm.finite_difference_step > 0)) throw Error("OptimiseOptions.lm.finite_difference_step must be > 0");
 }
 
-Vec3 ReleasePoint(const Vec3& p3, double lift) {
-  Vec3 p = p3;
-  p.y() += lift;  // lift 0: P3 bit for bit
-  return p;
-}
-
-double LiftBounds::Clamp(double lift) const { return std::clamp(lift, lo, hi); }
-
-LiftBounds ReleaseLiftBounds(const FoldScene& scene, const StepSetup& setup, double max_lift) {
-  LiftBounds b;
-  b.lo = -std::max(0.0, setup.fold->axis_height() - scene.table_top);
-  b.hi = max_lift;
-  return b;
-}
-
-Eigen::VectorXd StackKnots(const std::vector<CubicBezier>& paths, const std::vector<double>& lifts) {
-  DRAPE_CHECK(lifts.size() <= 1 || lifts.size() == paths.size(), "release lifts: none, one or one per arm");
-  Eigen::VectorXd x(6 * paths.size() + lifts.size());
+Eigen::VectorXd StackKnots(const std::vector<CubicBezier>& paths) {
+  Eigen::VectorXd x(6 * paths.size());
   for (size_t a = 0; a < paths.size(); ++a)
     x.segment<3>(6 * a) = paths[a].P[1], x.segment<3>(6 * a + 3) = paths[a].P[2];
-  for (size_t k = 0; k < lifts.size(); ++k) x[static_cast<Eigen::Index>(6 * paths.size() + k)] = lifts[k];
   return x;
 }
 
 std::vector<CubicBezier> UnstackKnots(const Eigen::VectorXd& x, const std::vector<Vec3>& p0,
-                                      const std::vector<Vec3>& p3, int num_lifts, const LiftBounds& bounds,
-                                      std::vector<double>* lifts) {
-  const size_t arms = p0.size();
-  DRAPE_CHECK(num_lifts == 0 || num_lifts == 1 || num_lifts == static_cast<int>(arms), "release lifts");
-  DRAPE_CHECK(x.size() == static_cast<Eigen::Index>(6 * arms + num_lifts) && arms == p3.size(), "knot vector size");
+                                      const std::vector<Vec3>& p3) {
+  DRAPE_CHECK(x.size() == static_cast<Eigen::Index>(6 * p0.size()) && p0.size() == p3.size(), "knot vector size");
   std::vector<CubicBezier> out;
-  if (lifts) lifts->clear();
-  for (size_t a = 0; a < arms; ++a) {
-    const double lift =
-        num_lifts == 0 ? 0.0 : bounds.Clamp(x[static_cast<Eigen::Index>(6 * arms + (num_lifts == 1 ? 0 : a))]);
-    if (lifts) lifts->push_back(lift);
-    const Vec3 end = num_lifts == 0 ? p3[a] : ReleasePoint(p3[a], lift);
-    out.push_back(CubicBezier{{p0[a], x.segment<3>(6 * a), x.segment<3>(6 * a + 3), end}});
-  }
+  for (size_t a = 0; a < p0.size(); ++a)
+    out.push_back(CubicBezier{{p0[a], x.segment<3>(6 * a), x.segment<3>(6 * a + 3), p3[a]}});
   return out;
 }
 
@@ -257,13 +229,12 @@ namespace {
 class FoldCostProblem : public optim::LeastSquaresProblem {
  public:
   FoldCostProblem(const FoldScene& scene, const StepSetup& setup, const FoldSimOptions& sim, const OptimiseOptions& o,
-                  int num_lifts, const LiftBounds& bounds, std::vector<double>* trace)
-      : scene_(scene), setup_(setup), sim_(sim), o_(o), num_lifts_(num_lifts), bounds_(bounds), trace_(trace) {}
+                  std::vector<double>* trace)
+      : scene_(scene), setup_(setup), sim_(sim), o_(o), trace_(trace) {}
   int NumResiduals() const override { return 1; }
-  int NumParameters() const override { return static_cast<int>(6 * setup_.p0.size()) + num_lifts_; }
+  int NumParameters() const override { return static_cast<int>(6 * setup_.p0.size()); }
   void Residuals(const Eigen::VectorXd& x, Eigen::VectorXd& r) const override {
-    const StepSim s =
-        SimulateStep(scene_, setup_, UnstackKnots(x, setup_.p0, setup_.p3, num_lifts_, bounds_), sim_, o_.alpha);
+    const StepSim s = SimulateStep(scene_, setup_, UnstackKnots(x, setup_.p0, setup_.p3), sim_, o_.alpha);
     r.resize(1);
     r[0] = s.ok ? s.cost : std::numeric_limits<double>::quiet_NaN();
     trace_->push_back(r[0]);
@@ -279,8 +250,6 @@ class FoldCostProblem : public optim::LeastSquaresProblem {
   const StepSetup& setup_;
   const FoldSimOptions& sim_;
   const OptimiseOptions& o_;
-  int num_lifts_;
-  LiftBounds bounds_;
   std::vector<double>* trace_;
 };
 }  // namespace
@@ -291,25 +260,20 @@ StepOptimum OptimiseStep(const FoldScene& scene, const StepSetup& setup, const F
   const auto t0 = Clock::now();
   StepOptimum out;
   for (size_t a = 0; a < setup.p0.size(); ++a) out.initial.push_back(InitialTrajectory(setup.p0[a], setup.p3[a], o.h));
-  out.lift.assign(setup.p0.size(), 0.0);  // the initial trajectories release at P3
   out.before = SimulateStep(scene, setup, out.initial, sim, o.alpha, true);
   if (!out.before.ok) throw NumericalError("fold: the initial trajectory failed: " + out.before.failure);
-  const int num_lifts = o.release == ReleaseLift::kNone      ? 0
-                        : o.release == ReleaseLift::kPerStep ? 1
-                                                             : static_cast<int>(setup.p0.size());
-  const LiftBounds bounds = ReleaseLiftBounds(scene, setup, o.max_release_lift);
-  Eigen::VectorXd x = StackKnots(out.initial, std::vector<double>(num_lifts, 0.0));
+  Eigen::VectorXd x = StackKnots(out.initial);
   if (o.lm.max_iterations == 0) {  // keep h = 1/3 (no B0 by differences either)
     out.optimised = out.initial;
     out.after = out.before;
     out.wall_seconds = Since(t0);
     return out;
   }
-  const FoldCostProblem problem(scene, setup, sim, o, num_lifts, bounds, &out.evaluated);
+  const FoldCostProblem problem(scene, setup, sim, o, &out.evaluated);
   out.lm = optim::SolveSecantLm(problem, x, o.lm);
   out.simulations = out.lm.residual_evaluations;
   if (problem.best_cost < std::sqrt(2 * out.lm.final_cost)) x = problem.best_x;
-  out.optimised = UnstackKnots(x, setup.p0, setup.p3, num_lifts, bounds, &out.lift);
+  out.optimised = UnstackKnots(x, setup.p0, setup.p3);
   out.after = SimulateStep(scene, setup, out.optimised, sim, o.alpha, true);
   out.wall_seconds = Since(t0);
   return out;

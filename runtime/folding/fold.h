@@ -2,9 +2,9 @@
 // Simulation", §"Trajectory Optimization"): grippers close on the cloth at the grasp
 // points, carry it along cubic Bézier trajectories, release it at the targets and the
 // cloth settles on the table; the step's cost is C(x) = l_x + α·D(S_t, S_x), and
-// OptimiseStep minimises C² over the knot points P1, P2 of every arm and the height
-// each arm releases at (stacked into one state for two arms) by the shared secant
-// Levenberg–Marquardt with forward differences, δ = 0.1 m.
+// OptimiseStep minimises C² over the knot points P1, P2 of every arm (stacked into one
+// state for two arms) by the shared secant Levenberg–Marquardt with forward
+// differences, δ = 0.1 m.
 //
 // Gripper models (the paper's sim/real gap: "moving a point on the mesh in the
 // simulation is different from using a gripper to grasp a small area"):
@@ -80,39 +80,16 @@ struct StepSim {
   std::vector<Points3> frames;  // key frames when asked: path at 0, ⅓, ⅔, 1, after settling
 };
 
-// The arms' trajectories must start at setup.p0 and end at their release points
-// (ReleasePoint: setup.p3 raised by the arm's release lift). A simulation that
+// The arms' trajectories must start at setup.p0 and end at setup.p3. A simulation that
 // blows up is run once more at half the time step (as a hang is; damping per second
 // kept), and fails only if that blows up too.
 StepSim SimulateStep(const FoldScene& scene, const StepSetup& setup, const std::vector<CubicBezier>& paths,
                      const FoldSimOptions& options, double alpha = 1e3, bool keep_frames = false);
 
-// Where the grippers open: P3 (the ideal fold's image of the grasp point, its height
-// from the half-turn about the top of what the fold concerns) raised by `lift` metres
-// along world y. The ideal's height is not where a real stack is best let go (where the
-// cloth stands up in a loop, higher; a lower release crumpled the towel's stack), so
-// the optimiser owns the lift: one variable per arm, starting at 0 (P3 itself).
-Vec3 ReleasePoint(const Vec3& p3, double lift);
-// The lift's bounds for a step: [−(axis height above the table), max_release_lift]: at
-// the lowest, P3 comes down to the axis of the half-turn.
-struct LiftBounds {
-  double lo = 0, hi = 0;  // m
-  double Clamp(double lift) const;
-};
-LiftBounds ReleaseLiftBounds(const FoldScene& scene, const StepSetup& setup, double max_lift);
-
-enum class ReleaseLift {
-  kNone,     // release at P3 (before 2026-12-07)
-  kPerStep,  // one lift shared by the step's arms
-  kPerArm,   // one lift per arm
-};
-
 struct OptimiseOptions {
   double alpha = 1e3;              // paper's α
   double h = 1.0 / 3;              // paper's initial knot height factor
   double length_tolerance = 1e-4;  // relative, De Casteljau length
-  ReleaseLift release = ReleaseLift::kPerArm;
-  double max_release_lift = 0.15;  // m, the lift's upper bound
   optim::SecantLmOptions lm = DefaultLm();
   // δ = 0.1 m, ≤ 40 simulations, stop on < 1 % gains, steps ≤ 0.1 m (trust radius).
   static optim::SecantLmOptions DefaultLm();
@@ -120,24 +97,18 @@ struct OptimiseOptions {
 };
 
 struct StepOptimum {
-  std::vector<CubicBezier> initial, optimised;  // each ends at its arm's release point
-  std::vector<double> lift;                     // m, per arm: optimised[a].P[3] = ReleasePoint(setup.p3[a], lift[a])
-  StepSim before, after;                        // simulations of the initial and optimised trajectories
+  std::vector<CubicBezier> initial, optimised;
+  StepSim before, after;  // simulations of the initial and optimised trajectories
   optim::SecantLmReport lm;
   int simulations = 0;            // inside the optimiser (before/after not counted)
   std::vector<double> evaluated;  // C of each of those simulations in order (NaN = failed)
   double wall_seconds = 0;
 };
 
-// Knot points ↔ state vector, metres: per arm (P1, P2), 6 numbers per arm, then the
-// release lifts (`lifts`: none, one shared by the arms, or one per arm).
-Eigen::VectorXd StackKnots(const std::vector<CubicBezier>& paths, const std::vector<double>& lifts = {});
-// The paths the state stands for, each ending at ReleasePoint(p3, lift) with the lift
-// clamped to `bounds` (a state outside them simulates as on them); `lifts` (if given)
-// receives the clamped lift per arm. `num_lifts`: 0, 1 or the number of arms.
+// Knot points ↔ state vector: per arm (P1, P2), 6 numbers per arm, metres.
+Eigen::VectorXd StackKnots(const std::vector<CubicBezier>& paths);
 std::vector<CubicBezier> UnstackKnots(const Eigen::VectorXd& x, const std::vector<Vec3>& p0,
-                                      const std::vector<Vec3>& p3, int num_lifts = 0, const LiftBounds& bounds = {},
-                                      std::vector<double>* lifts = nullptr);
+                                      const std::vector<Vec3>& p3);
 // Σ_arms De Casteljau length.
 double PathLength(const std::vector<CubicBezier>& paths, double tolerance);
 

@@ -29,7 +29,7 @@ FoldFrame Frame(const Vec3& p0, const Vec3& p3) {
 
 }  // namespace
 
-RelativeTrajectory ToRelative(const CubicBezier& c, double lift) {
+RelativeTrajectory ToRelative(const CubicBezier& c) {
   const FoldFrame f = Frame(c.P[0], c.P[3]);
   // -> Vec3: without it the lambda returns an Eigen expression that refers to a Vec3
   // temporary dying with the lambda (k2 came out as garbage, ~1e-309).
@@ -37,15 +37,14 @@ RelativeTrajectory ToRelative(const CubicBezier& c, double lift) {
     const Vec3 d = p - c.P[0];
     return Vec3(d.dot(f.u), d.dot(f.v), d.dot(f.w)) / f.s;
   };
-  return RelativeTrajectory{rel(c.P[1]), rel(c.P[2]), c, lift};
+  return RelativeTrajectory{rel(c.P[1]), rel(c.P[2]), c};
 }
 
 CubicBezier FromRelative(const RelativeTrajectory& r, const Vec3& p0, const Vec3& p3) {
-  const Vec3 end = ReleasePoint(p3, r.lift);
-  if (r.source && r.source->P[0] == p0 && r.source->P[3] == end) return *r.source;
-  const FoldFrame f = Frame(p0, end);
+  if (r.source && r.source->P[0] == p0 && r.source->P[3] == p3) return *r.source;
+  const FoldFrame f = Frame(p0, p3);
   auto abs = [&](const Vec3& k) { return Vec3(p0 + f.s * (k.x() * f.u + k.y() * f.v + k.z() * f.w)); };
-  return CubicBezier{{p0, abs(r.k1), abs(r.k2), end}};
+  return CubicBezier{{p0, abs(r.k1), abs(r.k2), p3}};
 }
 
 void PlanRunOptions::Validate() const {
@@ -163,7 +162,6 @@ void RunPlan(PlanRun& run, const FoldScene& scene, const Points3& laid, const st
       if (rel.size() != verts.size()) throw Error(where + "replay has the wrong number of arms");
       for (size_t k = 0; k < verts.size(); ++k) paths.push_back(FromRelative(rel[k], rec.setup.p0[k], rec.setup.p3[k]));
       rec.result.initial = rec.result.optimised = paths;
-      for (const RelativeTrajectory& r : rel) rec.result.lift.push_back(r.lift);
       rec.result.after = SimulateStep(scene, rec.setup, paths, sim, o.optimise.alpha, true);
       rec.result.before = rec.result.after;
     } else {
@@ -174,9 +172,7 @@ void RunPlan(PlanRun& run, const FoldScene& scene, const Points3& laid, const st
       }
     }
     if (!rec.result.after.ok) throw NumericalError(where + rec.result.after.failure);
-    DRAPE_CHECK(rec.result.lift.size() == rec.result.optimised.size(), "a release lift per arm");
-    for (size_t a = 0; a < rec.result.optimised.size(); ++a)
-      rec.relative.push_back(ToRelative(rec.result.optimised[a], rec.result.lift[a]));
+    for (const auto& c : rec.result.optimised) rec.relative.push_back(ToRelative(c));
     cur = rec.result.after.final;
     run.steps.push_back(std::move(rec));
     if (o.on_step) o.on_step(run.steps.back());

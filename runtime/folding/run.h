@@ -21,21 +21,18 @@
 
 namespace drape::folding {
 
-// A knot point in the frame of its step: (P − P0) in units of s = ‖P3' − P0‖ along
-// u = horizontal direction P0 → P3', v = up, w = u × v, where P3' = ReleasePoint(P3,
-// lift) is where the path ends. The paper's initial knots are (⅓, h, 0) and (⅔, h, 0).
+// A knot point in the frame of its step: (P − P0) in units of s = ‖P3 − P0‖ along
+// u = horizontal direction P0 → P3, v = up, w = u × v. The paper's initial knots are
+// (⅓, h, 0) and (⅔, h, 0).
 struct RelativeTrajectory {
   Vec3 k1 = Vec3::Zero(), k2 = Vec3::Zero();
   // The absolute path the knots were taken from (ToRelative, or a replay file's
-  // "optimised"), if known. FromRelative returns it as it was when P0 and P3' are its
-  // own, bit for bit: the frame's round trip is exact only to ~1e-16 m, and a fold's
-  // cloth grows that into millimetres, so an unperturbed replay would not reproduce its run.
+  // "optimised"), if known. FromRelative returns it as it was when P0 and P3 are its own,
+  // bit for bit: the frame's round trip is exact only to ~1e-16 m, and a fold's cloth
+  // grows that into millimetres, so an unperturbed replay would not reproduce its run.
   std::optional<CubicBezier> source;
-  double lift = 0;  // m: the release point's height above the step's P3 (fold.h)
 };
-// `c` ends at ReleasePoint(P3, lift).
-RelativeTrajectory ToRelative(const CubicBezier& c, double lift = 0);
-// The path from p0 to ReleasePoint(p3, r.lift) (p3: the step's computed target).
+RelativeTrajectory ToRelative(const CubicBezier& c);
 CubicBezier FromRelative(const RelativeTrajectory& r, const Vec3& p0, const Vec3& p3);
 
 struct StepRecord;
