@@ -146,7 +146,7 @@ case "${1:-main}" in
     # check against the published reference that CI also makes.
     rm -rf "$BUILD_DIR/quickstart"
     "$BUILD_DIR/bin/drape" build recipes/quickstart.yaml -o "$BUILD_DIR/quickstart" -j "$JOBS"
-    "$BUILD_DIR/bin/drape" verify "$BUILD_DIR/quickstart" --published datasets/quickstart/2.6.0
+    "$BUILD_DIR/bin/drape" verify "$BUILD_DIR/quickstart" --published datasets/quickstart/2.7.0
     echo "setup: the quickstart release is in $BUILD_DIR/quickstart (open its index.html)"
     ;;
   test)

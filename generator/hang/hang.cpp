@@ -142,8 +142,9 @@ Run RunHang(const Garment& garment, const Points3& start, const Material& materi
   // Links take their rest lengths from the model's rest mesh: the start pose is the
   // flat garment moved rigidly, so it serves as the rest mesh too.
   const TriMesh rest{start, garment.mesh.F};
-  ClothWorld world(MakeClothModel(rest, garment.layer, ClothMaterialFor(material, fit, o), ClothOptionsFor(o, dt)),
-                   start);
+  ClothWorld world(
+      MakeClothModel(rest, garment.layer, ClothMaterialFor(material, fit, o), HangClothOptions(material, o, dt)),
+      start);
   Run run;
   const int g = world.AddGripper(HangJaw(rest, o), HangGripperPose());
   run.grasp = world.Close(g);
@@ -299,6 +300,12 @@ ClothOptions ClothOptionsFor(const HangOptions& o, double dt) {
   // instead of layer_thickness, apart).
   if (!o.repulsion) co.collision.proximity_iterations = 0;
   co.max_speed = o.max_speed;
+  return co;
+}
+
+ClothOptions HangClothOptions(const Material& material, const HangOptions& o, double dt) {
+  ClothOptions co = ClothOptionsFor(o, dt);
+  co.collision.cloth_friction = material.FrictionCoefficient();
   return co;
 }
 

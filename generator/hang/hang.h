@@ -246,6 +246,11 @@ HangResult Hang(const Garment& garment, int anchor_vertex, const Vec3& grasp_off
 // retry halves it): one model for hanging and the material fits' reference runs.
 ClothMaterial ClothMaterialFor(const Material& material, const MaterialFit& fit, const HangOptions& options);
 ClothOptions ClothOptionsFor(const HangOptions& options, double dt);
+// ClothOptionsFor with the garment's layers holding on each other: Coulomb μ = the
+// material's tan(friction_deg), the μ with which the lab's incline test (lab.h) starts a
+// sheet sliding on a sheet at the friction angle. What a hang and the unfolding's falls
+// and placings run with; the fits' single-layer references keep 0.
+ClothOptions HangClothOptions(const Material& material, const HangOptions& options, double dt);
 
 // Why a simulated state measured as `m` may not be published ("" = it may): `what`
 // (e.g. "hung mesh") intersects itself, or an edge strain breaks the options'

@@ -243,6 +243,20 @@ TEST(Fit, ReproducesMeasuredFrictionAngle) {
   EXPECT_TRUE(SlidesOnTilt(Towel().friction_deg + 0.5, fit.friction, Towel(), fit, o));
 }
 
+// A hang's layers hold on each other with the material's μ = tan(friction angle), the
+// lab's incline value; everything else is the fits' options (whose single layers keep 0).
+TEST(Hang, LayersHoldOnEachOtherWithTheMaterialsFriction) {
+  const HangOptions o = TestOptions();
+  const ClothOptions fits = ClothOptionsFor(o, o.time_step / 2);
+  const ClothOptions hang = HangClothOptions(Towel(), o, o.time_step / 2);
+  EXPECT_EQ(fits.collision.cloth_friction, 0);
+  EXPECT_DOUBLE_EQ(hang.collision.cloth_friction, std::tan(Towel().friction_deg * M_PI / 180));
+  EXPECT_DOUBLE_EQ(hang.collision.cloth_friction, Towel().FrictionCoefficient());
+  EXPECT_EQ(hang.time_step, fits.time_step);
+  EXPECT_EQ(hang.damping, fits.damping);
+  EXPECT_EQ(hang.collision.thickness, fits.collision.thickness);
+}
+
 TEST(Hang, TowelFromCornerHangsLikeCloth) {
   const HangOptions o = TestOptions();
   const Garment towel = MakeRectangleGarment(0.4, 0.6, 0.04, true);

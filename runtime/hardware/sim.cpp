@@ -465,7 +465,7 @@ Jaw PlaceJaw(const SimWorld::Impl& w, const PlaceFlatOptions& po) {
 }
 
 // The garment's cloth model with the hang's parameters (generator/hang: the fitted
-// stiffness, the material's bending, the strain limit and layer thickness of the
+// stiffness, the material's bending and its layers' friction on each other, the strain limit and layer thickness of the
 // release's simulation settings), rest lengths from the flat pattern.
 // `dt` is the release's time step, or half of it for a retry (damping per second kept).
 // Strain handling and air drag as SimOptions says for falls and placings.
@@ -473,7 +473,7 @@ std::shared_ptr<const ClothModel> ClothModelOf(const SimWorld::Impl& w, double d
   HangOptions o = w.o.hang;
   o.strain_monotone = w.o.strain_monotone;
   o.drag_coefficient = w.o.drag_coefficient;
-  ClothOptions co = ClothOptionsFor(o, dt);
+  ClothOptions co = HangClothOptions(w.material, o, dt);
   co.collision.strain_lead_weight = w.o.strain_lead_weight;
   return MakeClothModel(w.garment.mesh, w.garment.layer, ClothMaterialFor(w.material, w.fit, o), co);
 }
