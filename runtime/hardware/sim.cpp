@@ -465,8 +465,9 @@ Jaw PlaceJaw(const SimWorld::Impl& w, const PlaceFlatOptions& po) {
 }
 
 // The garment's cloth model with the hang's parameters (generator/hang: the fitted
-// stiffness, the material's bending and its layers' friction on each other, the strain limit and layer thickness of the
-// release's simulation settings), rest lengths from the flat pattern.
+// stiffness, the material's bending and its layers' friction on each other, the strain
+// limit and layer thickness of the release's simulation settings), rest lengths from the
+// flat pattern.
 // `dt` is the release's time step, or half of it for a retry (damping per second kept).
 // Strain handling and air drag as SimOptions says for falls and placings.
 std::shared_ptr<const ClothModel> ClothModelOf(const SimWorld::Impl& w, double dt) {
