@@ -360,6 +360,14 @@ double BestGate(const std::vector<double>& taus, const std::vector<int>& right, 
 
 }  // namespace
 
+HeightGates ChooseHeightGates(const std::vector<double>& taus, const std::vector<int>& category_right,
+                              const std::vector<int>& pose_right, int queries) {
+  if (queries <= 0 || taus.empty()) return {};
+  // Ties keep the first, the weakest (calibrate.h says why the category's rule is not the pose's).
+  const int c = MostRight(category_right);
+  return {c >= 0 ? taus[c] : taus.front(), BestGate(taus, pose_right, queries)};
+}
+
 GateSelection SelectHeightGates(const Database& db, const std::vector<LabelledCode>& queries,
                                 const CalibrateOptions& options) {
   GateSelection g;
@@ -383,7 +391,7 @@ GateSelection SelectHeightGates(const Database& db, const std::vector<LabelledCo
     for (int i = 0; i < db.size(); ++i) add(db.code(i), db.label(i));
   }
   if (g.queries > 0) {
-    g.chosen = {BestGate(g.taus, g.category_right, g.queries), BestGate(g.taus, g.pose_right, g.queries)};
+    g.chosen = ChooseHeightGates(g.taus, g.category_right, g.pose_right, g.queries);
   }
   return g;
 }
@@ -397,8 +405,8 @@ Json ToJson(const GateSelection& g) {
               {"chosen", {{"category", g.chosen.category}, {"pose", g.chosen.pose}}},
               {"rule",
                "per gate: right category / right anchor (category known) of the unweighted nearest neighbour "
-               "among the database entries of other garment instances; the weakest gate within one standard "
-               "error of the most right answers"}};
+               "among the database entries of other garment instances; category: the weakest gate with the most "
+               "right answers; pose: the weakest gate within one standard error of the most right answers"}};
 }
 
 std::vector<CvSetting> DefaultCvGrid() {

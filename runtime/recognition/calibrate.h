@@ -68,8 +68,7 @@ struct CategoryCalibration {
 
 // How the height gates were chosen: for each candidate τ (0 = no gate), how many
 // selection queries got the right category (unweighted NN over the database) and the
-// right anchor (category known, unweighted NN); the weakest gate within one standard
-// error of the most right answers wins, separately for the two.
+// right anchor (category known, unweighted NN); ChooseHeightGates chooses from the counts.
 struct GateSelection {
   std::vector<double> taus;
   std::vector<int> category_right, pose_right;
@@ -77,6 +76,16 @@ struct GateSelection {
   int without_height = 0;  // left out: no height known
   HeightGates chosen;
 };
+
+// The gates from the counts of `queries` selection queries, `taus` weakest first (0 =
+// none): the category gate is the weakest τ with the most right categories; the pose
+// gate the weakest τ within one standard error of the most right anchors
+// (OneStandardError, selection.h). Why the two differ: a nested leave-one-out of each rule
+// over the selection queries of two recipe seeds (docs/recognition.md, "Gates") — for the
+// category the most right held 70 / 62 of 85 right against 65 / 57 for the one-SE rule,
+// which on seed 2017 let the category gate widen to 0.5. No gate (0) without queries.
+HeightGates ChooseHeightGates(const std::vector<double>& taus, const std::vector<int>& category_right,
+                              const std::vector<int>& pose_right, int queries);
 
 struct CalibrationResult {
   Weights weights;  // categories with no usable query are absent (the runtime stays unweighted)

@@ -126,6 +126,23 @@ TEST(RecognitionHeightGates, SelectionFindsTheGateThatHeightInformsAndNoneOtherw
   EXPECT_EQ(g1.chosen, (HeightGates{0, 0}));
 }
 
+TEST(RecognitionHeightGates, CategoryGateIsTheMostRightPoseGateTheWeakestWithinOneSe) {
+  // drape calibrate's counts on paper.yaml with seed 2017 (hinge cloth, 85 selection
+  // queries): the one-SE rule's slack (4.1 queries) took the category gate to 0.5, three
+  // categories fewer than 0.15 gets.
+  const std::vector<double> taus = {0, 0.5, 0.4, 0.3, 0.25, 0.2, 0.15, 0.12, 0.1, 0.08, 0.06, 0.05, 0.04, 0.03, 0.02};
+  const std::vector<int> category = {57, 59, 59, 58, 59, 60, 62, 60, 60, 61, 51, 46, 46, 42, 39};
+  const std::vector<int> pose = {28, 28, 28, 32, 33, 34, 34, 36, 37, 36, 32, 31, 31, 27, 30};
+  EXPECT_EQ(ChooseHeightGates(taus, category, pose, 85), (HeightGates{0.15, 0.25}));
+  // Seed 2016's: 70 at 0.03 (the one-SE rule: 0.06, 67).
+  const std::vector<int> category16 = {51, 58, 56, 58, 58, 59, 60, 61, 62, 65, 67, 66, 67, 70, 68};
+  const std::vector<int> pose16 = {21, 21, 22, 22, 24, 28, 30, 32, 34, 34, 35, 36, 36, 39, 37};
+  EXPECT_EQ(ChooseHeightGates(taus, category16, pose16, 85), (HeightGates{0.03, 0.06}));
+  // Ties keep the weakest; no queries, no gates.
+  EXPECT_EQ(ChooseHeightGates({0, 0.5, 0.1}, {3, 5, 5}, {2, 2, 2}, 5), (HeightGates{0.5, 0}));
+  EXPECT_EQ(ChooseHeightGates(taus, category, pose, 0), (HeightGates{0, 0}));
+}
+
 TEST(RecognitionHeightGates, TrainEntriesQueryTheOtherInstancesOnly) {
   ScaledTwins t;
   CalibrateOptions opt;  // gate_train_queries on: the four train entries are the queries
