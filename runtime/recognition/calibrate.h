@@ -81,9 +81,10 @@ struct GateSelection {
 // none): the category gate is the weakest τ with the most right categories; the pose
 // gate the weakest τ within one standard error of the most right anchors
 // (OneStandardError, selection.h). Why the two differ: a nested leave-one-out of each rule
-// over the selection queries of two recipe seeds (docs/recognition.md, "Gates") — for the
-// category the most right held 70 / 62 of 85 right against 65 / 57 for the one-SE rule,
-// which on seed 2017 let the category gate widen to 0.5. No gate (0) without queries.
+// over the selection queries of two recipe seeds (docs/recognition.md, "Which rule chooses
+// the category gate"): for the category the most right held 70 / 62 of 85 right against
+// 65 / 57 for the one-SE rule, which on seed 2017 let the category gate widen to 0.5.
+// No gate (0) without queries.
 HeightGates ChooseHeightGates(const std::vector<double>& taus, const std::vector<int>& category_right,
                               const std::vector<int>& pose_right, int queries);
 
