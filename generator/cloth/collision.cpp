@@ -82,11 +82,12 @@ bool ShiftRelative(const Stencil& s, const Coeffs& c, const Vec3& delta, const E
   return true;
 }
 
-// Cloth–cloth Coulomb friction after a normal correction of `dn` (m) along n.
-void PairFriction(const Stencil& s, const Coeffs& c, const Vec3& n, double dn, double mu, const Points3& x0,
+// Cloth–cloth Coulomb friction after a normal correction of `dn` (m) along n, on the
+// pair's relative tangential motion from xf (Apply's friction_from).
+void PairFriction(const Stencil& s, const Coeffs& c, const Vec3& n, double dn, double mu, const Points3& xf,
                   const Eigen::VectorXd& inv_mass, Points3& x1) {
   if (!(mu > 0 && dn > 0)) return;
-  const Vec3 rel = Combine(c, Gather(s, x1)) - Combine(c, Gather(s, x0));
+  const Vec3 rel = Combine(c, Gather(s, x1)) - Combine(c, Gather(s, xf));
   const Vec3 rt = rel - rel.dot(n) * n;
   const double lt = rt.norm();
   if (lt <= 0) return;
@@ -453,6 +454,7 @@ struct ApplyContext {
   const Points3& rest;
   const CollisionOptions& opt;
   const Points3& x0;
+  const Points3& xf;  // cloth–cloth friction's origin (Apply's friction_from)
   Points3& x1;
   const Eigen::VectorXd& inv_mass;
   const Eigen::VectorXd& rest_lengths;  // m, per edge of E
@@ -809,7 +811,7 @@ bool RepelPair(ApplyContext& cx, const Stencil& s, double d_snap, const std::vec
   const double sep = Combine(c, q1).dot(n);
   if (sep >= target) return false;
   if (!ShiftRelative(s, c, (target - sep) * n, cx.inv_mass, cx.x1)) return false;
-  PairFriction(s, c, n, target - sep, cx.opt.cloth_friction, cx.x0, cx.inv_mass, cx.x1);
+  PairFriction(s, c, n, target - sep, cx.opt.cloth_friction, cx.xf, cx.inv_mass, cx.x1);
   return true;
 }
 
@@ -1128,7 +1130,7 @@ void Impulse(ApplyContext& cx, const Hit& hit) {
   const double vn = (Combine(c, q1) - Combine(c, q0)).dot(n);
   if (vn >= 0) return;
   if (ShiftRelative(hit.s, c, -vn * n, cx.inv_mass, cx.x1))
-    PairFriction(hit.s, c, n, -vn, cx.opt.cloth_friction, cx.x0, cx.inv_mass, cx.x1);
+    PairFriction(hit.s, c, n, -vn, cx.opt.cloth_friction, cx.xf, cx.inv_mass, cx.x1);
 }
 
 // Pairs still colliding after the impulses: cloth–cloth and cloth–box.
@@ -1338,7 +1340,7 @@ void CollisionHandler::SetShortcuts(bool on) {
 }
 
 CollisionReport CollisionHandler::Apply(const Points3& x0, Points3& x1, const Eigen::VectorXd& inv_mass, double dt,
-                                        const std::vector<BoxCollider>& colliders) {
+                                        const std::vector<BoxCollider>& colliders, const Points3* friction_from) {
   const int n = num_vertices_;
   if (x0.rows() != n || x1.rows() != n || inv_mass.size() != n)
     throw Error("collision: Apply expects x0, x1 and inv_mass with " + std::to_string(n) + " rows (got " +
@@ -1349,14 +1351,17 @@ CollisionReport CollisionHandler::Apply(const Points3& x0, Points3& x1, const Ei
     throw Error("collision: inv_mass must be finite and >= 0");
   if (!x0.allFinite()) throw Error("collision: x0 must be finite");
   if (!x1.allFinite()) throw NumericalError("collision: the proposed positions x1 are not finite");
+  if (friction_from && (friction_from->rows() != n || !friction_from->allFinite()))
+    throw Error("collision: friction_from must have " + std::to_string(n) + " finite rows");
   for (const BoxCollider& box : colliders) box.Validate();
 
   const double t0 = ClockSeconds();
   CollisionReport rep;
   const long long searches0 = broad_.searches();
-  ApplyContext cx{F_, edges_,   rest_,         options_,         x0,
-                  x1, inv_mass, rest_lengths_, adjacency_start_, adjacency_,
-                  dt, rep,      broad_,        strain_order_,    repel_snapshot_};
+  const Points3& xf = friction_from ? *friction_from : x0;
+  ApplyContext cx{F_,  edges_,   rest_,         options_,         x0,         xf,
+                  x1,  inv_mass, rest_lengths_, adjacency_start_, adjacency_, dt,
+                  rep, broad_,   strain_order_, repel_snapshot_};
   cx.shortcuts = shortcuts_;
   LimitStrain(cx, inv_mass);
   Repel(cx);

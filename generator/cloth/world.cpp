@@ -432,7 +432,14 @@ CollisionReport ClothWorld::Step() {
   if (handler_) {
     Eigen::VectorXd im(n);
     for (int i = 0; i < n; ++i) im[i] = holder_[i] >= 0 ? 0.0 : 1 / m.mass[i];
-    rep = handler_->Apply(x_, x1, im, dt, colliders_);
+    // With sub-steps, friction acts on the velocity Bullet ends the step with.
+    Points3 from;
+    if (substeps > 1) {
+      from = xb - vb * dt;
+      for (int i = 0; i < n; ++i)
+        if (holder_[i] >= 0) from.row(i) = x_.row(i);
+    }
+    rep = handler_->Apply(x_, x1, im, dt, colliders_, substeps > 1 ? &from : nullptr);
     AddCollisionTimings(rep);
     timings_.ccd_collisions += rep.ccd_collisions;
     timings_.fail_safe_steps += rep.fail_safe_used;
