@@ -82,16 +82,22 @@ bool ShiftRelative(const Stencil& s, const Coeffs& c, const Vec3& delta, const E
   return true;
 }
 
-// Cloth–cloth Coulomb friction after a normal correction of `dn` (m) along n, on the
-// pair's relative tangential motion from xf (Apply's friction_from).
-void PairFriction(const Stencil& s, const Coeffs& c, const Vec3& n, double dn, double mu, const Points3& xf,
-                  const Eigen::VectorXd& inv_mass, Points3& x1) {
+// Cloth–cloth Coulomb friction after a normal correction of `dn` (m) along n: it slows
+// the pair's relative tangential motion over the step (from x0, Bridson §7.2) by at most
+// μ·dn, and never by more than brings it to rest at the step's end either (motion from
+// xf, Apply's friction_from). With sub-steps the two differ; friction on the mean alone
+// reversed and sped up a mode that turns within the step.
+void PairFriction(const Stencil& s, const Coeffs& c, const Vec3& n, double dn, double mu, const Points3& x0,
+                  const Points3& xf, const Eigen::VectorXd& inv_mass, Points3& x1) {
   if (!(mu > 0 && dn > 0)) return;
-  const Vec3 rel = Combine(c, Gather(s, x1)) - Combine(c, Gather(s, xf));
+  const Vec3 at = Combine(c, Gather(s, x1));
+  const Vec3 rel = at - Combine(c, Gather(s, x0));
   const Vec3 rt = rel - rel.dot(n) * n;
   const double lt = rt.norm();
   if (lt <= 0) return;
-  ShiftRelative(s, c, -rt * (std::min(lt, mu * dn) / lt), inv_mass, x1);
+  double slow = std::min(lt, mu * dn);
+  if (&xf != &x0) slow = std::min(slow, std::max(0.0, (at - Combine(c, Gather(s, xf))).dot(rt) / lt));
+  if (slow > 0) ShiftRelative(s, c, -rt * (slow / lt), inv_mass, x1);
 }
 
 // True when the pair's two elements in configuration q are surely at least d (m)
@@ -811,7 +817,7 @@ bool RepelPair(ApplyContext& cx, const Stencil& s, double d_snap, const std::vec
   const double sep = Combine(c, q1).dot(n);
   if (sep >= target) return false;
   if (!ShiftRelative(s, c, (target - sep) * n, cx.inv_mass, cx.x1)) return false;
-  PairFriction(s, c, n, target - sep, cx.opt.cloth_friction, cx.xf, cx.inv_mass, cx.x1);
+  PairFriction(s, c, n, target - sep, cx.opt.cloth_friction, cx.x0, cx.xf, cx.inv_mass, cx.x1);
   return true;
 }
 
@@ -1130,7 +1136,7 @@ void Impulse(ApplyContext& cx, const Hit& hit) {
   const double vn = (Combine(c, q1) - Combine(c, q0)).dot(n);
   if (vn >= 0) return;
   if (ShiftRelative(hit.s, c, -vn * n, cx.inv_mass, cx.x1))
-    PairFriction(hit.s, c, n, -vn, cx.opt.cloth_friction, cx.xf, cx.inv_mass, cx.x1);
+    PairFriction(hit.s, c, n, -vn, cx.opt.cloth_friction, cx.x0, cx.xf, cx.inv_mass, cx.x1);
 }
 
 // Pairs still colliding after the impulses: cloth–cloth and cloth–box.

@@ -213,12 +213,12 @@ class CollisionHandler {
   // dynamics, corrected in place so that the straight path x0→x1 is collision-free
   // (see the guarantee above). inv_mass[i] == 0: node i is kinematic (held by a
   // gripper): x1[i] is prescribed and never changed (infinitely heavy). dt (s) turns
-  // position changes into velocities (friction, zone momenta). friction_from (optional,
-  // default x0): per node, the proposed x1 less the step's end velocity × dt. Cloth–cloth
-  // friction opposes the pairs' relative tangential motion measured from there, i.e.
-  // their relative velocity at the step's end: with sub-steps that is not the mean over
-  // the step, and friction on the mean pumped energy into a mode that turns within the
-  // step. Deterministic: same input → same output bytes.
+  // position changes into velocities (friction, zone momenta). friction_from (optional):
+  // per node, the proposed x1 less the step's end velocity × dt. Cloth–cloth friction
+  // slows a pair's relative tangential motion over the step, and with friction_from
+  // never by more than brings its relative velocity at the step's end to rest: with
+  // sub-steps the two differ, and friction on the mean alone reversed and sped up a mode
+  // that turns within the step. Deterministic: same input → same output bytes.
   CollisionReport Apply(const Points3& x0, Points3& x1, const Eigen::VectorXd& inv_mass, double dt,
                         const std::vector<BoxCollider>& colliders, const Points3* friction_from = nullptr);
 

@@ -786,11 +786,11 @@ TEST(CollisionApply, CoulombFrictionOnATable) {
 }
 
 // A small free triangle within the thickness above a big held one, approaching it by
-// 1 mm while its mean over the step moves +0.4 mm along x but its velocity at the step's
-// end points −x (as a mode that turns within sub-steps does). Cloth–cloth friction
-// (μ 0.5, so at least 0.5 mm of tangential motion) must slow that end velocity, not
-// reverse the mean and speed it up: measured from x0 it would end at −1.0 mm per step.
-TEST(CollisionApply, ClothFrictionOpposesTheVelocityAtTheStepsEnd) {
+// 1 mm while its mean over the step moves +0.4 mm along x (cloth–cloth μ 0.5: at least
+// 0.5 mm of tangential motion may be stopped). Friction stops the mean motion when the
+// velocity at the step's end points the same way; when it points −x (a mode that turns
+// within sub-steps) it must not be sped up, as friction on the mean alone did (to −1 mm).
+TEST(CollisionApply, ClothFrictionNeverReversesTheVelocityAtTheStepsEnd) {
   const double h = 0.004;
   std::vector<Vec3> V = {Vec3(-0.1, -0.1, 0), Vec3(0.1, -0.1, 0),     Vec3(0, 0.1, 0),
                          Vec3(0, 0, 0.6 * h), Vec3(0.01, 0, 0.6 * h), Vec3(0, 0.01, 0.6 * h)};
@@ -800,24 +800,31 @@ TEST(CollisionApply, ClothFrictionOpposesTheVelocityAtTheStepsEnd) {
   o.cloth_friction = 0.5;
   Eigen::VectorXd inv_mass = Eigen::VectorXd::Ones(6);
   inv_mass.head(3).setZero();
-  const Vec3 mean(0.0004, 0, -0.001), end(-0.0006, 0, -0.001);  // displacement, velocity × dt
-  Points3 proposed = m.V, from = m.V;
-  for (int i = 3; i < 6; ++i) {
-    proposed.row(i) += mean.transpose();
-    from.row(i) = proposed.row(i) - end.transpose();
+  const Vec3 mean(0.0004, 0, -0.001);            // the proposed displacement
+  for (const double end_x : {0.001, -0.0006}) {  // the end velocity × dt along x
+    const Vec3 end(end_x, 0, -0.001);
+    Points3 proposed = m.V, from = m.V;
+    for (int i = 3; i < 6; ++i) {
+      proposed.row(i) += mean.transpose();
+      from.row(i) = proposed.row(i) - end.transpose();
+    }
+    Points3 x1 = proposed;
+    CollisionHandler(m.F, m.V, o).Apply(m.V, x1, inv_mass, 1.0 / 240, {}, &from);
+    for (int i = 3; i < 6; ++i) {
+      EXPECT_GT(x1(i, 2), 0.6 * h - 0.001) << "node " << i;  // pushed back up
+      const double after = x1(i, 0) - from(i, 0);            // the end velocity × dt after friction
+      if (end_x > 0) {
+        EXPECT_NEAR(x1(i, 0), m.V(i, 0), 1e-12) << "node " << i;  // the mean motion stopped
+      } else {
+        EXPECT_NEAR(after, end_x, 1e-12) << "node " << i;  // not sped up
+      }
+    }
   }
-  Points3 x1 = proposed;
-  CollisionHandler(m.F, m.V, o).Apply(m.V, x1, inv_mass, 1.0 / 240, {}, &from);
-  for (int i = 3; i < 6; ++i) {
-    const double end_x = x1(i, 0) - from(i, 0);  // the end velocity × dt after friction
-    EXPECT_LE(end_x, 0) << "node " << i;
-    EXPECT_GE(end_x, end.x() + 0.5 * 0.001 - 1e-12) << "node " << i;
-    EXPECT_GT(x1(i, 2), 0.6 * h - 0.001) << "node " << i;  // pushed back up
-  }
-  // Without friction_from the friction takes x0 as the origin (the mean).
-  Points3 x1_mean = proposed;
-  CollisionHandler(m.F, m.V, o).Apply(m.V, x1_mean, inv_mass, 1.0 / 240, {});
-  for (int i = 3; i < 6; ++i) EXPECT_NEAR(x1_mean(i, 0), m.V(i, 0), 1e-12) << "node " << i;
+  // Without friction_from: the mean motion is stopped (Bridson's friction).
+  Points3 x1 = m.V;
+  for (int i = 3; i < 6; ++i) x1.row(i) += mean.transpose();
+  CollisionHandler(m.F, m.V, o).Apply(m.V, x1, inv_mass, 1.0 / 240, {});
+  for (int i = 3; i < 6; ++i) EXPECT_NEAR(x1(i, 0), m.V(i, 0), 1e-12) << "node " << i;
 }
 
 // Faces of x (at `samples` + 1 states on x0 → x1) that meet the axis-aligned box

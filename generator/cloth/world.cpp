@@ -432,7 +432,7 @@ CollisionReport ClothWorld::Step() {
   if (handler_) {
     Eigen::VectorXd im(n);
     for (int i = 0; i < n; ++i) im[i] = holder_[i] >= 0 ? 0.0 : 1 / m.mass[i];
-    // With sub-steps, friction acts on the velocity Bullet ends the step with.
+    // With sub-steps, friction also never reverses the velocity Bullet ends the step with.
     Points3 from;
     if (substeps > 1) {
       from = xb - vb * dt;
