@@ -84,11 +84,11 @@ bool ShiftRelative(const Stencil& s, const Coeffs& c, const Vec3& delta, const E
 
 // Cloth–cloth Coulomb friction after a normal correction of `dn` (m) along n: it slows
 // the pair's relative tangential motion over the step (from x0, Bridson §7.2) by at most
-// μ·dn, and never by more than brings it to rest at the step's end either (motion from
-// xf, Apply's friction_from). With sub-steps the two differ; friction on the mean alone
-// reversed and sped up a mode that turns within the step.
+// μ·dn, and, given friction_from (Apply's), never by more than brings it to rest at the
+// step's end either (motion from there). With sub-steps the two differ; friction on the
+// mean alone reversed and sped up a mode that turns within the step.
 void PairFriction(const Stencil& s, const Coeffs& c, const Vec3& n, double dn, double mu, const Points3& x0,
-                  const Points3& xf, const Eigen::VectorXd& inv_mass, Points3& x1) {
+                  const Points3* friction_from, const Eigen::VectorXd& inv_mass, Points3& x1) {
   if (!(mu > 0 && dn > 0)) return;
   const Vec3 at = Combine(c, Gather(s, x1));
   const Vec3 rel = at - Combine(c, Gather(s, x0));
@@ -96,7 +96,7 @@ void PairFriction(const Stencil& s, const Coeffs& c, const Vec3& n, double dn, d
   const double lt = rt.norm();
   if (lt <= 0) return;
   double slow = std::min(lt, mu * dn);
-  if (&xf != &x0) slow = std::min(slow, std::max(0.0, (at - Combine(c, Gather(s, xf))).dot(rt) / lt));
+  if (friction_from) slow = std::min(slow, std::max(0.0, (at - Combine(c, Gather(s, *friction_from))).dot(rt) / lt));
   if (slow > 0) ShiftRelative(s, c, -rt * (slow / lt), inv_mass, x1);
 }
 
@@ -460,7 +460,7 @@ struct ApplyContext {
   const Points3& rest;
   const CollisionOptions& opt;
   const Points3& x0;
-  const Points3& xf;  // cloth–cloth friction's origin (Apply's friction_from)
+  const Points3* friction_from;  // Apply's (null: none)
   Points3& x1;
   const Eigen::VectorXd& inv_mass;
   const Eigen::VectorXd& rest_lengths;  // m, per edge of E
@@ -817,7 +817,7 @@ bool RepelPair(ApplyContext& cx, const Stencil& s, double d_snap, const std::vec
   const double sep = Combine(c, q1).dot(n);
   if (sep >= target) return false;
   if (!ShiftRelative(s, c, (target - sep) * n, cx.inv_mass, cx.x1)) return false;
-  PairFriction(s, c, n, target - sep, cx.opt.cloth_friction, cx.x0, cx.xf, cx.inv_mass, cx.x1);
+  PairFriction(s, c, n, target - sep, cx.opt.cloth_friction, cx.x0, cx.friction_from, cx.inv_mass, cx.x1);
   return true;
 }
 
@@ -1136,7 +1136,7 @@ void Impulse(ApplyContext& cx, const Hit& hit) {
   const double vn = (Combine(c, q1) - Combine(c, q0)).dot(n);
   if (vn >= 0) return;
   if (ShiftRelative(hit.s, c, -vn * n, cx.inv_mass, cx.x1))
-    PairFriction(hit.s, c, n, -vn, cx.opt.cloth_friction, cx.x0, cx.xf, cx.inv_mass, cx.x1);
+    PairFriction(hit.s, c, n, -vn, cx.opt.cloth_friction, cx.x0, cx.friction_from, cx.inv_mass, cx.x1);
 }
 
 // Pairs still colliding after the impulses: cloth–cloth and cloth–box.
@@ -1364,8 +1364,7 @@ CollisionReport CollisionHandler::Apply(const Points3& x0, Points3& x1, const Ei
   const double t0 = ClockSeconds();
   CollisionReport rep;
   const long long searches0 = broad_.searches();
-  const Points3& xf = friction_from ? *friction_from : x0;
-  ApplyContext cx{F_,  edges_,   rest_,         options_,         x0,         xf,
+  ApplyContext cx{F_,  edges_,   rest_,         options_,         x0,         friction_from,
                   x1,  inv_mass, rest_lengths_, adjacency_start_, adjacency_, dt,
                   rep, broad_,   strain_order_, repel_snapshot_};
   cx.shortcuts = shortcuts_;
