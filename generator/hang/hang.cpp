@@ -342,7 +342,10 @@ HangResult Hang(const Garment& garment, int anchor_vertex, const Vec3& grasp_off
     st.measure_seconds += measure;
     result.failure = Verdict(run.settle, m, material, options);
     if (result.failure.empty()) break;
-    if (attempt == 0) st.retry_seconds = run.seconds + measure;
+    if (attempt == 0) {
+      st.retry_seconds = run.seconds + measure;
+      st.retry_reason = result.failure;
+    }
   }
   RecordRun(run, st);
   st.time_step = dt;

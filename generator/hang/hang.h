@@ -196,6 +196,9 @@ struct HangStats {
   double settle_seconds = 0;     // the settling test between steps
   double measure_seconds = 0;    // CGAL test + clearance + strain
   double retry_seconds = 0;      // of cpu_seconds: the attempts not kept (a retry followed)
+  // Why the first attempt was not kept (its failure, e.g. "edge strain max … exceeds …"),
+  // empty when it was: the build's timing record keeps it, so a slow build can be read.
+  std::string retry_reason;
 };
 
 // HangStats' cost in parts, by name: the call's thread CPU time ("cpu") and its shares.

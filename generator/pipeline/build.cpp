@@ -220,9 +220,11 @@ std::string EntryPreview(const Job& job, const HangResult& hung, const Anchor& a
 }
 
 // The hang's thread CPU time and every part of it, as "hang.<part>" keys of the timing
-// record (LogStageSeconds prints them as the hang's own line).
+// record (LogStageSeconds prints them as the hang's own line), and why a retried hang's
+// first attempt failed ("hang_retry_reason").
 void HangCostTiming(const HangStats& s, Json& timing) {
   for (const HangCostPart& p : kHangCostParts) timing[std::string("hang.") + p.name] = s.*p.seconds;
+  if (!s.retry_reason.empty()) timing["hang_retry_reason"] = s.retry_reason;
 }
 
 // Times each stage of an entry into its timing record: wall seconds by stage name, and
