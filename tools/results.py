@@ -109,6 +109,13 @@ def learned_or_unweighted(rates):
     return rates.get("unweighted")
 
 
+def strict_interval(cat):
+    """" [12–49 %]": strict pose's 95 % Wilson interval from the eval's "precision" ("" in
+    reports from before it)."""
+    p = (cat.get("precision") or {}).get("strict")
+    return "" if not p else f" [{100 * p['low']:.0f}–{100 * p['high']:.0f} %]"
+
+
 def eval_rows(doc, path):
     rows = []
     for cat in field(doc, path, ["categories"]) + [field(doc, path, ["overall"])]:
@@ -117,8 +124,10 @@ def eval_rows(doc, path):
         twin = learned_or_unweighted(field(cat, path, ["pose_accuracy_twin_credited"]))
         paper = cat.get("paper") or {}
         label = "all" if name == "all" else category_name(name)
-        rows.append((f"pose accuracy, {label}: strict / twin credited ({field(cat, path, ['queries'])} test queries)",
-                     f"{pct(strict)} / {pct(twin)}", pct(paper.get("both"))))
+        interval = strict_interval(cat)
+        what = "strict [95 % interval] / twin credited" if interval else "strict / twin credited"
+        rows.append((f"pose accuracy, {label}: {what} ({field(cat, path, ['queries'])} test queries)",
+                     f"{pct(strict)}{interval} / {pct(twin)}", pct(paper.get("both"))))
     rows += miss_curve_rows(doc, path)
     rows += k_curve_rows(doc, path)
     overall = field(doc, path, ["overall"])

@@ -59,11 +59,14 @@ def test_pose_and_category_rows_are_the_eval_reports(table):
     ev = load(os.path.join(DIRS["eval"], "report.json"))
     for cat in ev["categories"] + [ev["overall"]]:
         name = cat["category"]
-        key = f"pose accuracy, {name}: strict / twin credited ({cat['queries']} test queries)"
+        key = f"pose accuracy, {name}: strict [95 % interval] / twin credited ({cat['queries']} test queries)"
         assert key in rows, (key, list(rows))
         strict = pick(cat["pose_accuracy"]["both"])
         twin = pick(cat["pose_accuracy_twin_credited"])
-        assert rows[key][0] == f"{pct(strict)} / {pct(twin)}"
+        p = cat["precision"]["strict"]
+        assert p["correct"] == round(strict * p["n"])
+        interval = f"[{100 * p['low']:.0f}–{100 * p['high']:.0f} %]"
+        assert rows[key][0] == f"{pct(strict)} {interval} / {pct(twin)}"
     fit_all = [c for c in ev["category_fit"]["categories"] if c["category"] == "all"][0]
     assert rows["category accuracy: by registration (nearest neighbour)"][0] == (
         f"{pct(fit_all['category_accuracy']['registration'])} ({pct(ev['overall']['category_accuracy'])})")

@@ -75,6 +75,40 @@ std::string PoseTableMarkdown(const Json& r, const std::vector<Json>& rows) {
   return md.str();
 }
 
+// "5 / 19: 26.3 % (11.8–48.8 %)" of a precision figure ("n/a" for null).
+std::string IntervalCell(const Json& f) {
+  if (f.is_null()) return "n/a";
+  char buf[96];
+  std::snprintf(buf, sizeof buf, "%d / %d: %.1f %% (%.1f–%.1f %%)", f["correct"].get<int>(), f["n"].get<int>(),
+                100.0 * f["correct"].get<int>() / f["n"].get<int>(), 100 * f["low"].get<double>(),
+                100 * f["high"].get<double>());
+  return buf;
+}
+
+// report.json's "precision" of every row: the intervals, and what a second run must show.
+std::string PrecisionMarkdown(const std::vector<Json>& rows) {
+  std::ostringstream md;
+  md << "## How precise these figures are\n\n"
+     << "Each figure is k of n queries (both database instances, the runtime's distance; category by the "
+        "unweighted nearest neighbour), with its 95 % Wilson interval. \"Beyond chance\": the difference in "
+        "strict pose that another run of the same size (another recipe seed, another build) must show before it "
+        "is more than chance (two-sided 5 %), and the queries per run that a 5-point difference would need.\n\n"
+     << "| category | strict pose | twin credited | category | beyond chance | queries for 5 points |\n"
+     << "|---|---|---|---|---|---|\n";
+  for (const Json& c : rows) {
+    const Json& p = c["precision"];
+    md << "| " << c["category"].get<std::string>() << " | " << IntervalCell(p["strict"]) << " | "
+       << IntervalCell(p["twin_credited"]) << " | " << IntervalCell(p["category"]) << " | ";
+    if (p.contains("strict_difference_beyond_chance")) {
+      md << "±" << Num(Json(100 * p["strict_difference_beyond_chance"].get<double>()), "%.1f") << " points | "
+         << p["strict_queries_for_5_points"].get<int>() << " |\n";
+    } else {
+      md << "n/a | n/a |\n";
+    }
+  }
+  return md.str();
+}
+
 }  // namespace
 
 std::string RegistrationMarkdown(const Json& t) {
@@ -230,6 +264,7 @@ std::string ReportMarkdown(const Json& r) {
   rows.push_back(r["overall"]);
 
   md << PoseTableMarkdown(r, rows);
+  if (rows.front().contains("precision")) md << "\n" << PrecisionMarkdown(rows);
   if (r.contains("miss_curve") && r["miss_curve"].is_object()) md << "\n" << MissCurveMarkdown(r["miss_curve"]);
   if (r.contains("k_curve") && r["k_curve"].is_object()) md << "\n" << KCurveMarkdown(r["k_curve"]);
   md << "\n## Category, end to end, top-" << r["top_k"].get<int>() << ", grasp-point error\n\n"

@@ -5,6 +5,7 @@
 #include <set>
 
 #include "common/error.h"
+#include "common/proportion.h"
 
 namespace drape::recognition {
 
@@ -275,6 +276,37 @@ void FillConfusion(const Database& db, const std::vector<EvalQuery>& queries, co
   }
 }
 
+Json ProportionJson(const Counter& c) {
+  if (c.n == 0) return nullptr;
+  const Proportion w = WilsonInterval(c.correct, c.n);
+  return Json{{"correct", c.correct}, {"n", c.n}, {"low", w.low}, {"high", w.high}};
+}
+
+// How precise the row's headline figures are (common/proportion.h): strict pose (both
+// instances, the runtime's distance: learned where every query of the row has weights),
+// twin credited and category accuracy as k of n with a 95 % Wilson interval, and the
+// difference another run of the same size (another recipe seed) must show in strict pose
+// before it is more than chance, with the queries per run a 5-point difference needs.
+Json PrecisionRow(const CategoryAcc& a) {
+  auto counter = [&](const std::string& key) {
+    auto it = a.pose.find(key);
+    return it == a.pose.end() ? Counter{} : it->second;
+  };
+  const Counter u = counter("both/unweighted"), l = counter("both/learned");
+  const bool learned = l.n > 0 && l.n == u.n;
+  const Counter& strict = learned ? l : u;
+  Json row{{"metric", learned ? "learned" : "unweighted"},
+           {"strict", ProportionJson(strict)},
+           {"twin_credited", ProportionJson(learned ? a.twin_l : a.twin_u)},
+           {"category", ProportionJson(a.category)}};
+  if (strict.n > 0) {
+    const double p = double(strict.correct) / strict.n;
+    row["strict_difference_beyond_chance"] = DifferenceBeyondChance(p, strict.n);
+    row["strict_queries_for_5_points"] = TrialsForDifference(p, 0.05);
+  }
+  return row;
+}
+
 // One row of report.json "categories" (or "overall").
 Json CategoryRow(const std::string& name, const CategoryAcc& a, const std::vector<std::string>& subsets, int top_k) {
   Json pose = Json::object();
@@ -311,6 +343,7 @@ Json CategoryRow(const std::string& name, const CategoryAcc& a, const std::vecto
                 {"total", a.total.Value()},
                 {"fusion_known", a.fusion.n},
                 {"feature_known", a.feature.n}}},
+              {"precision", PrecisionRow(a)},
               {"paper", PaperRow(name)}};
 }
 

@@ -6,6 +6,7 @@
 
 #include "common/error.h"
 #include "common/files.h"
+#include "common/proportion.h"
 #include "common/rng.h"
 #include "runtime/recognition/test_features.h"
 
@@ -69,6 +70,17 @@ TEST(RecognitionEvaluate, CountsTheTableAndWritesTheReport) {
   // Overall: 3 right of 5 (q1, q2, q4).
   EXPECT_DOUBLE_EQ(r["overall"]["pose_accuracy"]["both"]["unweighted"].get<double>(), 3.0 / 5);
   EXPECT_EQ(r["overall"]["seconds_per_query"]["fusion_known"], 3);
+  // Precision: the same counts with their 95 % Wilson interval (common/proportion.h).
+  const Json& prec = r["overall"]["precision"];
+  EXPECT_EQ(prec["metric"], "unweighted");
+  EXPECT_EQ(prec["strict"]["correct"], 3);
+  EXPECT_EQ(prec["strict"]["n"], 5);
+  EXPECT_DOUBLE_EQ(prec["strict"]["low"].get<double>(), WilsonInterval(3, 5).low);
+  EXPECT_DOUBLE_EQ(prec["strict"]["high"].get<double>(), WilsonInterval(3, 5).high);
+  EXPECT_DOUBLE_EQ(prec["strict_difference_beyond_chance"].get<double>(), DifferenceBeyondChance(0.6, 5));
+  EXPECT_EQ(prec["strict_queries_for_5_points"], TrialsForDifference(0.6, 0.05));
+  EXPECT_EQ(pants["precision"]["category"]["correct"], 3);
+  EXPECT_EQ(pants["precision"]["twin_credited"]["n"], 3);
   // Confusion for pants: true a → predicted b once.
   const auto& conf = res.confusion.at("pants");
   ASSERT_EQ(conf.labels, (std::vector<std::string>{"a", "b"}));
@@ -86,6 +98,7 @@ TEST(RecognitionEvaluate, CountsTheTableAndWritesTheReport) {
   const Json back = Json::parse(ReadFile(dir / "report.json"));
   EXPECT_EQ(back["release"], "synthetic");
   EXPECT_NE(ReadFile(dir / "report.md").find("| pants (pants-1, pants-2) | 3 |"), std::string::npos);
+  EXPECT_NE(ReadFile(dir / "report.md").find("| pants | 2 / 3: 66.7 % (20.8–93.9 %) |"), std::string::npos);
   // At most two instances per category: the paper's columns, the last still "both".
   EXPECT_NE(ReadFile(dir / "report.md").find("| category | queries | instance 1 | instance 2 | both | paper: "),
             std::string::npos);
