@@ -23,7 +23,7 @@ constexpr double kAccdShrink = 0.1;           // ACCD's s: report when the gap f
 constexpr int kAccdMaxSteps = 2000;           // ACCD step cap; hitting it reports a collision
 constexpr double kMaxZoneAngle = 1.5;         // rad per step: keeps (1−t)I + tR invertible
 constexpr double kBroadSlack = 0.25;          // × thickness: how far x1 may move before a new CCD broad-phase search
-constexpr double kReuseMargin = 0.5;          // × thickness: broad-phase superset margin (BroadPhase::SetReuseMargin)
+constexpr double kReuseMargin = 1.25;         // × thickness: broad-phase superset margin (BroadPhase::SetReuseMargin)
 constexpr double kRigidTolerance = 1e-7;      // m: kinematic nodes further off a rigid fit are non-rigid
 constexpr long long kRepelSnapshotCalls = 4;  // Apply calls between repulsion snapshots
 // m: what a skipped repulsion pair must have to spare beyond thickness, far above the
