@@ -22,7 +22,6 @@ constexpr double kTiny = 1e-30;               // m²: below this a segment has z
 constexpr double kAccdShrink = 0.1;           // ACCD's s: report when the gap falls below s × initial
 constexpr int kAccdMaxSteps = 2000;           // ACCD step cap; hitting it reports a collision
 constexpr double kMaxZoneAngle = 1.5;         // rad per step: keeps (1−t)I + tR invertible
-constexpr double kBroadSlack = 0.25;          // × thickness: how far x1 may move before a new CCD broad-phase search
 constexpr double kReuseMargin = 1.25;         // × thickness: broad-phase superset margin (BroadPhase::SetReuseMargin)
 constexpr double kRigidTolerance = 1e-7;      // m: kinematic nodes further off a rigid fit are non-rigid
 constexpr long long kRepelSnapshotCalls = 4;  // Apply calls between repulsion snapshots
@@ -518,19 +517,18 @@ struct ApplyContext {
   Stencil VF(int v, int f) const { return {{v, F(f, 0), F(f, 1), F(f, 2)}, true}; }
   Stencil EE(int a, int b) const { return {{E[a][0], E[a][1], E[b][0], E[b][1]}, false}; }
 
-  // Pairs that could come within min_separation on the paths x0 → box_ref: all the
-  // CCD needs, and still all while every node's x1 stays within kBroadSlack·thickness
-  // of box_ref (small corrections do not force a new search). *t0: the caller's clock
-  // reading; a search is timed from it as broad phase and *t0 moved to its end (the
-  // check alone stays the caller's: one clock reading fewer per call).
+  // Pairs that could come within min_separation on the paths x0 → x1: all the CCD
+  // needs, found again whenever a node moved since the last query (mostly by filtering
+  // repulsion's pairs, below). Boxes with room for later corrections (0.25 × thickness
+  // until 2026-12-07) saved queries but gave the CCD ~1.8× the pairs to test, which cost
+  // more (docs/simulation.md). *t0: the caller's clock reading; a search is timed from
+  // it as broad phase and *t0 moved to its end (the check alone stays the caller's: one
+  // clock reading fewer per call).
   const CandidatePairs& Fresh(double* t0) {
-    const double slack = kBroadSlack * opt.thickness;
-    bool valid = have_cand;
-    for (int i = 0; valid && i < x1.rows(); ++i) valid = (x1.row(i) - box_ref.row(i)).squaredNorm() <= slack * slack;
-    if (!valid) {
+    if (!have_cand || x1 != box_ref) {
       // The repulsion's pairs hold every pair whose boxes overlap inside its boxes: when
       // these boxes lie inside them (x1 moved little since), filtering them is FindClose.
-      PathBoxes(x0, x1, opt.min_separation, slack, &fresh_boxes);
+      PathBoxes(x0, x1, opt.min_separation, 0, &fresh_boxes);
       if (shortcuts && !near_boxes.empty() && BoxesInside(fresh_boxes, near_boxes))
         broad.Filter(fresh_boxes, near, &next);
       else
