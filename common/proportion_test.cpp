@@ -9,8 +9,7 @@
 namespace drape {
 namespace {
 
-// Reference values: R's binom::binom.confint(x, n, method = "wilson") (equal to
-// prop.test(x, n, correct = FALSE)$conf.int).
+// Reference values: the closed form evaluated independently (Python, double precision).
 TEST(Proportion, WilsonIntervalMatchesPublishedValues) {
   Proportion a = WilsonInterval(5, 10);
   EXPECT_NEAR(a.low, 0.2365931, 1e-6);

@@ -110,8 +110,8 @@ def learned_or_unweighted(rates):
 
 
 def strict_interval(cat):
-    """" [12–49 %]": strict pose's 95 % Wilson interval from the eval's "precision" ("" in
-    reports from before it)."""
+    """The " [12–49 %]" after strict pose: its 95 % Wilson interval from the eval's
+    "precision" ("" for reports from before it)."""
     p = (cat.get("precision") or {}).get("strict")
     return "" if not p else f" [{100 * p['low']:.0f}–{100 * p['high']:.0f} %]"
 
