@@ -283,17 +283,18 @@ Json ProportionJson(const Counter& c) {
 }
 
 // How precise the row's headline figures are (common/proportion.h): strict pose (both
-// instances, the runtime's distance: learned where every query of the row has weights),
-// twin credited and category accuracy as k of n with a 95 % Wilson interval, and the
-// difference another run of the same size (another recipe seed) must show in strict pose
-// before it is more than chance, with the queries per run a 5-point difference needs.
+// instances, in the distance the tables print: learned where the row has learned
+// figures, as StrictTwinCell in report_format.h), twin credited and category accuracy as
+// k of n with a 95 % Wilson interval, and the difference another run of the same size
+// (another recipe seed) must show in strict pose before it is more than chance, with the
+// queries per run a 5-point difference needs.
 Json PrecisionRow(const CategoryAcc& a) {
   auto counter = [&](const std::string& key) {
     auto it = a.pose.find(key);
     return it == a.pose.end() ? Counter{} : it->second;
   };
   const Counter u = counter("both/unweighted"), l = counter("both/learned");
-  const bool learned = l.n > 0 && l.n == u.n;
+  const bool learned = l.n > 0;
   const Counter& strict = learned ? l : u;
   Json row{{"metric", learned ? "learned" : "unweighted"},
            {"strict", ProportionJson(strict)},

@@ -130,6 +130,21 @@ TEST(RecognitionEvaluate, PrecisionIsTheCountsWithTheirInterval) {
       md.find("| pants | 3 / 5: 60.0 % (23.1–88.2 %) | 3 / 5: 60.0 % (23.1–88.2 %) | 5 / 5: 100.0 % (56.6–100.0 %)"),
       std::string::npos)
       << md;
+
+  // Weights for pants only, a shorts query without: the "all" row prints the learned
+  // figure (over the pants queries), and its interval is of that figure.
+  const Code c = RandomCode(rng, 4, 4, 8);
+  const Database db2({Labelled("a", "pants", "pants-1", "a", a), Labelled("b", "pants", "pants-1", "b", b),
+                      Labelled("c", "shorts", "shorts-1", "c", c)});
+  qs.emplace_back().query = Labelled("qs", "shorts", "shorts-q", "c", FlipBits(c, rng, 1));
+  Weights w;
+  w.layers = 4, w.rings = 4, w.sectors = 8;
+  w.per_category["pants"] = std::vector<double>(128, 1.0);  // one per bit: 4 × 4 × 8
+  const Json all = Evaluate(db2, &w, qs, {}, {}).report["overall"];
+  EXPECT_EQ(all["precision"]["metric"], "learned");
+  EXPECT_EQ(all["precision"]["strict"]["n"], 5);
+  EXPECT_DOUBLE_EQ(all["precision"]["strict"]["correct"].get<int>() / 5.0,
+                   all["pose_accuracy"]["both"]["learned"].get<double>());
 }
 
 // Three shirt instances, each holding all six query codes with `flips[k][j]` bits inverted
