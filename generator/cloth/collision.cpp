@@ -365,6 +365,23 @@ double SegmentSegmentDistanceSquared(const Vec3& p0, const Vec3& p1, const Vec3&
   return ((p0 + s * d1) - (q0 + t * d2)).squaredNorm();
 }
 
+namespace {
+// |n·d| ≥ reach·|n| compared squared, for n = u × v; false when |u × v| is below 1e-3 of |u||v|.
+bool FartherAlong(const Vec3& u, const Vec3& v, const Vec3& d, double reach) {
+  const Vec3 n = u.cross(v);
+  const double n2 = n.squaredNorm(), along = n.dot(d);
+  return n2 > 1e-6 * u.squaredNorm() * v.squaredNorm() && along * along >= reach * reach * n2;
+}
+}  // namespace
+
+bool PointTriangleSurelyFarther(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c, double reach) {
+  return FartherAlong(b - a, c - a, p - a, reach);
+}
+
+bool SegmentSegmentSurelyFarther(const Vec3& p0, const Vec3& p1, const Vec3& q0, const Vec3& q1, double reach) {
+  return FartherAlong(p1 - p0, q1 - q0, q0 - p0, reach);
+}
+
 bool VertexTriangleCCD(const Vec3& p0, const Vec3& a0, const Vec3& b0, const Vec3& c0, const Vec3& p1, const Vec3& a1,
                        const Vec3& b1, const Vec3& c1, double min_separation, double* toi) {
   double t = 0;
@@ -783,17 +800,32 @@ bool FarSinceSnapshot(const Stencil& s, double d_snap, const std::vector<double>
   return d_snap - 2 * std::sqrt(m2) >= reach;
 }
 
+// Whether the pair in configuration q is surely at least `reach` apart (the cheap bounds
+// of collision.h).
+bool SurelyFarther(bool vf, const Quad& q, double reach) {
+  return vf ? PointTriangleSurelyFarther(q[0], q[1], q[2], q[3], reach)
+            : SegmentSegmentSurelyFarther(q[0], q[1], q[2], q[3], reach);
+}
+
 // d_snap: the pair's distance at the repulsion snapshot (NaN: none); *d0_out (if given)
 // gets its distance at x0. False when the pair is left alone (far, or touching at x0),
 // true when it was pushed apart.
 // x1 changes only when it returns true.
 bool RepelPair(ApplyContext& cx, const Stencil& s, double d_snap, const std::vector<double>& moves, double* d0_out) {
   double h = cx.opt.thickness;
-  if (FarSinceSnapshot(s, d_snap, moves, h + kRepelSkipMargin)) return false;  // as min(d0, d1) >= h below
+  const double reach = h + kRepelSkipMargin;  // a pair surely this far is left alone as min(d0, d1) >= h below
+  if (FarSinceSnapshot(s, d_snap, moves, reach)) return false;
   const Quad q0 = Gather(s, cx.x0), q1 = Gather(s, cx.x1);
+  // Most candidates are far at both ends (95 % on the paper's garments), and the bound
+  // shows it for ~4 in 5 of them without the closest points.
+  const bool far1 = cx.shortcuts && SurelyFarther(s.vf, q1, reach);
+  if (far1 && !d0_out && SurelyFarther(s.vf, q0, reach)) return false;
+  ++cx.rep.proximity_tests;
   Coeffs c0, c1;
-  const double d0 = std::sqrt(Closest(s.vf, q0, &c0)), d1 = std::sqrt(Closest(s.vf, q1, &c1));
+  const double d0 = std::sqrt(Closest(s.vf, q0, &c0));
   if (d0_out) *d0_out = d0;
+  if (far1 && d0 >= h) return false;
+  const double d1 = std::sqrt(Closest(s.vf, q1, &c1));
   if (std::min(d0, d1) >= h || !(d0 > 0)) return false;  // far, or touching at x0 (the CCD's job)
   // Pairs closer than thickness in the flat garment (seams, small triangles) keep their rest distance.
   h = std::min(h, std::sqrt(Closest(s.vf, Gather(s, cx.rest), nullptr)));

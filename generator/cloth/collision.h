@@ -165,6 +165,7 @@ struct CollisionReport {
   int broad_searches = 0;     // of which needed a tree search (the rest filtered the kept superset)
   long long broad_candidates = 0;  // candidate pairs found (summed over searches)
   long long ccd_tests = 0;         // pair CCD tests run (summed over passes)
+  long long proximity_tests = 0;   // pairs whose closest points repulsion computed (at x0 or x1)
   // Timing only, never hashed: seconds on the steady clock (common/timing.h ClockSeconds,
   // cheap to read); a caller that wants CPU time scales a run's sums by the thread CPU
   // time it reads around the run (the hang does). total_seconds: the whole call, so
@@ -262,6 +263,14 @@ double PointTriangleDistanceSquared(const Vec3& p, const Vec3& a, const Vec3& b,
 // points (p0 + s·(p1−p0), q0 + t·(q1−q0)). Robust for parallel and zero-length segments.
 double SegmentSegmentDistanceSquared(const Vec3& p0, const Vec3& p1, const Vec3& q0, const Vec3& q1,
                                      double* s = nullptr, double* t = nullptr);
+
+// Whether p is surely at least `reach` from triangle (a, b, c), or segment p0p1 from
+// q0q1, by a bound cheaper than the distances above: p's distance from the triangle's
+// plane, the distance between the segments' lines. False where the triangle or the pair
+// of lines is near degenerate (sine of its angle below 1e-3), where the bound's rounding
+// would grow; the bound itself is off by rounding only (~1e-16 of the coordinates).
+bool PointTriangleSurelyFarther(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c, double reach);
+bool SegmentSegmentSurelyFarther(const Vec3& p0, const Vec3& p1, const Vec3& q0, const Vec3& q1, double reach);
 
 // Conservative CCD for one pair over the straight path t ∈ [0, 1] (additive CCD,
 // Li, Kaufman & Jiang 2021, "Codimensional Incremental Potential Contact"): returns

@@ -146,6 +146,35 @@ TEST(CollisionPrimitives, PointTriangleDegenerate) {
   }
 }
 
+// The cheap bounds repulsion skips far pairs with: never above the distance the exact
+// routines compute (beyond 1e-12 m), for cloth-sized elements in general position and
+// near the degenerate cases (slivers, near-parallel edges, nearly coplanar pairs), and
+// tight where layers lie stacked (a vertex over a face, crossing edges one above the other).
+TEST(CollisionPrimitives, SurelyFartherNeverExceedsTheDistance) {
+  Rng rng(DeriveSeed(1, "surely-farther"));
+  int proved = 0;
+  for (int trial = 0; trial < 20000; ++trial) {
+    const double scale = trial % 2 ? 0.03 : 1;  // edge-sized and garment-sized pairs
+    const Vec3 o = RandomVec(rng, 1);
+    Vec3 p = o + RandomVec(rng, scale), a = o + RandomVec(rng, scale), b = o + RandomVec(rng, scale),
+         c = o + RandomVec(rng, scale);
+    if (trial % 5 == 1) c = a + (1 + 1e-4 * RandomVec(rng, 1)[0]) * (b - a);  // sliver or near parallel
+    if (trial % 5 == 2) p = a + 0.3 * (b - a) + 0.4 * (c - a) + 1e-3 * RandomVec(rng, scale);  // near the plane
+    const double d_vf = std::sqrt(PointTriangleDistanceSquared(p, a, b, c));
+    const double d_ee = std::sqrt(SegmentSegmentDistanceSquared(p, a, b, c));
+    ASSERT_FALSE(PointTriangleSurelyFarther(p, a, b, c, d_vf + 1e-12)) << "trial " << trial;
+    ASSERT_FALSE(SegmentSegmentSurelyFarther(p, a, b, c, d_ee + 1e-12)) << "trial " << trial;
+    proved += PointTriangleSurelyFarther(p, a, b, c, 0.5 * d_vf) + SegmentSegmentSurelyFarther(p, a, b, c, 0.5 * d_ee);
+  }
+  EXPECT_GT(proved, 0);
+  const Vec3 a(0, 0, 0), b(0.03, 0, 0), c(0, 0.03, 0), up(0, 0, 0.005);
+  EXPECT_TRUE(PointTriangleSurelyFarther(Vec3(0.01, 0.01, 0.005), a, b, c, 0.005 - 1e-9));
+  EXPECT_FALSE(PointTriangleSurelyFarther(Vec3(0.01, 0.01, 0.005), a, b, c, 0.005 + 1e-9));
+  EXPECT_TRUE(SegmentSegmentSurelyFarther(a, b, Vec3(0.01, -0.01, 0) + up, Vec3(0.01, 0.01, 0) + up, 0.005 - 1e-9));
+  EXPECT_FALSE(SegmentSegmentSurelyFarther(a, b, a + up, b + up, 0.001));        // parallel: no bound
+  EXPECT_FALSE(PointTriangleSurelyFarther(up, a, b, a + 0.5 * (b - a), 0.001));  // zero area: no bound
+}
+
 TEST(CollisionPrimitives, SegmentSegmentAgainstSampling) {
   Rng rng(DeriveSeed(1, "ss"));
   for (int trial = 0; trial < 400; ++trial) {
@@ -909,7 +938,8 @@ TEST(CollisionApply, BoxesAreRecheckedAfterTheFailSafe) {
 // The shortcuts (CollisionHandler::SetShortcuts: the broad phase's kept superset and
 // rebuilt-every-few-searches tree, the CCD's candidates filtered from the repulsion's
 // pairs, the CCD's per-pair results and distances at x0, the repulsion's snapshot
-// skips, the strain clamp's squared-length test) change no output byte: two handlers,
+// skips and its plane/line distance bound, the strain clamp's squared-length test)
+// change no output byte: two handlers,
 // shortcuts on and off, get the same proposals step after step and must hand back the
 // same positions and counts. Hard cases: two layers squashed and shaken through each
 // other (impulses, fail-safe zones), and two layers hanging from a held corner under
@@ -921,7 +951,7 @@ void ExpectShortcutsChangeNothing(const TriMesh& m, const CollisionOptions& o, c
   CollisionHandler fast(m.F, m.V, o), slow(m.F, m.V, o);
   slow.SetShortcuts(false);
   Points3 x = m.V, prev = m.V;
-  long long searches_fast = 0, searches_slow = 0, tests_fast = 0, tests_slow = 0;
+  long long searches_fast = 0, searches_slow = 0, tests_fast = 0, tests_slow = 0, near_fast = 0, near_slow = 0;
   int collisions = 0, zones = 0, corrections = 0, repelled = 0;
   for (int step = 0; step < steps; ++step) {
     const Points3 proposed = propose(x, prev, step);
@@ -938,6 +968,8 @@ void ExpectShortcutsChangeNothing(const TriMesh& m, const CollisionOptions& o, c
     searches_slow += rb.broad_searches;
     tests_fast += ra.ccd_tests;
     tests_slow += rb.ccd_tests;
+    near_fast += ra.proximity_tests;
+    near_slow += rb.proximity_tests;
     collisions += ra.ccd_collisions;
     zones += ra.fail_safe_used;
     corrections += ra.strain_corrections;
@@ -947,6 +979,7 @@ void ExpectShortcutsChangeNothing(const TriMesh& m, const CollisionOptions& o, c
   }
   EXPECT_LT(searches_fast, searches_slow);  // the shortcuts did cut work
   EXPECT_LT(tests_fast, tests_slow);
+  EXPECT_LT(near_fast, near_slow);
   ::testing::Test::RecordProperty("ccd_collisions", collisions);
   ::testing::Test::RecordProperty("fail_safe_steps", zones);
   ::testing::Test::RecordProperty("strain_corrections", corrections);
