@@ -100,10 +100,14 @@ void PairFriction(const Stencil& s, const Coeffs& c, const Vec3& n, double dn, d
 }
 
 // True when the pair's two elements in configuration q are surely at least d (m)
-// apart, from their bounding boxes, then their bounding spheres (no closest-point
-// search); d is grown by a relative 1e-9 against rounding.
+// apart, from the triangle's plane or the edges' lines (collision.h), then their
+// bounding boxes, then their bounding spheres (no closest-point search); d is grown by
+// a relative 1e-9 against rounding.
 bool ApartBeyond(bool vf, const Quad& q, double d) {
   d *= 1 + 1e-9;
+  if (vf ? PointTriangleSurelyFarther(q[0], q[1], q[2], q[3], d)
+         : SegmentSegmentSurelyFarther(q[0], q[1], q[2], q[3], d))
+    return true;
   const int split = vf ? 1 : 2;  // q[0, split): first element, q[split, 4): second
   Vec3 alo = q[0], ahi = q[0], blo = q[split], bhi = q[split];
   for (int k = 1; k < 4; ++k) {
