@@ -939,12 +939,12 @@ TEST(CollisionApply, BoxesAreRecheckedAfterTheFailSafe) {
 // rebuilt-every-few-searches tree, the CCD's candidates filtered from the repulsion's
 // pairs, the CCD's per-pair results and distances at x0, the repulsion's snapshot
 // skips and its plane/line distance bound, the strain clamp's squared-length test)
-// change no output byte: two handlers,
-// shortcuts on and off, get the same proposals step after step and must hand back the
-// same positions and counts. Hard cases: two layers squashed and shaken through each
-// other (impulses, fail-safe zones), and two layers hanging from a held corner under
-// gravity (the strain clamp at the grip, edges held at the bound, layers resting on
-// each other, a cloth that falls, swings, then settles).
+// change no output byte: two handlers, shortcuts on and off, get the same proposals
+// step after step and must hand back the same positions and counts. Hard cases: two
+// layers squashed and shaken through each other (impulses, fail-safe zones), and two
+// layers hanging from a held corner under gravity (the strain clamp at the grip, edges
+// held at the bound, layers resting on each other, a cloth that falls, swings, then
+// settles).
 void ExpectShortcutsChangeNothing(const TriMesh& m, const CollisionOptions& o, const Eigen::VectorXd& inv_mass,
                                   int steps,
                                   const std::function<Points3(const Points3&, const Points3&, int)>& propose) {
