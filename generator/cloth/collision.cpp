@@ -66,6 +66,14 @@ double Closest(bool vf, const Quad& q, Coeffs* c) {
   if (c) *c = {1 - s, s, -(1 - t), -t};
   return d2;
 }
+
+// Whether the pair in configuration q is surely at least `reach` apart (the cheap bounds
+// of collision.h).
+bool SurelyFarther(bool vf, const Quad& q, double reach) {
+  return vf ? PointTriangleSurelyFarther(q[0], q[1], q[2], q[3], reach)
+            : SegmentSegmentSurelyFarther(q[0], q[1], q[2], q[3], reach);
+}
+
 Vec3 Combine(const Coeffs& c, const Quad& q) { return c[0] * q[0] + c[1] * q[1] + c[2] * q[2] + c[3] * q[3]; }
 
 // Changes the relative vector Σ c_k x_k by `delta`, split by inverse mass (Bridson
@@ -105,9 +113,7 @@ void PairFriction(const Stencil& s, const Coeffs& c, const Vec3& n, double dn, d
 // a relative 1e-9 against rounding.
 bool ApartBeyond(bool vf, const Quad& q, double d) {
   d *= 1 + 1e-9;
-  if (vf ? PointTriangleSurelyFarther(q[0], q[1], q[2], q[3], d)
-         : SegmentSegmentSurelyFarther(q[0], q[1], q[2], q[3], d))
-    return true;
+  if (SurelyFarther(vf, q, d)) return true;
   const int split = vf ? 1 : 2;  // q[0, split): first element, q[split, 4): second
   Vec3 alo = q[0], ahi = q[0], blo = q[split], bhi = q[split];
   for (int k = 1; k < 4; ++k) {
@@ -802,13 +808,6 @@ bool FarSinceSnapshot(const Stencil& s, double d_snap, const std::vector<double>
   if (!(d_snap > reach)) return false;  // also NaN: no snapshot distance
   const double m2 = std::max({moves[s.n[0]], moves[s.n[1]], moves[s.n[2]], moves[s.n[3]]});
   return d_snap - 2 * std::sqrt(m2) >= reach;
-}
-
-// Whether the pair in configuration q is surely at least `reach` apart (the cheap bounds
-// of collision.h).
-bool SurelyFarther(bool vf, const Quad& q, double reach) {
-  return vf ? PointTriangleSurelyFarther(q[0], q[1], q[2], q[3], reach)
-            : SegmentSegmentSurelyFarther(q[0], q[1], q[2], q[3], reach);
 }
 
 // d_snap: the pair's distance at the repulsion snapshot (NaN: none); *d0_out (if given)
