@@ -11,7 +11,9 @@
 
 namespace drape {
 
-// The ISA releases pin: Embree's BVH, and so ray-cast depth bytes, depend on it.
+// The ISA a device asks for by default. Results do not depend on it: the sweep decides
+// every ray–triangle hit and the closest-point query every distance in its own double
+// arithmetic; Embree's tree only proposes candidates.
 inline constexpr const char* kEmbreeIsa = "avx2";
 
 // A device configured "threads=N[,isa=ISA]" ("" = Embree picks its best ISA). The

@@ -6,12 +6,24 @@
 // gripper turn; their rays are cast in the object frame (the camera turns around a
 // static garment: no scene rebuild per frame, frames can be cast in parallel) and only
 // for the pixels whose rays can reach the turned bounds of the garment.
+//
+// Why every triangle test is ours: Embree's triangle intersectors divide by an
+// approximate reciprocal (rcpps and one Newton step) and decide edges by formulas that
+// differ between ISAs, so the last bits of a depth, and now and then whether a ray
+// grazing an edge hits, differed between CPU makers and ISAs, and one bit of one depth
+// moves a release's digest. The triangles are Embree user geometries: Embree's tree
+// (robust mode: conservative box tests) proposes them, IntersectTriangle decides in
+// double, and each ray keeps its nearest hit (ExactContext) by a rule that does not
+// depend on the order in which the tree is walked.
 #include <embree3/rtcore.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <sstream>
+#include <tuple>
 
 #include "common/embree.h"
 #include "common/error.h"
@@ -67,18 +79,129 @@ struct MeshBuffers {
   bool empty() const { return f.empty(); }
 };
 
-unsigned AttachMesh(RTCDevice device, RTCScene scene, const MeshBuffers& m) {
-  RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
-  auto* vb = static_cast<float*>(
-      rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), m.v.size() / 3));
-  std::copy(m.v.begin(), m.v.end(), vb);
-  auto* ib = static_cast<unsigned*>(
-      rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), m.f.size() / 3));
-  std::copy(m.f.begin(), m.f.end(), ib);
+Vec3 Vertex(const MeshBuffers& m, unsigned prim, int k) {
+  const size_t i = m.f[3 * size_t(prim) + k];
+  return Vec3(m.v[3 * i], m.v[3 * i + 1], m.v[3 * i + 2]);
+}
+
+// A ray o + t·d in the shear frame of Woop, Benthin & Wald's watertight test (JCGT
+// 2013): kz the axis of d's largest component, (kx, ky) the others in the order that
+// keeps the frame right-handed.
+struct ShearedRay {
+  Vec3 o;
+  int kx = 0, ky = 1, kz = 2;
+  double sx = 0, sy = 0, sz = 1;
+  ShearedRay() = default;
+  ShearedRay(const Vec3& origin, const Vec3& d) : o(origin) {
+    const Vec3 ad = d.cwiseAbs();
+    kz = ad.x() >= ad.y() ? (ad.x() >= ad.z() ? 0 : 2) : (ad.y() >= ad.z() ? 1 : 2);
+    kx = (kz + 1) % 3, ky = (kx + 1) % 3;
+    if (d[kz] < 0) std::swap(kx, ky);
+    sx = d[kx] / d[kz], sy = d[ky] / d[kz], sz = 1 / d[kz];
+  }
+};
+
+// The watertight test in double: *t of the ray's hit with triangle `prim` of m, both
+// faces. A vertex's coordinates in the shear frame do not depend on the triangle, so an
+// edge shared by two triangles has the same edge function in both with the opposite
+// sign: no ray passes between them.
+bool IntersectTriangle(const MeshBuffers& m, unsigned prim, const ShearedRay& r, double* t) {
+  const Vec3 a = Vertex(m, prim, 0) - r.o, b = Vertex(m, prim, 1) - r.o, c = Vertex(m, prim, 2) - r.o;
+  const double ax = a[r.kx] - r.sx * a[r.kz], ay = a[r.ky] - r.sy * a[r.kz];
+  const double bx = b[r.kx] - r.sx * b[r.kz], by = b[r.ky] - r.sy * b[r.kz];
+  const double cx = c[r.kx] - r.sx * c[r.kz], cy = c[r.ky] - r.sy * c[r.kz];
+  const double u = cx * by - cy * bx, v = ax * cy - ay * cx, w = bx * ay - by * ax;
+  if ((u < 0 || v < 0 || w < 0) && (u > 0 || v > 0 || w > 0)) return false;
+  const double det = u + v + w;
+  if (det == 0) return false;
+  *t = (u * (r.sz * a[r.kz]) + v * (r.sz * b[r.kz]) + w * (r.sz * c[r.kz])) / det;
+  return std::isfinite(*t);
+}
+
+// Up to 16 rays by ray id, as Embree has them in float, and the nearest hit of each in
+// double. An RTCIntersectContext first: Embree hands the callbacks a pointer to it.
+struct ExactContext {
+  RTCIntersectContext context;
+  std::array<ShearedRay, 16> ray;
+  std::array<double, 16> t;
+  std::array<unsigned, 16> geom, prim;
+  void Reset() {
+    t.fill(std::numeric_limits<double>::infinity());
+    geom.fill(RTC_INVALID_GEOMETRY_ID);
+    prim.fill(0);
+  }
+};
+
+void TriangleBounds(const RTCBoundsFunctionArguments* args) {
+  const auto& m = *static_cast<const MeshBuffers*>(args->geometryUserPtr);
+  RTCBounds& b = *args->bounds_o;
+  b.lower_x = b.lower_y = b.lower_z = std::numeric_limits<float>::infinity();
+  b.upper_x = b.upper_y = b.upper_z = -std::numeric_limits<float>::infinity();
+  for (int k = 0; k < 3; ++k) {
+    const float* p = &m.v[3 * size_t(m.f[3 * size_t(args->primID) + k])];
+    b.lower_x = std::min(b.lower_x, p[0]), b.upper_x = std::max(b.upper_x, p[0]);
+    b.lower_y = std::min(b.lower_y, p[1]), b.upper_y = std::max(b.upper_y, p[1]);
+    b.lower_z = std::min(b.lower_z, p[2]), b.upper_z = std::max(b.upper_z, p[2]);
+  }
+}
+
+// A triangle proposed by the tree: kept when it is nearer than the ray's hit so far, or
+// as near with a lower (geometry, triangle): the same winner in any visiting order.
+// tfar becomes the hit's distance rounded up to a float, so Embree skips only boxes
+// beyond it.
+void IntersectTriangles(const RTCIntersectFunctionNArguments* args) {
+  const auto& m = *static_cast<const MeshBuffers*>(args->geometryUserPtr);
+  auto& best = *reinterpret_cast<ExactContext*>(args->context);
+  RTCRayN* ray = RTCRayHitN_RayN(args->rayhit, args->N);
+  RTCHitN* hit = RTCRayHitN_HitN(args->rayhit, args->N);
+  const unsigned N = args->N;
+  for (unsigned i = 0; i < N; ++i) {
+    if (!args->valid[i]) continue;
+    const unsigned id = RTCRayN_id(ray, N, i);
+    double t = 0;
+    if (!IntersectTriangle(m, args->primID, best.ray[id], &t) || !(t >= RTCRayN_tnear(ray, N, i))) continue;
+    if (!(t < best.t[id] ||
+          (t == best.t[id] && std::tie(args->geomID, args->primID) < std::tie(best.geom[id], best.prim[id]))))
+      continue;
+    best.t[id] = t;
+    best.geom[id] = args->geomID;
+    best.prim[id] = args->primID;
+    float f = float(t);
+    if (double(f) < t) f = std::nextafter(f, kInf);
+    RTCRayN_tfar(ray, N, i) = f;
+    RTCHitN_Ng_x(hit, N, i) = RTCHitN_Ng_y(hit, N, i) = RTCHitN_Ng_z(hit, N, i) = 0;
+    RTCHitN_u(hit, N, i) = RTCHitN_v(hit, N, i) = 0;
+    RTCHitN_primID(hit, N, i) = args->primID;
+    RTCHitN_geomID(hit, N, i) = args->geomID;
+    RTCHitN_instID(hit, N, i, 0) = args->context->instID[0];
+  }
+}
+
+// Attaches m to scene as a user geometry of its triangles and keeps it in meshes at its
+// geometry ID.
+unsigned AttachMesh(RTCDevice device, RTCScene scene, MeshBuffers m,
+                    std::vector<std::unique_ptr<const MeshBuffers>>& meshes) {
+  auto owned = std::make_unique<const MeshBuffers>(std::move(m));
+  RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_USER);
+  rtcSetGeometryUserPrimitiveCount(g, unsigned(owned->f.size() / 3));
+  rtcSetGeometryUserData(g, const_cast<MeshBuffers*>(owned.get()));
+  rtcSetGeometryBoundsFunction(g, TriangleBounds, nullptr);
+  rtcSetGeometryIntersectFunction(g, IntersectTriangles);
   rtcCommitGeometry(g);
-  unsigned id = rtcAttachGeometry(scene, g);
+  const unsigned id = rtcAttachGeometry(scene, g);
   rtcReleaseGeometry(g);
+  if (meshes.size() <= id) meshes.resize(id + 1);
+  meshes[id] = std::move(owned);
   return id;
+}
+
+// The depth and cosine of incidence of the hit a ray kept (ExactContext).
+void Shade(const MeshBuffers& m, unsigned prim, double t, const Vec3& d, float* depth, float* cos_incidence) {
+  const Vec3 p0 = Vertex(m, prim, 0);
+  const Vec3 n = (Vertex(m, prim, 1) - p0).cross(Vertex(m, prim, 2) - p0);
+  const double nn = std::sqrt(n.squaredNorm() * d.squaredNorm());
+  *depth = float(t);
+  *cos_incidence = nn > 0 ? float(std::min(1.0, std::abs(n.dot(d)) / nn)) : 1.0f;
 }
 
 void ThrowOnDeviceError(RTCDevice device, const char* what) {
@@ -135,6 +258,8 @@ struct SweepScene::Impl {
   RTCScene object = nullptr;      // garment (geomID 0) + gripper, object frame
   RTCScene background = nullptr;  // world frame; null if options.scene == false
   unsigned garment_geom = 0;
+  // Each scene's triangles by geometry ID (the user geometries' data).
+  std::vector<std::unique_ptr<const MeshBuffers>> object_meshes, background_meshes;
   Eigen::AlignedBox3d bounds;
   Eigen::Isometry3d camera_to_world;
   ExactFrame background_frame;  // cast once
@@ -151,15 +276,17 @@ struct SweepScene::Impl {
   // Casts the pixels of `rect` in `scene` from a camera at camera_to_scene, keeping the
   // nearest hit in frame. Returns the number of pixels whose nearest hit is geometry
   // `count_geom` of this scene.
-  int Cast(RTCScene scene, const Eigen::Isometry3d& camera_to_scene, const PixelRect& rect, ExactFrame& frame,
+  int Cast(RTCScene scene, const std::vector<std::unique_ptr<const MeshBuffers>>& meshes,
+           const Eigen::Isometry3d& camera_to_scene, const PixelRect& rect, ExactFrame& frame,
            unsigned count_geom) const {
     const Intrinsics& K = options.kinect.intrinsics;
     const Eigen::Matrix3f R = camera_to_scene.linear().cast<float>();
     const Eigen::Vector3f o = camera_to_scene.translation().cast<float>();
     const Eigen::Vector3f r0 = R.col(0), r1 = R.col(1), r2 = R.col(2);
-    RTCIntersectContext context;
-    rtcInitIntersectContext(&context);
-    context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    const Vec3 origin = o.cast<double>();
+    ExactContext best;
+    rtcInitIntersectContext(&best.context);
+    best.context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
     alignas(64) RTCRayHit16 rh;
     alignas(64) int valid[16];
     // Rtc*Intersect16 only writes tfar and the hit: set the constant fields once.
@@ -185,22 +312,23 @@ struct SweepScene::Impl {
           rh.ray.dir_x[k] = d.x();
           rh.ray.dir_y[k] = d.y();
           rh.ray.dir_z[k] = d.z();
+          best.ray[k] = ShearedRay(origin, d.cast<double>());
           rh.ray.tfar[k] = kInf;
           rh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
         }
-        rtcIntersect16(valid, scene, &context, &rh);
+        best.Reset();
+        rtcIntersect16(valid, scene, &best.context, &rh);
         for (int k = 0; k < 16; ++k) {
-          if (!valid[k] || rh.hit.geomID[k] == RTC_INVALID_GEOMETRY_ID) continue;
+          if (!valid[k] || best.geom[k] == RTC_INVALID_GEOMETRY_ID) continue;
           const int u = tu + (k & 3), v = tv + (k >> 2);
           const size_t p = size_t(v) * K.width + u;
-          const float z = rh.ray.tfar[k];
+          float z = 0, cos_incidence = 1;
+          const Vec3 d(rh.ray.dir_x[k], rh.ray.dir_y[k], rh.ray.dir_z[k]);
+          Shade(*meshes[best.geom[k]], best.prim[k], best.t[k], d, &z, &cos_incidence);
           if (!(z < frame.depth[p])) continue;
-          const float nx = rh.hit.Ng_x[k], ny = rh.hit.Ng_y[k], nz = rh.hit.Ng_z[k];
-          const float dx = rh.ray.dir_x[k], dy = rh.ray.dir_y[k], dz = rh.ray.dir_z[k];
-          const float nn = std::sqrt((nx * nx + ny * ny + nz * nz) * (dx * dx + dy * dy + dz * dz));
           frame.depth[p] = z;
-          frame.cos_incidence[p] = nn > 0 ? std::min(1.0f, std::abs(nx * dx + ny * dy + nz * dz) / nn) : 1.0f;
-          if (rh.hit.geomID[k] == count_geom) ++counted;
+          frame.cos_incidence[p] = cos_incidence;
+          if (best.geom[k] == count_geom) ++counted;
         }
         frame.rays_cast += 16;
       }
@@ -230,13 +358,14 @@ SweepScene::SweepScene(const TriMesh& hung, const SweepOptions& options) : impl_
 
   m.object = rtcNewScene(m.device);
   rtcSetSceneBuildQuality(m.object, RTC_BUILD_QUALITY_HIGH);
-  m.garment_geom = AttachMesh(m.device, m.object, garment);
+  rtcSetSceneFlags(m.object, RTC_SCENE_FLAG_ROBUST);
+  m.garment_geom = AttachMesh(m.device, m.object, std::move(garment), m.object_meshes);
   if (options.scene) {
     MeshBuffers gripper;
     AddGripper(gripper);
-    AttachMesh(m.device, m.object, gripper);
     for (size_t i = 0; i < gripper.v.size(); i += 3)
       m.bounds.extend(Vec3(gripper.v[i], gripper.v[i + 1], gripper.v[i + 2]));
+    AttachMesh(m.device, m.object, std::move(gripper), m.object_meshes);
   }
   rtcCommitScene(m.object);
   ThrowOnDeviceError(m.device, "building the garment scene");
@@ -251,11 +380,12 @@ SweepScene::SweepScene(const TriMesh& hung, const SweepOptions& options) : impl_
     MeshBuffers bg;
     AddBackground(bg, options);
     m.background = rtcNewScene(m.device);
-    AttachMesh(m.device, m.background, bg);
+    rtcSetSceneFlags(m.background, RTC_SCENE_FLAG_ROBUST);
+    AttachMesh(m.device, m.background, std::move(bg), m.background_meshes);
     rtcCommitScene(m.background);
     ThrowOnDeviceError(m.device, "building the background scene");
     PixelRect all{0, 0, (K.width + 3) / 4 * 4, (K.height + 3) / 4 * 4};
-    m.Cast(m.background, m.camera_to_world, all, m.background_frame, RTC_INVALID_GEOMETRY_ID);
+    m.Cast(m.background, m.background_meshes, m.camera_to_world, all, m.background_frame, RTC_INVALID_GEOMETRY_ID);
   }
   if (options.kinect.noise)
     m.background_plan = std::make_shared<const KinectPlan>(PlanKinectNoise(m.background_frame, options.kinect));
@@ -303,7 +433,7 @@ std::vector<float> SweepScene::RenderKinect(double angle, Rng& rng, KinectScratc
   const Eigen::Isometry3d camera_to_object = ObjectToWorld(m.options, angle).inverse() * m.camera_to_world;
   s.exact.rays_cast = 0;
   s.exact.roi_pixels = Roi(angle).Area();
-  s.exact.garment_pixels = m.Cast(m.object, camera_to_object, Roi(angle), s.exact, m.garment_geom);
+  s.exact.garment_pixels = m.Cast(m.object, m.object_meshes, camera_to_object, Roi(angle), s.exact, m.garment_geom);
   s.exact_dirty = roi;
   if (!k.noise) return DrawKinectNoise(s.exact, KinectPlan{}, k, rng, &s);
   // Only the garment's region changed: re-plan it, plus the widest projector shadow
@@ -373,7 +503,7 @@ void SweepScene::RenderExact(double angle, ExactFrame& frame) const {
   const PixelRect roi = Roi(angle);
   frame.roi_pixels = roi.Area();
   const Eigen::Isometry3d camera_to_object = ObjectToWorld(m.options, angle).inverse() * m.camera_to_world;
-  frame.garment_pixels = m.Cast(m.object, camera_to_object, roi, frame, m.garment_geom);
+  frame.garment_pixels = m.Cast(m.object, m.object_meshes, camera_to_object, roi, frame, m.garment_geom);
 }
 
 double SweepScene::RangeAlongRay(const Vec3& origin, const Vec3& dir, double angle, const IrRangeOptions& ir,
@@ -385,8 +515,9 @@ double SweepScene::RangeAlongRay(const Vec3& origin, const Vec3& dir, double ang
     throw Error("sweep: RangeAlongRay needs a finite origin and a non-zero direction");
   const Vec3 d = dir / len;
   auto cast = [&](RTCScene scene, const Vec3& o, const Vec3& dd) {
-    RTCIntersectContext context;
-    rtcInitIntersectContext(&context);
+    ExactContext best;
+    rtcInitIntersectContext(&best.context);
+    best.Reset();
     RTCRayHit rh;
     rh.ray.org_x = float(o.x());
     rh.ray.org_y = float(o.y());
@@ -401,8 +532,10 @@ double SweepScene::RangeAlongRay(const Vec3& origin, const Vec3& dir, double ang
     rh.ray.id = 0;
     rh.ray.flags = 0;
     rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-    rtcIntersect1(scene, &context, &rh);
-    return rh.hit.geomID == RTC_INVALID_GEOMETRY_ID ? std::numeric_limits<double>::infinity() : double(rh.ray.tfar);
+    best.ray[0] =
+        ShearedRay(Vec3(rh.ray.org_x, rh.ray.org_y, rh.ray.org_z), Vec3(rh.ray.dir_x, rh.ray.dir_y, rh.ray.dir_z));
+    rtcIntersect1(scene, &best.context, &rh);
+    return best.t[0];  // ∞ without a hit
   };
   const Eigen::Isometry3d world_to_object = ObjectToWorld(m.options, angle).inverse();
   double r = cast(m.object, world_to_object * origin, world_to_object.linear() * d);

@@ -73,7 +73,7 @@ struct SweepOptions {
   double look_at_height = 0.9;      // m, where the optical axis crosses the turning axis
   bool scene = true;                // gripper, arm, table, wall, floor
   int threads = 1;                  // frames rendered in parallel (<= 0: all cores); no effect on bytes
-  std::string embree_isa = "avx2";  // pinned for reproducible bytes; "" = Embree's best
+  std::string embree_isa = "avx2";  // Embree's ISA ("" = its best); every ISA gives the same bytes
   KinectOptions kinect;
   void Validate() const;
 };
