@@ -59,21 +59,23 @@ std::string ParseShard(const std::string& s, int* k, int* n) {
 }
 
 // The costs earlier builds measured: published ones (datasets/*/*/costs.json), releases
-// built into datasets/, the output folder's own earlier build, --costs.
-CostModel MeasuredCosts(const BuildArgs& args, const fs::path& out, std::vector<std::string>* notes) {
+// built into datasets/, the output folder's own earlier build, --costs. probe_cpu: this
+// machine's speed probe, to scale them to it (≤ 0: as measured).
+CostModel MeasuredCosts(const BuildArgs& args, const fs::path& out, std::vector<std::string>* notes,
+                        double probe_cpu) {
   std::vector<fs::path> extra;
   for (const std::string& c : args.costs) {
     if (!fs::exists(c)) throw Error("--costs " + c + ": no such release or file");
     extra.push_back(c);
   }
   if (fs::is_regular_file(out / "build.json")) extra.push_back(out);
-  return CostModel::Fit(FindBuildCosts(fs::current_path(), extra, notes));
+  return CostModel::Fit(FindBuildCosts(fs::current_path(), extra, notes), probe_cpu);
 }
 
 // --dry-run: the jobs and what building them would cost, as text or JSON.
 int DryRun(const BuildArgs& args, const Recipe& recipe, const BuildOptions& o, const fs::path& out) {
   std::vector<std::string> notes;
-  const CostModel costs = MeasuredCosts(args, out, &notes);
+  const CostModel costs = MeasuredCosts(args, out, &notes, SpeedProbeCpuSeconds());
   const std::vector<Job> jobs = ExpandJobs(recipe);
   const int threads = o.threads > 0 ? o.threads : HardwareThreads();
   const BuildPlan plan =
@@ -118,7 +120,8 @@ int Run(const BuildArgs& args) {
   if (args.json && !args.dry_run) throw Error("--json: only with --dry-run");
   const fs::path out = o.output.empty() ? DefaultOutput(recipe) : o.output;
   if (args.dry_run) return speaker ? DryRun(args, recipe, o, out) : 0;
-  const CostModel costs = MeasuredCosts(args, out, nullptr);  // for the progress line's ETA
+  // For the progress line's ETA, as measured: the clock rescales by the jobs that finish.
+  const CostModel costs = MeasuredCosts(args, out, nullptr, -1);
   o.costs = &costs;
   o.stop = &g_stop;
   g_stop.store(false);

@@ -514,6 +514,7 @@ void RecordBuildCosts(const fs::path& dir, const BuildReport& report, double fin
       {"entries", entries},
       {"commit_cpu_seconds", report.commit_cpu_seconds},
       {"finalize_cpu_seconds", finalize_cpu},
+      {"probe_cpu_seconds", SpeedProbeCpuSeconds()},
       {"bytes", {{"viewer_meshes", viewer_meshes}, {"fixed", fixed}, {"per_entry", per_entry / std::max(1, entries)}}},
   };
   const Json dataset = Release::Open(dir).dataset();

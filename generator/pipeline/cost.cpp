@@ -107,6 +107,7 @@ BuildCost ReadBuildCost(const fs::path& file) {
   const Json costs = b.value("costs", Json::object());
   c.release = costs.value("release", "");
   c.cpu_model = b.value("provenance", Json::object()).value("cpu", "");
+  c.probe_cpu = NumberOr(costs, "probe_cpu_seconds", -1);
   c.commit_cpu = NumberOr(costs, "commit_cpu_seconds", -1);
   c.finalize_cpu = NumberOr(costs, "finalize_cpu_seconds", -1);
   const Json bytes = costs.value("bytes", Json::object());
@@ -350,8 +351,39 @@ bool FitBuildLevel(const std::vector<BuildCost>& builds, Coefs& coef) {
 
 }  // namespace
 
-CostModel CostModel::Fit(const std::vector<BuildCost>& builds) {
+namespace {
+
+// The builds that carry a speed probe, their CPU seconds scaled to a machine whose probe
+// took probe_cpu (cost.h); every build as it is when none carries one.
+std::vector<BuildCost> ScaledToMachine(const std::vector<BuildCost>& builds, double probe_cpu,
+                                       std::vector<std::string>* notes) {
+  std::vector<BuildCost> scaled;
+  for (const BuildCost& b : builds) {
+    if (!(b.probe_cpu > 0)) continue;
+    BuildCost s = b;
+    const double r = probe_cpu / b.probe_cpu;
+    for (EntryCost& e : s.entries)
+      for (auto& [stage, cpu] : e.cpu) cpu *= r;
+    if (s.commit_cpu > 0) s.commit_cpu *= r;
+    if (s.finalize_cpu > 0) s.finalize_cpu *= r;
+    scaled.push_back(std::move(s));
+  }
+  if (scaled.empty()) {
+    notes->push_back("no record carries a speed probe: priced in the CPU seconds of the machines that built them");
+    return builds;
+  }
+  if (scaled.size() < builds.size())
+    notes->push_back(std::to_string(builds.size() - scaled.size()) +
+                     " builds without a speed probe left out (their machine's speed is unknown)");
+  return scaled;
+}
+
+}  // namespace
+
+CostModel CostModel::Fit(const std::vector<BuildCost>& measured, double probe_cpu) {
   CostModel m;
+  const std::vector<BuildCost> builds = probe_cpu > 0 ? ScaledToMachine(measured, probe_cpu, &m.notes_) : measured;
+  m.scaled_ = probe_cpu > 0 && builds.size() > 0 && builds.front().probe_cpu > 0;
   std::vector<const EntryCost*> all;
   for (const BuildCost& b : builds)
     for (const EntryCost& e : b.entries) all.push_back(&e);
@@ -367,7 +399,8 @@ CostModel CostModel::Fit(const std::vector<BuildCost>& builds) {
   std::set<std::string> names;
   for (const BuildCost& b : builds)
     names.insert((b.release.empty() ? b.source : b.release) + " (" + std::to_string(b.entries.size()) + " entries, " +
-                 b.source + ")");
+                 b.source +
+                 (m.scaled_ ? ", CPU × " + FormatFixed(probe_cpu / b.probe_cpu, 2) + " by the speed probe" : "") + ")");
   for (const std::string& n : names) m.notes_.push_back("measured: " + n);
   return m;
 }
@@ -619,7 +652,10 @@ void PrintPlan(std::ostream& out, const BuildPlan& p, const CostModel& model) {
   for (const auto& [k, v] : p.file_bytes) files.push_back({v, k == "release" ? "gallery, catalog, card" : k});
   std::sort(files.rbegin(), files.rend());
   for (const auto& [v, k] : files) out << " " << k << " " << Megabytes(v);
-  out << "\n  priced from " << model.records() << " measured entries (CPU seconds of the machine that built them):\n";
+  out << "\n  priced from " << model.records() << " measured entries ("
+      << (model.scaled() ? "CPU seconds scaled to this machine by the speed probe"
+                         : "CPU seconds of the machine that built them")
+      << "):\n";
   for (const std::string& f : PricedFrom(model)) out << "    " << f << "\n";
   for (const std::string& n : p.notes) out << "  note: " << n << "\n";
   for (const std::string& n : model.notes())

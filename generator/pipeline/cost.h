@@ -67,6 +67,7 @@ struct BuildCost {
   std::string source;   // file it was read from
   std::string release;  // "name version"
   std::string finished, host, cpu_model, code_version;
+  double probe_cpu = -1;           // SpeedProbeCpuSeconds where it was built (< 0: not measured)
   std::vector<EntryCost> entries;  // entries whose timing carries "cpu" and "job"
   // Build-level (absent, < 0, in builds without "costs", e.g. merges of shards).
   double commit_cpu = -1, finalize_cpu = -1;
@@ -89,10 +90,23 @@ BuildCost ReadBuildCost(const std::filesystem::path& file);
 std::vector<BuildCost> FindBuildCosts(const std::filesystem::path& root,
                                       const std::vector<std::filesystem::path>& extra, std::vector<std::string>* notes);
 
+// How fast this machine runs what builds spend most on: the CPU seconds of a fixed cloth
+// simulation (a small two-layer sheet falling from a corner: Bullet's step, hinge
+// bending, self-collision; ~50 ms, the least of three runs). Every build records it in
+// build.json "costs" (probe_cpu_seconds); machines differ by 2.5x and more (an AMD EPYC
+// against an Intel Xeon on the quickstart), so CPU seconds measured on one are priced on
+// another only through it.
+double SpeedProbeCpuSeconds();
+
 class CostModel {
  public:
-  // Fits every stage's model to the records (empty model when there are none).
-  static CostModel Fit(const std::vector<BuildCost>& builds);
+  // Fits every stage's model to the records (empty model when there are none). With
+  // probe_cpu > 0 (SpeedProbeCpuSeconds of the machine to price for), the records that
+  // carry a probe are scaled to it (CPU × probe_cpu / theirs) and those without one are
+  // left out, unless none carries one; probe_cpu ≤ 0 takes every record as measured.
+  static CostModel Fit(const std::vector<BuildCost>& builds, double probe_cpu = -1);
+  // True when the records were scaled to a machine by its speed probe.
+  bool scaled() const { return scaled_; }
 
   bool empty() const { return records_ == 0; }
   int records() const { return records_; }
@@ -116,6 +130,7 @@ class CostModel {
 
  private:
   int records_ = 0;
+  bool scaled_ = false;
   std::vector<std::string> notes_;
   std::map<std::string, std::vector<double>> coef_;  // stage or file → coefficients of its terms
   std::map<std::string, double> hang_per_node_;      // "template/material", "template", "" (all)

@@ -119,6 +119,39 @@ TEST(CostModel, HangFallsBackToTemplateThenAll) {
   EXPECT_TRUE(fallback);
 }
 
+TEST(CostModel, RecordsAreScaledToThisMachineBySpeedProbe) {
+  // Built on a machine whose probe took 0.05 s; priced for one that takes 0.1 s: every
+  // CPU figure doubles, bytes stay.
+  BuildCost b = MadeUpBuild();
+  b.probe_cpu = 0.05;
+  const JobDrivers d = Drivers("shorts", 1000, 120, 256, 9);
+  const CostModel as_measured = CostModel::Fit({b});
+  const CostModel scaled = CostModel::Fit({b}, 0.1);
+  EXPECT_FALSE(as_measured.scaled());
+  EXPECT_TRUE(scaled.scaled());
+  for (const auto& [stage, cpu] : as_measured.JobCpu(d))
+    EXPECT_NEAR(scaled.JobCpu(d).at(stage), 2 * cpu, 1e-9 * (1 + cpu)) << stage;
+  EXPECT_NEAR(scaled.FitCpu(d), 3.0, 1e-9);
+  EXPECT_NEAR(scaled.FinalizeCpu(1e8), 2 * as_measured.FinalizeCpu(1e8), 1e-9);
+  EXPECT_EQ(scaled.JobBytes(d), as_measured.JobBytes(d));
+  // A build without a probe is left out beside one with it (its machine is unknown)...
+  BuildCost other = MadeUpBuild();
+  for (EntryCost& e : other.entries) e.cpu["hang"] *= 10;
+  const CostModel mixed = CostModel::Fit({b, other}, 0.1);
+  EXPECT_NEAR(mixed.JobCpu(d).at("hang"), scaled.JobCpu(d).at("hang"), 1e-9);
+  EXPECT_EQ(mixed.records(), static_cast<int>(b.entries.size()));
+  // ... and taken as measured when no build has one.
+  const CostModel unprobed = CostModel::Fit({other}, 0.1);
+  EXPECT_FALSE(unprobed.scaled());
+  EXPECT_NEAR(unprobed.JobCpu(d).at("hang"), 10 * as_measured.JobCpu(d).at("hang"), 1e-6);
+}
+
+TEST(CostModel, SpeedProbeMeasuresTheSimulation) {
+  const double probe = SpeedProbeCpuSeconds();
+  EXPECT_TRUE(std::isfinite(probe));
+  EXPECT_GT(probe, 0.0);  // 240 steps of a 176-node cloth are never free
+}
+
 TEST(CostModel, NoRecordsGiveAnEmptyModel) {
   const CostModel m = CostModel::Fit({});
   EXPECT_TRUE(m.empty());
@@ -133,10 +166,11 @@ TEST(CostModel, BuildJsonRecordsReadBack) {
               {"job", DriversJson(d)},
               {"bytes", {{"hang.ply", 13154}, {"sweep", 4096}}}};
   Json old_entry{{"hang", 3.0}};  // a build from before cost records: skipped
-  Json build{{"finished", "2026-12-05T10:00:00Z"},
-             {"host", "h"},
-             {"entry_timing", {{"00000-a", timing}, {"00001-b", old_entry}}},
-             {"costs", {{"release", "tiny 0.1.0"}, {"commit_cpu_seconds", 0.5}, {"entries", 2}}}};
+  Json build{
+      {"finished", "2026-12-05T10:00:00Z"},
+      {"host", "h"},
+      {"entry_timing", {{"00000-a", timing}, {"00001-b", old_entry}}},
+      {"costs", {{"release", "tiny 0.1.0"}, {"commit_cpu_seconds", 0.5}, {"probe_cpu_seconds", 0.04}, {"entries", 2}}}};
   WriteFileAtomic(dir / "build.json", build.dump());
   const BuildCost c = ReadBuildCost(dir / "build.json");
   EXPECT_EQ(c.release, "tiny 0.1.0");
@@ -147,6 +181,7 @@ TEST(CostModel, BuildJsonRecordsReadBack) {
   EXPECT_EQ(c.entry_bytes, 13154 + 4096);
   EXPECT_EQ(c.commit_cpu, 0.5);
   EXPECT_EQ(c.finalize_cpu, -1);  // absent
+  EXPECT_EQ(c.probe_cpu, 0.04);
   // Found through datasets/*/*/: of two records of one release, the later one.
   fs::create_directories(dir / "datasets/tiny/0.1.0");
   fs::create_directories(dir / "datasets/tiny/0.1.1");
