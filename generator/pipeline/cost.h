@@ -92,7 +92,7 @@ std::vector<BuildCost> FindBuildCosts(const std::filesystem::path& root,
 
 // How fast this machine runs what builds spend most on: the CPU seconds of a fixed cloth
 // simulation (a small two-layer sheet falling from a corner: Bullet's step, hinge
-// bending, self-collision; ~50 ms, the least of three runs). Every build records it in
+// bending, self-collision; ~50 ms, the least of five runs after a warm-up). Every build records it in
 // build.json "costs" (probe_cpu_seconds); machines differ by 2.5x and more (an AMD EPYC
 // against an Intel Xeon on the quickstart), so CPU seconds measured on one are priced on
 // another only through it.
