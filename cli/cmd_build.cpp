@@ -61,8 +61,7 @@ std::string ParseShard(const std::string& s, int* k, int* n) {
 // The costs earlier builds measured: published ones (datasets/*/*/costs.json), releases
 // built into datasets/, the output folder's own earlier build, --costs. probe_cpu: this
 // machine's speed probe, to scale them to it (≤ 0: as measured).
-CostModel MeasuredCosts(const BuildArgs& args, const fs::path& out, std::vector<std::string>* notes,
-                        double probe_cpu) {
+CostModel MeasuredCosts(const BuildArgs& args, const fs::path& out, std::vector<std::string>* notes, double probe_cpu) {
   std::vector<fs::path> extra;
   for (const std::string& c : args.costs) {
     if (!fs::exists(c)) throw Error("--costs " + c + ": no such release or file");

@@ -349,10 +349,6 @@ bool FitBuildLevel(const std::vector<BuildCost>& builds, Coefs& coef) {
   return commit_bytes > 0 && fin_bytes > 0;
 }
 
-}  // namespace
-
-namespace {
-
 // The builds that carry a speed probe, their CPU seconds scaled to a machine whose probe
 // took probe_cpu (cost.h); every build as it is when none carries one.
 std::vector<BuildCost> ScaledToMachine(const std::vector<BuildCost>& builds, double probe_cpu,
@@ -383,7 +379,7 @@ std::vector<BuildCost> ScaledToMachine(const std::vector<BuildCost>& builds, dou
 CostModel CostModel::Fit(const std::vector<BuildCost>& measured, double probe_cpu) {
   CostModel m;
   const std::vector<BuildCost> builds = probe_cpu > 0 ? ScaledToMachine(measured, probe_cpu, &m.notes_) : measured;
-  m.scaled_ = probe_cpu > 0 && builds.size() > 0 && builds.front().probe_cpu > 0;
+  m.scaled_ = probe_cpu > 0 && !builds.empty() && builds.front().probe_cpu > 0;
   std::vector<const EntryCost*> all;
   for (const BuildCost& b : builds)
     for (const EntryCost& e : b.entries) all.push_back(&e);
