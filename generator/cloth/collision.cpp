@@ -19,7 +19,7 @@ namespace {
 double ClockSince(double t0) { return ClockSeconds() - t0; }
 
 constexpr double kTiny = 1e-30;               // m²: below this a segment has zero length
-constexpr double kAccdShrink = 0.1;           // ACCD's s: report when the gap falls below s × (see AdditiveCCD)
+constexpr double kAccdShrink = 0.1;           // ACCD's s: report below s × min(initial gap, ξ) (AdditiveCCD)
 constexpr int kAccdMaxSteps = 2000;           // ACCD step cap; hitting it reports a collision
 constexpr double kMaxZoneAngle = 1.5;         // rad per step: keeps (1−t)I + tR invertible
 constexpr double kReuseMargin = 1.25;         // × thickness: broad-phase superset margin (BroadPhase::SetReuseMargin)

@@ -195,13 +195,12 @@ unsigned AttachMesh(RTCDevice device, RTCScene scene, MeshBuffers m,
   return id;
 }
 
-// The depth and cosine of incidence of the hit a ray kept (ExactContext).
-void Shade(const MeshBuffers& m, unsigned prim, double t, const Vec3& d, float* depth, float* cos_incidence) {
+// The cosine of incidence of a ray along d on triangle `prim` of m.
+float CosIncidence(const MeshBuffers& m, unsigned prim, const Vec3& d) {
   const Vec3 p0 = Vertex(m, prim, 0);
   const Vec3 n = (Vertex(m, prim, 1) - p0).cross(Vertex(m, prim, 2) - p0);
   const double nn = std::sqrt(n.squaredNorm() * d.squaredNorm());
-  *depth = float(t);
-  *cos_incidence = nn > 0 ? float(std::min(1.0, std::abs(n.dot(d)) / nn)) : 1.0f;
+  return nn > 0 ? float(std::min(1.0, std::abs(n.dot(d)) / nn)) : 1.0f;
 }
 
 void ThrowOnDeviceError(RTCDevice device, const char* what) {
@@ -322,12 +321,11 @@ struct SweepScene::Impl {
           if (!valid[k] || best.geom[k] == RTC_INVALID_GEOMETRY_ID) continue;
           const int u = tu + (k & 3), v = tv + (k >> 2);
           const size_t p = size_t(v) * K.width + u;
-          float z = 0, cos_incidence = 1;
-          const Vec3 d(rh.ray.dir_x[k], rh.ray.dir_y[k], rh.ray.dir_z[k]);
-          Shade(*meshes[best.geom[k]], best.prim[k], best.t[k], d, &z, &cos_incidence);
+          const float z = float(best.t[k]);
           if (!(z < frame.depth[p])) continue;
           frame.depth[p] = z;
-          frame.cos_incidence[p] = cos_incidence;
+          const Vec3 d(rh.ray.dir_x[k], rh.ray.dir_y[k], rh.ray.dir_z[k]);
+          frame.cos_incidence[p] = CosIncidence(*meshes[best.geom[k]], best.prim[k], d);
           if (best.geom[k] == count_geom) ++counted;
         }
         frame.rays_cast += 16;
