@@ -415,6 +415,17 @@ double SlidingAngle(double mu, const Material& material, const MaterialFit& fit,
   return 0.5 * (lo + hi);
 }
 
+std::string FitKey(const Material& m, const HangOptions& o) {
+  std::string key;
+  for (const double v :
+       {m.stretch_percent, m.friction_deg, m.area_density, m.bending_stiffness, m.bending_rigidity, m.crease_yield,
+        m.crease_weakening, m.crease_recovery_deg, o.fit_edge_length, o.fit_hinge_constant}) {
+    if (!key.empty()) key += '/';
+    key += FormatNumber(v);
+  }
+  return key;
+}
+
 MaterialFit FitMaterial(const Material& material, const HangOptions& given) {
   const auto t0 = Clock::now();
   material.Validate();

@@ -137,6 +137,9 @@ struct MaterialFit {
 // Deterministic; callers cache it per material (and per HangOptions). Throws
 // NumericalError when a reference run fails.
 MaterialFit FitMaterial(const Material& material, const HangOptions& options);
+// What FitMaterial's result depends on, as a key: the material's values (after any
+// jitter) and the fit's resolution. Equal keys, equal fits; a build fits once per key.
+std::string FitKey(const Material& material, const HangOptions& options);
 
 // The tilt (degrees) at which the reference square starts to slide with Coulomb
 // friction mu on the table, found by bisection to options.friction_tolerance_deg in

@@ -133,11 +133,7 @@ std::shared_ptr<const Garment> InstanceGarment(const Recipe& recipe, const Job& 
 
 // The material's stiffness, fitted once per material values and fit resolution.
 std::shared_ptr<const MaterialFit> MaterialFitFor(const Material& m, const HangOptions& hang_options, JobCache& cache) {
-  std::ostringstream fkey;
-  fkey << std::setprecision(17) << m.stretch_percent << "/" << m.friction_deg << "/" << m.area_density << "/"
-       << m.bending_stiffness << "/" << m.bending_rigidity << "/" << m.crease_yield << "/" << m.crease_weakening << "/"
-       << m.crease_recovery_deg << "/" << hang_options.fit_edge_length << "/" << hang_options.fit_hinge_constant;
-  return cache.impl->fits.Get(fkey.str(), [&] { return FitMaterial(m, hang_options); });
+  return cache.impl->fits.Get(FitKey(m, hang_options), [&] { return FitMaterial(m, hang_options); });
 }
 
 // What a record says about the job itself: garment, instance, material, anchor, seed.

@@ -26,7 +26,7 @@ JobDrivers DriversFor(const Recipe& recipe, const Job& job, const Garment& garme
   d.template_name = g.template_name.empty() ? g.file.filename().string() : g.template_name;
   d.material = job.material_name;
   d.instance = job.instance_name + "@" + FormatNumber(job.size_scale);
-  d.fit_key = job.material_name;
+  d.fit_key = FitKey(job.material, HangOptionsFor(recipe, g));
   d.nodes = garment.mesh.NumVertices();
   d.faces = garment.mesh.NumFaces();
   d.area = FaceAreas(garment.mesh).sum();
@@ -418,7 +418,7 @@ std::map<std::string, std::string> CostModel::Describe() const {
   d["preview"] = Seconds(c("preview", 0)) + " + " + Seconds(c("preview", 1) * 1e6) + "/10⁶ S + " +
                  Seconds(c("preview", 2) * 1e3) + "/1000 nodes";
   d["garment"] = Seconds(c("garment", 0) * 1e3) + "/1000 nodes, once per instance";
-  d["fit"] = Seconds(c("fit", 0)) + " once per material";
+  d["fit"] = Seconds(c("fit", 0)) + " once per material (as jittered)";
   d["commit"] = Seconds(c("commit", 0) * 1e6) + "/MB";
   d["finalize"] = Seconds(c("finalize", 0) * 1e6) + "/MB";
   return d;
@@ -503,7 +503,8 @@ std::vector<JobDrivers> PlanDrivers(const Recipe& recipe, const std::vector<Job>
     }
     JobDrivers d = it->second;
     const SensingSpec& sensing = recipe.sensing.at(job.sensing);
-    d.material = job.material_name, d.fit_key = job.material_name;
+    d.material = job.material_name,
+    d.fit_key = FitKey(job.material, HangOptionsFor(recipe, recipe.garments[job.garment]));
     d.frames = sensing.sweep.frames;
     d.fused_frames = (d.frames + recipe.fusion.frames_stride - 1) / std::max(1, recipe.fusion.frames_stride);
     d.keep_frames = sensing.keep_frames;

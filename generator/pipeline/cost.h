@@ -16,7 +16,7 @@
 //   sweep     a × frames + b × frames × nodes          fusion  a × fused frames + b × fused frames × S
 //   accuracy  a × S + b × nodes                         feature a × S
 //   encode    a × S + b × nodes + c × kept frames       preview a + b × S + c × nodes
-//   garment   a × nodes, once per instance              fit     the mean fit, once per material
+//   garment   a × nodes, once per instance              fit     the mean fit, once per FitKey
 //   commit    a × entry bytes                           finalize a × release bytes
 //   bytes     hang.ply exact (the garment's own PLY), recon.ply and sdf.vdb a × S,
 //             kept sweeps a × frames, other files their mean; the gallery's mesh scripts
@@ -41,7 +41,7 @@ struct JobDrivers {
   std::string template_name;  // the garment's template (file name for imports)
   std::string material;       // the recipe's material name
   std::string instance;       // the garment instance (made once per build)
-  std::string fit_key;        // the material fit (made once per build)
+  std::string fit_key;        // the material fit, FitKey (made once per build; jittered materials each their own)
   int nodes = 0, faces = 0;   // garment mesh
   double area = 0;            // garment mesh area, m² (both layers)
   int frames = 0;             // depth frames swept

@@ -6,10 +6,13 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <set>
+#include <string>
 
 #include "common/error.h"
 #include "common/files.h"
 #include "common/testing.h"
+#include "generator/hang/hang.h"
 #include "generator/recipe/recipe.h"
 
 namespace fs = std::filesystem;
@@ -201,18 +204,30 @@ TEST(CostModel, BuildJsonRecordsReadBack) {
   EXPECT_CONTAINS(ErrorOf([&] { ReadBuildCost(dir / "bad.json"); }), "bad.json: entry_timing 00000-a");
 }
 
-// A recipe of two garments: the plan counts jobs per split and garment, makes each
-// instance's garment once and schedules the pool: on one thread the wall is the CPU.
-TEST(CostModel, PlanCountsJobsAndSchedulesThePool) {
-  const Recipe r = ParseRecipe(R"(
-name: plan
+// A small recipe for plans: 12-frame sweeps at 96 voxels/m, then `garments_and_splits`.
+Recipe PlanRecipe(const std::string& garments_and_splits) {
+  return ParseRecipe(R"(name: plan
 version: 0.0.1
 seed: 3
 sensing:
   database: {frames: 12}
   sensed: {frames: 12}
 fusion: {voxels_per_metre: 96}
-garments:
+)" + garments_and_splits,
+                     "plan.yaml", fs::current_path());
+}
+
+// Every job of the expansion, in order.
+std::vector<int> AllJobs(const std::vector<Job>& jobs) {
+  std::vector<int> all(jobs.size());
+  for (size_t i = 0; i < jobs.size(); ++i) all[i] = static_cast<int>(i);
+  return all;
+}
+
+// A recipe of two garments: the plan counts jobs per split and garment, makes each
+// instance's garment once and schedules the pool: on one thread the wall is the CPU.
+TEST(CostModel, PlanCountsJobsAndSchedulesThePool) {
+  const Recipe r = PlanRecipe(R"(garments:
   - {template: towel, size: S, edge_length: 0.08, instances: 2, materials: [towel_b]}
   - {template: shorts, edge_length: 0.08, instances: 2, materials: [pants]}
 splits:
@@ -220,11 +235,9 @@ splits:
     garments: [{garment: towel, instances: [0]}, {garment: shorts, instances: [0]}]
   test:
     garments: [{garment: towel, instances: [1], max_anchors: 2}, {garment: shorts, instances: [1], max_anchors: 2}]
-)",
-                               "plan.yaml", fs::current_path());
+)");
   const std::vector<Job> jobs = ExpandJobs(r);
-  std::vector<int> all(jobs.size());
-  for (size_t i = 0; i < jobs.size(); ++i) all[i] = static_cast<int>(i);
+  const std::vector<int> all = AllJobs(jobs);
   const CostModel m = CostModel::Fit({MadeUpBuild()});
   const BuildPlan one = PlanBuild(r, jobs, all, 1, m), two = PlanBuild(r, jobs, all, 2, m);
   EXPECT_EQ(one.jobs, static_cast<int>(jobs.size()));
@@ -242,6 +255,26 @@ splits:
   EXPECT_GT(one.bytes, one.file_bytes.at("recon.ply"));
   const Json j = PlanJson(two, m);
   for (const char* k : {"jobs", "wall_s", "cpu_s", "bytes"}) EXPECT_TRUE(j.contains(k)) << k;
+}
+
+// A material jittered per hang is a material of its own: the build fits it again
+// (FitKey), so the plan prices one fit per draw, not one per material name.
+TEST(CostModel, PlanPricesAFitPerJitteredMaterial) {
+  const Recipe r = PlanRecipe(R"(garments:
+  - {template: towel, size: S, edge_length: 0.08, instances: 2, materials: [towel_b]}
+splits:
+  train:
+    garments: [{garment: towel, instances: [0], max_anchors: 2}]
+    hangs_per_anchor: 3
+    hang_variation: {material_jitter: 0.1}
+)");
+  const std::vector<Job> jobs = ExpandJobs(r);
+  const std::vector<int> all = AllJobs(jobs);
+  std::set<std::string> keys;
+  for (const Job& job : jobs) keys.insert(FitKey(job.material, HangOptionsFor(r, r.garments[job.garment])));
+  ASSERT_EQ(keys.size(), 5u);  // hang 0's material (both anchors) and each other hang's draw
+  const BuildPlan plan = PlanBuild(r, jobs, all, 1, CostModel::Fit({MadeUpBuild()}));
+  EXPECT_NEAR(plan.stage_cpu.at("fit"), 5 * 1.5, 1e-9);
 }
 
 TEST(EtaClock, ModelledJobsScaleByTheFinishedOnes) {
