@@ -503,7 +503,7 @@ std::vector<JobDrivers> PlanDrivers(const Recipe& recipe, const std::vector<Job>
     }
     JobDrivers d = it->second;
     const SensingSpec& sensing = recipe.sensing.at(job.sensing);
-    d.material = job.material_name,
+    d.material = job.material_name;
     d.fit_key = FitKey(job.material, HangOptionsFor(recipe, recipe.garments[job.garment]));
     d.frames = sensing.sweep.frames;
     d.fused_frames = (d.frames + recipe.fusion.frames_stride - 1) / std::max(1, recipe.fusion.frames_stride);
