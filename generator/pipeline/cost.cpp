@@ -35,6 +35,7 @@ JobDrivers DriversFor(const Recipe& recipe, const Job& job, const Garment& garme
   d.voxels_per_metre = recipe.fusion.voxels_per_metre;
   d.keep_frames = s.keep_frames;
   d.hang_ply_bytes = static_cast<int>(EncodeMesh(garment.mesh).size());
+  d.noise = s.sweep.kinect.noise ? 1 : 0;
   return d;
 }
 
@@ -50,7 +51,8 @@ Json DriversJson(const JobDrivers& d) {
           {"fused_frames", d.fused_frames},
           {"voxels_per_metre", d.voxels_per_metre},
           {"keep_frames", d.keep_frames},
-          {"hang_ply_bytes", d.hang_ply_bytes}};
+          {"hang_ply_bytes", d.hang_ply_bytes},
+          {"noise", d.noise}};
 }
 
 JobDrivers DriversFromJson(const Json& j) {
@@ -68,6 +70,7 @@ JobDrivers DriversFromJson(const Json& j) {
     d.voxels_per_metre = j.at("voxels_per_metre").get<double>();
     d.keep_frames = j.at("keep_frames").get<bool>();
     d.hang_ply_bytes = j.at("hang_ply_bytes").get<int>();
+    d.noise = j.value("noise", -1);  // absent in records made before it was a driver
   } catch (const Json::exception& e) {
     throw Error(std::string("job cost record: ") + e.what());
   }
@@ -259,28 +262,44 @@ namespace {
 
 using Coefs = std::map<std::string, std::vector<double>>;
 
+// The stages and files whose cost the sweep's noise changes (cost.h).
+bool NoiseDriven(const std::string& key) {
+  return key == "sweep" || key == "fusion" || key == "file:recon.ply" || key == "file:sdf.vdb" ||
+         key.rfind("mean file:", 0) == 0;
+}
+std::string NoiseKey(const std::string& key, int noise) { return key + (noise ? "|noisy" : "|noise-free"); }
+
+// coef[key] over every record that measured `name` in `field` (cpu or bytes); for a
+// noise-driven key also coef[NoiseKey(key, n)] over the records of each noise that say so,
+// when there are at least 3.
+void FitOne(const std::vector<const EntryCost*>& all, const std::string& key, const Terms& terms,
+            std::map<std::string, double> EntryCost::*field, const std::string& name, Coefs& coef) {
+  std::vector<std::vector<double>> X[3];  // all, noise-free, noisy
+  std::vector<double> y[3];
+  for (const EntryCost* e : all) {
+    auto it = (e->*field).find(name);
+    if (it == (e->*field).end()) continue;
+    X[0].push_back(terms(e->job)), y[0].push_back(it->second);
+    const int n = e->job.noise;
+    if (n == 0 || n == 1) X[1 + n].push_back(terms(e->job)), y[1 + n].push_back(it->second);
+  }
+  coef[key] = NonNegativeLeastSquares(X[0], y[0]);
+  if (!NoiseDriven(key)) return;
+  for (int n : {0, 1})
+    if (y[1 + n].size() >= 3) coef[NoiseKey(key, n)] = NonNegativeLeastSquares(X[1 + n], y[1 + n]);
+}
+
 // Each entry stage's and file's linear model, and the mean of the files without one.
 void FitEntryStages(const std::vector<const EntryCost*>& all, Coefs& coef) {
-  for (const auto& [stage, terms] : StageTerms()) {
-    std::vector<std::vector<double>> X;
-    std::vector<double> y;
-    for (const EntryCost* e : all)
-      if (auto it = e->cpu.find(stage); it != e->cpu.end()) X.push_back(terms(e->job)), y.push_back(it->second);
-    coef[stage] = NonNegativeLeastSquares(X, y);
-  }
-  for (const auto& [file, terms] : FileTerms()) {
-    std::vector<std::vector<double>> X;
-    std::vector<double> y;
-    for (const EntryCost* e : all)
-      if (auto it = e->bytes.find(file); it != e->bytes.end()) X.push_back(terms(e->job)), y.push_back(it->second);
-    coef["file:" + file] = NonNegativeLeastSquares(X, y);
-  }
+  for (const auto& [stage, terms] : StageTerms()) FitOne(all, stage, terms, &EntryCost::cpu, stage, coef);
+  for (const auto& [file, terms] : FileTerms()) FitOne(all, "file:" + file, terms, &EntryCost::bytes, file, coef);
   // Files of constant size (feature.bin) or about constant (preview.png): their mean.
-  std::map<std::string, std::pair<double, int>> other;
+  std::set<std::string> other;
   for (const EntryCost* e : all)
     for (const auto& [file, bytes] : e->bytes)
-      if (!FileTerms().count(file) && file != "hang.ply") other[file].first += bytes, ++other[file].second;
-  for (const auto& [file, s] : other) coef["mean file:" + file] = {s.first / s.second};
+      if (!FileTerms().count(file) && file != "hang.ply") other.insert(file);
+  const Terms one = [](const JobDrivers&) { return std::vector<double>{1.0}; };
+  for (const std::string& file : other) FitOne(all, "mean file:" + file, one, &EntryCost::bytes, file, coef);
 }
 
 // The hang per node, by template and material, template, or all.
@@ -424,10 +443,16 @@ std::map<std::string, std::string> CostModel::Describe() const {
   return d;
 }
 
+const std::vector<double>& CostModel::Coef(const std::string& key, const JobDrivers& d) const {
+  if (d.noise >= 0)
+    if (auto it = coef_.find(NoiseKey(key, d.noise)); it != coef_.end()) return it->second;
+  return coef_.at(key);
+}
+
 std::map<std::string, double> CostModel::JobCpu(const JobDrivers& d, bool* fallback) const {
   std::map<std::string, double> cpu;
   if (empty()) return cpu;
-  for (const auto& [stage, terms] : StageTerms()) cpu[stage] = Dot(coef_.at(stage), terms(d));
+  for (const auto& [stage, terms] : StageTerms()) cpu[stage] = Dot(Coef(stage, d), terms(d));
   std::string key = d.template_name + "/" + d.material;
   if (!hang_per_node_.count(key)) key = d.template_name;
   if (!hang_per_node_.count(key)) key.clear();
@@ -442,11 +467,11 @@ std::map<std::string, double> CostModel::JobBytes(const JobDrivers& d) const {
   if (empty()) return bytes;
   bytes["hang.ply"] = d.hang_ply_bytes;
   for (const auto& [file, terms] : FileTerms()) {
-    const double b = Dot(coef_.at("file:" + file), terms(d));
+    const double b = Dot(Coef("file:" + file, d), terms(d));
     if (b > 0) bytes[file] = b;
   }
   for (const auto& [k, c] : coef_)
-    if (k.rfind("mean file:", 0) == 0) bytes[k.substr(10)] = c[0];
+    if (k.rfind("mean file:", 0) == 0 && k.find('|') == std::string::npos) bytes[k.substr(10)] = Coef(k, d)[0];
   return bytes;
 }
 
@@ -508,6 +533,7 @@ std::vector<JobDrivers> PlanDrivers(const Recipe& recipe, const std::vector<Job>
     d.frames = sensing.sweep.frames;
     d.fused_frames = (d.frames + recipe.fusion.frames_stride - 1) / std::max(1, recipe.fusion.frames_stride);
     d.keep_frames = sensing.keep_frames;
+    d.noise = sensing.sweep.kinect.noise ? 1 : 0;
     out.push_back(d);
   }
   for (const auto& [g, e] : estimated)

@@ -21,6 +21,10 @@
 //   bytes     hang.ply exact (the garment's own PLY), recon.ply and sdf.vdb a × S,
 //             kept sweeps a × frames, other files their mean; the gallery's mesh scripts
 //             a × (hang.ply + recon.ply), the release's other files per entry and fixed.
+// The sweep, the fusion, recon.ply, sdf.vdb and the files priced at their mean (the
+// preview) are fitted apart for noisy and noise-free sweeps (a noise-free sweep costs less
+// and fuses into smaller files) wherever the records hold at least 3 entries of that kind
+// that say which; otherwise over all records.
 #pragma once
 
 #include <filesystem>
@@ -49,6 +53,7 @@ struct JobDrivers {
   double voxels_per_metre = 0;
   bool keep_frames = false;
   int hang_ply_bytes = 0;  // the hung mesh's PLY: the garment's topology, so known exactly
+  int noise = -1;          // the sweep's Kinect noise: 1 on, 0 off, -1 not recorded (records before it)
 
   double Surface() const { return area * voxels_per_metre * voxels_per_metre; }
 };
@@ -129,6 +134,9 @@ class CostModel {
   double ReleaseBytes(int entries, double mesh_bytes) const;
 
  private:
+  // A stage's or file's coefficients for this job: its sweep's noise's own when fitted.
+  const std::vector<double>& Coef(const std::string& key, const JobDrivers& d) const;
+
   int records_ = 0;
   bool scaled_ = false;
   std::vector<std::string> notes_;

@@ -95,6 +95,50 @@ TEST(CostModel, FitsKnownLinearCostsBack) {
   }
 }
 
+// A noise-free sweep costs less and fuses smaller: where records say which sweeps were
+// noisy, the sweep, the fusion, recon.ply, sdf.vdb and the preview are priced per kind; a record that
+// does not say (made before the key) counts only in the pooled fit, which a job of an
+// unrecorded kind falls back to.
+TEST(CostModel, SweepNoiseIsADriverWhereRecordsSayIt) {
+  BuildCost b = MadeUpBuild();
+  for (size_t i = 0; i < b.entries.size(); ++i) {
+    EntryCost& e = b.entries[i];
+    e.job.noise = static_cast<int>(i % 2);
+    const double k = e.job.noise ? 1.0 : 0.6, S = e.job.Surface();
+    e.bytes["recon.ply"] = 0.5 * k * S, e.bytes["sdf.vdb"] = 0.25 * k * S, e.bytes["preview.png"] = 1e5 * k;
+    e.cpu["sweep"] *= k, e.cpu["fusion"] *= k;
+  }
+  const CostModel m = CostModel::Fit({b});
+  for (int noise : {0, 1}) {
+    JobDrivers d = Drivers("towel", 500, 120, 256, 9);
+    const EntryCost plain = Measured(d, 0.02);
+    d.noise = noise;
+    const double k = noise ? 1.0 : 0.6;
+    const auto bytes = m.JobBytes(d);
+    const auto cpu = m.JobCpu(d);
+    EXPECT_NEAR(bytes.at("recon.ply"), k * plain.bytes.at("recon.ply"), 1e-3 * plain.bytes.at("recon.ply"));
+    EXPECT_NEAR(bytes.at("sdf.vdb"), k * plain.bytes.at("sdf.vdb"), 1e-3 * plain.bytes.at("sdf.vdb"));
+    EXPECT_NEAR(bytes.at("preview.png"), k * 1e5, 1e-6);  // a file priced at its mean
+    EXPECT_NEAR(cpu.at("sweep"), k * plain.cpu.at("sweep"), 1e-6 * (1 + plain.cpu.at("sweep")));
+    EXPECT_NEAR(cpu.at("fusion"), k * plain.cpu.at("fusion"), 1e-6 * (1 + plain.cpu.at("fusion")));
+    EXPECT_NEAR(cpu.at("accuracy"), plain.cpu.at("accuracy"), 1e-6 * (1 + plain.cpu.at("accuracy")));  // not driven
+  }
+  // Records before the key: one pooled model, whatever the job's noise.
+  for (EntryCost& e : b.entries) e.job.noise = -1;
+  const CostModel pooled = CostModel::Fit({b});
+  JobDrivers d = Drivers("towel", 500, 120, 256, 9);
+  d.noise = 0;
+  const double clean = pooled.JobBytes(d).at("recon.ply");
+  d.noise = 1;
+  EXPECT_EQ(pooled.JobBytes(d).at("recon.ply"), clean);
+  // The key reads back, and its absence reads as not recorded.
+  d.noise = 0;
+  EXPECT_EQ(DriversFromJson(DriversJson(d)).noise, 0);
+  Json old = DriversJson(d);
+  old.erase("noise");
+  EXPECT_EQ(DriversFromJson(old).noise, -1);
+}
+
 TEST(CostModel, HangFallsBackToTemplateThenAll) {
   BuildCost b = MadeUpBuild();
   double shorts_cpu = 0, shorts_nodes = 0;
