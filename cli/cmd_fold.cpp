@@ -55,7 +55,7 @@ const char* kFooter =
 // `fold`: the research settings of drape fold (mesh, optimisation budget, fans, material
 // constants given instead of fitted).
 struct FoldKnobs {
-  double edge = 0.04;  // m: template mesh edge and the material fit's strip edge (coarse: simulation in the loop)
+  double edge = 0.03;  // m: template mesh edge and the material fit's strip edge (docs/folding.md: 3 cm folds hold)
   int max_sims = 40;   // simulations per step's optimisation
   bool optimise = true;
   std::string fan = "last";    // the step whose solution-space fans are drawn: "last", "none" or 1-based

@@ -59,8 +59,8 @@ step() {
 # settings docs/folding.md measured.
 fold_config() {
   case $1 in
-    long_sleeve_shirt) printf 'fold:\n  edge: 0.08\n  max_sims: 22\n  fan: none\n' ;;
-    *) printf 'fold:\n  edge: 0.06\n  fan: none\n' ;;
+    long_sleeve_shirt) printf 'fold:\n  edge: 0.03\n  max_sims: 22\n  fan: none\n' ;;
+    *) printf 'fold:\n  edge: 0.03\n  fan: none\n' ;;
   esac
 }
 
