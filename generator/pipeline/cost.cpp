@@ -19,23 +19,32 @@ namespace fs = std::filesystem;
 
 namespace drape {
 
-JobDrivers DriversFor(const Recipe& recipe, const Job& job, const Garment& garment) {
-  const GarmentSpec& g = recipe.garments.at(job.garment);
+namespace {
+
+// What the job adds to its garment's drivers: material, fit, sensing, fusion.
+void SetJobDrivers(const Recipe& recipe, const Job& job, JobDrivers& d) {
   const SensingSpec& s = recipe.sensing.at(job.sensing);
-  JobDrivers d;
-  d.template_name = g.template_name.empty() ? g.file.filename().string() : g.template_name;
   d.material = job.material_name;
-  d.instance = job.instance_name + "@" + FormatNumber(job.size_scale);
-  d.fit_key = FitKey(job.material, HangOptionsFor(recipe, g));
-  d.nodes = garment.mesh.NumVertices();
-  d.faces = garment.mesh.NumFaces();
-  d.area = FaceAreas(garment.mesh).sum();
+  d.fit_key = FitKey(job.material, HangOptionsFor(recipe, recipe.garments.at(job.garment)));
   d.frames = s.sweep.frames;
   d.fused_frames = (s.sweep.frames + recipe.fusion.frames_stride - 1) / std::max(1, recipe.fusion.frames_stride);
   d.voxels_per_metre = recipe.fusion.voxels_per_metre;
   d.keep_frames = s.keep_frames;
-  d.hang_ply_bytes = static_cast<int>(EncodeMesh(garment.mesh).size());
   d.noise = s.sweep.kinect.noise ? 1 : 0;
+}
+
+}  // namespace
+
+JobDrivers DriversFor(const Recipe& recipe, const Job& job, const Garment& garment) {
+  const GarmentSpec& g = recipe.garments.at(job.garment);
+  JobDrivers d;
+  d.template_name = g.template_name.empty() ? g.file.filename().string() : g.template_name;
+  d.instance = job.instance_name + "@" + FormatNumber(job.size_scale);
+  d.nodes = garment.mesh.NumVertices();
+  d.faces = garment.mesh.NumFaces();
+  d.area = FaceAreas(garment.mesh).sum();
+  d.hang_ply_bytes = static_cast<int>(EncodeMesh(garment.mesh).size());
+  SetJobDrivers(recipe, job, d);
   return d;
 }
 
@@ -526,14 +535,8 @@ std::vector<JobDrivers> PlanDrivers(const Recipe& recipe, const std::vector<Job>
       }
       it = instance_drivers.emplace(ikey, d).first;
     }
-    JobDrivers d = it->second;
-    const SensingSpec& sensing = recipe.sensing.at(job.sensing);
-    d.material = job.material_name;
-    d.fit_key = FitKey(job.material, HangOptionsFor(recipe, recipe.garments[job.garment]));
-    d.frames = sensing.sweep.frames;
-    d.fused_frames = (d.frames + recipe.fusion.frames_stride - 1) / std::max(1, recipe.fusion.frames_stride);
-    d.keep_frames = sensing.keep_frames;
-    d.noise = sensing.sweep.kinect.noise ? 1 : 0;
+    JobDrivers d = it->second;  // the instance's garment; the job's own drivers below
+    SetJobDrivers(recipe, job, d);
     out.push_back(d);
   }
   for (const auto& [g, e] : estimated)
